@@ -1,0 +1,37 @@
+"""``roa reproduce``: every experiment, then the report."""
+
+from __future__ import annotations
+
+import argparse
+import time
+from pathlib import Path
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("reproduce", help="run every experiment and regenerate paper_repro.md")
+    p.add_argument("--quick", action="store_true", help="reduced grids (minutes, what CI runs)")
+    p.add_argument("--force", action="store_true", help="re-run experiments even if cached")
+    p.add_argument("--experiments", default=None, help="directory of configs (default: the packaged ones)")
+    p.add_argument("--results", default="results", help="results directory (default results/)")
+    p.add_argument("--report", default="paper_repro.md", help="report path (default paper_repro.md)")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from roa.experiment import list_experiments, run_experiment
+    from roa.report import experiments_dir, write_report
+
+    directory = Path(args.experiments) if args.experiments else experiments_dir()
+    configs = list_experiments(directory)
+    if not configs:
+        raise ValueError(f"--experiments: no *.toml configs in {directory}")
+    t_all = time.perf_counter()
+    for i, path in enumerate(configs, 1):
+        t0 = time.perf_counter()
+        print(f"[{i}/{len(configs)}] {path.stem} ...", flush=True)
+        summary = run_experiment(path, results=args.results, quick=args.quick, force=args.force)
+        state = "cached" if summary.get("cached") else f"{time.perf_counter() - t0:.1f} s"
+        print(f"[{i}/{len(configs)}] {path.stem}: {state}", flush=True)
+    report = write_report(args.results, args.report)
+    print(f"report: {report}  (total {time.perf_counter() - t_all:.1f} s)")
+    return 0

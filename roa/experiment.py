@@ -1,0 +1,126 @@
+"""Experiment configs (TOML) and their runners.
+
+A config has a ``kind`` (a key of :data:`KINDS`), an optional ``title`` and a ``[params]`` table,
+and optionally ``[quick]`` overrides used by ``--quick``. A runner has the signature
+``run(params: dict, out: Path, *, quick: bool) -> dict`` and returns a JSON-able summary with, where
+it has something to say about the paper, a list ``claims`` of rows for ``paper_repro.md``::
+
+    {"id": "F1", "claim": "...", "paper": "...", "ours": "...",
+     "verdict": "reproduced" | "not reproduced" | "erratum" | "beyond the paper",
+     "evidence": "results/NAME/file.json", "details": "markdown (optional)"}
+
+and a list ``figures`` of PNG paths relative to the repository root.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import json
+import time
+import tomllib
+from pathlib import Path
+from typing import Any
+
+from roa.io import atomic_write_json, code_hash, git_revision, package_versions
+
+#: kind -> "module:function"
+KINDS: dict[str, str] = {
+    "errata": "roa.systems.ipc.errata:run_experiment",
+    "figure1": "roa.systems.ipc.figures:run_figure1",
+    "figure2": "roa.systems.ipc.figures:run_figure2",
+}
+
+VERDICTS = ("reproduced", "not reproduced", "erratum", "beyond the paper")
+
+
+def load_config(path: str | Path) -> dict[str, Any]:
+    """Read and validate an experiment config."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"experiment config {path} does not exist")
+    try:
+        cfg = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"experiment config {path}: invalid TOML: {exc}") from exc
+    kind = cfg.get("kind")
+    if kind not in KINDS:
+        raise ValueError(f"experiment config {path}: kind = {kind!r}; allowed: {', '.join(sorted(KINDS))}")
+    params = cfg.get("params", {})
+    quick = cfg.get("quick", {})
+    if not isinstance(params, dict) or not isinstance(quick, dict):
+        raise ValueError(f"experiment config {path}: [params] and [quick] must be tables")
+    unknown = set(cfg) - {"kind", "title", "params", "quick", "order"}
+    if unknown:
+        raise ValueError(f"experiment config {path}: unknown keys {sorted(unknown)}")
+    cfg.setdefault("title", path.stem)
+    cfg["name"] = path.stem
+    return cfg
+
+
+def config_hash(cfg: dict[str, Any], quick: bool) -> str:
+    blob = json.dumps({"cfg": cfg, "quick": quick, "code": code_hash()}, sort_keys=True, default=str)
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
+def run_experiment(
+    path: str | Path,
+    *,
+    results: str | Path = "results",
+    quick: bool = False,
+    force: bool = False,
+) -> dict[str, Any]:
+    """Run one experiment config into ``results/NAME/``; skip if cached (same config and code)."""
+    cfg = load_config(path)
+    out = Path(results) / cfg["name"]
+    digest = config_hash(cfg, quick)
+    manifest_path = out / "manifest.json"
+    if not force and manifest_path.is_file():
+        try:
+            old = json.loads(manifest_path.read_text())
+        except json.JSONDecodeError:
+            old = {}
+        if old.get("hash") == digest and (out / "summary.json").is_file():
+            summary = json.loads((out / "summary.json").read_text())
+            summary["cached"] = True
+            return summary
+    params = dict(cfg.get("params", {}))
+    if quick:
+        params.update(cfg.get("quick", {}))
+    module, func = KINDS[cfg["kind"]].split(":")
+    runner = getattr(importlib.import_module(module), func)
+    out.mkdir(parents=True, exist_ok=True)
+    t0 = time.perf_counter()
+    summary = runner(params, out, quick=quick)
+    elapsed = time.perf_counter() - t0
+    for claim in summary.get("claims", []):
+        if claim.get("verdict") not in VERDICTS:
+            raise ValueError(f"{cfg['name']}: claim {claim.get('id')} has verdict {claim.get('verdict')!r}")
+    summary = {"experiment": cfg["name"], "title": cfg["title"], "quick": quick, **summary}
+    atomic_write_json(out / "summary.json", summary)
+    atomic_write_json(
+        manifest_path,
+        {
+            "experiment": cfg["name"],
+            "config": cfg,
+            "quick": quick,
+            "hash": digest,
+            "git_revision": git_revision(),
+            "versions": package_versions(),
+            "elapsed_s": round(elapsed, 3),
+            "finished": time.strftime("%Y-%m-%dT%H:%M:%S%z"),
+        },
+    )
+    summary["cached"] = False
+    return summary
+
+
+def list_experiments(directory: str | Path = "experiments") -> list[Path]:
+    """Experiment configs in run order (``order`` key, then name)."""
+    paths = sorted(Path(directory).glob("*.toml"))
+    def key(p: Path) -> tuple[int, str]:
+        try:
+            return (int(tomllib.loads(p.read_text()).get("order", 100)), p.name)
+        except tomllib.TOMLDecodeError:
+            return (100, p.name)
+    return sorted(paths, key=key)

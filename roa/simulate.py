@@ -1,0 +1,147 @@
+"""One trajectory of a system, with a status: the reference integrator (scipy's solve_ivp)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from roa.status import RunStatus, StopRules
+from roa.system import System
+
+
+@dataclass(frozen=True)
+class Trajectory:
+    """A simulated trajectory and how it ended.
+
+    ``t`` has shape ``(m,)`` and ``x`` shape ``(m, n)``; ``message`` says why the run stopped and,
+    for ``undecided`` runs, what to try.
+    """
+
+    status: RunStatus
+    t: np.ndarray
+    x: np.ndarray
+    message: str
+    system: str
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def final_state(self) -> np.ndarray:
+        return self.x[-1]
+
+    @property
+    def t_end(self) -> float:
+        return float(self.t[-1])
+
+
+def simulate(
+    system: System,
+    x0: Any,
+    *,
+    rules: StopRules | None = None,
+    rtol: float = 1e-9,
+    atol: float = 1e-11,
+    method: str = "DOP853",
+    t_eval: np.ndarray | None = None,
+    max_step: float = np.inf,
+) -> Trajectory:
+    """Integrate ``system`` from ``x0`` until an event or ``rules.t_final``.
+
+    Events (terminal): entering the convergence ball (autonomous systems with an equilibrium),
+    reaching the domain boundary, exceeding the divergence bound. Non-finite states end the run as
+    ``diverged``; nothing is returned as a silent NaN.
+    """
+    rules = StopRules() if rules is None else rules
+    x0 = system.check_state(x0, what="initial state")
+    if x0.ndim != 1:
+        raise ValueError(f"initial state must be one state of {system.n} components, got shape {x0.shape}")
+    track_convergence = system.equilibrium is not None and not system.time_varying
+    x_eq = system.x_eq if track_convergence else None
+
+    def rhs(t: float, x: np.ndarray) -> np.ndarray:
+        return system.f(x, t)
+
+    events = []
+    names = []
+    if track_convergence:
+
+        def ev_conv(t: float, x: np.ndarray) -> float:
+            return float(np.linalg.norm(x - x_eq) - rules.converge_tol)
+
+        ev_conv.terminal = True  # type: ignore[attr-defined]
+        ev_conv.direction = -1  # type: ignore[attr-defined]
+        events.append(ev_conv)
+        names.append(RunStatus.CONVERGED)
+    if system.margin is not None:
+
+        def ev_dom(t: float, x: np.ndarray) -> float:
+            return float(system.margin(list(x), _np_ns()))
+
+        ev_dom.terminal = True  # type: ignore[attr-defined]
+        ev_dom.direction = -1  # type: ignore[attr-defined]
+        events.append(ev_dom)
+        names.append(RunStatus.LEFT_DOMAIN)
+
+    def ev_div(t: float, x: np.ndarray) -> float:
+        return float(rules.diverge_bound - np.linalg.norm(x))
+
+    ev_div.terminal = True  # type: ignore[attr-defined]
+    ev_div.direction = -1  # type: ignore[attr-defined]
+    events.append(ev_div)
+    names.append(RunStatus.DIVERGED)
+
+    if track_convergence and np.linalg.norm(x0 - x_eq) <= rules.converge_tol:
+        return Trajectory(RunStatus.CONVERGED, np.array([0.0]), x0[None, :], "started converged", system.name)
+
+    with np.errstate(all="ignore"):
+        sol = solve_ivp(
+            rhs,
+            (0.0, rules.t_final),
+            x0,
+            method=method,
+            rtol=rtol,
+            atol=atol,
+            events=events,
+            t_eval=t_eval,
+            max_step=max_step,
+            dense_output=False,
+        )
+    t, x = sol.t, sol.y.T
+    finite = np.all(np.isfinite(x), axis=1)
+    if not finite.all():
+        k = int(np.argmin(finite))
+        return Trajectory(
+            RunStatus.DIVERGED, t[:k], x[:k], f"non-finite state at t = {t[k]:.4g}", system.name
+        )
+    for status, t_ev, x_ev in zip(names, sol.t_events, sol.y_events, strict=True):
+        if len(t_ev):
+            if t_eval is not None:  # append the event point to the sampled output
+                t = np.append(t, t_ev[0])
+                x = np.vstack([x, x_ev[0]])
+            return Trajectory(status, t, x, f"{status.value} at t = {t_ev[0]:.6g}", system.name)
+    if sol.status == -1:
+        return Trajectory(
+            RunStatus.DIVERGED if not np.all(np.isfinite(x[-1])) else RunStatus.UNDECIDED,
+            t,
+            x,
+            f"integrator failed: {sol.message}; try a looser rtol or a smaller t_final",
+            system.name,
+        )
+    if system.time_varying or not track_convergence:
+        return Trajectory(RunStatus.COMPLETED, t, x, f"reached t_final = {rules.t_final:g}", system.name)
+    return Trajectory(
+        RunStatus.UNDECIDED,
+        t,
+        x,
+        f"neither converged nor left the domain by t_final = {rules.t_final:g}; "
+        "try increasing t_final or converge_tol",
+        system.name,
+    )
+
+
+def _np_ns() -> Any:
+    from roa.backend import NP
+
+    return NP

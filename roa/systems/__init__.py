@@ -1,0 +1,64 @@
+"""Built-in systems and loading a user's own system from a Python file.
+
+A user file defines a :class:`roa.system.System` (or a function with no required arguments that
+returns one) and, optionally, ``LYAPUNOV_P`` (an n x n positive-definite matrix) for the Lyapunov
+analysis. ``--system path/to/file.py:NAME`` loads ``NAME`` from it.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+from collections.abc import Callable
+from pathlib import Path
+
+from roa.system import System
+
+BUILTIN: dict[str, str] = {
+    "ipc": "roa.systems.ipc:closed_loop",
+    "ipc-flat": "roa.systems.ipc:transformed",
+    "vanderpol": "roa.systems.vanderpol:vanderpol",
+}
+
+
+def _resolve(target: str) -> Callable[..., System]:
+    module, attr = target.split(":")
+    return getattr(importlib.import_module(module), attr)
+
+
+def load_system(spec: str) -> System:
+    """Load a built-in system by name or ``path/to/file.py:NAME`` from a user's file."""
+    if spec in BUILTIN:
+        return _resolve(BUILTIN[spec])()
+    if ":" not in spec:
+        raise ValueError(
+            f"--system {spec!r}: not a built-in system ({', '.join(BUILTIN)}) and not of the form "
+            "path/to/file.py:NAME"
+        )
+    path_str, name = spec.rsplit(":", 1)
+    path = Path(path_str)
+    if not path.is_file():
+        raise ValueError(f"--system: file {path} does not exist")
+    mod_spec = importlib.util.spec_from_file_location(f"roa_user_{path.stem}", path)
+    if mod_spec is None or mod_spec.loader is None:
+        raise ValueError(f"--system: cannot import {path}")
+    module = importlib.util.module_from_spec(mod_spec)
+    mod_spec.loader.exec_module(module)
+    if not hasattr(module, name):
+        raise ValueError(f"--system: {path} defines no {name!r}")
+    obj = getattr(module, name)
+    system = obj() if callable(obj) and not isinstance(obj, System) else obj
+    if not isinstance(system, System):
+        raise ValueError(f"--system: {path}:{name} is not a roa.System (got {type(system).__name__})")
+    return system
+
+
+def load_module_attr(spec: str, attr: str):
+    """Return ``attr`` of the user file behind ``spec`` (``None`` for built-ins or if missing)."""
+    if spec in BUILTIN or ":" not in spec:
+        return None
+    path = Path(spec.rsplit(":", 1)[0])
+    mod_spec = importlib.util.spec_from_file_location(f"roa_user_{path.stem}_attr", path)
+    assert mod_spec is not None and mod_spec.loader is not None
+    module = importlib.util.module_from_spec(mod_spec)
+    mod_spec.loader.exec_module(module)
+    return getattr(module, attr, None)

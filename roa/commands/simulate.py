@@ -25,7 +25,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--reference", default=None, help="F*(t): 'sin:A,W', or an expression in t, e.g. '2*sin(t/2)'")
     p.add_argument("--t-final", type=float, default=60.0, help="final time (default 60)")
     p.add_argument("--delta", type=float, default=None, help="mass ratio M/m > 0 (default 1.0)")
-    p.add_argument("--poles", default=None, help="4 closed-loop poles, e.g. -1,-1,-2,-2 (default -1,-1,-1,-1)")
+    p.add_argument("--poles", default=None, help="4 closed-loop poles, e.g. --poles=-1,-1,-2,-2 (default -1,-1,-1,-1; complex as -1+1j)")
     p.add_argument("--coefficients", default=None, help="h0,h1,h2,h3 of p(s) instead of --poles")
     p.add_argument("--saturation", type=float, default=None, help="actuator limit |u| <= U")
     p.add_argument("--coordinates", choices=("physical", "flat"), default="physical",

@@ -1,0 +1,5 @@
+"""Plotting helpers (matplotlib, Agg backend)."""
+
+import matplotlib
+
+matplotlib.use("Agg")

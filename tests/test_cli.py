@@ -1,0 +1,69 @@
+"""The roa command line: JSON outputs, clear errors, unknown arguments rejected."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+from roa.cli import build_parser, main
+
+
+def run_cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "roa.cli", *args], capture_output=True, text=True, timeout=300)
+
+
+@pytest.mark.parametrize("ic", ["0.4,0.25,0.2,2", "0,0,1.2,0.2", "1,0,-0.8,0"])
+def test_simulate_paper_points_converge(ic, capsys):
+    assert main(["simulate", "--ic", ic, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "converged"
+    assert len(out["final_state"]) == 4
+    assert max(abs(v) for v in out["final_state"]) < 1e-3
+
+
+def test_simulate_tracking_reports_error(capsys):
+    assert main(["simulate", "--ic", "0,0,1,0", "--reference", "2*sin(t/2)", "--t-final", "40", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "completed"
+    assert 0 < out["tracking_error_max_last_half"] < 0.1
+
+
+def test_simulate_flat_coordinates_agree(capsys):
+    main(["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5", "--coordinates", "flat"])
+    flat = json.loads(capsys.readouterr().out)
+    main(["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
+    phys = json.loads(capsys.readouterr().out)
+    assert flat["status"] == phys["status"] == "undecided"
+    assert flat["final_state"] == pytest.approx(phys["final_state"], abs=1e-6)
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["--ic", "0,0,1.7,0"], "theta = 1.7 rad is outside the domain"),
+        (["--ic", "0,0,nan,0"], "finite"),
+        (["--ic", "0,0,1"], "expected 4"),
+        (["--ic", "0,0,0.1,0", "--poles=-1,-1,1,-1"], "not Hurwitz"),
+        (["--ic", "0,0,0.1,0", "--delta", "-1"], "delta"),
+    ],
+)
+def test_simulate_bad_input(args, message, capsys):
+    assert main(["simulate", *args]) == 2
+    assert message in capsys.readouterr().err
+
+
+def test_unknown_arguments_raise():
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["simulate", "--ic", "0,0,0,0", "--bogus", "1"])
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["nonexistent-command"])
+
+
+def test_every_command_has_help():
+    parser = build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command")
+    for name in sub.choices:
+        proc = run_cli(name, "--help")
+        assert proc.returncode == 0, name
+        assert "usage: roa" in proc.stdout

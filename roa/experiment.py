@@ -45,7 +45,9 @@ def load_config(path: str | Path) -> dict[str, Any]:
         raise ValueError(f"experiment config {path}: invalid TOML: {exc}") from exc
     kind = cfg.get("kind")
     if kind not in KINDS:
-        raise ValueError(f"experiment config {path}: kind = {kind!r}; allowed: {', '.join(sorted(KINDS))}")
+        raise ValueError(
+            f"experiment config {path}: kind = {kind!r}; allowed: {', '.join(sorted(KINDS))}"
+        )
     params = cfg.get("params", {})
     quick = cfg.get("quick", {})
     if not isinstance(params, dict) or not isinstance(quick, dict):
@@ -59,7 +61,9 @@ def load_config(path: str | Path) -> dict[str, Any]:
 
 
 def config_hash(cfg: dict[str, Any], quick: bool) -> str:
-    blob = json.dumps({"cfg": cfg, "quick": quick, "code": code_hash()}, sort_keys=True, default=str)
+    blob = json.dumps(
+        {"cfg": cfg, "quick": quick, "code": code_hash()}, sort_keys=True, default=str
+    )
     return hashlib.sha256(blob.encode()).hexdigest()
 
 
@@ -95,7 +99,9 @@ def run_experiment(
     elapsed = time.perf_counter() - t0
     for claim in summary.get("claims", []):
         if claim.get("verdict") not in VERDICTS:
-            raise ValueError(f"{cfg['name']}: claim {claim.get('id')} has verdict {claim.get('verdict')!r}")
+            raise ValueError(
+                f"{cfg['name']}: claim {claim.get('id')} has verdict {claim.get('verdict')!r}"
+            )
     summary = {"experiment": cfg["name"], "title": cfg["title"], "quick": quick, **summary}
     atomic_write_json(out / "summary.json", summary)
     atomic_write_json(
@@ -118,9 +124,11 @@ def run_experiment(
 def list_experiments(directory: str | Path = "experiments") -> list[Path]:
     """Experiment configs in run order (``order`` key, then name)."""
     paths = sorted(Path(directory).glob("*.toml"))
+
     def key(p: Path) -> tuple[int, str]:
         try:
             return (int(tomllib.loads(p.read_text()).get("order", 100)), p.name)
         except tomllib.TOMLDecodeError:
             return (100, p.name)
+
     return sorted(paths, key=key)

@@ -15,7 +15,18 @@ from typing import Any
 
 import numpy as np
 
-PACKAGES = ("roa", "numpy", "scipy", "sympy", "cvxpy", "clarabel", "casadi", "matplotlib", "joblib", "numba")
+PACKAGES = (
+    "roa",
+    "numpy",
+    "scipy",
+    "sympy",
+    "cvxpy",
+    "clarabel",
+    "casadi",
+    "matplotlib",
+    "joblib",
+    "numba",
+)
 
 
 def _default(obj: Any) -> Any:
@@ -85,7 +96,10 @@ def git_revision() -> str | None:
 
 
 def package_versions() -> dict[str, str | None]:
-    versions: dict[str, str | None] = {"python": sys.version.split()[0], "platform": platform.platform()}
+    versions: dict[str, str | None] = {
+        "python": sys.version.split()[0],
+        "platform": platform.platform(),
+    }
     for name in PACKAGES:
         try:
             versions[name] = metadata.version(name)

@@ -47,7 +47,9 @@ class QuadraticLyapunov:
     def for_system(cls, system: System, P: Any, name: str = "V") -> QuadraticLyapunov:
         P = np.asarray(P, dtype=float)
         if P.shape != (system.n, system.n):
-            raise ValueError(f"P must be {system.n}x{system.n} for system {system.name!r}, got {P.shape}")
+            raise ValueError(
+                f"P must be {system.n}x{system.n} for system {system.name!r}, got {P.shape}"
+            )
         return cls(P, system.x_eq, name)
 
     @property

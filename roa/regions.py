@@ -39,11 +39,17 @@ class Region:
     meta: dict[str, Any] = field(default_factory=dict, compare=False, hash=False)
 
     def __post_init__(self) -> None:
-        object.__setattr__(self, "P", check_positive_definite(self.P, what=f"region {self.name!r} P"))
+        object.__setattr__(
+            self, "P", check_positive_definite(self.P, what=f"region {self.name!r} P")
+        )
         if not (np.isfinite(self.level) and self.level > 0):
-            raise ValueError(f"region {self.name!r}: level must be finite and > 0, got {self.level!r}")
+            raise ValueError(
+                f"region {self.name!r}: level must be finite and > 0, got {self.level!r}"
+            )
         if self.status not in REGION_STATUSES:
-            raise ValueError(f"region {self.name!r}: status {self.status!r} not in {REGION_STATUSES}")
+            raise ValueError(
+                f"region {self.name!r}: status {self.status!r} not in {REGION_STATUSES}"
+            )
 
     def form(self, x: np.ndarray) -> np.ndarray:
         """``y' P y`` with ``y = coords(x)``; ``inf`` where ``coords`` is undefined (outside its domain)."""
@@ -58,4 +64,10 @@ class Region:
         return self.form(x) <= self.level
 
     def to_json(self) -> dict[str, Any]:
-        return {"name": self.name, "P": self.P.tolist(), "level": float(self.level), "status": self.status, **self.meta}
+        return {
+            "name": self.name,
+            "P": self.P.tolist(),
+            "level": float(self.level),
+            "status": self.status,
+            **self.meta,
+        }

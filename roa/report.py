@@ -45,7 +45,14 @@ def collect(results: str | Path) -> tuple[list[dict], list[dict]]:
         summary = json.loads(path.read_text())
         summaries.append(summary)
         claims.extend(summary.get("claims", []))
-    return sorted(claims, key=lambda c: (c["id"][0], int("".join(ch for ch in c["id"][1:] if ch.isdigit()) or 0), c["id"])), summaries
+    return sorted(
+        claims,
+        key=lambda c: (
+            c["id"][0],
+            int("".join(ch for ch in c["id"][1:] if ch.isdigit()) or 0),
+            c["id"],
+        ),
+    ), summaries
 
 
 def render_report(results: str | Path = "results") -> str:
@@ -55,7 +62,12 @@ def render_report(results: str | Path = "results") -> str:
         rows = [c for c in claims if c["id"].startswith(prefix)]
         if not rows:
             continue
-        lines += [f"## {heading}", "", "| id | claim | paper | ours | verdict | evidence |", "|---|---|---|---|---|---|"]
+        lines += [
+            f"## {heading}",
+            "",
+            "| id | claim | paper | ours | verdict | evidence |",
+            "|---|---|---|---|---|---|",
+        ]
         for c in rows:
             lines.append(
                 f"| {c['id']} | {_cell(c['claim'])} | {_cell(c['paper'])} | {_cell(c['ours'])} | "

@@ -56,7 +56,9 @@ def simulate(
     rules = StopRules() if rules is None else rules
     x0 = system.check_state(x0, what="initial state")
     if x0.ndim != 1:
-        raise ValueError(f"initial state must be one state of {system.n} components, got shape {x0.shape}")
+        raise ValueError(
+            f"initial state must be one state of {system.n} components, got shape {x0.shape}"
+        )
     track_convergence = system.equilibrium is not None and not system.time_varying
     x_eq = system.x_eq if track_convergence else None
 
@@ -93,7 +95,9 @@ def simulate(
     names.append(RunStatus.DIVERGED)
 
     if track_convergence and np.linalg.norm(x0 - x_eq) <= rules.converge_tol:
-        return Trajectory(RunStatus.CONVERGED, np.array([0.0]), x0[None, :], "started converged", system.name)
+        return Trajectory(
+            RunStatus.CONVERGED, np.array([0.0]), x0[None, :], "started converged", system.name
+        )
 
     with np.errstate(all="ignore"):
         sol = solve_ivp(
@@ -130,7 +134,9 @@ def simulate(
             system.name,
         )
     if system.time_varying or not track_convergence:
-        return Trajectory(RunStatus.COMPLETED, t, x, f"reached t_final = {rules.t_final:g}", system.name)
+        return Trajectory(
+            RunStatus.COMPLETED, t, x, f"reached t_final = {rules.t_final:g}", system.name
+        )
     return Trajectory(
         RunStatus.UNDECIDED,
         t,

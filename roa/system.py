@@ -87,7 +87,9 @@ class System:
         bad = ~np.isfinite(arr)
         if bad.any():
             idx = np.argwhere(bad)[0]
-            raise ValueError(f"{what}: component {self.state_names[idx[-1]]} is not finite (NaN/inf)")
+            raise ValueError(
+                f"{what}: component {self.state_names[idx[-1]]} is not finite (NaN/inf)"
+            )
         if self.margin is not None and not np.all(self.inside(arr)):
             raise ValueError(f"{what} outside the domain of {self.name}: {self.domain_description}")
         return arr

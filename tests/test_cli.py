@@ -10,7 +10,9 @@ from roa.cli import build_parser, main
 
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
-    return subprocess.run([sys.executable, "-m", "roa.cli", *args], capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        [sys.executable, "-m", "roa.cli", *args], capture_output=True, text=True, timeout=300
+    )
 
 
 @pytest.mark.parametrize("ic", ["0.4,0.25,0.2,2", "0,0,1.2,0.2", "1,0,-0.8,0"])
@@ -23,14 +25,30 @@ def test_simulate_paper_points_converge(ic, capsys):
 
 
 def test_simulate_tracking_reports_error(capsys):
-    assert main(["simulate", "--ic", "0,0,1,0", "--reference", "2*sin(t/2)", "--t-final", "40", "--json"]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "--ic",
+                "0,0,1,0",
+                "--reference",
+                "2*sin(t/2)",
+                "--t-final",
+                "40",
+                "--json",
+            ]
+        )
+        == 0
+    )
     out = json.loads(capsys.readouterr().out)
     assert out["status"] == "completed"
     assert 0 < out["tracking_error_max_last_half"] < 0.1
 
 
 def test_simulate_flat_coordinates_agree(capsys):
-    main(["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5", "--coordinates", "flat"])
+    main(
+        ["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5", "--coordinates", "flat"]
+    )
     flat = json.loads(capsys.readouterr().out)
     main(["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
     phys = json.loads(capsys.readouterr().out)

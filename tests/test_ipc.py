@@ -102,7 +102,14 @@ def test_physical_and_flat_simulations_agree(x0):
     rules = StopRules(t_final=15.0, converge_tol=1e-12)
     t_eval = np.linspace(0, 15, 151)
     a = simulate(ipc.closed_loop(delta=0.7), x0, rules=rules, t_eval=t_eval, rtol=1e-11, atol=1e-12)
-    b = simulate(ipc.transformed(), ipc.to_flat(np.array(x0)), rules=rules, t_eval=t_eval, rtol=1e-11, atol=1e-12)
+    b = simulate(
+        ipc.transformed(),
+        ipc.to_flat(np.array(x0)),
+        rules=rules,
+        t_eval=t_eval,
+        rtol=1e-11,
+        atol=1e-12,
+    )
     np.testing.assert_allclose(ipc.from_flat(b.x), a.x, rtol=1e-6, atol=1e-6)
 
 
@@ -114,7 +121,9 @@ def test_paper_initial_conditions_converge_for_several_deltas():
 
 def test_leaving_the_domain_is_a_status():
     # with an actuator limit |u| <= 1 the pendulum started at p2 falls over
-    tr = simulate(ipc.closed_loop(saturation=1.0), (0.0, 0.0, 1.2, 0.2), rules=StopRules(t_final=20))
+    tr = simulate(
+        ipc.closed_loop(saturation=1.0), (0.0, 0.0, 1.2, 0.2), rules=StopRules(t_final=20)
+    )
     assert tr.status is RunStatus.LEFT_DOMAIN
     assert abs(tr.final_state[2]) == pytest.approx(np.pi / 2, abs=1e-6)
     assert np.all(np.isfinite(tr.x))

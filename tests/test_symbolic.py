@@ -63,4 +63,6 @@ def test_errata_of_the_printed_formulas():
 
 def test_inverse_gudermannian_identity():
     th = np.linspace(-1.5, 1.5, 301)
-    np.testing.assert_allclose(2 * np.arctanh(np.tan(th / 2)), np.arcsinh(np.tan(th)), rtol=1e-12, atol=1e-13)
+    np.testing.assert_allclose(
+        2 * np.arctanh(np.tan(th / 2)), np.arcsinh(np.tan(th)), rtol=1e-12, atol=1e-13
+    )

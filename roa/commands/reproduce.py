@@ -11,9 +11,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reproduce", help="run every experiment and regenerate paper_repro.md")
     p.add_argument("--quick", action="store_true", help="reduced grids (minutes, what CI runs)")
     p.add_argument("--force", action="store_true", help="re-run experiments even if cached")
-    p.add_argument("--experiments", default=None, help="directory of configs (default: the packaged ones)")
+    p.add_argument(
+        "--experiments", default=None, help="directory of configs (default: the packaged ones)"
+    )
     p.add_argument("--results", default="results", help="results directory (default results/)")
-    p.add_argument("--report", default="paper_repro.md", help="report path (default paper_repro.md)")
+    p.add_argument(
+        "--report", default="paper_repro.md", help="report path (default paper_repro.md)"
+    )
     p.set_defaults(func=run)
 
 

@@ -6,10 +6,14 @@ import argparse
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("run", help="run one experiment config (experiments/NAME.toml) into results/NAME/")
+    p = sub.add_parser(
+        "run", help="run one experiment config (experiments/NAME.toml) into results/NAME/"
+    )
     p.add_argument("config", help="path to an experiment TOML file")
     p.add_argument("--quick", action="store_true", help="use the config's reduced [quick] settings")
-    p.add_argument("--force", action="store_true", help="re-run even if config and code are unchanged")
+    p.add_argument(
+        "--force", action="store_true", help="re-run even if config and code are unchanged"
+    )
     p.add_argument("--results", default="results", help="results directory (default results/)")
     p.set_defaults(func=run)
 

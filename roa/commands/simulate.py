@@ -21,15 +21,29 @@ def _floats(text: str, what: str, n: int | None = None) -> list[float]:
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("simulate", help="simulate the IPC closed loop from one initial state")
-    p.add_argument("--ic", required=True, help="initial state Q,QD,TH,THD (theta in rad, |theta| < pi/2)")
-    p.add_argument("--reference", default=None, help="F*(t): 'sin:A,W', or an expression in t, e.g. '2*sin(t/2)'")
+    p.add_argument(
+        "--ic", required=True, help="initial state Q,QD,TH,THD (theta in rad, |theta| < pi/2)"
+    )
+    p.add_argument(
+        "--reference",
+        default=None,
+        help="F*(t): 'sin:A,W', or an expression in t, e.g. '2*sin(t/2)'",
+    )
     p.add_argument("--t-final", type=float, default=60.0, help="final time (default 60)")
     p.add_argument("--delta", type=float, default=None, help="mass ratio M/m > 0 (default 1.0)")
-    p.add_argument("--poles", default=None, help="4 closed-loop poles, e.g. --poles=-1,-1,-2,-2 (default -1,-1,-1,-1; complex as -1+1j)")
+    p.add_argument(
+        "--poles",
+        default=None,
+        help="4 closed-loop poles, e.g. --poles=-1,-1,-2,-2 (default -1,-1,-1,-1; complex as -1+1j)",
+    )
     p.add_argument("--coefficients", default=None, help="h0,h1,h2,h3 of p(s) instead of --poles")
     p.add_argument("--saturation", type=float, default=None, help="actuator limit |u| <= U")
-    p.add_argument("--coordinates", choices=("physical", "flat"), default="physical",
-                   help="integrate the physical model or the closed loop (3.8) in flat coordinates")
+    p.add_argument(
+        "--coordinates",
+        choices=("physical", "flat"),
+        default="physical",
+        help="integrate the physical model or the closed loop (3.8) in flat coordinates",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")
     p.set_defaults(func=run)
@@ -61,7 +75,9 @@ def run(args: argparse.Namespace) -> int:
         traj = simulate(system, ipc.to_flat(x0), rules=rules)
         x_phys = ipc.from_flat(traj.x)
     else:
-        system = ipc.closed_loop(delta=delta, gains=gains, reference=reference, saturation=args.saturation)
+        system = ipc.closed_loop(
+            delta=delta, gains=gains, reference=reference, saturation=args.saturation
+        )
         traj = simulate(system, x0, rules=rules)
         x_phys = traj.x
     out = {
@@ -92,5 +108,3 @@ def run(args: argparse.Namespace) -> int:
         if "tracking_error_max_last_half" in out:
             print(f"max |z1 - F*| over the last half: {out['tracking_error_max_last_half']:.4g}")
     return 0 if traj.status.value != "diverged" else 1
-
-

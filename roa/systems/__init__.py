@@ -48,7 +48,9 @@ def load_system(spec: str) -> System:
     obj = getattr(module, name)
     system = obj() if callable(obj) and not isinstance(obj, System) else obj
     if not isinstance(system, System):
-        raise ValueError(f"--system: {path}:{name} is not a roa.System (got {type(system).__name__})")
+        raise ValueError(
+            f"--system: {path}:{name} is not a roa.System (got {type(system).__name__})"
+        )
     return system
 
 

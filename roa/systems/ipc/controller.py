@@ -30,7 +30,9 @@ class Gains:
             raise ValueError(f"poles: need exactly 4 closed-loop poles, got {len(poles)}")
         coeffs = np.poly(poles)  # [1, h3, h2, h1, h0]
         if np.max(np.abs(coeffs.imag)) > 1e-9 * max(1.0, np.max(np.abs(coeffs.real))):
-            raise ValueError("poles: complex poles must come in conjugate pairs (real coefficients)")
+            raise ValueError(
+                "poles: complex poles must come in conjugate pairs (real coefficients)"
+            )
         return cls.from_coefficients(coeffs.real[::-1][:4])
 
     @classmethod
@@ -112,7 +114,9 @@ class ExpressionReference(Reference):
         try:
             expr = sp.sympify(expression, locals={"t": t})
         except (sp.SympifyError, SyntaxError, TypeError) as exc:
-            raise ValueError(f"reference: cannot parse {expression!r} as an expression in t") from exc
+            raise ValueError(
+                f"reference: cannot parse {expression!r} as an expression in t"
+            ) from exc
         extra = expr.free_symbols - {t}
         if extra:
             raise ValueError(

@@ -20,7 +20,9 @@ def analyse() -> dict[str, Any]:
     tr_printed = S.transform(printed["qdd_2_1"], printed["thdd_2_1"])
     structure = {
         "z1_dot == z2": S.is_zero(tr.z1_dot - S.z2),
-        "z2_dot == w1 + phi0(w1) w2^2": S.is_zero(tr.z2_dot - S.w1 - printed["phi0"].subs(S.w, S.w1) * S.w2**2),
+        "z2_dot == w1 + phi0(w1) w2^2": S.is_zero(
+            tr.z2_dot - S.w1 - printed["phi0"].subs(S.w, S.w1) * S.w2**2
+        ),
         "w1_dot == w2": S.is_zero(tr.w1_dot - S.w2),
         "w2_dot affine in u": sp.simplify(tr.w2_dot.diff(S.u, 2)) == 0,
     }

@@ -21,7 +21,9 @@ from roa.systems.ipc.model import phi0
 def _run(system, x0, t_final: float, n_points: int, **kw):
     t_eval = np.linspace(0.0, t_final, n_points)
     # converge_tol tiny: the plot shows the whole horizon; the status comes from a separate run
-    return simulate(system, x0, rules=StopRules(t_final=t_final, converge_tol=1e-14), t_eval=t_eval, **kw)
+    return simulate(
+        system, x0, rules=StopRules(t_final=t_final, converge_tol=1e-14), t_eval=t_eval, **kw
+    )
 
 
 def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
@@ -35,7 +37,9 @@ def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
     for name, x0 in ics.items():
         tr = _run(system, x0, t_final, int(params.get("n_points", 801)))
         u = ipc.control_force(tr.t, tr.x.T, delta=delta, gains=gains)
-        status = simulate(system, x0, rules=StopRules(t_final=float(params.get("status_t_final", 60.0))))
+        status = simulate(
+            system, x0, rules=StopRules(t_final=float(params.get("status_t_final", 60.0)))
+        )
         runs.append((f"{name} = {x0.tolist()}", tr.t, tr.x, u))
         table[name] = {
             "x0": x0.tolist(),
@@ -51,7 +55,10 @@ def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
         extra[f"{th0:+g}"] = {"status": st.status.value, "t_end": st.t_end}
     fig_path = out / "figure1.png"
     plot_runs(runs, fig_path, title=f"Figure 1: regulation, p(s) = (s+1)^4, delta = {delta:g}")
-    atomic_write_json(out / "figure1.json", {"delta": delta, "gains": gains.h, "runs": table, "extra_theta0": extra})
+    atomic_write_json(
+        out / "figure1.json",
+        {"delta": delta, "gains": gains.h, "runs": table, "extra_theta0": extra},
+    )
     ev = f"results/{out.name}/figure1.json"
     all_conv = all(r["status"] == "converged" for r in table.values())
     ours = "; ".join(
@@ -80,7 +87,10 @@ def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
                 "id": "F2",
                 "claim": "Sec. 3.3: theta(0) = +-1.3 rad (q = q' = theta' = 0) is stabilised",
                 "paper": "stabilised (said to be seen in Figure 1, which shows no such run)",
-                "ours": ", ".join(f"theta(0) = {k}: {v['status']} (t = {v['t_end']:.1f})" for k, v in extra.items()),
+                "ours": ", ".join(
+                    f"theta(0) = {k}: {v['status']} (t = {v['t_end']:.1f})"
+                    for k, v in extra.items()
+                ),
                 "verdict": "reproduced" if ok else "not reproduced",
                 "evidence": ev,
             }
@@ -96,7 +106,9 @@ def linear_error_prediction(gains: Gains, reference, t: np.ndarray) -> np.ndarra
     the residual error.
     """
     h = gains.h
-    A = np.array([[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [-h[0], -h[1], -h[2], -h[3]]], dtype=float)
+    A = np.array(
+        [[0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1], [-h[0], -h[1], -h[2], -h[3]]], dtype=float
+    )
 
     def rhs(tt: float, e: np.ndarray) -> np.ndarray:
         d = reference.derivatives(tt)
@@ -123,7 +135,11 @@ def run_figure2(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
     fig, ax = plt.subplots(2, 2, figsize=(11, 8))
     ax[0, 0].plot(x[:, 2], x[:, 3], lw=1)
     ax[0, 0].plot(x0[2], x0[3], "o", label="start")
-    ax[0, 0].set(xlabel=r"$\theta$ [rad]", ylabel=r"$\dot\theta$ [rad/s]", title=r"(a) $(\theta, \dot\theta)$")
+    ax[0, 0].set(
+        xlabel=r"$\theta$ [rad]",
+        ylabel=r"$\dot\theta$ [rad/s]",
+        title=r"(a) $(\theta, \dot\theta)$",
+    )
     ax[0, 1].plot(x[:, 0], x[:, 1], lw=1)
     ax[0, 1].plot(x0[0], x0[1], "o", label="start")
     ax[0, 1].set(xlabel="q [-]", ylabel=r"$\dot q$ [1/s]", title=r"(b) $(q, \dot q)$")
@@ -137,16 +153,24 @@ def run_figure2(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
     )
     ax[1, 0].set_ylim(-lim, lim)
     ax[1, 1].plot(t, u)
-    ax[1, 1].set(xlabel="normalised time t [-]", ylabel="force u [-]", title="(d) control force (not in the paper)")
+    ax[1, 1].set(
+        xlabel="normalised time t [-]",
+        ylabel="force u [-]",
+        title="(d) control force (not in the paper)",
+    )
     for a in ax.flat:
         a.grid(alpha=0.3)
     for a in (ax[0, 0], ax[0, 1], ax[1, 0]):
         a.legend(fontsize=8)
-    fig.suptitle(rf"Figure 2: tracking $F_*(t)$ = {reference.description} from $\theta(0)$ = {x0[2]:g} rad")
+    fig.suptitle(
+        rf"Figure 2: tracking $F_*(t)$ = {reference.description} from $\theta(0)$ = {x0[2]:g} rad"
+    )
     fig.tight_layout()
     atomic_savefig(fig, out / "figure2.png")
     plt.close(fig)
-    plot_runs([("tracking", t, x, u)], out / "figure2_states.png", title="Figure 2 run: states and force")
+    plot_runs(
+        [("tracking", t, x, u)], out / "figure2_states.png", title="Figure 2 run: states and force"
+    )
     res = {
         "x0": x0.tolist(),
         "reference": reference.description,

@@ -30,7 +30,12 @@ def lagrangian_model() -> tuple[sp.Expr, sp.Expr]:
     """
     q = sp.Function("q")(t)
     th = sp.Function("theta")(t)
-    L = (1 + delta) * q.diff(t) ** 2 / 2 + sp.cos(th) * q.diff(t) * th.diff(t) + th.diff(t) ** 2 / 2 - sp.cos(th)
+    L = (
+        (1 + delta) * q.diff(t) ** 2 / 2
+        + sp.cos(th) * q.diff(t) * th.diff(t)
+        + th.diff(t) ** 2 / 2
+        - sp.cos(th)
+    )
     eq_q = sp.diff(L.diff(q.diff(t)), t) - L.diff(q) - u
     eq_th = sp.diff(L.diff(th.diff(t)), t) - L.diff(th)
     qdd, thdd = sp.symbols("qdd thdd")
@@ -83,7 +88,10 @@ def transform(qdd: sp.Expr, thdd: sp.Expr) -> Transformed:
 
     def ddt(expr: sp.Expr) -> sp.Expr:
         return (
-            expr.diff(q_s) * qd_s + expr.diff(qd_s) * qdd + expr.diff(th_s) * thd_s + expr.diff(thd_s) * thdd
+            expr.diff(q_s) * qd_s
+            + expr.diff(qd_s) * qdd
+            + expr.diff(th_s) * thd_s
+            + expr.diff(thd_s) * thdd
         )
 
     inverse = {thd_s: w2 / (1 + w1**2)}
@@ -110,7 +118,10 @@ def phi_from_model(tr: Transformed) -> dict[str, sp.Expr]:
     phi3 = sp.simplify(rest.diff(w2, 2) / 2)
     phi2 = sp.simplify(rest - w2**2 * phi3)
     phi0 = sp.simplify((tr.z2_dot - w1).diff(w2, 2) / 2)
-    return {k: sp.simplify(e.subs(w1, w)) for k, e in {"phi0": phi0, "phi1": phi1, "phi2": phi2, "phi3": phi3}.items()}
+    return {
+        k: sp.simplify(e.subs(w1, w))
+        for k, e in {"phi0": phi0, "phi1": phi1, "phi2": phi2, "phi3": phi3}.items()
+    }
 
 
 def is_zero(expr: sp.Expr, samples: int = 6, seed: int = 0) -> bool:

@@ -6,7 +6,7 @@ import enum
 from dataclasses import dataclass
 
 
-class RunStatus(str, enum.Enum):
+class RunStatus(enum.StrEnum):
     """How one trajectory ended. Never merged: each is counted on its own."""
 
     CONVERGED = "converged"  # entered the ball ||x - x_eq|| <= converge_tol

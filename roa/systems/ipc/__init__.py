@@ -132,6 +132,7 @@ def closed_loop(
             "gains": gains.h,
             "reference": reference.description,
             "saturation": sat,
+            **_numba_meta("physical", reference, delta=delta, h=gains.h, saturation=sat),
         },
     )
 
@@ -154,8 +155,21 @@ def transformed(*, gains: Gains | None = None, reference: Reference | str | None
         margin=None,
         domain_description="R^4 (w1 = tan(theta) covers |theta| < pi/2)",
         time_varying=not reference.is_zero,
-        meta={"gains": gains.h, "reference": reference.description},
+        meta={
+            "gains": gains.h,
+            "reference": reference.description,
+            **_numba_meta("flat", reference, h=gains.h),
+        },
     )
+
+
+def _numba_meta(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
+    """``{"numba": factory}`` for the batch integrator (zero reference only; see ipc/fast.py)."""
+    if not reference.is_zero:
+        return {}
+    from roa.systems.ipc import fast
+
+    return {"numba": fast.PhysicalKernels(**kw) if which == "physical" else fast.FlatKernels(**kw)}
 
 
 

@@ -1,0 +1,88 @@
+"""Numba-compiled scalar fields of the IPC closed loops, for the batch integrator.
+
+The same formulas as :func:`roa.systems.ipc.closed_loop` (physical coordinates, zero reference,
+optional saturation) and :func:`roa.systems.ipc.transformed` ((3.8), flat coordinates), written as
+scalar code. ``tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
+Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numba
+import numpy as np
+
+from roa.montecarlo.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE, no_margin
+
+HALF_PI = np.pi / 2
+
+
+@numba.cfunc(FIELD_SIGNATURE, cache=True)
+def physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """Closed loop in physical coordinates (q, q', theta, theta'), zero reference."""
+    qd, th, thd = x[1], x[2], x[3]
+    delta = p[0]
+    s, c = np.sin(th), np.cos(th)
+    w1 = s / c
+    sec = 1.0 / c
+    z1 = x[0] + np.arcsinh(w1)
+    z2 = qd + thd * sec
+    w2 = thd * sec * sec
+    v = -(p[1] * z1 + p[2] * z2 + p[3] * w1 + p[4] * w2)
+    r = 1.0 + w1 * w1
+    r32 = r * np.sqrt(r)
+    dd = delta * r + w1 * w1
+    phi1 = r32 / dd
+    phi2 = (1.0 + delta) * w1 * r32 / dd
+    phi3 = w1 / (r * r) * (-r / dd + 2.0 * r)
+    u = (phi2 + w2 * w2 * phi3 - v) / phi1
+    sat = p[5]
+    if sat == sat:  # not NaN: saturate
+        if u > sat:
+            u = sat
+        elif u < -sat:
+            u = -sat
+    den = delta + s * s
+    out[0] = qd
+    out[1] = (u + thd * thd * s - s * c) / den
+    out[2] = thd
+    out[3] = (-u * c - thd * thd * s * c + (1.0 + delta) * s) / den
+
+
+@numba.cfunc(MARGIN_SIGNATURE, cache=True)
+def physical_margin(x: np.ndarray, p: np.ndarray) -> float:
+    """pi/2 - |theta|."""
+    return HALF_PI - abs(x[2])
+
+
+@numba.cfunc(FIELD_SIGNATURE, cache=True)
+def flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """The closed loop (3.8) in flat coordinates (z1, z2, w1, w2)."""
+    w1, w2 = x[2], x[3]
+    r = 1.0 + w1 * w1
+    out[0] = x[1]
+    out[1] = w1 + w1 / (r * np.sqrt(r)) * w2 * w2
+    out[2] = w2
+    out[3] = -(p[1] * x[0] + p[2] * x[1] + p[3] * w1 + p[4] * w2)
+
+
+class PhysicalKernels:
+    """Picklable zero-argument factory for ``System.meta["numba"]`` (physical coordinates)."""
+
+    def __init__(self, delta: float, h: Sequence[float], saturation: float | None) -> None:
+        sat = np.nan if saturation is None else float(saturation)
+        self.params = np.array([float(delta), *map(float, h), sat])
+
+    def __call__(self):
+        return physical_field, physical_margin, self.params
+
+
+class FlatKernels:
+    """Picklable zero-argument factory for ``System.meta["numba"]`` (flat coordinates)."""
+
+    def __init__(self, h: Sequence[float]) -> None:
+        self.params = np.array([1.0, *map(float, h), np.nan])
+
+    def __call__(self):
+        return flat_field, no_margin, self.params

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 
 from roa.io import atomic_write_text
@@ -55,8 +56,18 @@ def collect(results: str | Path) -> tuple[list[dict], list[dict]]:
     ), summaries
 
 
-def render_report(results: str | Path = "results") -> str:
+def _relink(path: str, prefix: str) -> str:
+    """Evidence paths are written as ``results/NAME/FILE``; point them at the actual results dir."""
+    return prefix + path[len("results/") :] if path.startswith("results/") else path
+
+
+def render_report(results: str | Path = "results", out: str | Path = "paper_repro.md") -> str:
+    """The report text for the summaries under ``results``, with links relative to ``out``."""
     claims, summaries = collect(results)
+    rel = os.path.relpath(Path(results).resolve(), Path(out).resolve().parent)
+    prefix = "" if rel == "." else rel.replace(os.sep, "/") + "/"
+    for c in claims:
+        c["evidence"] = _relink(c["evidence"], prefix)
     lines = [HEADER]
     for prefix, heading in SECTIONS:
         rows = [c for c in claims if c["id"].startswith(prefix)]
@@ -77,7 +88,9 @@ def render_report(results: str | Path = "results") -> str:
         for c in rows:
             if c.get("details"):
                 lines += [f"**{c['id']}.** {c['details'].strip()}", ""]
-    figures = [(s["experiment"], f) for s in summaries for f in s.get("figures", [])]
+    figures = [
+        (s["experiment"], _relink(f, prefix)) for s in summaries for f in s.get("figures", [])
+    ]
     if figures:
         lines += ["## Figures", ""]
         for exp, fig in figures:
@@ -86,4 +99,4 @@ def render_report(results: str | Path = "results") -> str:
 
 
 def write_report(results: str | Path = "results", out: str | Path = "paper_repro.md") -> Path:
-    return atomic_write_text(out, render_report(results))
+    return atomic_write_text(out, render_report(results, out))

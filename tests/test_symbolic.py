@@ -59,6 +59,7 @@ def test_errata_of_the_printed_formulas():
     assert not cmp["phi1"] and not cmp["phi2"]
     # the printed (2.5) (with the printed phis) does not produce w2' = v
     assert res["printed_2_5_gives_v"] is False
+    assert res["printed_sign_with_derived_phis_gives_minus_v"] is True
 
 
 def test_inverse_gudermannian_identity():

@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
     from roa.report import render_report, write_report
 
     if args.check:
-        text = render_report(args.results)
+        text = render_report(args.results, args.out)
         current = Path(args.out).read_text() if Path(args.out).is_file() else ""
         if text != current:
             print(

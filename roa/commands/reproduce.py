@@ -25,6 +25,8 @@ def run(args: argparse.Namespace) -> int:
     from roa.experiment import list_experiments, run_experiment
     from roa.report import experiments_dir, write_report
 
+    results = args.results or ("results-quick" if args.quick else "results")
+    report_path = args.report or (f"{results}/paper_repro.md" if args.quick else "paper_repro.md")
     directory = Path(args.experiments) if args.experiments else experiments_dir()
     configs = list_experiments(directory)
     if not configs:
@@ -33,9 +35,9 @@ def run(args: argparse.Namespace) -> int:
     for i, path in enumerate(configs, 1):
         t0 = time.perf_counter()
         print(f"[{i}/{len(configs)}] {path.stem} ...", flush=True)
-        summary = run_experiment(path, results=args.results, quick=args.quick, force=args.force)
+        summary = run_experiment(path, results=results, quick=args.quick, force=args.force)
         state = "cached" if summary.get("cached") else f"{time.perf_counter() - t0:.1f} s"
         print(f"[{i}/{len(configs)}] {path.stem}: {state}", flush=True)
-    report = write_report(args.results, args.report)
+    report = write_report(results, report_path)
     print(f"report: {report}  (total {time.perf_counter() - t_all:.1f} s)")
     return 0

@@ -14,16 +14,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--force", action="store_true", help="re-run even if config and code are unchanged"
     )
-    p.add_argument("--results", default="results", help="results directory (default results/)")
+    p.add_argument(
+        "--results",
+        default=None,
+        help="results directory (default results/, or results-quick/ with --quick)",
+    )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
     from roa.experiment import run_experiment
 
-    summary = run_experiment(args.config, results=args.results, quick=args.quick, force=args.force)
+    results = args.results or ("results-quick" if args.quick else "results")
+    summary = run_experiment(args.config, results=results, quick=args.quick, force=args.force)
     state = "cached" if summary.get("cached") else "done"
-    print(f"{summary['experiment']}: {state} -> {args.results}/{summary['experiment']}/")
+    print(f"{summary['experiment']}: {state} -> {results}/{summary['experiment']}/")
     for claim in summary.get("claims", []):
         print(f"  [{claim['verdict']}] {claim['id']}: {claim['claim']} -- ours: {claim['ours']}")
     return 0

@@ -36,6 +36,8 @@ def analyse() -> dict[str, Any]:
     # (2.5): does the printed u give w2' = v under the derived model?
     u_ok = sp.solve(sp.Eq(tr.w2_dot, S.v), S.u)[0]
     closed_printed = sp.simplify(tr.w2_dot.subs(S.u, printed["u_2_5"]))
+    p1, p2, p3 = (phis[k].subs(S.w, S.w1) for k in ("phi1", "phi2", "phi3"))
+    closed_sign = sp.simplify(tr.w2_dot.subs(S.u, (S.v + p2 + S.w2**2 * p3) / p1))
     return {
         "derived": {"q_ddot": str(qdd), "theta_ddot": str(thdd)},
         "printed": {k: str(e) for k, e in printed.items()},
@@ -47,6 +49,7 @@ def analyse() -> dict[str, Any]:
         "printed_2_5_gives_w2_dot": str(closed_printed),
         "printed_2_5_gives_v": S.is_zero(closed_printed - S.v),
         "printed_2_5_gives_minus_v": S.is_zero(closed_printed + S.v),
+        "printed_sign_with_derived_phis_gives_minus_v": S.is_zero(closed_sign + S.v),
     }
 
 
@@ -101,9 +104,11 @@ def run_experiment(params: dict[str, Any], out: Path, *, quick: bool) -> dict[st
             "ours": "u = (phi2 + w2^2 phi3 - v)/phi1 (with the corrected phi1, phi2)",
             "verdict": "erratum",
             "evidence": ev,
-            "details": "From w2' = -u phi1 + phi2 + w2^2 phi3 = v. Substituting the printed (2.5) into the derived "
-            f"model gives w2' = -v: {res['printed_2_5_gives_minus_v']} (not +v: {res['printed_2_5_gives_v']}), "
-            "i.e. positive feedback of the designed law; with the printed phi1, phi2 it is not even that.",
+            "details": "From w2' = -u phi1 + phi2 + w2^2 phi3 = v. With the derived phi1..phi3 but the printed sign, "
+            f"the model gives w2' = -v (sympy: {res['printed_sign_with_derived_phis_gives_minus_v']}): the designed "
+            "law with its sign flipped, which destabilises the chain of integrators. With the printed phi1, phi2 as "
+            f"well, w2' = v does not hold at all (sympy: w2' = v {res['printed_2_5_gives_v']}, "
+            f"w2' = -v {res['printed_2_5_gives_minus_v']}).",
         },
     ]
     return {"claims": claims, "structure": st, "figures": []}

@@ -18,7 +18,6 @@ from roa.system import System
 from roa.systems.ipc.controller import (
     Gains,
     Reference,
-
     force,
     make_reference,
     virtual_input,
@@ -26,7 +25,6 @@ from roa.systems.ipc.controller import (
 from roa.systems.ipc.coordinates import (
     HALF_PI,
     from_flat,
-
     to_flat,
     to_flat_components,
 )

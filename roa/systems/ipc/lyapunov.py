@@ -1,0 +1,229 @@
+"""The Lyapunov setting of Section 3.3 of the seed paper, for the closed loop (3.8).
+
+* ``T`` of (3.9): ``q = T xi`` with ``xi = (z1, z2, w1, w2)``;
+* (3.10): ``q' = -L q + beta(q) (3, 1, 0, 0)`` with ``beta = q4^2 phi0(w1)``, ``w1 = q3 - q4``;
+* ``V = q'q/2 + (q3 - q4)^2/2 = q' P_q q`` of (3.11); as a :class:`QuadraticLyapunov` on
+  :func:`roa.systems.ipc.transformed` it has ``P = T' P_q T``;
+* ``Phi(q) = -q'Mq + (3 q1 + q2) beta(q) + q3 q4 - q4^2`` of (3.12), ``M = (I + 11')/2``.
+
+:func:`khalil` runs the generic level-set search (:mod:`roa.levelset`) for the two shapes (the
+paper's ball ``||q||^2 = xi' T'T xi`` and the level sets of ``V``); :func:`ipc_regions` returns the
+estimates as :class:`roa.regions.Region` objects in flat coordinates with
+``coords = physical_to_flat_or_inf``, so they can be drawn over physical basin maps.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+
+from roa.levelset import inner_level, level_search
+from roa.lyapunov import QuadraticLyapunov
+from roa.regions import Region
+from roa.systems.ipc.model import phi0
+
+#: (3.9): q = T (z1, z2, w1, w2).
+T = np.array([[1.0, 3, 3, 1], [0, 1, 2, 1], [0, 0, 1, 1], [0, 0, 0, 1]])
+_E34 = np.array([0.0, 0, 1, -1])
+#: (3.11): V = q' P_q q = q'q/2 + (q3 - q4)^2/2.
+P_Q = 0.5 * (np.eye(4) + np.outer(_E34, _E34))
+#: (3.12): m_ii = 1, m_ij = 1/2.
+M = 0.5 * (np.eye(4) + np.ones((4, 4)))
+#: Linear part of (3.10): q' = -L q + beta (3, 1, 0, 0).
+L_310 = np.array([[1.0, 0, 0, 0], [1, 1, 0, 0], [1, 1, 1, 0], [1, 1, 1, 1]])
+#: Paper's printed values.
+PAPER_C_STAR_SQ = 4.89
+PAPER_C_TILDE = 2.25
+PAPER_SECTOR_DEG = 60.0
+
+SHAPES = ("ball", "level")
+
+
+def lambda_min_M() -> float:
+    """Smallest eigenvalue of M (the paper: 1/2)."""
+    return float(np.linalg.eigvalsh(M)[0])
+
+
+def beta(q: np.ndarray) -> np.ndarray:
+    """beta(q) = q4^2 phi0(w1) with w1 = q3 - q4, on arrays ``(..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    return q[..., 3] ** 2 * phi0(q[..., 2] - q[..., 3])
+
+
+def q_dot(q: np.ndarray) -> np.ndarray:
+    """The closed loop (3.10) in q coordinates, on arrays ``(..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    b = beta(q)
+    return -q @ L_310.T + b[..., None] * np.array([3.0, 1.0, 0.0, 0.0])
+
+
+def Phi(q: np.ndarray) -> np.ndarray:
+    """(3.12): Phi(q) = -q'Mq + (3 q1 + q2) beta(q) + q3 q4 - q4^2, on arrays ``(..., 4)``."""
+    q = np.asarray(q, dtype=float)
+    quad = np.einsum("...i,ij,...j->...", q, M, q)
+    return -quad + (3 * q[..., 0] + q[..., 1]) * beta(q) + q[..., 2] * q[..., 3] - q[..., 3] ** 2
+
+
+def flat_system() -> Any:
+    from roa.systems.ipc import transformed
+
+    return transformed()
+
+
+def paper_lyapunov() -> QuadraticLyapunov:
+    """V of (3.11) on the flat closed loop: P = T' P_q T."""
+    return QuadraticLyapunov(T.T @ P_Q @ T, np.zeros(4), "V (3.11)")
+
+
+def shape_matrix(shape: str) -> np.ndarray:
+    """Shape in flat coordinates: ``ball`` -> T'T (||q||^2), ``level`` -> T' P_q T (V)."""
+    if shape == "ball":
+        return T.T @ T
+    if shape == "level":
+        return T.T @ P_Q @ T
+    raise ValueError(f"shape {shape!r}: allowed {', '.join(SHAPES)}")
+
+
+def to_q(xi: np.ndarray) -> np.ndarray:
+    return np.asarray(xi, dtype=float) @ T.T
+
+
+@functools.lru_cache(maxsize=8)
+def khalil(shape: str = "ball", method: str = "both") -> dict[str, Any]:
+    """Khalil's search (3.15) for the IPC with shape ``ball`` (||q||^2) or ``level`` (V).
+
+    Returns the :func:`roa.levelset.level_search` dict, plus the witness in q and physical
+    coordinates and Phi(q) at the witness. Cached; do not mutate the result.
+    """
+    from roa.systems.ipc import from_flat
+
+    res = level_search(
+        flat_system(), paper_lyapunov(), shape_matrix(shape), shape=shape, method=method
+    )
+    if res["witness"] is not None:
+        xi = np.asarray(res["witness"])
+        res["witness_q"] = to_q(xi).tolist()
+        res["witness_physical"] = from_flat(xi).tolist()
+        res["Phi_witness"] = float(Phi(to_q(xi)))
+    return res
+
+
+def sector_theta(region: Region, *, t_max: float = np.pi / 2 - 1e-9) -> float:
+    """Largest theta in (0, pi/2) with (0, 0, th, 0) in ``region`` for all 0 <= th <= theta (rad).
+
+    Scans a fine grid then bisects the first exit; the same for -theta by the symmetry of the sets
+    (checked: the returned value is the minimum of both signs).
+    """
+    grid = np.linspace(0.0, t_max, 4001)[1:]
+    out = []
+    for sgn in (1.0, -1.0):
+        X = np.zeros((grid.size, 4))
+        X[:, 2] = sgn * grid
+        inside = region.contains(X)
+        if inside.all():
+            out.append(t_max)
+            continue
+        k = int(np.argmin(inside))
+        lo, hi = (grid[k - 1] if k > 0 else 0.0), grid[k]
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            if region.contains(np.array([0.0, 0.0, sgn * mid, 0.0])):
+                lo = mid
+            else:
+                hi = mid
+        out.append(lo)
+    return float(min(out))
+
+
+@functools.lru_cache(maxsize=1)
+def _regions() -> tuple[Region, ...]:
+    from roa.systems.ipc import physical_to_flat_or_inf as coords
+    from roa.systems.ipc.bound import corrected_bound, paper_bound
+
+    ball = khalil("ball")
+    level = khalil("level")
+    S_ball, S_level = shape_matrix("ball"), shape_matrix("level")
+    c_ball, c_level = float(ball["value"]), float(level["value"])
+    paper, corr = paper_bound(), corrected_bound()
+    return (
+        Region(
+            "paper (3.15): ||Tx||^2 <= 4.89",
+            S_ball,
+            PAPER_C_STAR_SQ,
+            "claimed",
+            coords,
+            {"source": "paper c*^2 = 4.89", "invariant": False},
+        ),
+        Region(
+            "paper (3.16) literal: ||Tx||^2 <= c* = 2.211",
+            S_ball,
+            float(np.sqrt(PAPER_C_STAR_SQ)),
+            "claimed",
+            coords,
+            {"source": "paper (3.16) as printed", "invariant": False},
+        ),
+        Region(
+            f"ours: ||Tx||^2 <= c*^2 = {c_ball:.4f} (Phi <= 0)",
+            S_ball,
+            c_ball,
+            "sampled",
+            coords,
+            {
+                "source": "Khalil search, ball shape",
+                "invariant": False,
+                "note": "V' < 0 on this ball, but a ball is not invariant: not an ROA estimate",
+            },
+        ),
+        Region(
+            f"ours: V <= {c_level:.4f} (V' < 0 on it)",
+            S_level,
+            c_level,
+            "sampled",
+            coords,
+            {"source": "Khalil search, V-level shape", "invariant": True},
+        ),
+        Region(
+            f"ours: ball inside V <= {c_level:.4f}: ||Tx||^2 <= "
+            f"{inner_level(S_level, c_level, S_ball):.4f}",
+            S_ball,
+            inner_level(S_level, c_level, S_ball),
+            "sampled",
+            coords,
+            {"source": "largest ball inside the sound V-level set", "invariant": False},
+        ),
+        Region(
+            "paper bound (3.14): ||Tx||^2 <= 2.25",
+            S_ball,
+            paper["c_tilde"],
+            "claimed",
+            coords,
+            {"source": "paper c~ = 2.25", "invariant": False},
+        ),
+        Region(
+            f"corrected bound: V < {corr['certified_V_level']:.5f}",
+            S_level,
+            corr["certified_V_level"],
+            "certified",
+            coords,
+            {"source": "corrected analytic bound (3.14), proof by hand", "invariant": True},
+        ),
+        Region(
+            f"corrected bound: ||Tx||^2 < {corr['certified_ball']:.5f}",
+            S_ball,
+            corr["certified_ball"],
+            "certified",
+            coords,
+            {"source": "ball inside the corrected-bound V-level set", "invariant": False},
+        ),
+    )
+
+
+def ipc_regions() -> list[Region]:
+    """The IPC's estimates as :class:`roa.regions.Region` objects (flat coordinates, physical coords).
+
+    Names say what each is; ``meta["invariant"]`` tells whether the set is a sublevel set of V
+    (forward invariant, hence an ROA estimate) or a ball. Values are computed once and cached.
+    """
+    return list(_regions())

@@ -29,6 +29,12 @@ KINDS: dict[str, str] = {
     "errata": "roa.systems.ipc.errata:run_experiment",
     "figure1": "roa.systems.ipc.figures:run_figure1",
     "figure2": "roa.systems.ipc.figures:run_figure2",
+    "bound": "roa.systems.ipc.lyapunov_report:run_bound",
+    "khalil": "roa.systems.ipc.lyapunov_report:run_khalil",
+    "basin_slice": "roa.systems.ipc.basins:run_slice",
+    "basin_box": "roa.systems.ipc.basins:run_box",
+    "basin_region": "roa.systems.ipc.basins:run_region",
+    "basin_global": "roa.systems.ipc.basins:run_global",
 }
 
 VERDICTS = ("reproduced", "not reproduced", "erratum", "beyond the paper")

@@ -28,7 +28,7 @@ from roa.status import StopRules
 from roa.system import System
 
 DEFAULT_CHUNK = 4096
-#: Runs with fewer initial conditions than this stay in one process.
+#: With the default n_jobs=-1, runs with fewer initial conditions than this stay in one process.
 SMALL_RUN = 12000
 Z95 = 1.959963984540054
 
@@ -219,7 +219,7 @@ def run_basin(
         else:
             client = None
             # small runs stay in-process (worker start-up costs seconds); results are the same
-            jobs = 1 if n_jobs != 1 and len(todo) * chunk_size < SMALL_RUN else n_jobs
+            jobs = 1 if n_jobs == -1 and len(todo) * chunk_size < SMALL_RUN else n_jobs
             ctx = joblib.parallel_config(n_jobs=jobs)
         try:
             with ctx:

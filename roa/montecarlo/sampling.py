@@ -110,7 +110,8 @@ def grid_slice(
         if i in (ia, ib):
             raise ValueError(f"--fix {name}: {name} is a slice axis, it cannot also be fixed")
         base[i] = float(value)
-    system.check_state(base, what=f"fixed state {dict(zip(system.state_names, base, strict=True))}")
+    shown = ", ".join(f"{n} = {float(v):g}" for n, v in zip(system.state_names, base, strict=True))
+    system.check_state(base, what=f"fixed state ({shown})")
     for name, (lo, hi) in zip(axes, ranges, strict=True):
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise ValueError(f"range of {name}: need finite low < high, got ({lo}, {hi})")

@@ -1,0 +1,203 @@
+"""``roa basin``: Monte Carlo basin of attraction over a 2D slice or a box, in parallel."""
+
+from __future__ import annotations
+
+import argparse
+import re
+from pathlib import Path
+
+import numpy as np
+
+from roa.io import atomic_write_json, to_json
+
+EPILOG = """examples:
+  roa basin --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
+  roa basin --slice q,theta --grid 100x100 --fix theta_dot=0.5 --saturation 2 --json
+  roa basin --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
+  roa basin --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
+"""
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "basin",
+        help="Monte Carlo basin of attraction: statuses over a 2D slice or random samples of a box",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument(
+        "--system", default="ipc", help="ipc (default), ipc-flat, vanderpol or FILE.py:NAME"
+    )
+    p.add_argument(
+        "--slice", default=None, metavar="AXIS1,AXIS2", help="two state names, e.g. theta,theta_dot"
+    )
+    p.add_argument(
+        "--grid", default=None, metavar="NxM", help="grid points along AXIS1 x AXIS2, e.g. 200x150"
+    )
+    p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
+                   help="value of a state off the slice (default: the equilibrium); repeatable")  # fmt: skip
+    p.add_argument("--box", default=None, metavar="NAME=LO:HI,...",
+                   help="ranges of the slice axes or of the sampled box (default: equilibrium +- 1)")  # fmt: skip
+    p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
+    p.add_argument(
+        "--saturation", type=float, default=None, help="actuator limit |u| <= U (ipc only)"
+    )
+    p.add_argument("--t-final", type=float, default=60.0, help="final time (default 60)")
+    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
+    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
+    p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
+    p.add_argument("--jobs", type=int, default=-1, help="parallel workers (default -1: all cores)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default 0)")
+    p.add_argument(
+        "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
+    )
+    p.add_argument(
+        "--out", default=None, metavar="DIR", help="resumable run directory (chunks, summary.json)"
+    )
+    p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
+    p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(func=run)
+
+
+def parse_grid(text: str) -> tuple[int, int]:
+    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
+    if not m:
+        raise ValueError(
+            f"--grid: expected NxM with integers N, M >= 2 (e.g. 200x150), got {text!r}"
+        )
+    nx, ny = int(m.group(1)), int(m.group(2))
+    if nx < 2 or ny < 2 or nx * ny > 10**8:
+        raise ValueError(f"--grid: N and M must be >= 2 and N*M <= 1e8, got {nx}x{ny}")
+    return nx, ny
+
+
+def parse_box(text: str | None, names: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    out: dict[str, tuple[float, float]] = {}
+    for part in (text or "").split(","):
+        if not part.strip():
+            continue
+        m = re.fullmatch(r"\s*([A-Za-z_]\w*)\s*=\s*([^:]+):(.+)", part)
+        if not m:
+            raise ValueError(f"--box: expected NAME=LO:HI, got {part!r}")
+        name = m.group(1)
+        if name not in names:
+            raise ValueError(f"--box: unknown state {name!r}; allowed: {', '.join(names)}")
+        try:
+            lo, hi = float(m.group(2)), float(m.group(3))
+        except ValueError as exc:
+            raise ValueError(f"--box {name}: LO and HI must be numbers, got {part!r}") from exc
+        if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+            raise ValueError(f"--box {name}: need finite LO < HI, got {lo}:{hi}")
+        out[name] = (lo, hi)
+    return out
+
+
+def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        name = name.strip()
+        if not sep:
+            raise ValueError(f"--fix: expected NAME=VALUE, got {item!r}")
+        if name not in names:
+            raise ValueError(f"--fix: unknown state {name!r}; allowed: {', '.join(names)}")
+        try:
+            out[name] = float(value)
+        except ValueError as exc:
+            raise ValueError(f"--fix {name}: value must be a number, got {value!r}") from exc
+    return out
+
+
+def build(args: argparse.Namespace):
+    """Validate everything and return ``(system, sampler, rules, mode)`` before any work."""
+    from roa.montecarlo.sampling import box_sample, grid_slice
+    from roa.status import StopRules
+    from roa.systems import load_system
+
+    if args.saturation is not None:
+        if args.system != "ipc":
+            raise ValueError("--saturation applies to the ipc system only")
+        if not args.saturation > 0:
+            raise ValueError(f"--saturation must be a force bound > 0, got {args.saturation}")
+        from roa.systems.ipc import closed_loop
+
+        system = closed_loop(saturation=args.saturation)
+    else:
+        system = load_system(args.system)
+    if system.equilibrium is None or system.time_varying:
+        raise ValueError(
+            f"--system {args.system}: basins need an autonomous system with an equilibrium"
+        )
+    rules = StopRules(t_final=args.t_final)
+    names = system.state_names
+    box = parse_box(args.box, names)
+    fixed = parse_fix(args.fix, names)
+    x_eq = system.x_eq
+
+    def rng(name: str) -> tuple[float, float]:
+        i = names.index(name)
+        return box.get(name, (x_eq[i] - 1.0, x_eq[i] + 1.0))
+
+    if (args.slice is None) == (args.samples is None):
+        raise ValueError("give either --slice AXIS1,AXIS2 with --grid NxM, or --samples N")
+    if args.slice is not None:
+        if args.grid is None:
+            raise ValueError("--slice needs --grid NxM")
+        axes = [a.strip() for a in args.slice.split(",")]
+        if len(axes) != 2:
+            raise ValueError(f"--slice: expected two state names AXIS1,AXIS2, got {args.slice!r}")
+        for a in axes:
+            if a not in names:
+                raise ValueError(f"--slice: unknown state {a!r}; allowed: {', '.join(names)}")
+        extra = set(box) - set(axes)
+        if extra:
+            raise ValueError(f"--box: {sorted(extra)} are not slice axes (use --fix for them)")
+        shape = parse_grid(args.grid)
+        sampler = grid_slice(system, axes, [rng(a) for a in axes], shape, fixed=fixed)
+        mode = {"mode": "slice", "axes": axes, "grid": list(shape), "ranges": [rng(a) for a in axes],
+                "fixed": {n: float(sampler.base[i]) for i, n in enumerate(names) if n not in axes}}  # fmt: skip
+    else:
+        if args.grid is not None or fixed:
+            raise ValueError("--grid and --fix apply to --slice runs, not to --samples")
+        if args.samples < 1:
+            raise ValueError(f"--samples must be >= 1, got {args.samples}")
+        ranges = [rng(n) for n in names]
+        sampler = box_sample(system, ranges, args.samples, seed=args.seed)
+        mode = {"mode": "box", "box": dict(zip(names, ranges, strict=True)), "seed": args.seed}
+    if args.chunk_size < 1:
+        raise ValueError(f"--chunk-size must be >= 1, got {args.chunk_size}")
+    if args.jobs == 0 or args.jobs < -1:
+        raise ValueError(f"--jobs must be >= 1 or -1 (all cores), got {args.jobs}")
+    return system, sampler, rules, mode
+
+
+def run(args: argparse.Namespace) -> int:
+    from roa.montecarlo.engine import run_basin
+
+    system, sampler, rules, mode = build(args)
+    if args.plot and mode["mode"] != "slice":
+        raise ValueError("--plot draws a slice: use it with --slice")
+    result = run_basin(
+        system, sampler, rules=rules, rtol=args.rtol, atol=args.atol, chunk_size=args.chunk_size,
+        n_jobs=args.jobs, out_dir=args.out, scheduler=args.scheduler,
+    )  # fmt: skip
+    summary = {"system": system.name, "saturation": args.saturation, **mode,
+               "t_final": rules.t_final, "rtol": args.rtol, "atol": args.atol, **result.summary()}  # fmt: skip
+    plot = args.plot or (
+        str(Path(args.out) / "basin.png") if args.out and mode["mode"] == "slice" else None
+    )
+    if plot:
+        from roa.plotting.basin import plot_slice
+
+        plot_slice(system, sampler, result.code, plot, title=f"basin of {system.name}")
+        summary["plot"] = plot
+    if args.out:
+        atomic_write_json(Path(args.out) / "summary.json", summary)
+    if args.json:
+        print(to_json(summary))
+    else:
+        c = summary["counts"]
+        lo, hi = summary["fraction_converged_ci95"]
+        print(f"n = {summary['n']}: " + ", ".join(f"{k} {v}" for k, v in c.items()))
+        print(f"fraction converged {summary['fraction_converged']:.4f} (95 % CI {lo:.4f}-{hi:.4f})")
+    return 0

@@ -227,3 +227,10 @@ def ipc_regions() -> list[Region]:
     (forward invariant, hence an ROA estimate) or a ball. Values are computed once and cached.
     """
     return list(_regions())
+
+
+def khalil_value(shape: str = "ball", method: str = "casadi") -> float:
+    """c* of :func:`khalil` for one shape and one method (``sampled`` or ``casadi``)."""
+    if method not in ("sampled", "casadi"):
+        raise ValueError(f"method {method!r}: allowed sampled, casadi")
+    return float(khalil(shape, "both")["per_method"][method]["value"])

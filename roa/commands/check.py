@@ -1,0 +1,55 @@
+"""``roa check``: recompute the values stored in results/reference.json; non-zero on any drift."""
+
+from __future__ import annotations
+
+import argparse
+
+from roa.io import to_json
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("check", help="recompute stored reference values (results/reference.json)")
+    p.add_argument("--only", nargs="+", metavar="KEY", default=None, help="check only these keys")
+    p.add_argument(
+        "--update",
+        action="store_true",
+        help="recompute and STORE the selected keys (all if no --only) instead of checking",
+    )
+    p.add_argument("--reference", default="results/reference.json", help="reference file")
+    p.add_argument("--json", action="store_true", help="print the rows as JSON")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    from roa import reference
+
+    if args.update:
+        stored = reference.update(args.only, path=args.reference)
+        print(
+            f"stored {len(args.only or reference.REGISTRY)} value(s) in {args.reference} "
+            f"({len(stored)} entries)"
+        )
+        return 0
+    rows = reference.check(args.only, path=args.reference)
+    bad = [r for r in rows if r["status"] != "ok"]
+    if args.json:
+        print(to_json({"rows": rows, "failed": [r["key"] for r in bad]}))
+    else:
+        for r in rows:
+            extra = ""
+            if "stored" in r:
+                extra = f"stored {r['stored']:.12g}, recomputed {r['recomputed']:.12g} (rtol {r['rtol']:g})"
+            elif "recomputed" in r:
+                extra = f"recomputed {r['recomputed']:.12g}; store it with roa check --update --only {r['key']}"
+            elif "error" in r:
+                extra = r["error"]
+            print(f"{r['status']:>12s}  {r['key']}  {extra}")
+    if bad:
+        import sys
+
+        print(
+            f"roa check: {len(bad)} value(s) failed: {', '.join(r['key'] for r in bad)}",
+            file=sys.stderr,
+        )
+        return 1
+    return 0

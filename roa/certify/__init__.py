@@ -1,0 +1,1 @@
+"""Certified regions of attraction: SOS certificates, rigorous interval validation, Lyapunov search."""

@@ -1,0 +1,366 @@
+"""Rigorous validation of a level: V' < 0 on {V <= rho} minus the equilibrium, by interval B&B.
+
+Two proofs, both independent of any optimisation solver:
+
+1. **Near the equilibrium** (:func:`local_proof`): on the bounding box ``B`` of ``{V <= eps}``,
+   ``V'(x) = d' H~ d`` with ``d = x - x_eq`` and ``H~`` in the convex hull of ``{H(xi)/2 : xi in B}``
+   (Taylor with integral remainder, since ``V'(x_eq) = 0`` and ``grad V'(x_eq) = 0``, both checked in
+   interval arithmetic). The interval Hessian ``[H]`` comes from second-order interval jets; every
+   matrix in it is negative definite if ``-H_mid - t I`` is positive definite with
+   ``t >= ||rad H||_F``, checked exactly in rational arithmetic. So ``V' < 0`` on ``B \\ {x_eq}``.
+2. **On the shell** ``{eps <= V <= rho}``: branch and bound over boxes. A box is discarded when its
+   interval ``V > rho`` or ``V < eps``, proved when the interval ``V' < 0`` (natural extension
+   intersected with the centred form ``V'(c) + [grad V'] (X - c)``), else split along the coordinate
+   with the largest ``|grad| * width``. Box centres of undecided boxes, scaled radially to the level
+   surface, are tried as counterexamples; a witness is re-checked at 50 digits with mpmath.
+
+Verdicts are values (:class:`Verdict`): ``certified`` (boxes, time), ``refuted`` (witness),
+``inconclusive`` (box budget exhausted).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from roa.certify.interval import INTERVAL, JET, Interval, Jet
+from roa.lyapunov import QuadraticLyapunov
+from roa.system import System
+
+VERDICTS = ("certified", "refuted", "inconclusive")
+
+
+@dataclass(frozen=True)
+class Verdict:
+    """Outcome of an interval validation of ``V' < 0`` on ``{V <= level} \\ {x_eq}``."""
+
+    status: str
+    level: float
+    boxes: int
+    seconds: float
+    eps: float | None = None
+    witness: list[float] | None = None
+    witness_check: dict[str, Any] | None = None
+    message: str = ""
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        out = {
+            "status": self.status,
+            "level": self.level,
+            "method": "interval",
+            "boxes": self.boxes,
+            "seconds": round(self.seconds, 3),
+            "eps": self.eps,
+            "message": self.message,
+            **self.meta,
+        }
+        if self.witness is not None:
+            out["witness"] = self.witness
+            out["witness_check"] = self.witness_check
+        return out
+
+
+# -- evaluation of V and V' ---------------------------------------------------------------------------
+def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
+    """V' = 2 (x - c)' P f(x), written once for floats, intervals, jets and mpmath numbers."""
+    n = lyap.n
+    d = [x[i] - float(lyap.center[i]) for i in range(n)]
+    f = system.field(0.0, x, xp)
+    out = 0.0
+    for i in range(n):
+        pd = 0.0
+        for j in range(n):
+            if lyap.P[i, j] != 0.0:
+                pd = d[j] * float(lyap.P[i, j]) + pd
+        out = pd * f[i] + out
+    return out * 2.0
+
+
+def _value_interval(lyap: QuadraticLyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
+    n = lyap.n
+    d = [Interval(lo[:, i], hi[:, i]) - float(lyap.center[i]) for i in range(n)]
+    out: Any = 0.0
+    for i in range(n):
+        out = d[i].square() * float(lyap.P[i, i]) + out
+        for j in range(i + 1, n):
+            if lyap.P[i, j] != 0.0:
+                out = (d[i] * d[j]) * (2.0 * float(lyap.P[i, j])) + out
+    return out
+
+
+def _mp_namespace() -> Any:
+    import mpmath as mp
+
+    return SimpleNamespace(
+        name="mpmath", sin=mp.sin, cos=mp.cos, tan=mp.tan, sqrt=mp.sqrt, arctan=mp.atan,
+        arcsinh=mp.asinh, arctanh=mp.atanh, exp=mp.exp, log=mp.log, abs=mp.fabs,
+    )
+
+
+def recheck_witness(
+    system: System, lyap: QuadraticLyapunov, x: np.ndarray, level: float, *, digits: int = 50
+) -> dict[str, Any]:
+    """Evaluate ``V(x)`` and ``V'(x)`` at ``digits`` decimal digits (the float ``x`` taken exactly)."""
+    import mpmath as mp
+
+    with mp.workdps(digits):
+        xs = [mp.mpf(float(v)) for v in x]
+        d = [xs[i] - mp.mpf(float(lyap.center[i])) for i in range(lyap.n)]
+        V = mp.fsum(
+            d[i] * mp.mpf(float(lyap.P[i, j])) * d[j] for i in range(lyap.n) for j in range(lyap.n)
+        )
+        Vd = _vdot(system, lyap, xs, _mp_namespace())
+        nonzero = any(v != 0 for v in d)
+        return {
+            "digits": digits,
+            "V": mp.nstr(V, 20),
+            "Vdot": mp.nstr(Vd, 20),
+            "confirmed": bool(nonzero and V <= mp.mpf(float(level)) and Vd >= 0),
+        }
+
+
+# -- proof near the equilibrium -------------------------------------------------------------------------
+def _bounding_box(lyap: QuadraticLyapunov, level: float) -> tuple[np.ndarray, np.ndarray]:
+    half = np.sqrt(level * np.diag(np.linalg.inv(lyap.P))) * 1.01  # 1% margin covers inv() error
+    return lyap.center - half, lyap.center + half
+
+
+def _exact_negative_definite(lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Every symmetric matrix with entries in ``[lo, hi]`` is negative definite (exact rationals)."""
+    n = lo.shape[0]
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        return False
+    Lo = [[Fraction(float(lo[i, j])) for j in range(n)] for i in range(n)]
+    Hi = [[Fraction(float(hi[i, j])) for j in range(n)] for i in range(n)]
+    mid = [[(Lo[i][j] + Hi[i][j] + Lo[j][i] + Hi[j][i]) / 4 for j in range(n)] for i in range(n)]
+    frob2 = sum(
+        max(Hi[i][j] - mid[i][j], mid[i][j] - Lo[i][j]) ** 2 for i in range(n) for j in range(n)
+    )
+    t = Fraction(float(np.sqrt(float(frob2)))) * Fraction(1000001, 1000000) + Fraction(1, 10**300)
+    if t * t < frob2:
+        return False
+    A = [[-mid[i][j] - (t if i == j else 0) for j in range(n)] for i in range(n)]
+    for k in range(n):  # Gaussian elimination: all pivots > 0 <=> A positive definite
+        if A[k][k] <= 0:
+            return False
+        for i in range(k + 1, n):
+            r = A[i][k] / A[k][k]
+            for j in range(k, n):
+                A[i][j] -= r * A[k][j]
+    return True
+
+
+def exact_equilibrium(system: System, center: np.ndarray) -> bool:
+    """``f(center) == 0`` exactly (sympy, the float centre taken as an exact rational)."""
+    import sympy as sp
+
+    from roa.backend import namespace
+
+    x = [sp.Rational(float(c)) for c in center]
+    f = system.field(0.0, x, namespace("sympy"))
+    return all(sp.nsimplify(sp.sympify(fi)) == 0 for fi in f)
+
+
+def local_proof(system: System, lyap: QuadraticLyapunov, eps: float) -> bool:
+    """Prove ``V' < 0`` on ``{V <= eps}`` minus the equilibrium (see module doc).
+
+    Works in the whitening frame ``x = c + M y`` of :func:`_frame`: the cube ``|y_i| <= r`` covers
+    ``{V <= eps}``, and the Taylor argument is applied to ``V'(c + M y)`` as a function of ``y``.
+    """
+    n = lyap.n
+    if not exact_equilibrium(system, lyap.center):
+        return False
+    fr = _frame(lyap, eps)
+    r = np.full((1, n), fr.radius)
+    vd = _vdot(system, lyap, _to_x(lyap, fr, Jet.variables(-r, r, order=2)), JET)
+
+    def bound(e: Any, side: str) -> float:
+        return float(np.atleast_1d(getattr(Interval.of(e), side))[0])
+
+    H_lo = np.array([[bound(vd.h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
+    H_hi = np.array([[bound(vd.h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
+    return _exact_negative_definite(H_lo, H_hi)
+
+
+def find_eps(system: System, lyap: QuadraticLyapunov, level: float, *, tries: int = 40) -> float | None:
+    """Largest ``eps = level / 2^k`` (k = 1..tries) with a successful :func:`local_proof`."""
+    for k in range(1, tries + 1):
+        eps = level / 2.0**k
+        if local_proof(system, lyap, eps):
+            return eps
+    return None
+
+
+# -- branch and bound ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Frame:
+    """Whitening coordinates ``x = c + M y`` with ``V = y' G y``, ``G = M' P M ~ I`` enclosed."""
+
+    M: np.ndarray
+    G: list  # G[i][j] Interval scalars (rigorous enclosure of M' P M)
+    radius: float  # |y_i| <= radius covers {V <= level}
+
+
+def _frame(lyap: QuadraticLyapunov, level: float) -> _Frame:
+    L = np.linalg.cholesky(lyap.P)
+    M = np.linalg.inv(L.T)
+    n = lyap.n
+    PM = [[sum((Interval(lyap.P[i, k]) * M[k, j] for k in range(n)), Interval(0.0)) for j in range(n)]
+          for i in range(n)]
+    G = [[sum((PM[k][j] * M[k, i] for k in range(n)), Interval(0.0)) for j in range(n)]
+         for i in range(n)]
+    # Gershgorin: lambda_min(G) >= min_i (G_ii - sum_j |G_ij|) for every G in the enclosure.
+    lam = min(
+        float(G[i][i].lo) - sum(float(max(abs(G[i][j].lo), abs(G[i][j].hi))) for j in range(n) if j != i)
+        for i in range(n)
+    )
+    if lam <= 0.5:
+        raise ValueError("whitening failed: P is too ill-conditioned for the interval validation")
+    return _Frame(M, G, float(np.sqrt(level / lam)) * (1 + 1e-9))
+
+
+def _full(e: Any, m: int) -> Interval:
+    return Interval(np.full(m, e)) if isinstance(e, float) else Interval.of(e)
+
+
+def _to_x(lyap: QuadraticLyapunov, fr: _Frame, y: list) -> list:
+    n = lyap.n
+    return [
+        sum((y[j] * float(fr.M[i, j]) for j in range(n) if fr.M[i, j] != 0.0), 0.0)
+        + float(lyap.center[i])
+        for i in range(n)
+    ]
+
+
+def _evaluate(system: System, lyap: QuadraticLyapunov, fr: _Frame, lo: np.ndarray, hi: np.ndarray):
+    """Interval V, interval V' (natural ∩ centred form) and |grad V'| * width on boxes in y."""
+    n = lyap.n
+
+    def to_x(y: list) -> list:
+        return _to_x(lyap, fr, y)
+
+    vd = _vdot(system, lyap, to_x(Jet.variables(lo, hi, order=2)), JET)
+    mid = 0.5 * (lo + hi)
+    at = _vdot(system, lyap, to_x(Jet.variables(mid, mid, order=1)), JET)
+    delta = [Interval(lo[:, i] - mid[:, i], hi[:, i] - mid[:, i]) for i in range(n)]
+    vc = Interval.of(at.v)
+    cen, tay = vc, vc  # first-order centred form and second-order Taylor form
+    score = np.zeros_like(lo)
+    for i in range(n):
+        g = _full(vd.g[i], len(lo))
+        cen = cen + g * delta[i]
+        tay = tay + _full(at.g[i], len(lo)) * delta[i]
+        for j in range(i, n):
+            hij = _full(vd.h[i][j], len(lo))
+            tay = tay + (hij * 0.5 * delta[i].square() if j == i else hij * (delta[i] * delta[j]))
+        score[:, i] = np.maximum(np.abs(g.lo), np.abs(g.hi)) * (hi[:, i] - lo[:, i])
+    nat = Interval.of(vd.v)
+    lo_b = np.maximum(np.maximum(nat.lo, cen.lo), tay.lo)
+    hi_b = np.minimum(np.minimum(nat.hi, cen.hi), tay.hi)
+    vdot = Interval(lo_b, hi_b)
+    Y = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
+    V: Any = 0.0
+    for i in range(n):
+        V = Y[i].square() * fr.G[i][i] + V
+        for j in range(i + 1, n):
+            V = (Y[i] * Y[j]) * (fr.G[i][j] * 2.0) + V
+    return V, vdot, score
+
+
+def _try_witnesses(system, lyap, pts, level):
+    """Float check of candidate points scaled to just inside the level surface; first violator."""
+    V = lyap.value(pts)
+    ok = V > 0
+    if not np.any(ok):
+        return None
+    d = pts[ok] - lyap.center
+    cand = np.concatenate([pts[ok], lyap.center + d * np.sqrt(level / V[ok])[:, None] * (1 - 1e-9)])
+    with np.errstate(all="ignore"):
+        Vd = lyap.derivative(system, cand)
+        Vc = lyap.value(cand)
+    bad = np.flatnonzero((Vd >= 0) & (Vc <= level) & np.isfinite(Vd))
+    return None if bad.size == 0 else cand[bad[np.argmax(Vd[bad])]]
+
+
+def validate_level(
+    system: System,
+    lyap: QuadraticLyapunov,
+    level: float,
+    *,
+    max_boxes: int = 3_000_000,
+    batch: int = 100_000,
+    eps: float | None = None,
+) -> Verdict:
+    """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
+
+    Parameters
+    ----------
+    system : System
+        Autonomous system whose field runs on the interval namespace.
+    lyap : QuadraticLyapunov
+        The candidate, centred at the equilibrium.
+    level : float
+        The level rho > 0 to validate.
+    max_boxes : int
+        Budget of box evaluations; exhausted -> ``inconclusive``.
+    batch : int
+        Boxes evaluated per vectorised step.
+    eps : float, optional
+        Inner level covered by :func:`local_proof`; found automatically by default.
+    """
+    level = float(level)
+    if not (np.isfinite(level) and level > 0):
+        raise ValueError(f"level must be a finite number > 0, got {level!r}")
+    if system.time_varying:
+        raise ValueError(f"system {system.name!r} is time-varying: no equilibrium to certify")
+    t0 = time.perf_counter()
+    if eps is None:
+        eps = find_eps(system, lyap, level)
+    elif not local_proof(system, lyap, eps):
+        eps = None
+    if eps is None:
+        return Verdict("inconclusive", level, 0, time.perf_counter() - t0, None,
+                       message="no neighbourhood of the equilibrium with a negative-definite "
+                       "interval Hessian of V' (is the linearisation stable for this V?)")
+    fr = _frame(lyap, level)
+    queue_lo = [np.full((1, lyap.n), -fr.radius)]
+    queue_hi = [np.full((1, lyap.n), fr.radius)]
+    boxes = proved = 0
+    while queue_lo:
+        lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
+        queue_lo, queue_hi = [lo[batch:]] if len(lo) > batch else [], [hi[batch:]] if len(hi) > batch else []
+        lo, hi = lo[:batch], hi[:batch]
+        boxes += len(lo)
+        V, Vd, score = _evaluate(system, lyap, fr, lo, hi)
+        undecided = ~((V.lo > level) | (V.hi < eps) | (Vd.hi < 0))
+        proved += int(np.count_nonzero(Vd.hi < 0))
+        lo, hi, score = lo[undecided], hi[undecided], score[undecided]
+        if len(lo):
+            w = _try_witnesses(system, lyap, lyap.center + 0.5 * (lo + hi) @ fr.M.T, level)
+            if w is not None:
+                check = recheck_witness(system, lyap, w, level)
+                if check["confirmed"]:
+                    return Verdict("refuted", level, boxes, time.perf_counter() - t0, eps,
+                                   witness=[float(v) for v in w], witness_check=check,
+                                   message="V' >= 0 at a point of the level set (float and 50 digits)")
+        if boxes + 2 * len(lo) > max_boxes and len(lo):
+            return Verdict("inconclusive", level, boxes, time.perf_counter() - t0, eps,
+                           message=f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided")
+        if len(lo):
+            k = np.argmax(score * (hi - lo > 0), axis=1)
+            rows = np.arange(len(lo))
+            m = 0.5 * (lo[rows, k] + hi[rows, k])
+            lo2, hi1 = lo.copy(), hi.copy()
+            hi1[rows, k] = m
+            lo2[rows, k] = m
+            queue_lo = [lo, lo2, *queue_lo]
+            queue_hi = [hi1, hi, *queue_hi]
+    return Verdict("certified", level, boxes, time.perf_counter() - t0, eps,
+                   message=f"V' < 0 proved on {proved} boxes of the shell; local proof on V <= {eps:.3g}",
+                   meta={"proved_boxes": proved})

@@ -196,3 +196,76 @@ def test_bad_inputs():
     with pytest.raises(ValueError, match="P"):
         Region("bad", -np.eye(2), 1.0, "claimed")
     assert P_BENCHMARK.shape == (2, 2)
+
+
+def test_cli_basin_json(capsys):
+    import json
+
+    from roa.cli import main
+
+    argv = ["basin", "--slice", "theta,theta_dot", "--grid", "6x5", "--box",
+            "theta=-1.5:1.5,theta_dot=-3:3", "--saturation", "1", "--jobs", "1", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n"] == 30 and sum(out["counts"].values()) == 30
+    assert set(out["counts"]) == {"converged", "left_domain", "diverged", "undecided"}
+    assert out["fraction_converged"] == pytest.approx(out["counts"]["converged"] / 30)
+    # the same grid through the library gives the same counts
+    system = ipc.closed_loop(saturation=1.0)
+    g = grid_slice(system, ["theta", "theta_dot"], [(-1.5, 1.5), (-3, 3)], (6, 5))
+    assert run_basin(system, g, rules=StopRules(t_final=60.0), n_jobs=1).counts() == out["counts"]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--slice", "theta,phi", "--grid", "3x3"], "unknown state 'phi'"),
+        (["--slice", "theta,q", "--grid", "3by3"], "--grid: expected NxM"),
+        (["--slice", "theta,q", "--grid", "1x3"], "--grid: N and M must be >= 2"),
+        (["--slice", "q,q_dot", "--grid", "3x3", "--fix", "theta=1.6"], "outside the domain"),
+        (["--slice", "q,q_dot", "--grid", "3x3", "--fix", "omega=1"], "--fix: unknown state"),
+        (["--slice", "q,theta", "--grid", "3x3", "--box", "theta=1:-1"], "need finite LO < HI"),
+        (["--slice", "q,theta", "--grid", "3x3", "--samples", "10"], "either --slice"),
+        (["--samples", "10", "--saturation", "-1"], "--saturation must be"),
+        (["--samples", "0"], "--samples must be >= 1"),
+        (["--samples", "10", "--jobs", "0"], "--jobs must be"),
+    ],
+)
+def test_cli_bad_inputs(args, message, capsys):
+    from roa.cli import main
+
+    assert main(["basin", *args]) == 2
+    assert message in capsys.readouterr().err
+
+
+@pytest.mark.slow
+def test_cli_killed_run_resumes(tmp_path):
+    """SIGKILL a real `roa basin --out` run mid-way; the rerun resumes and matches a fresh run."""
+    import json
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    out = tmp_path / "run"
+    argv = [sys.executable, "-m", "roa.cli", "basin", "--samples", "40000", "--box",
+            "q=-3:3,q_dot=-1:1,theta=-1.2:1.2,theta_dot=-1:1", "--saturation", "1", "--seed", "3",
+            "--chunk-size", "1000", "--jobs", "1", "--out", str(out)]  # fmt: skip
+    proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline and len(list((out / "chunks").glob("chunk_*.npz"))) < 3:
+        time.sleep(0.05)
+    proc.send_signal(signal.SIGKILL)
+    proc.wait()
+    done = sorted((out / "chunks").glob("chunk_*.npz"))
+    assert 3 <= len(done) < 40
+    for f in done:  # every chunk file on disk is whole
+        with np.load(f) as z:
+            assert z["code"].size == 1000
+    res = subprocess.run([*argv, "--json"], capture_output=True, text=True, check=True)
+    resumed = json.loads(res.stdout)
+    assert resumed["chunks_resumed"] >= len(done)
+    system = ipc.closed_loop(saturation=1.0)
+    smp = box_sample(system, [(-3, 3), (-1, 1), (-1.2, 1.2), (-1, 1)], 40000, seed=3)
+    fresh = run_basin(system, smp, rules=StopRules(t_final=60.0), n_jobs=2)
+    assert resumed["counts"] == fresh.counts()

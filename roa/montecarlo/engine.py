@@ -214,7 +214,12 @@ def run_basin(
         if scheduler is not None:
             from dask.distributed import Client
 
-            client = Client(scheduler)
+            try:
+                client = Client(scheduler, timeout=15)
+            except (OSError, TimeoutError) as exc:
+                raise ValueError(
+                    f"--scheduler {scheduler}: cannot connect to a Dask scheduler ({exc})"
+                ) from exc
             ctx = joblib.parallel_config(backend="dask", n_jobs=-1, wait_for_workers_timeout=60)
         else:
             client = None

@@ -140,6 +140,12 @@ def test_resume_after_interruption(tmp_path):
     other = box_sample(system, [(-3, 3), (-1, 1), (-1.2, 1.2), (-1, 1)], 1000, seed=5)
     with pytest.raises(ValueError, match="different run"):
         run_basin(system, other, rules=RULES, n_jobs=1, chunk_size=100, out_dir=tmp_path)
+    replaced = run_basin(system, other, rules=RULES, n_jobs=1, chunk_size=100, out_dir=tmp_path,
+                         replace_stale=True)  # fmt: skip
+    assert (replaced.chunks_resumed, replaced.chunks_computed) == (0, 10)
+    np.testing.assert_array_equal(
+        replaced.code, run_basin(system, other, rules=RULES, n_jobs=1).code
+    )
 
 
 @pytest.mark.slow

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.io import atomic_write_bytes, atomic_write_json, to_json
+from roa.io import atomic_write_bytes, atomic_write_json, code_hash, to_json
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.status import StopRules
 from roa.system import System
@@ -103,6 +103,7 @@ def _fingerprint(system: System, sampler: Any, opts: dict[str, Any], chunk: int)
                         for k, v in sampler.fingerprint().items()},
             "opts": {k: repr(v) for k, v in opts.items()},
             "chunk": chunk,
+            "code": code_hash(),  # chunks of other code are never resumed
         }
     )  # fmt: skip
     return hashlib.sha256(blob.encode()).hexdigest()
@@ -132,6 +133,7 @@ def run_basin(
     out_dir: str | Path | None = None,
     scheduler: str | None = None,
     progress: bool | None = None,
+    replace_stale: bool = False,
     _stop_after: int | None = None,
 ) -> BasinRun:
     """Integrate every initial condition of ``sampler`` and return their statuses.
@@ -154,6 +156,9 @@ def run_basin(
         Address of a Dask scheduler (``tcp://host:port``); runs the chunks there.
     progress : bool, optional
         tqdm progress bar; default on for runs of more than 50 chunks.
+    replace_stale : bool
+        If ``out_dir`` holds chunks of a different run (other inputs or code), delete them instead
+        of raising ``ValueError``.
     """
     rules = StopRules() if rules is None else rules
     I.check_tolerances(rtol, atol, margin_tol)
@@ -180,7 +185,13 @@ def run_basin(
         run_file = chunk_dir / "run.json"
         if run_file.is_file():
             old = json.loads(run_file.read_text()).get("fingerprint")
-            if old != digest:
+            if old != digest and replace_stale:
+                for stale in chunk_dir.glob("chunk_*.npz"):
+                    stale.unlink()
+                atomic_write_json(
+                    run_file, {"fingerprint": digest, "n": n, "chunk_size": int(chunk_size)}
+                )
+            elif old != digest:
                 raise ValueError(
                     f"{chunk_dir} holds chunks of a different run (other system, samples, tolerances "
                     "or chunk size); use another --out directory or delete it"

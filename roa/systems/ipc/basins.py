@@ -107,7 +107,7 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
     axes = list(params["axes"])
     g = grid_slice(system, axes, [tuple(r) for r in params["ranges"]], tuple(params["grid"]),
                    fixed=dict(params.get("fixed", {})))  # fmt: skip
-    run = run_basin(system, g, **opts, out_dir=out)
+    run = run_basin(system, g, **opts, out_dir=out, replace_stale=True)
     regs, source = regions()
     lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
     title = params.get("title", f"IPC basin, slice ({axes[0]}, {axes[1]})")
@@ -166,7 +166,7 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
     opts = _opts(params)
     box = params.get("box", [list(r) for r in ipc.REFERENCE_BOX])
     smp = box_sample(system, box, int(params["samples"]), seed=int(params.get("seed", 0)))
-    run = run_basin(system, smp, **opts, out_dir=out)
+    run = run_basin(system, smp, **opts, out_dir=out, replace_stale=True)
     regs, source = regions()
     contain = []
     for r in regs:  # streamed again in chunks: which sampled points are inside each region
@@ -205,7 +205,9 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
             smp = region_sample(
                 r, n, seed=int(params.get("seed", 0)) + k, mode=mode, inverse=ipc.from_flat
             )
-            run = run_basin(system, smp, **opts, out_dir=out / f"region{k}_{mode}")
+            run = run_basin(
+                system, smp, **opts, out_dir=out / f"region{k}_{mode}", replace_stale=True
+            )
             c = run.counts()
             row[mode] = {"n": run.n, "counts": c, "all_converged": c["converged"] == run.n,
                          "max_t_end": float(run.t_end.max())}  # fmt: skip
@@ -238,7 +240,7 @@ def run_global(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     rows = []
     for k, a in enumerate(params["half_widths"]):
         smp = box_sample(system, [(-a, a)] * 4, n, seed=int(params.get("seed", 0)) + k)
-        run = run_basin(system, smp, **opts, out_dir=out / f"box{k}")
+        run = run_basin(system, smp, **opts, out_dir=out / f"box{k}", replace_stale=True)
         lo, hi = wilson_interval(run.counts()["converged"], run.n)
         rows.append({"half_width": a, "n": run.n, "counts": run.counts(), "ci95": [lo, hi],
                      "max_t_end": float(run.t_end.max())})  # fmt: skip

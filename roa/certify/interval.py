@@ -280,9 +280,14 @@ class Jet:
         if not isinstance(other, Jet):
             return Jet(self.v + other, self.g, self.h)
         o = other
-        h = None if self.h is None else [
-            [_a(a, b) for a, b in zip(r1, r2, strict=True)] for r1, r2 in zip(self.h, o.h, strict=True)
-        ]
+        h = (
+            None
+            if self.h is None
+            else [
+                [_a(a, b) for a, b in zip(r1, r2, strict=True)]
+                for r1, r2 in zip(self.h, o.h, strict=True)
+            ]
+        )
         return Jet(self.v + o.v, [_a(a, b) for a, b in zip(self.g, o.g, strict=True)], h)
 
     __radd__ = __add__
@@ -313,7 +318,8 @@ class Jet:
                         _a(_m(self.h[i][j], o.v), _m(self.v, o.h[i][j])),
                         _a(_m(self.g[i], o.g[j]), _m(self.g[j], o.g[i])),
                     )
-                    if j >= i else 0.0
+                    if j >= i
+                    else 0.0
                     for j in range(n)
                 ]
                 for i in range(n)
@@ -353,7 +359,9 @@ class Jet:
         p = float(p)
         if p == 2.0:
             return self * self
-        return self.apply(lambda v: v**p, lambda v: p * v ** (p - 1), lambda v: p * (p - 1) * v ** (p - 2))
+        return self.apply(
+            lambda v: v**p, lambda v: p * v ** (p - 1), lambda v: p * (p - 1) * v ** (p - 2)
+        )
 
 
 def _jet_fn(f0: Any, f1: Any, f2: Any) -> Any:
@@ -373,14 +381,17 @@ JET = SimpleNamespace(
     exp=_jet_fn(INTERVAL.exp, INTERVAL.exp, INTERVAL.exp),
     log=_jet_fn(ilog, lambda v: v.reciprocal(), lambda v: -(v.square().reciprocal())),
     arctan=_jet_fn(
-        INTERVAL.arctan, lambda v: (1.0 + v.square()).reciprocal(),
+        INTERVAL.arctan,
+        lambda v: (1.0 + v.square()).reciprocal(),
         lambda v: -2.0 * v / (1.0 + v.square()).square(),
     ),
     arcsinh=_jet_fn(
-        INTERVAL.arcsinh, lambda v: isqrt(1.0 + v.square()).reciprocal(),
+        INTERVAL.arcsinh,
+        lambda v: isqrt(1.0 + v.square()).reciprocal(),
         lambda v: -v / (1.0 + v.square()) ** 1.5,
     ),
-    tan=_jet_fn(itan, lambda v: 1.0 + itan(v).square(),
-                lambda v: 2.0 * itan(v) * (1.0 + itan(v).square())),
+    tan=_jet_fn(
+        itan, lambda v: 1.0 + itan(v).square(), lambda v: 2.0 * itan(v) * (1.0 + itan(v).square())
+    ),
 )
 """Jet namespace (first/second-order interval AD) for the functions of :mod:`roa.backend` it supports."""

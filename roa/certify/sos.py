@@ -106,8 +106,13 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     n = lyap.n
     d = list(sp.symbols(f"y0:{n}", real=True))
     M = np.linalg.inv(np.linalg.cholesky(lyap.P).T)
-    dx = [sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0) for i in range(n)]
-    x = [dx[i] + sp.Float(float(lyap.center[i]), 17) if lyap.center[i] != 0 else dx[i] for i in range(n)]
+    dx = [
+        sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0) for i in range(n)
+    ]
+    x = [
+        dx[i] + sp.Float(float(lyap.center[i]), 17) if lyap.center[i] != 0 else dx[i]
+        for i in range(n)
+    ]
     P = [[sp.Float(float(lyap.P[i, j]), 17) for j in range(n)] for i in range(n)]
     f = system.field(0.0, x, namespace("sympy"))
     V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
@@ -136,7 +141,14 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
             subs[p] = t
             notes.append(f"{t} = ({base})^({k}/2) enclosed in [0, 1]")
             continue
-        s = next((a for a, b in zip(aux, eqs, strict=True) if sp.expand(b - (a**2 * sp.expand(base) - 1)) == 0), None)
+        s = next(
+            (
+                a
+                for a, b in zip(aux, eqs, strict=True)
+                if sp.expand(b - (a**2 * sp.expand(base) - 1)) == 0
+            ),
+            None,
+        )
         if s is None:
             s = sp.Symbol(f"s{len(aux)}", real=True)
             aux.append(s)
@@ -243,7 +255,9 @@ def sos_level(
     try:
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
-        return SOSResult("not_polynomial", None, "not run", time.perf_counter() - t0, "", message=str(exc))
+        return SOSResult(
+            "not_polynomial", None, "not run", time.perf_counter() - t0, "", message=str(exc)
+        )
     gens = rc.d + rc.aux
     nv = len(gens)
     Vd = _coeffs(rc.Vdot, gens)
@@ -310,19 +324,30 @@ def sos_level(
         prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
         solver_status = str(prob.status)
     except cp.error.SolverError as exc:
-        return SOSResult("failed", None, f"solver error: {exc}", time.perf_counter() - t0,
-                         rc.description, sizes, "the solver failed: no certificate")
+        return SOSResult(
+            "failed",
+            None,
+            f"solver error: {exc}",
+            time.perf_counter() - t0,
+            rc.description,
+            sizes,
+            "the solver failed: no certificate",
+        )
     status = {
         cp.OPTIMAL: "solved",
         cp.OPTIMAL_INACCURATE: "inaccurate",
         cp.INFEASIBLE: "infeasible",
         cp.INFEASIBLE_INACCURATE: "infeasible",
     }.get(prob.status, "failed")
-    value = float(rho.value) if status in ("solved", "inaccurate") and rho.value is not None else None
+    value = (
+        float(rho.value) if status in ("solved", "inaccurate") and rho.value is not None else None
+    )
     msg = {
         "solved": "SOS candidate level; certified only after interval validation",
         "inaccurate": "solver reported an inaccurate solution: not a certificate",
         "infeasible": "no certificate at this degree",
         "failed": f"solver status {prob.status}: no certificate",
     }[status]
-    return SOSResult(status, value, solver_status, time.perf_counter() - t0, rc.description, sizes, msg)
+    return SOSResult(
+        status, value, solver_status, time.perf_counter() - t0, rc.description, sizes, msg
+    )

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.certify.interval import INTERVAL, JET, Interval, Jet
+from roa.certify.interval import JET, Interval, Jet
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
 
@@ -98,8 +98,17 @@ def _mp_namespace() -> Any:
     import mpmath as mp
 
     return SimpleNamespace(
-        name="mpmath", sin=mp.sin, cos=mp.cos, tan=mp.tan, sqrt=mp.sqrt, arctan=mp.atan,
-        arcsinh=mp.asinh, arctanh=mp.atanh, exp=mp.exp, log=mp.log, abs=mp.fabs,
+        name="mpmath",
+        sin=mp.sin,
+        cos=mp.cos,
+        tan=mp.tan,
+        sqrt=mp.sqrt,
+        arctan=mp.atan,
+        arcsinh=mp.asinh,
+        arctanh=mp.atanh,
+        exp=mp.exp,
+        log=mp.log,
+        abs=mp.fabs,
     )
 
 
@@ -188,7 +197,9 @@ def local_proof(system: System, lyap: QuadraticLyapunov, eps: float) -> bool:
     return _exact_negative_definite(H_lo, H_hi)
 
 
-def find_eps(system: System, lyap: QuadraticLyapunov, level: float, *, tries: int = 40) -> float | None:
+def find_eps(
+    system: System, lyap: QuadraticLyapunov, level: float, *, tries: int = 40
+) -> float | None:
     """Largest ``eps = level / 2^k`` (k = 1..tries) with a successful :func:`local_proof`."""
     for k in range(1, tries + 1):
         eps = level / 2.0**k
@@ -211,13 +222,18 @@ def _frame(lyap: QuadraticLyapunov, level: float) -> _Frame:
     L = np.linalg.cholesky(lyap.P)
     M = np.linalg.inv(L.T)
     n = lyap.n
-    PM = [[sum((Interval(lyap.P[i, k]) * M[k, j] for k in range(n)), Interval(0.0)) for j in range(n)]
-          for i in range(n)]
-    G = [[sum((PM[k][j] * M[k, i] for k in range(n)), Interval(0.0)) for j in range(n)]
-         for i in range(n)]
+    PM = [
+        [sum((Interval(lyap.P[i, k]) * M[k, j] for k in range(n)), Interval(0.0)) for j in range(n)]
+        for i in range(n)
+    ]
+    G = [
+        [sum((PM[k][j] * M[k, i] for k in range(n)), Interval(0.0)) for j in range(n)]
+        for i in range(n)
+    ]
     # Gershgorin: lambda_min(G) >= min_i (G_ii - sum_j |G_ij|) for every G in the enclosure.
     lam = min(
-        float(G[i][i].lo) - sum(float(max(abs(G[i][j].lo), abs(G[i][j].hi))) for j in range(n) if j != i)
+        float(G[i][i].lo)
+        - sum(float(max(abs(G[i][j].lo), abs(G[i][j].hi))) for j in range(n) if j != i)
         for i in range(n)
     )
     if lam <= 0.5:
@@ -325,16 +341,25 @@ def validate_level(
     elif not local_proof(system, lyap, eps):
         eps = None
     if eps is None:
-        return Verdict("inconclusive", level, 0, time.perf_counter() - t0, None,
-                       message="no neighbourhood of the equilibrium with a negative-definite "
-                       "interval Hessian of V' (is the linearisation stable for this V?)")
+        return Verdict(
+            "inconclusive",
+            level,
+            0,
+            time.perf_counter() - t0,
+            None,
+            message="no neighbourhood of the equilibrium with a negative-definite "
+            "interval Hessian of V' (is the linearisation stable for this V?)",
+        )
     fr = _frame(lyap, level)
     queue_lo = [np.full((1, lyap.n), -fr.radius)]
     queue_hi = [np.full((1, lyap.n), fr.radius)]
     boxes = proved = 0
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
-        queue_lo, queue_hi = [lo[batch:]] if len(lo) > batch else [], [hi[batch:]] if len(hi) > batch else []
+        queue_lo, queue_hi = (
+            [lo[batch:]] if len(lo) > batch else [],
+            [hi[batch:]] if len(hi) > batch else [],
+        )
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
         V, Vd, score = _evaluate(system, lyap, fr, lo, hi)
@@ -346,12 +371,25 @@ def validate_level(
             if w is not None:
                 check = recheck_witness(system, lyap, w, level)
                 if check["confirmed"]:
-                    return Verdict("refuted", level, boxes, time.perf_counter() - t0, eps,
-                                   witness=[float(v) for v in w], witness_check=check,
-                                   message="V' >= 0 at a point of the level set (float and 50 digits)")
+                    return Verdict(
+                        "refuted",
+                        level,
+                        boxes,
+                        time.perf_counter() - t0,
+                        eps,
+                        witness=[float(v) for v in w],
+                        witness_check=check,
+                        message="V' >= 0 at a point of the level set (float and 50 digits)",
+                    )
         if boxes + 2 * len(lo) > max_boxes and len(lo):
-            return Verdict("inconclusive", level, boxes, time.perf_counter() - t0, eps,
-                           message=f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided")
+            return Verdict(
+                "inconclusive",
+                level,
+                boxes,
+                time.perf_counter() - t0,
+                eps,
+                message=f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided",
+            )
         if len(lo):
             k = np.argmax(score * (hi - lo > 0), axis=1)
             rows = np.arange(len(lo))
@@ -361,6 +399,12 @@ def validate_level(
             lo2[rows, k] = m
             queue_lo = [lo, lo2, *queue_lo]
             queue_hi = [hi1, hi, *queue_hi]
-    return Verdict("certified", level, boxes, time.perf_counter() - t0, eps,
-                   message=f"V' < 0 proved on {proved} boxes of the shell; local proof on V <= {eps:.3g}",
-                   meta={"proved_boxes": proved})
+    return Verdict(
+        "certified",
+        level,
+        boxes,
+        time.perf_counter() - t0,
+        eps,
+        message=f"V' < 0 proved on {proved} boxes of the shell; local proof on V <= {eps:.3g}",
+        meta={"proved_boxes": proved},
+    )

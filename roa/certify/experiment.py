@@ -1,0 +1,198 @@
+"""Experiment runner ``kind = "certify"``: SOS + interval certificates, and an optimised V (claims C1..)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roa.io import atomic_write_json
+
+
+def _box_fraction(form, level: float, box, n: int, seed: int) -> dict[str, float]:
+    rng = np.random.default_rng(seed)
+    b = np.asarray(box, dtype=float)
+    X = b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, b.shape[0]))
+    p = float(np.mean(form(X) <= level))
+    half = 1.96 * np.sqrt(max(p * (1 - p), 1.0 / n) / n)
+    return {
+        "fraction": p,
+        "ci95": [max(0.0, p - half), min(1.0, p + half)],
+        "samples": n,
+        "seed": seed,
+    }
+
+
+def _physical(P: np.ndarray, level: float, box, n_box: int, seed: int) -> dict[str, Any]:
+    from roa.certify.search import sector
+    from roa.systems.ipc import physical_to_flat_or_inf as c2f
+
+    def form(X: np.ndarray) -> np.ndarray:
+        Y = c2f(X)
+        with np.errstate(invalid="ignore"):
+            return np.nan_to_num(np.einsum("ki,ij,kj->k", Y, P, Y), nan=np.inf)
+
+    def curve(t: np.ndarray) -> np.ndarray:
+        z = np.zeros_like(t)
+        return np.stack([z, z, t, z], axis=-1)
+
+    th = sector(form, level, curve, np.pi / 2 - 1e-6)
+    return {
+        "sector_rad": th,
+        "sector_deg": float(np.degrees(th)),
+        "box": _box_fraction(form, level, box, n_box, seed),
+    }
+
+
+def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
+    from roa.certify.validate import validate_level
+
+    below = validate_level(system, V, params["below"] * opt, max_boxes=params["max_boxes"])
+    above = validate_level(system, V, params["above"] * opt, max_boxes=params["max_boxes"])
+    return {"sampled_optimum": opt, "below": below.to_json(), "above": above.to_json()}
+
+
+def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
+    from roa.certify.search import optimise_quadratic
+    from roa.certify.sos import sos_level
+    from roa.levelset import level_search
+    from roa.lyapunov import QuadraticLyapunov
+    from roa.systems.ipc import REFERENCE_BOX, transformed
+    from roa.systems.ipc import physical_to_flat_or_inf as c2f
+    from roa.systems.ipc.lyapunov import paper_lyapunov
+    from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
+
+    p = {
+        "below": 0.999,
+        "above": 1.001,
+        "max_boxes": 3_000_000,
+        "n_box": 200_000,
+        "seed": 0,
+        "search_iter": 400,
+        "sos_exact": True,
+        "sos_time_limit": 150.0,
+        **params,
+    }
+    ev: dict[str, Any] = {}
+    # Van der Pol
+    vdp = vanderpol()
+    Vv = QuadraticLyapunov.for_system(vdp, P_BENCHMARK, "benchmark")
+    opt_v = float(level_search(vdp, Vv, P_BENCHMARK, shape="level", method="both")["value"])
+    ev["vanderpol"] = {
+        "sos": sos_level(vdp, Vv).to_json(),
+        **_certify_pair(vdp, Vv, opt_v, p),
+        "published": RHO_BENCHMARK,
+    }
+    # IPC, paper's V
+    ipc = transformed()
+    Vp = paper_lyapunov()
+    opt_p = float(level_search(ipc, Vp, Vp.P, shape="level", method="both")["value"])
+    sos_p = {"enclosure": sos_level(ipc, Vp, recast_mode="enclosure").to_json()}
+    if p["sos_exact"]:
+        sos_p["exact"] = sos_level(
+            ipc, Vp, recast_mode="exact", solver_options={"time_limit": p["sos_time_limit"]}
+        ).to_json()
+    ipc_p = {"sos": sos_p, **_certify_pair(ipc, Vp, opt_p, p)}
+    ipc_p["physical"] = _physical(
+        Vp.P, ipc_p["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"]
+    )
+    ev["ipc_paper"] = ipc_p
+    # IPC, optimised V
+    res = optimise_quadratic(
+        ipc, Vp.P, c2f, objective="box", box=REFERENCE_BOX, maxiter=p["search_iter"], seed=p["seed"]
+    )
+    Vo = QuadraticLyapunov(res.P, np.zeros(4), "optimised")
+    opt_o = float(level_search(ipc, Vo, Vo.P, shape="level", method="both")["value"])
+    ipc_o = {"search": res.to_json(), **_certify_pair(ipc, Vo, opt_o, p)}
+    ipc_o["physical"] = _physical(
+        Vo.P, ipc_o["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"]
+    )
+    ev["ipc_optimised"] = ipc_o
+    atomic_write_json(out / "evidence.json", ev)
+    regions = []
+    for name, V, block in (("paper V (3.11)", Vp, ipc_p), ("optimised quadratic V", Vo, ipc_o)):
+        b = block["below"]
+        regions.append(
+            {
+                "name": f"{name}: V <= {b['level']:.5g} ({b['status']}, interval B&B)",
+                "P": V.P.tolist(),
+                "level": b["level"],
+                "status": b["status"],
+                "boxes": b["boxes"],
+                "seconds": b["seconds"],
+            }
+        )
+    atomic_write_json(out / "certified.json", {"regions": regions, "optimised_P": Vo.P.tolist()})
+    return {"claims": _claims(ev), "evidence": "results/certify/evidence.json"}
+
+
+def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
+    E = "results/certify/evidence.json"
+    v, pp, po = ev["vanderpol"], ev["ipc_paper"], ev["ipc_optimised"]
+
+    def pair(block: dict) -> str:
+        b, a = block["below"], block["above"]
+        return (
+            f"{b['status']} at {b['level']:.6g} ({b['boxes']} boxes, {b['seconds']:.1f} s); "
+            f"{a['status']} at {a['level']:.6g}"
+        )
+
+    ok = lambda blk: blk["below"]["status"] == "certified" and blk["above"]["status"] == "refuted"  # noqa: E731
+    sos_e = pp["sos"].get("exact", {})
+    sos_c = pp["sos"]["enclosure"]
+    phys_p, phys_o = pp["physical"], po["physical"]
+    claims = [
+        {
+            "id": "C1",
+            "claim": "Van der Pol benchmark level (Drake notes: rho = 2.3045)",
+            "paper": "2.3045 (published)",
+            "ours": f"SOS {v['sos']['level']:.6g} ({v['sos']['status']}); sampled {v['sampled_optimum']:.6g}; "
+            f"interval {pair(v)}",
+            "verdict": "reproduced"
+            if ok(v) and abs(v["sampled_optimum"] - 2.3045) < 1e-3
+            else "not reproduced",
+            "evidence": E,
+        },
+        {
+            "id": "C2",
+            "claim": "Paper's V (3.11): largest certified level of V (sampled optimum validated)",
+            "paper": "c*^2 = 4.89 on ||q||^2 (3.15), no proof",
+            "ours": f"sampled optimum V = {pp['sampled_optimum']:.6g}; interval {pair(pp)}",
+            "verdict": "beyond the paper",
+            "evidence": E,
+            "details": "Rigorous branch-and-bound with outward-rounded interval arithmetic; the refutation "
+            "witness is re-checked at 50 digits.",
+        },
+        {
+            "id": "C3",
+            "claim": "SOS level for the paper's V (cvxpy + Clarabel), phi0 recast",
+            "paper": "-",
+            "ours": (
+                f"exact recast s=(1+w^2)^(-1/2): {sos_e.get('status')} rho = {sos_e.get('level')} "
+                f"({sos_e.get('seconds')} s); enclosure t in [0,1]: {sos_c['status']} rho = "
+                f"{sos_c['level']} ({sos_c['seconds']} s) vs optimum {pp['sampled_optimum']:.5g}"
+            ),
+            "verdict": "beyond the paper",
+            "evidence": E,
+        },
+        {
+            "id": "C4",
+            "claim": "Sector at q = q' = theta' = 0 certified with the paper's V",
+            "paper": "|theta(0)| < 60 deg",
+            "ours": f"{phys_p['sector_deg']:.2f} deg (certified set); box fraction "
+            f"{phys_p['box']['fraction']:.3f}",
+            "verdict": "not reproduced",
+            "evidence": E,
+        },
+        {
+            "id": "C5",
+            "claim": "Optimised quadratic V: certified sector and reference-box fraction",
+            "paper": "|theta(0)| < 60 deg",
+            "ours": f"sector {phys_o['sector_deg']:.2f} deg; box fraction {phys_o['box']['fraction']:.3f} "
+            f"(95% CI {phys_o['box']['ci95'][0]:.3f}-{phys_o['box']['ci95'][1]:.3f}); interval {pair(po)}",
+            "verdict": "reproduced" if phys_o["sector_deg"] >= 60 and ok(po) else "not reproduced",
+            "evidence": E,
+        },
+    ]
+    return claims

@@ -1,0 +1,48 @@
+"""Certified IPC regions as :class:`roa.regions.Region` objects, for basin maps and Monte Carlo.
+
+Read from ``results/certify/certified.json`` (written by ``roa run experiments/certify.toml``).
+A region's status is ``certified`` only when the interval validation of its level passed; other
+verdicts are kept with their own status (``refuted`` / ``inconclusive``), never merged.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+
+from roa.regions import Region
+
+CERTIFIED_PATH = Path("results/certify/certified.json")
+
+
+def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
+    """The IPC's certified sublevel sets ``{V(to_flat(x)) <= level}`` (paper's V, optimised V)."""
+    from roa.systems.ipc import physical_to_flat_or_inf
+
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
+    data = json.loads(path.read_text())
+    out = []
+    for entry in data["regions"]:
+        out.append(
+            Region(
+                entry["name"],
+                np.asarray(entry["P"], dtype=float),
+                float(entry["level"]),
+                entry["status"],
+                physical_to_flat_or_inf,
+                {k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")},
+            )
+        )
+    return out
+
+
+def load_optimised_P(path: str | Path = CERTIFIED_PATH) -> np.ndarray:
+    """The optimised Lyapunov matrix of the last certify experiment (flat coordinates)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
+    return np.asarray(json.loads(path.read_text())["optimised_P"], dtype=float)

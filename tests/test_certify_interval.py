@@ -1,0 +1,150 @@
+"""Interval arithmetic soundness and the interval validation of levels (certify/refute pairs).
+
+Reference levels: Van der Pol benchmark rho = 2.3045 (Tedrake, Underactuated Robotics notes;
+LyZNet's dReal bisection 2.3042); IPC paper's V: the sampled optimum is recomputed here by an
+independent SLSQP minimisation of V subject to V' = 0 (not by the code under test).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from scipy.optimize import minimize
+
+from roa.certify.interval import INTERVAL, JET, Interval, Jet
+from roa.certify.validate import local_proof, validate_level
+from roa.lyapunov import QuadraticLyapunov
+from roa.systems.ipc import phi0, transformed
+from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
+
+finite = st.floats(-5, 5, allow_nan=False)
+
+
+@settings(max_examples=200, deadline=None)
+@given(finite, finite, finite, finite, st.floats(0, 1), st.floats(0, 1))
+def test_interval_ops_enclose_point_values(a, b, c, d, ta, tb):
+    lo1, hi1 = min(a, b), max(a, b)
+    lo2, hi2 = min(c, d), max(c, d)
+    x = lo1 + ta * (hi1 - lo1)
+    y = lo2 + tb * (hi2 - lo2)
+    X, Y = Interval(lo1, hi1), Interval(lo2, hi2)
+    for iv, val in (
+        (X + Y, x + y),
+        (X - Y, x - y),
+        (X * Y, x * y),
+        (X * X, x * x),
+        (INTERVAL.sqrt(X * X + 1.0), np.sqrt(x * x + 1)),
+        (X**3, x**3),
+        (INTERVAL.arctan(X), np.arctan(x)),
+        (INTERVAL.sin(X), np.sin(x)),
+        (INTERVAL.cos(X), np.cos(x)),
+    ):
+        assert iv.lo <= val <= iv.hi
+    if lo2 > 0:
+        assert (X / Y).lo <= x / y <= (X / Y).hi
+
+
+@settings(max_examples=200, deadline=None)
+@given(finite, finite, st.floats(0, 1))
+def test_phi0_interval_encloses_and_is_tight_at_extremes(a, b, t):
+    lo, hi = min(a, b), max(a, b)
+    w = lo + t * (hi - lo)
+    P = phi0(Interval(lo, hi), INTERVAL)
+    assert P.lo <= phi0(w) <= P.hi
+    # the jet (value + derivative) encloses phi0 and phi0' = (1 - 2 w^2) (1 + w^2)^(-5/2)
+    J = phi0(Jet.variables(np.array([[lo]]), np.array([[hi]]))[0], JET)
+    v, g = Interval.of(J.v), Interval.of(J.g[0])
+    assert v.lo[0] <= phi0(w) <= v.hi[0]
+    assert g.lo[0] <= (1 - 2 * w * w) * (1 + w * w) ** -2.5 <= g.hi[0]
+    # the non-monotone phi0 peaks at w = 1/sqrt(2) with 2/(3 sqrt 3): narrow boxes stay tight
+    K = phi0(Interval(0.70, 0.71), INTERVAL)
+    assert K.hi <= 2 / (3 * np.sqrt(3)) + 0.01
+
+
+def test_square_of_straddling_interval_is_nonnegative():
+    X = Interval(-1.0, 2.0)
+    assert (X * X).lo == 0.0 and (X * X).hi >= 4.0
+    assert (X * Interval(-1.0, 2.0)).lo < 0  # a different factor: no dependency assumed
+
+
+def test_vanderpol_certify_and_refute_around_published_level():
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    below = validate_level(system, V, 0.999 * RHO_BENCHMARK)
+    above = validate_level(system, V, 1.001 * RHO_BENCHMARK)
+    assert below.status == "certified" and below.boxes > 0
+    assert above.status == "refuted"
+    assert above.witness_check["confirmed"]
+    w = np.asarray(above.witness)
+    assert V.value(w) <= 1.001 * RHO_BENCHMARK and V.derivative(system, w) >= 0
+
+
+def _paper_V():
+    T = np.array([[1.0, 3, 3, 1], [0, 1, 2, 1], [0, 0, 1, 1], [0, 0, 0, 1]])
+    e = np.array([0.0, 0, 1, -1])
+    return T.T @ (0.5 * (np.eye(4) + np.outer(e, e))) @ T
+
+
+def _slsqp_optimum(system, V) -> float:
+    rng = np.random.default_rng(3)
+    U = rng.normal(size=(4000, 4))
+    U /= np.sqrt(V.value(U))[:, None]  # V(U) = 1
+    r = np.linspace(0.05, 4.0, 200)
+    bad = V.derivative(system, r[None, :, None] * U[:, None, :]) >= 0
+    hit = bad.any(axis=1)
+    first = r[np.argmax(bad, axis=1)][hit]
+    starts = U[hit][np.argsort(first)[:12]] * np.sort(first)[:12, None]
+    best = np.inf
+    for x0 in starts:
+        r = minimize(
+            V.value,
+            x0,
+            method="SLSQP",
+            options={"ftol": 1e-14, "maxiter": 400},
+            constraints=[{"type": "eq", "fun": lambda x: V.derivative(system, x)}],
+        )
+        if r.success and np.linalg.norm(r.x) > 1e-3 and abs(V.derivative(system, r.x)) < 1e-9:
+            best = min(best, float(r.fun))
+    return best
+
+
+def test_ipc_paper_V_certify_below_refute_above_the_optimum():
+    system = transformed()
+    V = QuadraticLyapunov.for_system(system, _paper_V())
+    opt = _slsqp_optimum(system, V)
+    assert 2.0 < opt < 2.5
+    below = validate_level(system, V, 0.999 * opt)
+    assert below.status == "certified", below.message
+    above = validate_level(system, V, 1.001 * opt)
+    assert above.status == "refuted" and above.witness_check["confirmed"]
+
+
+def test_budget_exhaustion_is_inconclusive_not_certified():
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    v = validate_level(system, V, 0.9999 * RHO_BENCHMARK, max_boxes=50)
+    assert v.status == "inconclusive"
+
+
+def test_local_proof_fails_for_an_unstable_candidate():
+    system = vanderpol()
+    # V = x1^2 + x2^2 is not a Lyapunov function of the linearisation (V' = 2 mu (x1^2 - 1) x2^2
+    # is only <= 0, never negative definite): the local proof must not succeed
+    V = QuadraticLyapunov.for_system(system, np.eye(2))
+    assert not local_proof(system, V, 1e-3)
+    assert validate_level(system, V, 0.5).status != "certified"
+
+
+def test_not_positive_definite_candidate_rejected():
+    system = vanderpol()
+    with pytest.raises(ValueError, match="not positive definite"):
+        QuadraticLyapunov.for_system(system, np.array([[1.0, 0.0], [0.0, -1.0]]))
+
+
+def test_bad_level_rejected():
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    with pytest.raises(ValueError, match="level"):
+        validate_level(system, V, -1.0)

@@ -1,0 +1,50 @@
+"""SOS level-set program: Van der Pol benchmark (published rho = 2.3045, Drake notes), solver
+failure as a status, the IPC recast."""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sp
+
+from roa.certify.sos import recast, sos_level
+from roa.certify.validate import validate_level
+from roa.lyapunov import QuadraticLyapunov
+from roa.systems.ipc import transformed
+from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
+
+
+def test_vanderpol_sos_level_matches_published_and_validates():
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    r = sos_level(system, V)
+    assert r.status == "solved"
+    assert abs(r.rho - RHO_BENCHMARK) < 1e-3  # published value has 4 decimals (2.3045)
+    assert validate_level(system, V, r.rho * (1 - 1e-4)).status == "certified"
+
+
+def test_forced_solver_failure_is_a_status_not_a_certificate():
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    r = sos_level(system, V, solver_options={"max_iter": 2})
+    assert r.status in ("failed", "inaccurate")
+    assert r.status != "solved"
+    assert "no certificate" in r.message or "not a certificate" in r.message
+
+
+def test_ipc_exact_recast_reproduces_vdot():
+    T = np.array([[1.0, 3, 3, 1], [0, 1, 2, 1], [0, 0, 1, 1], [0, 0, 0, 1]])
+    e = np.array([0.0, 0, 1, -1])
+    system = transformed()
+    V = QuadraticLyapunov.for_system(system, T.T @ (0.5 * (np.eye(4) + np.outer(e, e))) @ T)
+    rc = recast(system, V, mode="exact")
+    assert len(rc.aux) == 1 and len(rc.equalities) == 1
+    M = np.linalg.inv(np.linalg.cholesky(V.P).T)
+    rng = np.random.default_rng(0)
+    for y in rng.normal(size=(5, 4)):
+        x = M @ y
+        s = 1 / np.sqrt(1 + x[2] ** 2)
+        sub = dict(zip(rc.d + rc.aux, [*y, s], strict=True))
+        assert abs(float(rc.Vdot.subs(sub)) - V.derivative(system, x)) < 1e-9
+        assert abs(float(rc.equalities[0].subs(sub))) < 1e-12
+        assert abs(float(rc.V.subs(sub)) - V.value(x)) < 1e-9
+    assert all(isinstance(g, sp.Expr) for g in rc.nonnegative)

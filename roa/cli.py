@@ -7,7 +7,7 @@ import importlib
 import sys
 
 #: Subcommand modules under roa.commands, in --help order.
-COMMANDS = ("simulate", "run", "reproduce", "report", "basin", "bound", "khalil", "check")
+COMMANDS = ("simulate", "run", "reproduce", "report", "basin", "bound", "khalil", "check", "certify")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -61,6 +61,9 @@ REGISTRY: dict[str, Entry] = {
         "closed form alpha/(2 kappa)",
         item="c_tilde",
     ),
+    "ipc.certify.paper.interval": Entry(
+        "roa.certify.experiment:certified_level", 1e-6, "0.999 x IPOPT optimum, interval-certified"
+    ),
     "vanderpol.level.casadi": Entry(
         "roa.reference:vanderpol_level", 1e-6, _K, {"method": "casadi"}
     ),

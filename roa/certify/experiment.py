@@ -196,3 +196,28 @@ def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
         },
     ]
     return claims
+
+
+def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
+    """``fraction`` x sampled optimum, returned only if the interval validation certifies it."""
+    from roa.certify.validate import validate_level
+    from roa.levelset import level_search
+    from roa.lyapunov import QuadraticLyapunov
+
+    if case == "ipc-paper":
+        from roa.systems.ipc import transformed
+        from roa.systems.ipc.lyapunov import paper_lyapunov
+
+        system, V = transformed(), paper_lyapunov()
+    elif case == "vanderpol":
+        from roa.systems.vanderpol import P_BENCHMARK, vanderpol
+
+        system = vanderpol()
+        V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    else:
+        raise ValueError(f"case {case!r}: allowed ipc-paper, vanderpol")
+    opt = float(level_search(system, V, V.P, shape="level", method="casadi")["value"])
+    verdict = validate_level(system, V, fraction * opt)
+    if verdict.status != "certified":
+        raise ValueError(f"{case}: level {fraction * opt} is {verdict.status}, not certified")
+    return verdict.level

@@ -110,6 +110,7 @@ def _slsqp_optimum(system, V) -> float:
     return best
 
 
+@pytest.mark.slow
 def test_ipc_paper_V_certify_below_refute_above_the_optimum():
     system = transformed()
     V = QuadraticLyapunov.for_system(system, _paper_V())

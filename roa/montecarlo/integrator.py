@@ -20,8 +20,9 @@ code) used when ``system.meta["numba"]`` is a zero-argument callable returning
 ``(field, margin, params)`` -- ``field(t, x, params, out)`` and ``margin(x, params) -> float``, both
 ``numba.cfunc`` compiled with :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers
 keep the kernel cacheable on disk; see roa/systems/ipc/fast.py); otherwise a vectorised numpy
-version over ``system.f``. Measured on the IPC (2,000 states of a 4D box, rtol 1e-6, one core): numba
-about 6,000-7,500 trajectories/s, numpy about 600-800/s.
+version over ``system.f``. Measured on the IPC (2,000 states of the box q, q' in [-3, 3], theta in
+[-1.5, 1.5], theta' in [-3, 3], rtol 1e-6, T = 30, one core of a shared machine): numba about
+15,000-17,000 trajectories/s, numpy about 600-800/s (benchmarks/bench_montecarlo.py for 2 cores).
 """
 
 from __future__ import annotations
@@ -166,7 +167,7 @@ def integrate_batch(
 # ----------------------------------------------------------------------------- numba kernel
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _rms(v: np.ndarray) -> float:
     s = 0.0
     for i in range(v.shape[0]):
@@ -174,7 +175,7 @@ def _rms(v: np.ndarray) -> float:
     return np.sqrt(s / v.shape[0])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dist(x: np.ndarray, c: np.ndarray) -> float:
     s = 0.0
     for i in range(x.shape[0]):
@@ -183,7 +184,7 @@ def _dist(x: np.ndarray, c: np.ndarray) -> float:
     return np.sqrt(s)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _events(x, x_eq, tol, bound, margin, params, margin_tol, g):
     g[0] = _dist(x, x_eq) - tol
     g[1] = margin(x, params) - margin_tol
@@ -193,7 +194,7 @@ def _events(x, x_eq, tol, bound, margin, params, margin_tol, g):
     g[2] = bound - np.sqrt(s)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _dense(y, h, Q, s, out):
     # y(t + s h) = y + h * sum_j Q[:, j] s^(j+1)
     for i in range(y.shape[0]):
@@ -205,7 +206,7 @@ def _dense(y, h, Q, s, out):
         out[i] = y[i] + h * acc
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _one(field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, x_out):
     n = y0.shape[0]
     A, B, C, E, P = _A, _B, _C, _E, _P
@@ -354,7 +355,7 @@ def _one(field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol,
             g_old[e] = g_new[e]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, error_model="numpy")
 def _kernel(
     field,
     margin,
@@ -392,7 +393,7 @@ def _kernel(
         steps[k] = ns
 
 
-@numba.cfunc(MARGIN_SIGNATURE, cache=True)
+@numba.cfunc(MARGIN_SIGNATURE, cache=True, error_model="numpy")
 def no_margin(x: np.ndarray, params: np.ndarray) -> float:
     """Margin of a system whose domain is the whole space (for numba fields)."""
     return np.inf

@@ -66,7 +66,7 @@ def _settings(opts: dict[str, Any]) -> dict[str, Any]:
 def _frac(run: Any) -> str:
     s = run.summary()
     lo, hi = s["fraction_converged_ci95"]
-    return f"{s['counts']['converged']}/{s['n']} converged ({100 * s['fraction_converged']:.2f} %, 95 % CI {100 * lo:.2f}-{100 * hi:.2f} %)"
+    return f"{s['counts']['converged']}/{s['n']} converged ({100 * s['fraction_converged']:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
 
 
 def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any]:

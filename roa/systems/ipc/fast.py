@@ -18,45 +18,46 @@ from roa.montecarlo.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE, no_marg
 HALF_PI = np.pi / 2
 
 
-@numba.cfunc(FIELD_SIGNATURE, cache=True)
+@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
 def physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """Closed loop in physical coordinates (q, q', theta, theta'), zero reference."""
     qd, th, thd = x[1], x[2], x[3]
     delta = p[0]
     s, c = np.sin(th), np.cos(th)
-    w1 = s / c
     sec = 1.0 / c
-    z1 = x[0] + np.arcsinh(w1)
+    w1 = s * sec
+    # (2.2) with arsinh(tan th) = sign(sin th cos th) log((1 + |sin th|) / |cos th|)
+    a = np.log((1.0 + abs(s)) * abs(sec))
+    z1 = x[0] + (a if s * c >= 0.0 else -a)
     z2 = qd + thd * sec
     w2 = thd * sec * sec
     v = -(p[1] * z1 + p[2] * z2 + p[3] * w1 + p[4] * w2)
-    r = 1.0 + w1 * w1
-    r32 = r * np.sqrt(r)
-    dd = delta * r + w1 * w1
-    phi1 = r32 / dd
-    phi2 = (1.0 + delta) * w1 * r32 / dd
-    phi3 = w1 / (r * r) * (-r / dd + 2.0 * r)
-    u = (phi2 + w2 * w2 * phi3 - v) / phi1
+    # corrected (2.5) simplified with 1 + w1^2 = sec^2 and delta (1 + w1^2) + w1^2 = den / cos^2:
+    # phi2 / phi1 = (1 + delta) w1, 1 / phi1 = den |cos|, phi3 = w1 cos^2 (2 - cos^2 / den)
+    den = delta + s * s
+    inv_den = 1.0 / den
+    c2 = c * c
+    phi3 = w1 * c2 * (2.0 - c2 * inv_den)
+    u = (1.0 + delta) * w1 + (w2 * w2 * phi3 - v) * den * abs(c)
     sat = p[5]
     if sat == sat:  # not NaN: saturate
         if u > sat:
             u = sat
         elif u < -sat:
             u = -sat
-    den = delta + s * s
     out[0] = qd
-    out[1] = (u + thd * thd * s - s * c) / den
+    out[1] = (u + thd * thd * s - s * c) * inv_den
     out[2] = thd
-    out[3] = (-u * c - thd * thd * s * c + (1.0 + delta) * s) / den
+    out[3] = (-u * c - thd * thd * s * c + (1.0 + delta) * s) * inv_den
 
 
-@numba.cfunc(MARGIN_SIGNATURE, cache=True)
+@numba.cfunc(MARGIN_SIGNATURE, cache=True, error_model="numpy")
 def physical_margin(x: np.ndarray, p: np.ndarray) -> float:
     """pi/2 - |theta|."""
     return HALF_PI - abs(x[2])
 
 
-@numba.cfunc(FIELD_SIGNATURE, cache=True)
+@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
 def flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """The closed loop (3.8) in flat coordinates (z1, z2, w1, w2)."""
     w1, w2 = x[2], x[3]

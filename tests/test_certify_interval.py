@@ -27,8 +27,8 @@ finite = st.floats(-5, 5, allow_nan=False)
 def test_interval_ops_enclose_point_values(a, b, c, d, ta, tb):
     lo1, hi1 = min(a, b), max(a, b)
     lo2, hi2 = min(c, d), max(c, d)
-    x = lo1 + ta * (hi1 - lo1)
-    y = lo2 + tb * (hi2 - lo2)
+    x = min(max(lo1 + ta * (hi1 - lo1), lo1), hi1)  # a point of [lo1, hi1] despite rounding
+    y = min(max(lo2 + tb * (hi2 - lo2), lo2), hi2)
     X, Y = Interval(lo1, hi1), Interval(lo2, hi2)
     for iv, val in (
         (X + Y, x + y),
@@ -50,7 +50,7 @@ def test_interval_ops_enclose_point_values(a, b, c, d, ta, tb):
 @given(finite, finite, st.floats(0, 1))
 def test_phi0_interval_encloses_and_is_tight_at_extremes(a, b, t):
     lo, hi = min(a, b), max(a, b)
-    w = lo + t * (hi - lo)
+    w = min(max(lo + t * (hi - lo), lo), hi)
     P = phi0(Interval(lo, hi), INTERVAL)
     assert P.lo <= phi0(w) <= P.hi
     # the jet (value + derivative) encloses phi0 and phi0' = (1 - 2 w^2) (1 + w^2)^(-5/2)

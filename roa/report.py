@@ -69,8 +69,8 @@ def render_report(results: str | Path = "results", out: str | Path = "paper_repr
     for c in claims:
         c["evidence"] = _relink(c["evidence"], prefix)
     lines = [HEADER]
-    for prefix, heading in SECTIONS:
-        rows = [c for c in claims if c["id"].startswith(prefix)]
+    for id_prefix, heading in SECTIONS:
+        rows = [c for c in claims if c["id"].startswith(id_prefix)]
         if not rows:
             continue
         lines += [

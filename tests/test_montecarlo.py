@@ -235,6 +235,8 @@ def test_cli_basin_json(capsys):
         (["--samples", "10", "--saturation", "-1"], "--saturation must be"),
         (["--samples", "0"], "--samples must be >= 1"),
         (["--samples", "10", "--jobs", "0"], "--jobs must be"),
+        (["--system", "vanderpol", "--samples", "10", "--regions", "paper"], "ipc system only"),
+        (["--samples", "10", "--plot", "x.png"], "--plot draws a slice"),
     ],
 )
 def test_cli_bad_inputs(args, message, capsys):

@@ -55,6 +55,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--out", default=None, metavar="DIR", help="resumable run directory (chunks, summary.json)"
     )
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
+    p.add_argument("--regions", choices=("none", "paper", "all"), default="none",
+                   help="ipc: draw the paper's ball (paper) or every estimate of ipc_regions() (all)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
 
@@ -114,6 +116,8 @@ def build(args: argparse.Namespace):
     from roa.status import StopRules
     from roa.systems import load_system
 
+    if args.regions != "none" and args.system != "ipc":
+        raise ValueError("--regions applies to the ipc system only")
     if args.saturation is not None:
         if args.system != "ipc":
             raise ValueError("--saturation applies to the ipc system only")
@@ -189,7 +193,15 @@ def run(args: argparse.Namespace) -> int:
     if plot:
         from roa.plotting.basin import plot_slice
 
-        plot_slice(system, sampler, result.code, plot, title=f"basin of {system.name}")
+        regs = []
+        if args.regions != "none":
+            from roa.systems.ipc.basins import paper_ball, regions
+
+            regs = [paper_ball()] if args.regions == "paper" else regions()[0]
+        sat = "" if args.saturation is None else f", saturation |u| <= {args.saturation:g}"
+        plot_slice(
+            system, sampler, result.code, plot, regions=regs, title=f"basin of {system.name}{sat}"
+        )
         summary["plot"] = plot
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)

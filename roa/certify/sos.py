@@ -16,6 +16,10 @@ polynomial gets an auxiliary variable ``s = b^(-1/2)`` with ``s^2 b - 1 = 0`` an
 ``phi0(w) = w (1 + w^2)^(-3/2) = w s^3`` exactly, so the recast costs nothing in rho; only the
 degree of the relaxation does (reported by the gap to the sampled optimum).
 
+**Symmetry**: for odd fields (Van der Pol, the IPC's flat loop) every polynomial of the program is
+even in ``d``; the program is then solved with even multipliers and Gram matrices split into even and
+odd monomial blocks (same optimum, see :func:`sos_level`).
+
 The result is a value with the solver's status; ``rho`` is a *candidate* until checked by
 :func:`roa.certify.validate.validate_level` (the SDP is solved in floating point).
 """
@@ -35,6 +39,7 @@ from roa.backend import namespace
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
 
+SYMMETRY = ("auto", True, False)
 SOS_STATUSES = ("solved", "inaccurate", "infeasible", "failed", "not_polynomial")
 
 
@@ -184,6 +189,11 @@ def _add(a: tuple, b: tuple) -> tuple:
     return tuple(x + y for x, y in zip(a, b, strict=True))
 
 
+def _is_even(polys: list[dict[tuple, float]], nd: int) -> bool:
+    """Every monomial of every polynomial has even total degree in the first ``nd`` variables."""
+    return all(sum(m[:nd]) % 2 == 0 for p in polys for m in p)
+
+
 class _Assembler:
     """Maps monomials to rows; collects sparse columns of the linear identity."""
 
@@ -232,6 +242,8 @@ def sos_level(
     recast_mode: str = "exact",
     multiplier_degree: int | None = None,
     solver_options: dict[str, Any] | None = None,
+    symmetry: str | bool = "auto",
+    aux_degree: int | None = None,
 ) -> SOSResult:
     """Largest rho certified by the SOS program of the module docstring (status-carrying value).
 
@@ -246,6 +258,16 @@ def sos_level(
         How non-polynomial factors are handled (see :func:`recast`).
     solver_options : dict, optional
         Passed to Clarabel through cvxpy (e.g. ``{"max_iter": 2}`` to force a failure).
+    symmetry : {"auto", True, False}
+        Odd fields (``f(x_eq - d) = -f(x_eq + d)``, e.g. the IPC's flat closed loop) make every
+        polynomial of the program even in ``d`` (auxiliary variables of even bases are even).
+        Averaging any certificate with its reflection ``d -> -d`` gives one with even free
+        multipliers and Gram matrices block-diagonal in (even, odd) monomials of ``d``, so the
+        reduced program has the same optimum with smaller blocks. ``"auto"`` uses it when the
+        coefficients show the symmetry (checked exactly on the assembled polynomials).
+    aux_degree : int, optional
+        Largest degree of the auxiliary variables in Gram bases and multipliers (default: no
+        cap). A cap is a restriction of the relaxation: rho can only decrease.
     """
     import cvxpy as cp
 
@@ -260,6 +282,7 @@ def sos_level(
         )
     gens = rc.d + rc.aux
     nv = len(gens)
+    nd = len(rc.d)
     Vd = _coeffs(rc.Vdot, gens)
     deg_vd = max(sum(m) for m in Vd)
     if multiplier_degree is None:
@@ -271,21 +294,44 @@ def sos_level(
     dd = sum(x**2 for x in rc.d)  # whitened: d'd ~ V
     A = _coeffs(sp.expand(dd**k * rc.V), gens)
     B = _coeffs(sp.expand(dd**k), gens)
-    asm = _Assembler()
-    lam_basis = _monomials(nv, multiplier_degree)
-    parts = {"lambda": asm.multiplier(Vd, lam_basis)}
     eq_polys = [_coeffs(h, gens) for h in rc.equalities]
+    nn_polys = [_coeffs(g, gens) for g in rc.nonnegative]
+    if symmetry not in SYMMETRY:
+        raise ValueError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
+    even = _is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
+    if symmetry is True and not even:
+        raise ValueError("symmetry=True needs V' and the recast constraints even in x - x_eq")
+    use_sym = even and symmetry in ("auto", True)
+
+    def cap(basis: list[tuple]) -> list[tuple]:
+        return basis if aux_degree is None else [m for m in basis if sum(m[nd:]) <= aux_degree]
+
+    def keep(basis: list[tuple]) -> list[tuple]:
+        """Free multipliers: only even monomials in d when the program is symmetric."""
+        basis = cap(basis)
+        return [m for m in basis if sum(m[:nd]) % 2 == 0] if use_sym else basis
+
+    def blocks(basis: list[tuple]) -> list[list[tuple]]:
+        """Gram blocks: even and odd monomials in d (y -> -y invariance), or one block."""
+        basis = cap(basis)
+        if not use_sym:
+            return [basis]
+        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
+
+    asm = _Assembler()
+    lam_basis = keep(_monomials(nv, multiplier_degree))
+    parts: dict[str, Any] = {"lambda": asm.multiplier(Vd, lam_basis)}
+    mu_bases = []
     for j, h in enumerate(eq_polys):
-        deg_h = max(sum(m) for m in h)
-        parts[f"mu{j}"] = asm.multiplier(h, _monomials(nv, total - deg_h))
+        mu_bases.append(keep(_monomials(nv, total - max(sum(m) for m in h))))
+        parts[f"mu{j}"] = asm.multiplier(h, mu_bases[-1])
     half = total // 2
-    g0 = _monomials(nv, half)
-    parts["sigma0"] = asm.gram(g0)
-    g1 = []
-    for j, g in enumerate(rc.nonnegative):
-        gp = _coeffs(g, gens)
-        g1.append(_monomials(nv, (total - max(sum(m) for m in gp)) // 2))
-        parts[f"sigma{j + 1}"] = asm.gram(g1[-1], gp)
+    grams: list[tuple[list[tuple], dict | None]] = [(b, None) for b in blocks(_monomials(nv, half))]
+    for gp in nn_polys:
+        basis = _monomials(nv, (total - max(sum(m) for m in gp)) // 2)
+        grams += [(b, gp) for b in blocks(basis)]
+    for j, (b, times) in enumerate(grams):
+        parts[f"gram{j}"] = asm.gram(b, times)
     for m in list(A) + list(B):
         asm.row(m)
     nrow = len(asm.rows)
@@ -298,24 +344,21 @@ def sos_level(
     lam = cp.Variable(len(lam_basis))
     expr = avec - rho * bvec + _sparse(parts["lambda"], nrow, len(lam_basis)) @ lam
     cons = []
-    for j, h in enumerate(eq_polys):
-        nb = len(_monomials(nv, total - max(sum(m) for m in h)))
-        mu = cp.Variable(nb)
-        expr = expr + _sparse(parts[f"mu{j}"], nrow, nb) @ mu
-    Q0 = cp.Variable((len(g0), len(g0)), symmetric=True)
-    cons.append(Q0 >> 0)
-    expr = expr - _sparse(parts["sigma0"], nrow, len(g0) ** 2) @ cp.vec(Q0, order="C")
-    for j, basis in enumerate(g1):
+    for j, basis in enumerate(mu_bases):
+        mu = cp.Variable(len(basis))
+        expr = expr + _sparse(parts[f"mu{j}"], nrow, len(basis)) @ mu
+    for j, (basis, _) in enumerate(grams):
         Q = cp.Variable((len(basis), len(basis)), symmetric=True)
         cons.append(Q >> 0)
-        expr = expr - _sparse(parts[f"sigma{j + 1}"], nrow, len(basis) ** 2) @ cp.vec(Q, order="C")
-    # (d'd)^k (V - rho) + lambda V' + mu h - sigma1 s - sigma0 == 0
+        expr = expr - _sparse(parts[f"gram{j}"], nrow, len(basis) ** 2) @ cp.vec(Q, order="C")
+    # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0 == 0
     cons.append(expr == 0)
     prob = cp.Problem(cp.Maximize(rho), cons)
     sizes = {
         "variables": [str(g) for g in gens],
         "degree": total,
-        "gram_sizes": [len(g0)] + [len(b) for b in g1],
+        "gram_sizes": [len(b) for b, _ in grams],
+        "symmetry": "even/odd blocks in x - x_eq" if use_sym else "none",
         "equality_rows": nrow,
         "multiplier_degree": multiplier_degree,
         "k": k,

@@ -59,7 +59,10 @@ def load_config(path: str | Path) -> dict[str, Any]:
     quick = cfg.get("quick", {})
     if not isinstance(params, dict) or not isinstance(quick, dict):
         raise ValueError(f"experiment config {path}: [params] and [quick] must be tables")
-    unknown = set(cfg) - {"kind", "title", "params", "quick", "order"}
+    depends = cfg.get("depends", [])
+    if not isinstance(depends, list) or not all(isinstance(d, str) for d in depends):
+        raise ValueError(f"experiment config {path}: depends must be a list of experiment names")
+    unknown = set(cfg) - {"kind", "title", "params", "quick", "order", "depends"}
     if unknown:
         raise ValueError(f"experiment config {path}: unknown keys {sorted(unknown)}")
     cfg.setdefault("title", path.stem)
@@ -84,7 +87,13 @@ def run_experiment(
     """Run one experiment config into ``results/NAME/``; skip if cached (same config and code)."""
     cfg = load_config(path)
     out = Path(results) / cfg["name"]
-    digest = config_hash(cfg, quick)
+    for dep in cfg.get("depends", []):
+        if not (Path(results) / dep / "summary.json").is_file():
+            raise ValueError(
+                f"experiment {cfg['name']} depends on {dep!r}: run experiments/{dep}.toml first "
+                f"(no {Path(results) / dep / 'summary.json'})"
+            )
+    digest = config_hash(cfg, quick, Path(results))
     manifest_path = out / "manifest.json"
     if not force and manifest_path.is_file():
         try:

@@ -33,9 +33,9 @@ def test_bound_numbers_in_closed_form():
     # corrected: alpha = 1/(3 kappa) = sqrt(3)/2, c~ = 9/8; V-level 3c~/4, ball 2/3 of it
     assert c["alpha_max"] == pytest.approx(np.sqrt(3) / 2, rel=1e-14)
     assert c["c_tilde"] == pytest.approx(9 / 8, rel=1e-14)
-    assert c["certified_V_level"] == pytest.approx(27 / 32, rel=1e-14)
-    assert c["certified_ball"] == pytest.approx(9 / 16, rel=1e-14)
-    assert p["certified_V_level"] == pytest.approx(27 / 16, rel=1e-14)
+    assert c["V_level_in_slab"] == pytest.approx(27 / 32, rel=1e-14)
+    assert c["ball_in_V_level"] == pytest.approx(9 / 16, rel=1e-14)
+    assert p["V_level_in_slab"] == pytest.approx(27 / 16, rel=1e-14)
 
 
 def test_corrected_314_holds_printed_fails():

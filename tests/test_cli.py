@@ -85,3 +85,9 @@ def test_every_command_has_help():
         proc = run_cli(name, "--help")
         assert proc.returncode == 0, name
         assert "usage: roa" in proc.stdout
+
+
+def test_basin_box_outside_the_domain_is_rejected_before_work(capsys):
+    assert main(["basin", "--slice", "q,theta", "--grid", "5x5", "--box", "theta=-2:2"]) == 2
+    err = capsys.readouterr().err
+    assert "--box" in err and "outside the domain" in err and "theta" in err

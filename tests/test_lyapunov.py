@@ -56,7 +56,9 @@ def test_regions_are_consistent():
     assert len(regions) == 8
     sound = next(r for n, r in regions.items() if n.startswith("ours: V <="))
     proved = next(r for n, r in regions.items() if n.startswith("corrected bound: V"))
+    # certified by the independent interval validation, not by the hand proof alone
     assert proved.status == "certified" and sound.status == "sampled"
+    assert "interval" in proved.meta["source"]
     # the hand proof (V < 27/32) must lie inside the numerically largest level set
     assert proved.level == pytest.approx(27 / 32, rel=1e-14)
     assert proved.level < sound.level

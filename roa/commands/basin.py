@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import re
 from pathlib import Path
 
 import numpy as np
 
 from roa.io import atomic_write_json, to_json
+from roa.system import System
 
 EPILOG = """examples:
   roa basin --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
@@ -158,6 +160,10 @@ def build(args: argparse.Namespace):
             raise ValueError(f"--box: {sorted(extra)} are not slice axes (use --fix for them)")
         shape = parse_grid(args.grid)
         sampler = grid_slice(system, axes, [rng(a) for a in axes], shape, fixed=fixed)
+        _check_box_in_domain(
+            system,
+            [rng(n) if n in axes else (b, b) for n, b in zip(names, sampler.base, strict=True)],
+        )
         mode = {"mode": "slice", "axes": axes, "grid": list(shape), "ranges": [rng(a) for a in axes],
                 "fixed": {n: float(sampler.base[i]) for i, n in enumerate(names) if n not in axes}}  # fmt: skip
     else:
@@ -166,6 +172,7 @@ def build(args: argparse.Namespace):
         if args.samples < 1:
             raise ValueError(f"--samples must be >= 1, got {args.samples}")
         ranges = [rng(n) for n in names]
+        _check_box_in_domain(system, ranges)
         sampler = box_sample(system, ranges, args.samples, seed=args.seed)
         mode = {"mode": "box", "box": dict(zip(names, ranges, strict=True)), "seed": args.seed}
     if args.chunk_size < 1:
@@ -173,6 +180,25 @@ def build(args: argparse.Namespace):
     if args.jobs == 0 or args.jobs < -1:
         raise ValueError(f"--jobs must be >= 1 or -1 (all cores), got {args.jobs}")
     return system, sampler, rules, mode
+
+
+def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> None:
+    """Reject ranges that reach outside the system's domain (before any work starts).
+
+    Every corner of the box must lie inside the domain (exact for domains that are boxes or
+    convex, such as the IPC's |theta| < pi/2).
+    """
+    if system.margin is None:
+        return
+    names = system.state_names
+    corners = np.array(list(itertools.product(*ranges)), dtype=float)
+    bad = ~system.inside(corners)
+    if bad.any():
+        c = corners[np.argmax(bad)]
+        raise ValueError(
+            f"--box: the corner {dict(zip(names, np.round(c, 6).tolist(), strict=True))} is outside "
+            f"the domain of {system.name} ({system.domain_description}); shrink the range"
+        )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -28,7 +28,8 @@ def run(args: argparse.Namespace) -> int:
             f"c~ = {b['c_tilde']:.6f} ({b['c_tilde_expr']})"
         )
         print(
-            f"  certifies: V < {b['certified_V_level']:.6f} (largest V-level in the slab q4^2 < c~), "
-            f"ball ||q||^2 < {b['certified_ball']:.6f}"
+            f"  {'implies' if b['argument_valid'] else 'would imply (argument invalid)'}: "
+            f"V < {b['V_level_in_slab']:.6f} (largest V-level in the slab q4^2 < c~), "
+            f"ball ||q||^2 < {b['ball_in_V_level']:.6f}; {b['status']}"
         )
     return 0

@@ -1,9 +1,8 @@
 """Basin-map experiments of the IPC (issue 4): slices, box and ball samples, Remark 3.1.
 
-Runners for ``roa run experiments/basin_*.toml``. Regions drawn and tested come from
-``roa.systems.ipc.lyapunov.ipc_regions()`` when it is importable, else only the paper's ball
-``||T xi||^2 <= 4.89`` (flat coordinates, status "claimed"); extra regions (e.g. certified ones) can
-be added by any module through :data:`EXTRA_REGIONS`.
+Runners for ``roa run experiments/basin_*.toml``. Regions drawn and tested are those of
+:func:`regions`: every estimate of ``ipc_regions()`` and every certified set of the certify
+experiment; further ones can be added through :data:`EXTRA_REGIONS`.
 """
 
 from __future__ import annotations
@@ -21,8 +20,6 @@ from roa.regions import Region
 from roa.status import StopRules
 from roa.systems import ipc
 
-T_PAPER = np.array([[1, 3, 3, 1], [0, 1, 2, 1], [0, 0, 1, 1], [0, 0, 0, 1]], dtype=float)
-PAPER_LEVEL = 4.89
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
 #: Further regions to draw and test (appended by other modules, e.g. certification).
@@ -31,20 +28,29 @@ EXTRA_REGIONS: list[Region] = []
 
 def paper_ball() -> Region:
     """The paper's (3.15)-(3.16) estimate ||T xi||^2 <= 4.89 in flat coordinates."""
-    return Region("paper: ||Tx||^2 <= 4.89", T_PAPER.T @ T_PAPER, PAPER_LEVEL, "claimed",
+    from roa.systems.ipc.lyapunov import PAPER_C_STAR_SQ, T
+
+    return Region(f"paper: ||Tx||^2 <= {PAPER_C_STAR_SQ:g}", T.T @ T, PAPER_C_STAR_SQ, "claimed",
                   ipc.physical_to_flat_or_inf)  # fmt: skip
 
 
-def regions() -> tuple[list[Region], str]:
-    """The estimates to draw, and where they came from."""
-    try:
-        from roa.systems.ipc.lyapunov import ipc_regions
+def regions(results: str | Path = "results") -> tuple[list[Region], str]:
+    """The estimates to draw and test, and where they came from.
 
-        found = list(ipc_regions())
-        source = "roa.systems.ipc.lyapunov.ipc_regions()"
-    except Exception as exc:  # noqa: BLE001 - the Lyapunov module may be missing or in progress
-        found = [paper_ball()]
-        source = f"paper's ball only (ipc_regions unavailable: {type(exc).__name__}: {exc})"
+    ``ipc_regions()`` (paper's claims, sampled and analytic-bound sets) plus the certified sets of
+    ``RESULTS/certify/certified.json`` when the certify experiment has run.
+    """
+    from roa.certify.regions import ipc_certified_regions
+    from roa.systems.ipc.lyapunov import ipc_regions
+
+    found = list(ipc_regions())
+    source = "roa.systems.ipc.lyapunov.ipc_regions()"
+    path = Path(results) / "certify" / "certified.json"
+    if path.is_file():
+        found += ipc_certified_regions(path)
+        source += f" + certified regions of {path}"
+    else:
+        source += f" (no certified regions: {path} missing; run experiments/certify.toml first)"
     return found + list(EXTRA_REGIONS), source
 
 
@@ -108,7 +114,7 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
     g = grid_slice(system, axes, [tuple(r) for r in params["ranges"]], tuple(params["grid"]),
                    fixed=dict(params.get("fixed", {})))  # fmt: skip
     run = run_basin(system, g, **opts, out_dir=out, replace_stale=True)
-    regs, source = regions()
+    regs, source = regions(out.parent)
     lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
     title = params.get("title", f"IPC basin, slice ({axes[0]}, {axes[1]})")
     if sat is not None:
@@ -129,7 +135,7 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
         claims.append({
             "id": "M1", "claim": "the pendulum can start anywhere in -60 deg < theta(0) < 60 deg (q = q' = theta' = 0)",
             "paper": "sector |theta(0)| < 60 deg, read off the ball ||Tx||^2 <= 4.89",
-            "ours": (f"empirically every theta(0) in [{scan['theta_converged_from_deg']:.4f}, "
+            "ours": (f"sampled, no proof: every theta(0) in [{scan['theta_converged_from_deg']:.4f}, "
                      f"{scan['theta_converged_to_deg']:.4f}] deg converges ({scan['sector_60_converged']}/"
                      f"{scan['sector_60_points']} line points inside 60 deg); the 4.89 ball itself only "
                      f"reaches |theta(0)| <= {scan['paper_ball_sector_deg']:.2f} deg on this line"),
@@ -167,7 +173,7 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
     boxes = {"reference": params.get("box", [list(r) for r in ipc.REFERENCE_BOX])}
     if "wide_box" in params:
         boxes["wide"] = params["wide_box"]
-    regs, source = regions()
+    regs, source = regions(out.parent)
     rows, texts, ok = [], [], True
     for k, (label, box) in enumerate(boxes.items()):
         smp = box_sample(system, box, int(params["samples"]), seed=int(params.get("seed", 0)) + k)
@@ -191,7 +197,7 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
                for r in rows]  # fmt: skip
     claim = {"id": "M2", "claim": "the closed loop stabilises large initial deviations (Section 3.2.1, Figure 1)",
              "paper": "three runs p1-p3; 'significantly large' domain of attraction",
-             "ours": "; ".join(texts) + " (uniform samples)",
+             "ours": "sampled, no proof: " + "; ".join(texts) + " (uniform samples)",
              "verdict": "reproduced" if ok else "not reproduced",
              "evidence": f"{rel}/box.json",
              "details": "Counts: " + "; ".join(f"{r['box_name']}: {r['counts']}" for r in rows)
@@ -204,7 +210,7 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     """Samples inside and on each region (flat coordinates, mapped back with from_flat)."""
     system = ipc.closed_loop()
     opts = _opts(params)
-    regs, source = regions()
+    regs, source = regions(out.parent)
     n = int(params["samples"])
     rows = []
     paper_row = None
@@ -232,7 +238,7 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
         claims.append({
             "id": "M3", "claim": "every initial state with ||Tx(0)||^2 <= 4.89 converges ((3.15)-(3.16))",
             "paper": "U0 = {||Tx||^2 <= 4.89} is inside the region of attraction",
-            "ours": (f"{paper_row['inside']['counts']['converged']}/{n} uniform samples inside and "
+            "ours": (f"sampled, no proof: {paper_row['inside']['counts']['converged']}/{n} uniform samples inside and "
                      f"{paper_row['surface']['counts']['converged']}/{n} on the boundary converged"),
             "verdict": "reproduced" if ok else "not reproduced", "evidence": f"{rel}/regions.json",
             "details": "Empirical containment only (no proof): samples uniform in the ellipsoid in flat "
@@ -264,7 +270,7 @@ def run_global(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     )
     claim = {"id": "M4", "claim": "Remark 3.1: (2.6) is almost globally stabilised by the linear controller",
              "paper": "suspected, not proved",
-             "ours": f"converged: {txt} (lowest 95 % CI bound {100 * worst['ci95'][0]:.3f} %)",
+             "ours": f"sampled, no proof: converged {txt} (lowest 95 % CI bound {100 * worst['ci95'][0]:.3f} %)",
              "verdict": "reproduced" if all_ok else "not reproduced",
              "evidence": f"results/{out.name}/global.json",
              "details": ("Empirical support, not a proof: uniform samples of flat-coordinate boxes "

@@ -44,11 +44,12 @@ def kappa_numeric() -> dict[str, float]:
     }
 
 
-def _certified_sets(c_tilde: float) -> dict[str, float]:
+def _implied_sets(c_tilde: float) -> dict[str, float]:
+    """The sets the slab argument would give: largest V-level inside it, largest ball inside that."""
     e4 = np.array([0.0, 0, 0, 1])
     v_level = c_tilde / float(e4 @ np.linalg.solve(P_Q, e4))  # min V on q4^2 = c~
     ball = v_level / float(np.linalg.eigvalsh(P_Q)[-1])  # largest ball inside {V < v_level}
-    return {"certified_V_level": v_level, "certified_ball": ball, "slab": c_tilde}
+    return {"V_level_in_slab": v_level, "ball_in_V_level": ball, "slab": c_tilde}
 
 
 def paper_bound() -> dict[str, Any]:
@@ -65,7 +66,9 @@ def paper_bound() -> dict[str, Any]:
         "c_tilde_expr": "alpha / (2 kappa) = 9/4",
         "paper_printed_c_tilde": 2.25,
         "claimed_set": "||q(0)||^2 <= c~ (a ball; the paper's conclusion)",
-        **_certified_sets(c_tilde),
+        "argument_valid": False,
+        "status": "claimed: the printed (3.14) does not hold (erratum E6), so these sets are not proved",
+        **_implied_sets(c_tilde),
     }
 
 
@@ -82,7 +85,9 @@ def corrected_bound() -> dict[str, Any]:
         "c_tilde": c_tilde,
         "c_tilde_expr": "alpha / (2 kappa) = 9/8 (open slab q4^2 < 9/8)",
         "strict": "V' < 0 on {0 < ||q||, q4^2 < 9/8}; not on the closed slab in general",
-        **_certified_sets(c_tilde),
+        "argument_valid": True,
+        "status": "proved by hand; the V-level is re-checked by interval validation in ipc_regions()",
+        **_implied_sets(c_tilde),
     }
 
 

@@ -45,7 +45,7 @@ def run_bound(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
         "paper_ball_2_25_has_Phi_negative": paper_ball_ok,
         "paper_ball_2_25_inside_sound_level_set": paper_ball_in_level,
         "paper_V_level_from_slab_inside_sound_level_set": bool(
-            paper["certified_V_level"] <= level["value"]
+            paper["V_level_in_slab"] <= level["value"]
         ),
     }
     atomic_write_json(out / "bound.json", res)
@@ -75,7 +75,7 @@ def run_bound(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
             "claim": "(3.14) conclusion: every q(0) with ||q(0)||^2 <= c~ converges",
             "paper": "the ball ||q||^2 <= 2.25",
             "ours": f"a slab is not invariant; the corrected bound certifies V < 3c~/4 = "
-            f"{corr['certified_V_level']:.6g} and the ball ||q||^2 < {corr['certified_ball']:.6g}",
+            f"{corr['V_level_in_slab']:.6g} and the ball ||q||^2 < {corr['ball_in_V_level']:.6g}",
             "verdict": "not reproduced",
             "evidence": ev,
             "details": (

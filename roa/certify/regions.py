@@ -18,7 +18,11 @@ CERTIFIED_PATH = Path("results/certify/certified.json")
 
 
 def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
-    """The IPC's certified sublevel sets ``{V(to_flat(x)) <= level}`` (paper's V, optimised V)."""
+    """The IPC's certified sublevel sets ``{V(to_flat(x)) <= level}``.
+
+    Paper's V (3.11), the quadratic V optimised for the reference-box fraction and the one
+    optimised for the sector at q = q' = theta' = 0 (each with its own verdict as status).
+    """
     from roa.systems.ipc import physical_to_flat_or_inf
 
     path = Path(path)
@@ -40,9 +44,18 @@ def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
     return out
 
 
-def load_optimised_P(path: str | Path = CERTIFIED_PATH) -> np.ndarray:
-    """The optimised Lyapunov matrix of the last certify experiment (flat coordinates)."""
+def load_optimised_P(path: str | Path = CERTIFIED_PATH, *, which: str = "box") -> np.ndarray:
+    """An optimised Lyapunov matrix of the last certify experiment (flat coordinates).
+
+    ``which="box"``: maximising the reference-box fraction; ``"sector"``: maximising the sector.
+    """
+    keys = {"box": "optimised_P", "sector": "sector_P"}
+    if which not in keys:
+        raise ValueError(f"which {which!r}: allowed {', '.join(keys)}")
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
-    return np.asarray(json.loads(path.read_text())["optimised_P"], dtype=float)
+    data = json.loads(path.read_text())
+    if keys[which] not in data:
+        raise ValueError(f"{path} has no {keys[which]}: rerun `roa run experiments/certify.toml`")
+    return np.asarray(data[keys[which]], dtype=float)

@@ -32,14 +32,21 @@ def ray_level(
     *,
     r_max: float = 20.0,
     n_radial: int = 80,
+    extra: np.ndarray | None = None,
 ) -> float:
     """min over rays ``x = x_eq + M (r u)`` (``M'PM = I``) of the first ``r^2`` with ``V' >= 0``.
 
     An upper bound of the largest level (a sampled estimate, not a proof); ``inf`` if no ray
-    crosses within ``r_max``.
+    crosses within ``r_max``. ``extra`` adds rays given in the system's coordinates
+    (``x - x_eq``, any length), e.g. the witnesses of earlier local searches.
     """
     V = QuadraticLyapunov.for_system(system, P)
-    M = np.linalg.inv(np.linalg.cholesky(V.P).T)
+    Lc = np.linalg.cholesky(V.P)
+    M = np.linalg.inv(Lc.T)
+    if extra is not None and len(extra):
+        W = np.asarray(extra, dtype=float) @ Lc  # whitened: u = L' x
+        W /= np.linalg.norm(W, axis=1, keepdims=True)
+        directions = np.concatenate([directions, W, -W])
     X = directions @ M.T  # (k, n): x - x_eq per unit whitened step
     r = np.geomspace(1e-2, r_max, n_radial)
     pts = V.center + r[None, :, None] * X[:, None, :]
@@ -93,6 +100,7 @@ class SearchResult:
     history: list[float] = field(default_factory=list)
     seconds: float = 0.0
     evaluations: int = 0
+    rounds: list[dict[str, float]] = field(default_factory=list)
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -102,6 +110,7 @@ class SearchResult:
             "objective_value": self.value,
             "seconds": round(self.seconds, 2),
             "evaluations": self.evaluations,
+            "rounds": self.rounds,
         }
 
 
@@ -124,9 +133,17 @@ def optimise_quadratic(
     n_directions: int = 1500,
     n_box: int = 4000,
     maxiter: int = 400,
+    rounds: int = 4,
+    min_decay: float = 0.02,
     seed: int = 0,
 ) -> SearchResult:
     """Maximise the physical size of ``{V <= rho(P)}`` over positive-definite ``P``.
+
+    ``rho(P)`` is the ray estimate of :func:`ray_level` (an upper bound). Sampling gaps would be
+    exploited by the optimiser, so the search runs in ``rounds`` exchange rounds: after each
+    Nelder-Mead run the level of the best ``P`` is recomputed by the multistart IPOPT search of
+    :func:`roa.levelset.casadi_level`; if it is lower, its witness joins the rays and the search
+    restarts from the best ``P``.
 
     Parameters
     ----------
@@ -137,10 +154,20 @@ def optimise_quadratic(
     to_analysis : callable
         Physical states ``(..., n)`` -> analysis coordinates (``inf`` where undefined).
     objective : {"box", "sector"}
-        Smooth fraction of ``box`` inside the set, or the sector along ``curve`` (t -> states).
+        Smooth fraction of ``box`` inside the set, or the sector along ``curve`` (t -> states,
+        t in [0, t_max]; V even and the curve odd are assumed, so only t >= 0 is scored).
+    rounds : int
+        Exchange rounds (>= 1), see above.
+    min_decay : float
+        Only ``P`` with ``A'P + PA <= -min_decay P`` (``A`` the Jacobian at the equilibrium) are
+        admitted: nearly degenerate ``P`` have thin cones of ``V' >= 0`` that rays miss.
     """
+    from roa.levelset import casadi_level, jacobian
+
     if objective not in OBJECTIVES:
         raise ValueError(f"objective {objective!r}: allowed {', '.join(OBJECTIVES)}")
+    if int(rounds) < 1:
+        raise ValueError(f"rounds must be >= 1, got {rounds}")
     n = system.n
     rng = np.random.default_rng(seed)
     U = rng.normal(size=(n_directions, n))
@@ -154,51 +181,72 @@ def optimise_quadratic(
         Y = to_analysis(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n_box, n))) - system.x_eq
     elif curve is None:
         raise ValueError("objective 'sector' needs curve(t) -> physical states")
+    else:
+        tgrid = np.linspace(0.0, t_max, 801)[1:]
+        Y = to_analysis(curve(tgrid)) - system.x_eq
+        Y = np.where(np.isfinite(Y), Y, 1e150)
+    A = jacobian(system)
     hist: list[float] = []
+    active: list[np.ndarray] = []
     t0 = time.perf_counter()
 
     def score(theta: np.ndarray) -> float:
         P = _unpack(theta, n, trace)
         if np.linalg.eigvalsh(P)[0] <= 1e-8 * trace:
             return 1.0
+        Li = np.linalg.inv(np.linalg.cholesky(P))
+        if np.linalg.eigvalsh(Li @ (A.T @ P + P @ A) @ Li.T)[-1] > -min_decay:
+            return 1.0  # V' <= -min_decay V fails near the equilibrium
         try:
-            rho = ray_level(system, P, U)
+            rho = ray_level(system, P, U, extra=np.array(active) if active else None)
         except np.linalg.LinAlgError:
             return 1.0
         if not np.isfinite(rho):
             return 1.0
+        v = np.einsum("ki,ij,kj->k", Y, P, Y)
         if objective == "box":
-            v = np.einsum("ki,ij,kj->k", Y, P, Y)
             s = float(np.mean(1.0 / (1.0 + np.exp(np.clip((v / rho - 1.0) / 0.02, -50, 50)))))
         else:
-            s = (
-                sector(
-                    lambda X: np.einsum(
-                        "ki,ij,kj->k", to_analysis(X) - system.x_eq, P, to_analysis(X) - system.x_eq
-                    ),
-                    rho,
-                    curve,
-                    t_max,
-                )
-                / t_max
-            )
+            out = v > rho
+            if not out.any():
+                s = 1.0
+            else:  # first grid point outside, interpolated for a continuous score
+                k = int(np.argmax(out))
+                v0 = v[k - 1] if k else 0.0
+                t0_ = tgrid[k - 1] if k else 0.0
+                frac = (rho - v0) / max(v[k] - v0, 1e-300)
+                s = float(t0_ + frac * (tgrid[k] - t0_)) / t_max
         hist.append(s)
         return -s
 
-    L0 = np.linalg.cholesky(P0)
-    res = optimize.minimize(
-        score,
-        L0[np.tril_indices(n)],
-        method="Nelder-Mead",
-        options={"maxiter": maxiter, "xatol": 1e-4, "fatol": 1e-6, "adaptive": True},
-    )
-    P = _unpack(res.x, n, trace)
+    x0 = np.linalg.cholesky(P0)[np.tril_indices(n)]
+    nfev = 0
+    log = []
+    for _ in range(int(rounds)):
+        res = optimize.minimize(
+            score,
+            x0,
+            method="Nelder-Mead",
+            options={"maxiter": maxiter, "xatol": 1e-4, "fatol": 1e-6, "adaptive": True},
+        )
+        nfev += int(res.nfev)
+        x0 = res.x
+        P = _unpack(res.x, n, trace)
+        rho_ray = ray_level(system, P, U, extra=np.array(active) if active else None)
+        chk = casadi_level(system, QuadraticLyapunov.for_system(system, P), P, shape="level")
+        log.append({"objective": -float(res.fun), "ray_level": rho_ray, "local_level": chk.value})
+        if chk.status != "found" or chk.value >= rho_ray * (1 - 1e-4):
+            break
+        active.append(np.asarray(chk.witness, dtype=float) - system.x_eq)
+    P = _unpack(x0, n, trace)
+    level = ray_level(system, P, U, extra=np.array(active) if active else None)
     return SearchResult(
         P,
-        ray_level(system, P, U),
+        level,
         objective,
-        -float(res.fun),
+        -float(score(x0)),
         hist,
         time.perf_counter() - t0,
-        int(res.nfev),
+        nfev,
+        log,
     )

@@ -20,7 +20,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--lyapunov",
         default=None,
-        help="paper | optimised (IPC), benchmark (Van der Pol), or a .json/.npy file with P; "
+        help="paper | optimised | sector (IPC), benchmark (Van der Pol), or a .json/.npy file with P; "
         "default: the system's own (paper / benchmark / LYAPUNOV_P)",
     )
     g = p.add_mutually_exclusive_group()
@@ -51,12 +51,12 @@ def _lyapunov(args: argparse.Namespace, system):
         from roa.systems.ipc.lyapunov import paper_lyapunov
 
         P = paper_lyapunov().P
-    elif spec == "optimised":
+    elif spec in ("optimised", "sector"):
         if args.system != "ipc-flat":
-            raise ValueError("--lyapunov optimised is only defined for --system ipc-flat")
+            raise ValueError(f"--lyapunov {spec} is only defined for --system ipc-flat")
         from roa.certify.regions import load_optimised_P
 
-        P = load_optimised_P()
+        P = load_optimised_P(which="box" if spec == "optimised" else "sector")
     elif spec == "benchmark":
         from roa.systems.vanderpol import P_BENCHMARK
 
@@ -68,7 +68,9 @@ def _lyapunov(args: argparse.Namespace, system):
     else:
         path = Path(spec)
         if not path.is_file():
-            raise ValueError(f"--lyapunov {spec!r}: not paper/optimised/benchmark and no such file")
+            raise ValueError(
+                f"--lyapunov {spec!r}: not paper/optimised/sector/benchmark and no such file"
+            )
         P = np.load(path) if path.suffix == ".npy" else np.asarray(json.loads(path.read_text()))
     return QuadraticLyapunov.for_system(system, P, name=str(spec))
 

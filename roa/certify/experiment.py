@@ -285,3 +285,21 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
     if verdict.status != "certified":
         raise ValueError(f"{case}: level {fraction * opt} is {verdict.status}, not certified")
     return verdict.level
+
+
+#: ``[params]`` keys this runner accepts (checked by roa.experiment before any work starts).
+run.params = frozenset(  # type: ignore[attr-defined]
+    {
+        "below",
+        "above",
+        "max_boxes",
+        "n_box",
+        "seed",
+        "search_iter",
+        "search_rounds",
+        "min_decay",
+        "sos_exact",
+        "sos_time_limit",
+        "sos_aux_degree",
+    }
+)

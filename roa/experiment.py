@@ -19,6 +19,7 @@ import importlib
 import json
 import time
 import tomllib
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -38,7 +39,30 @@ KINDS: dict[str, str] = {
     "certify": "roa.certify.experiment:run",
 }
 
+Runner = Callable[..., dict[str, Any]]
+
 VERDICTS = ("reproduced", "not reproduced", "erratum", "beyond the paper")
+
+
+def accepts(*names: str) -> Callable[[Runner], Runner]:
+    """Declare the ``[params]`` keys a runner accepts; others are rejected before any work starts."""
+
+    def mark(func: Runner) -> Runner:
+        func.params = frozenset(names)  # type: ignore[attr-defined]
+        return func
+
+    return mark
+
+
+def check_params(name: str, runner: Runner, params: dict[str, Any]) -> None:
+    allowed = getattr(runner, "params", None)
+    if allowed is None:
+        raise ValueError(f"{name}: runner {runner.__name__} does not declare its params (@accepts)")
+    unknown = set(params) - allowed
+    if unknown:
+        raise ValueError(
+            f"{name}: unknown params {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}"
+        )
 
 
 def load_config(path: str | Path) -> dict[str, Any]:
@@ -70,9 +94,16 @@ def load_config(path: str | Path) -> dict[str, Any]:
     return cfg
 
 
-def config_hash(cfg: dict[str, Any], quick: bool) -> str:
+def config_hash(cfg: dict[str, Any], quick: bool, results: Path) -> str:
+    """Cache key: the config, the mode, the package code and the summaries of ``depends``."""
+    inputs = {}
+    for dep in cfg.get("depends", []):
+        summary = results / dep / "summary.json"
+        inputs[dep] = hashlib.sha256(summary.read_bytes()).hexdigest() if summary.is_file() else None
     blob = json.dumps(
-        {"cfg": cfg, "quick": quick, "code": code_hash()}, sort_keys=True, default=str
+        {"cfg": cfg, "quick": quick, "code": code_hash(), "inputs": inputs},
+        sort_keys=True,
+        default=str,
     )
     return hashlib.sha256(blob.encode()).hexdigest()
 
@@ -109,6 +140,7 @@ def run_experiment(
         params.update(cfg.get("quick", {}))
     module, func = KINDS[cfg["kind"]].split(":")
     runner = getattr(importlib.import_module(module), func)
+    check_params(cfg["name"], runner, params)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     summary = runner(params, out, quick=quick)

@@ -65,3 +65,11 @@ def test_missing_dependency_is_a_clear_error(tmp_path):
     assert dependent, "no config declares depends"
     with pytest.raises(ValueError, match="depends on"):
         run_experiment(dependent[0], results=tmp_path, quick=True)
+
+
+def test_unknown_params_are_rejected_before_work(tmp_path):
+    cfg = tmp_path / "typo.toml"
+    cfg.write_text('kind = "figure1"\n[params]\nt_finall = 3.0\n[params.initial_conditions]\np1 = [0, 0, 0.1, 0]\n')
+    with pytest.raises(ValueError, match=r"unknown params \['t_finall'\]; allowed: .*t_final"):
+        run_experiment(cfg, results=tmp_path / "r")
+    assert not (tmp_path / "r" / "typo").exists()

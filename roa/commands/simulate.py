@@ -98,7 +98,13 @@ def run(args: argparse.Namespace) -> int:
     if args.plot:
         from roa.plotting.trajectories import plot_run
 
-        plot_run(traj.t, x_phys, args.plot, title=f"IPC from {args.ic}: {traj.status.value}")
+        plot_run(
+            ipc.closed_loop(delta=delta, gains=gains),
+            traj.t,
+            x_phys,
+            args.plot,
+            title=f"IPC from {args.ic}: {traj.status.value}",
+        )
         out["plot"] = args.plot
     if args.json:
         print(to_json(out))

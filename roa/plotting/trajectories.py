@@ -1,4 +1,4 @@
-"""Time plots of IPC-like runs: states and the control force."""
+"""Time plots of runs: every state against time, and optionally an input signal."""
 
 from __future__ import annotations
 
@@ -10,25 +10,40 @@ import numpy as np
 
 import roa.plotting  # noqa: F401  (Agg backend)
 from roa.io import atomic_savefig
+from roa.system import System
 
-STATE_LABELS = ("q [-]", r"$\dot q$ [1/s]", r"$\theta$ [rad]", r"$\dot\theta$ [rad/s]")
+
+def state_labels(system: System) -> tuple[str, ...]:
+    """Axis labels ``name [unit]`` from a system's state names and units."""
+    units = system.state_units or ("-",) * system.n
+    return tuple(f"{n} [{u}]" for n, u in zip(system.state_names, units, strict=True))
 
 
 def plot_runs(
     runs: Sequence[tuple[str, np.ndarray, np.ndarray, np.ndarray | None]],
     path: str | Path,
     *,
+    labels: Sequence[str],
     title: str,
-    time_label: str = "normalised time t [-]",
+    input_label: str | None = None,
+    time_label: str = "time t",
 ) -> Path:
-    """Plot several runs ``(label, t, x (m, 4), u (m,) or None)``: the four states and the force."""
-    fig, axes = plt.subplots(5, 1, figsize=(8, 11), sharex=True)
+    """Plot runs ``(label, t, x (m, n), u (m,) or None)``: each state, and the input if labelled.
+
+    ``labels`` are the n state axis labels (see :func:`state_labels`); ``input_label`` adds a
+    panel for ``u``.
+    """
+    n = len(labels)
+    rows = n + (input_label is not None)
+    fig, axes = plt.subplots(rows, 1, figsize=(8, 2.2 * rows), sharex=True, squeeze=False)
+    axes = axes[:, 0]
     for label, t, x, u in runs:
-        for i in range(4):
+        for i in range(n):
             axes[i].plot(t, x[:, i], label=label, lw=1.4)
-        if u is not None:
-            axes[4].plot(t, u, label=label, lw=1.4)
-    for ax, lab in zip(axes, (*STATE_LABELS, "force u [-] (normalised, u = F/(m g))"), strict=True):
+        if u is not None and input_label is not None:
+            axes[n].plot(t, u, label=label, lw=1.4)
+    all_labels = (*labels, input_label) if input_label is not None else tuple(labels)
+    for ax, lab in zip(axes, all_labels, strict=True):
         ax.set_ylabel(lab)
         ax.grid(alpha=0.3)
         ax.axhline(0, color="k", lw=0.5)
@@ -41,6 +56,6 @@ def plot_runs(
     return out
 
 
-def plot_run(t: np.ndarray, x: np.ndarray, path: str | Path, *, title: str) -> Path:
-    """One run's states (no force)."""
-    return plot_runs([("run", t, x, None)], path, title=title)
+def plot_run(system: System, t: np.ndarray, x: np.ndarray, path: str | Path, *, title: str) -> Path:
+    """One run's states."""
+    return plot_runs([("run", t, x, None)], path, labels=state_labels(system), title=title)

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin, wilson_interval
@@ -22,6 +23,9 @@ from roa.systems import ipc
 
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
+#: ``[params]`` keys every basin runner accepts (integration, stop rules, parallelism, claim text).
+COMMON_PARAMS = ("atol", "rtol", "t_final", "converge_tol", "diverge_bound", "jobs", "seed", "title",
+                 "claim", "claim_id", "paper", "verdict")  # fmt: skip
 #: Further regions to draw and test (appended by other modules, e.g. certification).
 EXTRA_REGIONS: list[Region] = []
 
@@ -103,6 +107,7 @@ def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any
             "sector_60_converged": int(np.sum(conv & (np.abs(th) < SECTOR)))}  # fmt: skip
 
 
+@accepts(*COMMON_PARAMS, 'axes', 'grid', 'ranges', 'fixed', 'saturation', 'sector_scan')
 def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """A 2D slice map with every region drawn, containment per region, optional sector line scan."""
     from roa.plotting.basin import plot_slice, slice_containment
@@ -166,6 +171,7 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
     return {**summary, "claims": claims, "figures": [f"{rel}/basin.png"]}
 
 
+@accepts(*COMMON_PARAMS, 'box', 'samples', 'wide_box')
 def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Seeded samples of the shared reference 4D box of physical states (and an optional wide box)."""
     system = ipc.closed_loop()
@@ -206,6 +212,7 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
     return {**summary, "claims": [claim], "figures": []}
 
 
+@accepts(*COMMON_PARAMS, 'samples')
 def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Samples inside and on each region (flat coordinates, mapped back with from_flat)."""
     system = ipc.closed_loop()
@@ -247,6 +254,7 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     return {**summary, "claims": claims, "figures": []}
 
 
+@accepts(*COMMON_PARAMS, 'samples', 'half_widths')
 def run_global(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Remark 3.1: the closed loop (3.8) in flat coordinates over growing boxes [-a, a]^4."""
     system = ipc.transformed()

@@ -7,6 +7,7 @@ from typing import Any
 
 import sympy as sp
 
+from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.systems.ipc import symbolic as S
 
@@ -53,6 +54,7 @@ def analyse() -> dict[str, Any]:
     }
 
 
+@accepts()
 def run_experiment(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     res = analyse()
     atomic_write_json(out / "errata.json", res)

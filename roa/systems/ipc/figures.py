@@ -9,6 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from roa.experiment import accepts
 from roa.io import atomic_savefig, atomic_write_json
 from roa.plotting.trajectories import plot_runs
 from roa.simulate import simulate
@@ -16,6 +17,10 @@ from roa.status import StopRules
 from roa.systems import ipc
 from roa.systems.ipc.controller import Gains, make_reference
 from roa.systems.ipc.model import phi0
+
+IPC_LABELS = ("q [-]", r"$\dot q$ [1/s]", r"$\theta$ [rad]", r"$\dot\theta$ [rad/s]")
+FORCE_LABEL = "force u [-] (u = F/(m g))"
+TIME_LABEL = "normalised time t [-]"
 
 
 def _run(system, x0, t_final: float, n_points: int, **kw):
@@ -26,6 +31,9 @@ def _run(system, x0, t_final: float, n_points: int, **kw):
     )
 
 
+@accepts(
+    "initial_conditions", "t_final", "delta", "poles", "n_points", "status_t_final", "extra_theta0"
+)
 def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Figure 1: regulation from p1, p2, p3 of (3.5) with p(s) = (s + 1)^4."""
     ics = {k: np.array(v, dtype=float) for k, v in params["initial_conditions"].items()}
@@ -54,7 +62,14 @@ def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
         st = simulate(system, [0.0, 0.0, th0, 0.0], rules=StopRules(t_final=60.0))
         extra[f"{th0:+g}"] = {"status": st.status.value, "t_end": st.t_end}
     fig_path = out / "figure1.png"
-    plot_runs(runs, fig_path, title=f"Figure 1: regulation, p(s) = (s+1)^4, delta = {delta:g}")
+    plot_runs(
+        runs,
+        fig_path,
+        labels=IPC_LABELS,
+        input_label=FORCE_LABEL,
+        time_label=TIME_LABEL,
+        title=f"Figure 1: regulation, p(s) = (s+1)^4, delta = {delta:g}",
+    )
     atomic_write_json(
         out / "figure1.json",
         {"delta": delta, "gains": gains.h, "runs": table, "extra_theta0": extra},
@@ -118,6 +133,7 @@ def linear_error_prediction(gains: Gains, reference, t: np.ndarray) -> np.ndarra
     return sol.y[0]
 
 
+@accepts("initial_condition", "t_final", "delta", "poles", "reference", "n_points")
 def run_figure2(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Figure 2: tracking F*(t) = 2 sin(t/2) from theta(0) = 1 rad."""
     x0 = np.array(params.get("initial_condition", [0.0, 0.0, 1.0, 0.0]), dtype=float)
@@ -169,7 +185,12 @@ def run_figure2(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
     atomic_savefig(fig, out / "figure2.png")
     plt.close(fig)
     plot_runs(
-        [("tracking", t, x, u)], out / "figure2_states.png", title="Figure 2 run: states and force"
+        [("tracking", t, x, u)],
+        out / "figure2_states.png",
+        labels=IPC_LABELS,
+        input_label=FORCE_LABEL,
+        time_label=TIME_LABEL,
+        title="Figure 2 run: states and force",
     )
     res = {
         "x0": x0.tolist(),

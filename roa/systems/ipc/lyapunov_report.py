@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.experiment import accepts
 from roa.io import atomic_savefig, atomic_write_json
 from roa.levelset import inner_level, level_search
 from roa.systems.ipc import from_flat
@@ -25,6 +26,7 @@ _DERIVATION = (
 )
 
 
+@accepts("n_points", "seed")
 def run_bound(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """The analytic bound, printed vs corrected, and what each certifies."""
     paper, corr = paper_bound(), corrected_bound()
@@ -191,6 +193,7 @@ def _figure(results: dict[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
+@accepts("n_directions", "n_starts", "seed")
 def run_khalil(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Khalil's search (3.15), both shapes and both methods; the 60 deg sector."""
     sampled = {

@@ -59,6 +59,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
     p.add_argument("--regions", choices=("none", "paper", "all"), default="none",
                    help="ipc: draw the paper's ball (paper) or every estimate of ipc_regions() (all)")  # fmt: skip
+    p.add_argument(
+        "--lyapunov-level",
+        type=float,
+        action="append",
+        default=[],
+        metavar="RHO",
+        help="draw {V <= RHO} for the system's quadratic V (LYAPUNOV_P, or A'P + PA = -I), after "
+        "validating RHO with interval arithmetic (its status goes in the legend); repeatable",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
 
@@ -201,6 +210,27 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
         )
 
 
+def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
+    """Regions {V <= rho} of ``--lyapunov-level``, each with the verdict of the interval check."""
+    from roa.certify.validate import validate_level
+    from roa.regions import Region
+    from roa.systems import default_lyapunov
+
+    if not args.lyapunov_level:
+        return []
+    if args.system in ("ipc",):
+        raise ValueError("--lyapunov-level: the IPC's estimates are drawn with --regions all")
+    V = default_lyapunov(args.system, system)
+    out = []
+    for rho in args.lyapunov_level:
+        if not rho > 0:
+            raise ValueError(f"--lyapunov-level must be > 0, got {rho}")
+        verdict = validate_level(system, V, rho)
+        shift = lambda x, c=V.center: np.asarray(x, dtype=float) - c  # noqa: E731
+        out.append(Region(f"V <= {rho:g} ({V.name})", V.P, rho, verdict.status, shift))
+    return out
+
+
 def run(args: argparse.Namespace) -> int:
     from roa.montecarlo.engine import run_basin
 
@@ -224,6 +254,10 @@ def run(args: argparse.Namespace) -> int:
             from roa.systems.ipc.basins import paper_ball, regions
 
             regs = [paper_ball()] if args.regions == "paper" else regions()[0]
+        regs += lyapunov_regions(args, system)
+        summary["regions"] = [
+            {"name": r.name, "level": r.level, "status": r.status} for r in regs
+        ]
         sat = "" if args.saturation is None else f", saturation |u| <= {args.saturation:g}"
         plot_slice(
             system, sampler, result.code, plot, regions=regs, title=f"basin of {system.name}{sat}"

@@ -11,6 +11,7 @@ import importlib.util
 from collections.abc import Callable
 from pathlib import Path
 
+from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
 
 BUILTIN: dict[str, str] = {
@@ -54,7 +55,31 @@ def load_system(spec: str) -> System:
     return system
 
 
-def load_module_attr(spec: str, attr: str):
+def default_lyapunov(spec: str, system: System | None = None) -> QuadraticLyapunov:
+    """The quadratic Lyapunov candidate of a ``--system`` spec.
+
+    ``LYAPUNOV_P`` from a user's file; the published matrix for ``vanderpol``; the paper's (3.11)
+    for ``ipc-flat``; otherwise P from A'P + PA = -I at the equilibrium.
+    """
+    system = load_system(spec) if system is None else system
+    if spec == "ipc-flat":
+        from roa.systems.ipc.lyapunov import paper_lyapunov
+
+        return paper_lyapunov()
+    if spec == "vanderpol":
+        from roa.systems.vanderpol import P_BENCHMARK
+
+        return QuadraticLyapunov.for_system(system, P_BENCHMARK, name="benchmark P")
+    P = load_module_attr(spec, "LYAPUNOV_P")
+    name = "LYAPUNOV_P"
+    if P is None:
+        from roa.levelset import lyapunov_matrix
+
+        P, name = lyapunov_matrix(system), "P from A'P + PA = -I"
+    return QuadraticLyapunov.for_system(system, P, name=name)
+
+
+def load_module_attr(spec: str, attr: str) -> object:
     """Return ``attr`` of the user file behind ``spec`` (``None`` for built-ins or if missing)."""
     if spec in BUILTIN or ":" not in spec:
         return None

@@ -76,10 +76,11 @@ def simulate(
         ev_conv.direction = -1  # type: ignore[attr-defined]
         events.append(ev_conv)
         names.append(RunStatus.CONVERGED)
-    if system.margin is not None:
+    margin = system.margin
+    if margin is not None:
 
         def ev_dom(t: float, x: np.ndarray) -> float:
-            return float(system.margin(list(x), _np_ns()))
+            return float(margin(list(x), _np_ns()))
 
         ev_dom.terminal = True  # type: ignore[attr-defined]
         ev_dom.direction = -1  # type: ignore[attr-defined]

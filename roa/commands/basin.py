@@ -182,7 +182,7 @@ def build(args: argparse.Namespace):
             raise ValueError(f"--samples must be >= 1, got {args.samples}")
         ranges = [rng(n) for n in names]
         _check_box_in_domain(system, ranges)
-        sampler = box_sample(system, ranges, args.samples, seed=args.seed)
+        sampler = box_sample(system, ranges, args.samples, seed=args.seed)  # type: ignore[assignment]
         mode = {"mode": "box", "box": dict(zip(names, ranges, strict=True)), "seed": args.seed}
     if args.chunk_size < 1:
         raise ValueError(f"--chunk-size must be >= 1, got {args.chunk_size}")

@@ -105,7 +105,7 @@ def plot_slice(
         i = system.state_names.index(name)
         if i not in (ia, ib):
             continue
-        kw = {"color": "#444444", "ls": (0, (6, 3)), "lw": 1.3}
+        kw: dict[str, Any] = {"color": "#444444", "ls": (0, (6, 3)), "lw": 1.3}
         (ax.axvline if i == ia else ax.axhline)(value, **kw)
         if label not in seen:
             handles.append(Line2D([], [], label=label, **kw))

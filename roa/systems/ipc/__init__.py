@@ -69,7 +69,7 @@ def control_force(
 
     xp = NP if xp is None else xp
     gains, reference = _settings(gains, reference)
-    zeta = to_flat_components(*x, xp=xp)
+    zeta = to_flat_components(x[0], x[1], x[2], x[3], xp=xp)
     v = virtual_input(t, zeta, gains, reference)
     u = force(v, zeta[2], zeta[3], check_delta(delta), xp)
     if saturation is not None:

@@ -33,7 +33,7 @@ class Gains:
             raise ValueError(
                 "poles: complex poles must come in conjugate pairs (real coefficients)"
             )
-        return cls.from_coefficients(coeffs.real[::-1][:4])
+        return cls.from_coefficients(coeffs.real[::-1][:4].tolist())
 
     @classmethod
     def from_coefficients(cls, h: Sequence[float]) -> Gains:

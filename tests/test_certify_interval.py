@@ -7,6 +7,8 @@ independent SLSQP minimisation of V subject to V' = 0 (not by the code under tes
 
 from __future__ import annotations
 
+from fractions import Fraction
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -14,7 +16,7 @@ from hypothesis import strategies as st
 from scipy.optimize import minimize
 
 from roa.certify.interval import INTERVAL, JET, Interval, Jet
-from roa.certify.validate import local_proof, validate_level
+from roa.certify.validate import box_offsets, local_proof, validate_level
 from roa.lyapunov import QuadraticLyapunov
 from roa.systems.ipc import phi0, transformed
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
@@ -149,3 +151,33 @@ def test_bad_level_rejected():
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
     with pytest.raises(ValueError, match="level"):
         validate_level(system, V, -1.0)
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    st.floats(-10, 0, allow_nan=False, allow_subnormal=False),
+    st.floats(0, 10, allow_nan=False, allow_subnormal=False),
+    st.floats(0, 1),
+)
+def test_box_offsets_enclose_exact_differences(a, b, t):
+    """x - mid over the box, computed exactly with Fractions, lies in the offset interval (boxes
+    straddling 0 with unequal sides make lo - mid and hi - mid inexact in floating point)."""
+    lo, hi = np.array([[a, -b]]), np.array([[b, -a]])
+    mid = np.array([[a + t * (b - a), -(a + t * (b - a))]])
+    mid = np.clip(mid, lo, hi)
+    for i, d in enumerate(box_offsets(lo, hi, mid)):
+        m = Fraction(float(mid[0, i]))
+        assert Fraction(float(d.lo[0])) <= Fraction(float(lo[0, i])) - m
+        assert Fraction(float(hi[0, i])) - m <= Fraction(float(d.hi[0]))
+
+
+def test_box_offsets_round_outward_on_a_known_inexact_case():
+    # found by random search: lo - mid, hi - mid rounded to nearest lie strictly inside the exact
+    # offsets for this box (the naive delta was not an enclosure)
+    lo, hi = np.array([[-6.369616873214543]]), np.array([[2.697867137638703]])
+    mid = 0.5 * (lo + hi)
+    exact = [Fraction(float(v)) - Fraction(float(mid[0, 0])) for v in (lo[0, 0], hi[0, 0])]
+    naive = [Fraction(float(lo[0, 0] - mid[0, 0])), Fraction(float(hi[0, 0] - mid[0, 0]))]
+    assert naive[0] > exact[0] or naive[1] < exact[1]  # the case really is inexact
+    d = box_offsets(lo, hi, mid)[0]
+    assert Fraction(float(d.lo[0])) <= exact[0] and exact[1] <= Fraction(float(d.hi[0]))

@@ -28,7 +28,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.certify.interval import JET, Interval, Jet
+from roa.certify.interval import JET, Interval, Jet, _down, _up
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
 
@@ -254,6 +254,24 @@ def _to_x(lyap: QuadraticLyapunov, fr: _Frame, y: list) -> list:
     ]
 
 
+def box_offsets(lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> list[Interval]:
+    """Intervals enclosing ``x - mid`` for ``x`` in the boxes ``[lo, hi]``, one per coordinate.
+
+    ``lo - mid`` and ``hi - mid`` are rounded outward (one ulp), so the centred and Taylor forms
+    built on them are strict enclosures even when rounding to nearest would move them inward.
+
+    Parameters
+    ----------
+    lo, hi : numpy.ndarray
+        Box corners, shape ``(m, n)``.
+    mid : numpy.ndarray
+        Expansion points (any floats inside the boxes), shape ``(m, n)``.
+    """
+    return [
+        Interval(_down(lo[:, i] - mid[:, i]), _up(hi[:, i] - mid[:, i])) for i in range(lo.shape[1])
+    ]
+
+
 def _evaluate(system: System, lyap: QuadraticLyapunov, fr: _Frame, lo: np.ndarray, hi: np.ndarray):
     """Interval V, interval V' (natural ∩ centred form) and |grad V'| * width on boxes in y."""
     n = lyap.n
@@ -264,7 +282,7 @@ def _evaluate(system: System, lyap: QuadraticLyapunov, fr: _Frame, lo: np.ndarra
     vd = _vdot(system, lyap, to_x(Jet.variables(lo, hi, order=2)), JET)
     mid = 0.5 * (lo + hi)
     at = _vdot(system, lyap, to_x(Jet.variables(mid, mid, order=1)), JET)
-    delta = [Interval(lo[:, i] - mid[:, i], hi[:, i] - mid[:, i]) for i in range(n)]
+    delta = box_offsets(lo, hi, mid)
     vc = Interval.of(at.v)
     cen, tay = vc, vc  # first-order centred form and second-order Taylor form
     score = np.zeros_like(lo)

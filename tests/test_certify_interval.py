@@ -181,3 +181,94 @@ def test_box_offsets_round_outward_on_a_known_inexact_case():
     assert naive[0] > exact[0] or naive[1] < exact[1]  # the case really is inexact
     d = box_offsets(lo, hi, mid)[0]
     assert Fraction(float(d.lo[0])) <= exact[0] and exact[1] <= Fraction(float(d.hi[0]))
+
+
+def _mp_in(iv, value) -> bool:
+    """``value`` (an mpmath number, exact to 40 digits) lies in the float interval."""
+    import mpmath as mp
+
+    return mp.mpf(float(iv.lo)) <= value <= mp.mpf(float(iv.hi))
+
+
+def test_itan_at_the_pole_is_the_whole_line_not_inverted():
+    # [float(pi/2), next float] contains the pole pi/2 (float(pi/2) < pi/2 < its successor)
+    a = np.pi / 2
+    T = INTERVAL.tan(Interval(a, np.nextafter(a, 4.0)))
+    assert T.lo == -np.inf and T.hi == np.inf
+    T = INTERVAL.tan(Interval(np.nextafter(a, 0.0), a))  # just below the pole: finite, huge
+    assert 1e15 < T.lo <= T.hi < np.inf
+    T = INTERVAL.tan(Interval(2.0, 4.0))  # one branch between the poles pi/2 and 3 pi/2
+    assert T.lo <= np.tan(2.0) and np.tan(4.0) <= T.hi and np.isfinite(T.hi)
+
+
+def test_inverted_interval_rejected():
+    with pytest.raises(ValueError, match="lower bound > upper bound"):
+        Interval(1.0, 0.0)
+    assert Interval(np.nan, 0.0).lo == -np.inf  # NaN stays "no information"
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-20, 20), st.floats(-20, 20), st.floats(0, 1))
+def test_tan_log_powers_reciprocal_enclose_mpmath_values(a, b, t):
+    """Enclosures checked against 40-digit mpmath values at a point of the box."""
+    import mpmath as mp
+
+    lo, hi = min(a, b), max(a, b)
+    x = min(max(lo + t * (hi - lo), lo), hi)
+    X = Interval(lo, hi)
+    with mp.workdps(40):
+        _check_enclosures(X, x, lo, hi)
+
+
+def _check_enclosures(X, x, lo, hi):
+    import mpmath as mp
+
+    xm = mp.mpf(x)
+    if mp.cos(xm) != 0:
+        assert _mp_in(INTERVAL.tan(X), mp.tan(xm))
+    if x > 0:
+        assert _mp_in(INTERVAL.log(X), mp.log(xm))
+        assert _mp_in(X**0.5, mp.sqrt(xm))
+        assert _mp_in(X**-1.5, xm**-1.5)
+        assert _mp_in(X**2.5, xm**2.5)
+    if x != 0:
+        assert _mp_in(X.reciprocal(), 1 / xm)  # across zero too: the whole line
+        assert _mp_in(X**-3, xm**-3)
+    if lo < 0 < hi:
+        R = X.reciprocal()
+        assert R.lo == -np.inf and R.hi == np.inf
+
+
+_ops = [
+    lambda X, Y: X + Y,
+    lambda X, Y: X - Y,
+    lambda X, Y: X * Y,
+    lambda X, Y: X / Y,
+    lambda X, Y: X * X,
+    lambda X, Y: X.reciprocal(),
+    lambda X, Y: X**3,
+    lambda X, Y: X**-2,
+    lambda X, Y: X**0.5,
+    lambda X, Y: X**-0.5,
+    lambda X, Y: INTERVAL.tan(X),
+    lambda X, Y: INTERVAL.log(X),
+    lambda X, Y: INTERVAL.sqrt(X),
+    lambda X, Y: INTERVAL.abs(X),
+    lambda X, Y: INTERVAL.sin(X),
+    lambda X, Y: INTERVAL.cos(X),
+    lambda X, Y: INTERVAL.exp(X),
+    lambda X, Y: INTERVAL.arctan(X),
+    lambda X, Y: INTERVAL.arcsinh(X),
+    lambda X, Y: INTERVAL.arctanh(X),
+]
+wide = st.floats(-1e6, 1e6, allow_nan=False)
+
+
+@settings(max_examples=300, deadline=None)
+@given(wide, wide, wide, wide, st.lists(st.integers(0, len(_ops) - 1), min_size=1, max_size=6))
+def test_compositions_never_produce_inverted_intervals(a, b, c, d, chain):
+    X, Y = Interval(min(a, b), max(a, b)), Interval(min(c, d), max(c, d))
+    with np.errstate(all="ignore"):
+        for k in chain:
+            X = _ops[k](X, Y)  # Interval() raises on lo > hi
+            assert X.lo <= X.hi

@@ -47,6 +47,13 @@ class Interval:
         bad = np.isnan(lo) | np.isnan(hi)
         self.lo = np.where(bad, -_INF, lo)
         self.hi = np.where(bad, _INF, hi)
+        inverted = self.lo > self.hi
+        if np.any(inverted):
+            k = np.flatnonzero(inverted)[0]
+            raise ValueError(
+                f"Interval: lower bound > upper bound at {np.count_nonzero(inverted)} entries "
+                f"(first: [{self.lo.flat[k]!r}, {self.hi.flat[k]!r}])"
+            )
 
     # -- helpers ---------------------------------------------------------------------------------
     @staticmethod
@@ -132,12 +139,13 @@ class Interval:
             lo, hi = self.lo**k, self.hi**k
             return Interval(np.maximum(out.lo, _down(lo, k)), np.minimum(out.hi, _up(hi, k)))
         p = float(p)
-        base = Interval(np.maximum(self.lo, 0.0), self.hi)  # real power: domain x >= 0
+        base = Interval(np.maximum(self.lo, 0.0), np.maximum(self.hi, 0.0))  # domain x >= 0
         with np.errstate(divide="ignore", invalid="ignore"):
             a, b = base.lo**p, base.hi**p
         lo, hi = (a, b) if p > 0 else (b, a)
         out = Interval(_down(lo, LIBM_ULPS), _up(hi, LIBM_ULPS))
         out.lo[self.lo < 0] = -_INF  # partly outside the domain: no information
+        out.hi[self.hi < 0] = _INF  # wholly outside: the whole line, as for NaN
         return out
 
 
@@ -150,6 +158,7 @@ def _monotone(fn: Any, x: Any, *, increasing: bool = True) -> Interval:
 
 
 def isqrt(x: Any) -> Interval:
+    """Enclosure of ``sqrt(x)``; the lower bound is ``-inf`` where ``x`` reaches below 0."""
     x = Interval.of(x)
     out = Interval(_down(np.sqrt(np.maximum(x.lo, 0.0))), _up(np.sqrt(np.maximum(x.hi, 0.0))))
     out.lo[x.lo < 0] = -_INF
@@ -157,6 +166,7 @@ def isqrt(x: Any) -> Interval:
 
 
 def iabs(x: Any) -> Interval:
+    """Enclosure of ``|x|`` (exact: no rounding is needed)."""
     x = Interval.of(x)
     a, b = np.abs(x.lo), np.abs(x.hi)
     lo = np.where((x.lo <= 0) & (x.hi >= 0), 0.0, np.minimum(a, b))
@@ -166,10 +176,11 @@ def iabs(x: Any) -> Interval:
 def _periodic(fn: Any, x: Any, peak: float) -> Interval:
     """sin/cos: enclose by endpoint values, 1 if ``peak + 2 k pi`` inside, -1 if ``peak + pi + 2 k pi``."""
     x = Interval.of(x)
-    base = _monotone(fn, x)
-    lo, hi = np.minimum(base.lo, base.hi), np.maximum(base.lo, base.hi)
+    a, b = fn(x.lo), fn(x.hi)
+    lo, hi = np.minimum(a, b), np.maximum(a, b)
     two_pi = 2 * np.pi
-    tol = 1e-12
+    # (x - peak) / two_pi is off by a few ulps of its value: the tolerance grows with |x|
+    tol = 1e-12 + 1e-14 * np.maximum(np.abs(x.lo), np.abs(x.hi))
     has_max = np.floor((x.hi - peak) / two_pi + tol) >= np.ceil((x.lo - peak) / two_pi - tol)
     trough = peak + np.pi
     has_min = np.floor((x.hi - trough) / two_pi + tol) >= np.ceil((x.lo - trough) / two_pi - tol)
@@ -179,24 +190,38 @@ def _periodic(fn: Any, x: Any, peak: float) -> Interval:
 
 
 def isin(x: Any) -> Interval:
+    """Enclosure of ``sin(x)``: endpoint values, and +-1 where a peak or trough is inside."""
     return _periodic(np.sin, x, np.pi / 2)
 
 
 def icos(x: Any) -> Interval:
+    """Enclosure of ``cos(x)``: endpoint values, and +-1 where a peak or trough is inside."""
     return _periodic(np.cos, x, 0.0)
 
 
 def itan(x: Any) -> Interval:
+    """Enclosure of ``tan(x)``; the whole line where the box may contain a pole.
+
+    A pole ``pi/2 + k pi`` may lie in ``x`` exactly when the rigorous enclosure :func:`icos` of
+    ``cos(x)`` contains 0; otherwise ``cos`` has one sign on ``x``, ``x`` lies in one branch and
+    ``tan`` is increasing there, so the (widened) endpoint values enclose it.
+    """
     x = Interval.of(x)
-    same = np.floor(x.lo / np.pi + 0.5) == np.floor(x.hi / np.pi + 0.5)
-    out = _monotone(np.tan, x)
-    return Interval(np.where(same, out.lo, -_INF), np.where(same, out.hi, _INF))
+    c = icos(x)
+    pole = (c.lo <= 0) & (c.hi >= 0)
+    with np.errstate(invalid="ignore"):
+        a, b = np.tan(x.lo), np.tan(x.hi)
+    lo = np.where(pole, -_INF, _down(a, LIBM_ULPS))
+    hi = np.where(pole, _INF, _up(b, LIBM_ULPS))
+    return Interval(lo, hi)
 
 
 def ilog(x: Any) -> Interval:
+    """Enclosure of ``log(x)``; ``-inf`` below where ``x`` reaches 0, the whole line if ``x <= 0``."""
     x = Interval.of(x)
-    out = _monotone(np.log, Interval(np.maximum(x.lo, 0.0), x.hi))
+    out = _monotone(np.log, Interval(np.maximum(x.lo, 0.0), np.maximum(x.hi, 0.0)))
     out.lo[x.lo <= 0] = -_INF
+    out.hi[x.hi <= 0] = _INF
     return out
 
 

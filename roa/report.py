@@ -6,6 +6,7 @@ import json
 import os
 from pathlib import Path
 
+from roa.experiment import VERDICTS
 from roa.io import atomic_write_text
 
 #: Sections in report order: (claim id prefix, heading).
@@ -69,6 +70,14 @@ def render_report(results: str | Path = "results", out: str | Path = "paper_repr
     for c in claims:
         c["evidence"] = _relink(c["evidence"], prefix)
     lines = [HEADER]
+    tally = {v: sum(c["verdict"] == v for c in claims) for v in VERDICTS}
+    lines += [
+        f"{len(claims)} claims checked: "
+        + ", ".join(f"{n} {v}" for v, n in tally.items() if n)
+        + ". Sampling-based rows say so (no proof); certified rows were checked by interval "
+        "arithmetic independently of the solver that proposed them.",
+        "",
+    ]
     for id_prefix, heading in SECTIONS:
         rows = [c for c in claims if c["id"].startswith(id_prefix)]
         if not rows:

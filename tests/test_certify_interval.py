@@ -272,3 +272,33 @@ def test_compositions_never_produce_inverted_intervals(a, b, c, d, chain):
         for k in chain:
             X = _ops[k](X, Y)  # Interval() raises on lo > hi
             assert X.lo <= X.hi
+
+
+def _half_plane_system():
+    """Toy system x' = -x (V = |x|^2, V' = -2 |x|^2 < 0 everywhere) on the domain x1 < 1."""
+    from roa.system import System
+
+    return System(
+        name="decay_half_plane",
+        field=lambda t, x, xp: (-x[0], -x[1]),
+        equilibrium=(0.0, 0.0),
+        state_names=("x1", "x2"),
+        margin=lambda x, xp: 1.0 - x[0],
+        domain_description="x1 < 1",
+    )
+
+
+def test_level_set_cut_by_the_domain_is_not_certified():
+    # {|x|^2 <= 4} contains x = (1.5, 0), outside the domain x1 < 1: V' < 0 everywhere is not
+    # enough, the sublevel set must lie inside the domain (it does for level 0.81 < 1)
+    system = _half_plane_system()
+    V = QuadraticLyapunov.for_system(system, np.eye(2))
+    cut = validate_level(system, V, 4.0)
+    assert cut.status == "inconclusive"
+    assert "domain boundary" in cut.message
+    w = np.asarray(cut.meta["domain_witness"])
+    assert V.value(w) <= 4.0 and w[0] >= 1.0
+    assert validate_level(system, V, 0.81).status == "certified"
+    # the bounding cube of {V <= 0.999} has x1 <= 0.9995 < 1: provably inside the domain
+    assert validate_level(system, V, 0.999, max_boxes=20_000).status == "certified"
+    assert validate_level(system, V, 1.0001).status == "inconclusive"

@@ -9,13 +9,16 @@ Two proofs, both independent of any optimisation solver:
    matrix in it is negative definite if ``-H_mid - t I`` is positive definite with
    ``t >= ||rad H||_F``, checked exactly in rational arithmetic. So ``V' < 0`` on ``B \\ {x_eq}``.
 2. **On the shell** ``{eps <= V <= rho}``: branch and bound over boxes. A box is discarded when its
-   interval ``V > rho`` or ``V < eps``, proved when the interval ``V' < 0`` (natural extension
-   intersected with the centred form ``V'(c) + [grad V'] (X - c)``), else split along the coordinate
-   with the largest ``|grad| * width``. Box centres of undecided boxes, scaled radially to the level
-   surface, are tried as counterexamples; a witness is re-checked at 50 digits with mpmath.
+   interval ``V > rho``, or ``V < eps`` or the interval ``V' < 0`` (natural extension
+   intersected with the centred form ``V'(c) + [grad V'] (X - c)``) *and*, for a system with a
+   domain, the interval ``system.margin > 0`` on the box; else it is split along the coordinate
+   with the largest ``|grad| * width``. A point of ``{V <= rho}`` outside the domain (confirmed at
+   50 digits) ends the run ``inconclusive``: the level set reaches the domain boundary. Box
+   centres of undecided boxes, scaled radially to the level surface, are tried as
+   counterexamples; a witness is re-checked at 50 digits with mpmath.
 
 Verdicts are values (:class:`Verdict`): ``certified`` (boxes, time), ``refuted`` (witness),
-``inconclusive`` (box budget exhausted).
+``inconclusive`` (box budget exhausted, or the level set leaves the domain).
 """
 
 from __future__ import annotations
@@ -28,7 +31,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.certify.interval import JET, Interval, Jet, _down, _up
+from roa.certify.interval import INTERVAL, JET, Interval, Jet, _down, _up
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
 
@@ -126,11 +129,35 @@ def recheck_witness(
         )
         Vd = _vdot(system, lyap, xs, _mp_namespace())
         nonzero = any(v != 0 for v in d)
+        inside = system.margin is None or system.margin(xs, _mp_namespace()) > 0
         return {
             "digits": digits,
             "V": mp.nstr(V, 20),
             "Vdot": mp.nstr(Vd, 20),
-            "confirmed": bool(nonzero and V <= mp.mpf(float(level)) and Vd >= 0),
+            "confirmed": bool(nonzero and inside and V <= mp.mpf(float(level)) and Vd >= 0),
+        }
+
+
+def recheck_domain_witness(
+    system: System, lyap: QuadraticLyapunov, x: np.ndarray, level: float, *, digits: int = 50
+) -> dict[str, Any]:
+    """Confirm at ``digits`` digits that ``x`` has ``V(x) <= level`` and ``margin(x) <= 0``."""
+    import mpmath as mp
+
+    if system.margin is None:
+        raise ValueError(f"system {system.name!r} has no domain margin")
+    with mp.workdps(digits):
+        xs = [mp.mpf(float(v)) for v in x]
+        d = [xs[i] - mp.mpf(float(lyap.center[i])) for i in range(lyap.n)]
+        V = mp.fsum(
+            d[i] * mp.mpf(float(lyap.P[i, j])) * d[j] for i in range(lyap.n) for j in range(lyap.n)
+        )
+        m = system.margin(xs, _mp_namespace())
+        return {
+            "digits": digits,
+            "V": mp.nstr(V, 20),
+            "margin": mp.nstr(m, 20),
+            "confirmed": bool(V <= mp.mpf(float(level)) and m <= 0),
         }
 
 
@@ -273,7 +300,8 @@ def box_offsets(lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> list[Interva
 
 
 def _evaluate(system: System, lyap: QuadraticLyapunov, fr: _Frame, lo: np.ndarray, hi: np.ndarray):
-    """Interval V, interval V' (natural ∩ centred form) and |grad V'| * width on boxes in y."""
+    """Interval V, interval V' (natural ∩ centred form), |grad V'| * width and the interval
+    domain margin (``None`` without a domain) on boxes in y."""
     n = lyap.n
 
     def to_x(y: list) -> list:
@@ -304,7 +332,10 @@ def _evaluate(system: System, lyap: QuadraticLyapunov, fr: _Frame, lo: np.ndarra
         V = Y[i].square() * fr.G[i][i] + V
         for j in range(i + 1, n):
             V = (Y[i] * Y[j]) * (fr.G[i][j] * 2.0) + V
-    return V, vdot, score
+    margin = None
+    if system.margin is not None:
+        margin = _full(system.margin(to_x(Y), INTERVAL), len(lo))
+    return V, vdot, score, margin
 
 
 def _try_witnesses(system, lyap, pts, level):
@@ -318,8 +349,22 @@ def _try_witnesses(system, lyap, pts, level):
     with np.errstate(all="ignore"):
         Vd = lyap.derivative(system, cand)
         Vc = lyap.value(cand)
-    bad = np.flatnonzero((Vd >= 0) & (Vc <= level) & np.isfinite(Vd))
+    bad = (Vd >= 0) & (Vc <= level) & np.isfinite(Vd)
+    if system.margin is not None:
+        bad &= system.inside(cand)
+    bad = np.flatnonzero(bad)
     return None if bad.size == 0 else cand[bad[np.argmax(Vd[bad])]]
+
+
+def _try_domain_witness(system, lyap, pts, level):
+    """A candidate point (or its scaling to the level surface) with V <= level outside the domain."""
+    V = lyap.value(pts)
+    ok = V > 0
+    d = pts[ok] - lyap.center
+    cand = np.concatenate([pts, lyap.center + d * np.sqrt(level / V[ok])[:, None] * (1 - 1e-9)])
+    with np.errstate(all="ignore"):
+        bad = np.flatnonzero(~system.inside(cand) & (lyap.value(cand) <= level))
+    return None if bad.size == 0 else cand[bad[0]]
 
 
 def validate_level(
@@ -371,7 +416,7 @@ def validate_level(
     fr = _frame(lyap, level)
     queue_lo = [np.full((1, lyap.n), -fr.radius)]
     queue_hi = [np.full((1, lyap.n), fr.radius)]
-    boxes = proved = 0
+    boxes = proved = outside = 0
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
         queue_lo, queue_hi = (
@@ -380,10 +425,29 @@ def validate_level(
         )
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, score = _evaluate(system, lyap, fr, lo, hi)
-        undecided = ~((V.lo > level) | (V.hi < eps) | (Vd.hi < 0))
-        proved += int(np.count_nonzero(Vd.hi < 0))
+        V, Vd, score, margin = _evaluate(system, lyap, fr, lo, hi)
+        inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
+        undecided = ~((V.lo > level) | (((V.hi < eps) | (Vd.hi < 0)) & inside))
+        proved += int(np.count_nonzero((Vd.hi < 0) & inside))
         lo, hi, score = lo[undecided], hi[undecided], score[undecided]
+        outside += int(np.count_nonzero(~inside[undecided]))
+        if len(lo) and margin is not None and not np.all(inside[undecided]):
+            pts = lyap.center + 0.5 * (lo + hi) @ fr.M.T
+            w = _try_domain_witness(system, lyap, pts, level)
+            if w is not None:
+                check = recheck_domain_witness(system, lyap, w, level)
+                if check["confirmed"]:
+                    return Verdict(
+                        "inconclusive",
+                        level,
+                        boxes,
+                        time.perf_counter() - t0,
+                        eps,
+                        message="the level set reaches the domain boundary "
+                        f"({system.domain_description}): V <= level at a point outside the "
+                        "domain (float and 50 digits); no certificate for this level",
+                        meta={"domain_witness": [float(v) for v in w], "domain_check": check},
+                    )
         if len(lo):
             w = _try_witnesses(system, lyap, lyap.center + 0.5 * (lo + hi) @ fr.M.T, level)
             if w is not None:
@@ -406,7 +470,13 @@ def validate_level(
                 boxes,
                 time.perf_counter() - t0,
                 eps,
-                message=f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided",
+                message=f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided"
+                + (
+                    f" ({outside} box evaluations not provably inside the domain "
+                    f"{system.domain_description}: the level set may reach its boundary)"
+                    if outside
+                    else ""
+                ),
             )
         if len(lo):
             k = np.argmax(score * (hi - lo > 0), axis=1)

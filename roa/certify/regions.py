@@ -8,6 +8,7 @@ verdicts are kept with their own status (``refuted`` / ``inconclusive``), never 
 from __future__ import annotations
 
 import json
+from collections.abc import Callable
 from pathlib import Path
 
 import numpy as np
@@ -16,15 +17,34 @@ from roa.regions import Region
 
 CERTIFIED_PATH = Path("results/certify/certified.json")
 
+#: Coordinates a stored IPC Lyapunov matrix is written in (``coords`` of certified.json).
+COORDS = ("flat", "hybrid")
+
+
+def coords_map(name: str) -> Callable[[np.ndarray], np.ndarray]:
+    """Physical IPC states -> the named analysis coordinates (``inf`` outside |theta| < pi/2).
+
+    ``"flat"``: (2.2), ``(z1, z2, w1, w2)``; ``"hybrid"``: ``(q, z2, w1, w2)`` of
+    :mod:`roa.systems.ipc.hybrid`.
+    """
+    if name == "flat":
+        from roa.systems.ipc import physical_to_flat_or_inf
+
+        return physical_to_flat_or_inf
+    if name == "hybrid":
+        from roa.systems.ipc.hybrid import physical_to_hybrid_or_inf
+
+        return physical_to_hybrid_or_inf
+    raise ValueError(f"coords {name!r}: allowed {', '.join(COORDS)}")
+
 
 def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
-    """The IPC's certified sublevel sets ``{V(to_flat(x)) <= level}``.
+    """The IPC's certified sublevel sets ``{V(coords(x)) <= level}``.
 
-    Paper's V (3.11), the quadratic V optimised for the reference-box fraction and the one
-    optimised for the sector at q = q' = theta' = 0 (each with its own verdict as status).
+    Paper's V (3.11) and the optimised quadratic V (reference-box fraction, sector at
+    q = q' = theta' = 0, paper's ball; in flat or hybrid coordinates, the entry's ``coords``,
+    default flat), each with its own verdict as status.
     """
-    from roa.systems.ipc import physical_to_flat_or_inf
-
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
@@ -37,7 +57,7 @@ def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
                 np.asarray(entry["P"], dtype=float),
                 float(entry["level"]),
                 entry["status"],
-                physical_to_flat_or_inf,
+                coords_map(entry.get("coords", "flat")),
                 {k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")},
             )
         )

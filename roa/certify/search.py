@@ -143,7 +143,8 @@ def optimise_quadratic(
     exploited by the optimiser, so the search runs in ``rounds`` exchange rounds: after each
     Nelder-Mead run the level of the best ``P`` is recomputed by the multistart IPOPT search of
     :func:`roa.levelset.casadi_level`; if it is lower, its witness joins the rays and the search
-    restarts from the best ``P``.
+    restarts from the best ``P``. The result is the round's ``P`` with the best objective measured
+    at ``min(ray level, IPOPT level)`` (exchange rounds can lose ground), with that level.
 
     Parameters
     ----------
@@ -203,6 +204,11 @@ def optimise_quadratic(
             return 1.0
         if not np.isfinite(rho):
             return 1.0
+        s = measure(P, rho)
+        hist.append(s)
+        return -s
+
+    def measure(P: np.ndarray, rho: float) -> float:
         v = np.einsum("ki,ij,kj->k", Y, P, Y)
         if objective == "box":
             s = float(np.mean(1.0 / (1.0 + np.exp(np.clip((v / rho - 1.0) / 0.02, -50, 50)))))
@@ -216,12 +222,12 @@ def optimise_quadratic(
                 t0_ = tgrid[k - 1] if k else 0.0
                 frac = (rho - v0) / max(v[k] - v0, 1e-300)
                 s = float(t0_ + frac * (tgrid[k] - t0_)) / t_max
-        hist.append(s)
-        return -s
+        return s
 
     x0 = np.linalg.cholesky(P0)[np.tril_indices(n)]
     nfev = 0
     log = []
+    best: tuple[float, np.ndarray, float] | None = None  # (checked objective, theta, level)
     for _ in range(int(rounds)):
         res = optimize.minimize(
             score,
@@ -234,17 +240,27 @@ def optimise_quadratic(
         P = _unpack(res.x, n, trace)
         rho_ray = ray_level(system, P, U, extra=np.array(active) if active else None)
         chk = casadi_level(system, QuadraticLyapunov.for_system(system, P), P, shape="level")
-        log.append({"objective": -float(res.fun), "ray_level": rho_ray, "local_level": chk.value})
+        rho = min(rho_ray, chk.value) if chk.status == "found" else rho_ray
+        checked = measure(P, rho) if np.isfinite(rho) else 0.0
+        log.append(
+            {
+                "objective": -float(res.fun),
+                "ray_level": rho_ray,
+                "local_level": chk.value,
+                "checked_objective": checked,
+            }
+        )
+        if best is None or checked > best[0]:
+            best = (checked, res.x.copy(), rho)
         if chk.status != "found" or chk.value >= rho_ray * (1 - 1e-4):
             break
         active.append(np.asarray(chk.witness, dtype=float) - system.x_eq)
-    P = _unpack(x0, n, trace)
-    level = ray_level(system, P, U, extra=np.array(active) if active else None)
+    assert best is not None
     return SearchResult(
-        P,
-        level,
+        _unpack(best[1], n, trace),
+        best[2],
         objective,
-        -float(score(x0)),
+        best[0],
         hist,
         time.perf_counter() - t0,
         nfev,

@@ -1,0 +1,80 @@
+"""A content-addressed cache of Lyapunov-function *searches* (candidates, not certificates).
+
+The search of :func:`roa.certify.search.optimise_quadratic` takes minutes; its result is only a
+candidate ``P``, which is certified afterwards by the interval validation, recomputed on every
+run. Reusing a cached ``P`` therefore never weakens a certificate: a stale candidate could only
+give a smaller certified region, never an unsound one. The key is a SHA-256 of the search inputs
+(system name, objective, start matrix, options) and of the source of the search code
+(:mod:`roa.certify.search`, :mod:`roa.levelset`), so any change to them recomputes.
+
+The cache is one JSON file (written atomically); :meth:`SearchCache.save` keeps only the entries
+used in the current run.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from roa.io import atomic_write_json, to_json
+
+
+def _plain(obj: Any) -> Any:
+    """JSON-compatible copy (numpy arrays -> lists; floats round-trip exactly)."""
+    return json.loads(to_json(obj))
+
+
+def _source_hash() -> str:
+    import roa.certify.search as search
+    import roa.levelset as levelset
+
+    h = hashlib.sha256()
+    for mod in (search, levelset):
+        h.update(Path(mod.__file__).read_bytes())
+    return h.hexdigest()
+
+
+class SearchCache:
+    """``get(key, compute)``: the cached result for ``key`` or ``compute()`` (then stored).
+
+    Parameters
+    ----------
+    path : Path
+        The JSON file (created on :meth:`save`).
+    enabled : bool
+        ``False`` recomputes every search (the file is still rewritten by :meth:`save`).
+    """
+
+    def __init__(self, path: str | Path, *, enabled: bool = True) -> None:
+        self.path = Path(path)
+        self.enabled = bool(enabled)
+        self._old: dict[str, Any] = {}
+        if self.enabled and self.path.is_file():
+            try:
+                self._old = json.loads(self.path.read_text())
+            except json.JSONDecodeError:
+                self._old = {}
+        self._used: dict[str, Any] = {}
+        self._code = _source_hash()
+
+    def digest(self, key: dict[str, Any]) -> str:
+        blob = json.dumps({"key": _plain(key), "code": self._code}, sort_keys=True)
+        return hashlib.sha256(blob.encode()).hexdigest()
+
+    def get(
+        self, key: dict[str, Any], compute: Callable[[], dict[str, Any]]
+    ) -> tuple[dict[str, Any], bool]:
+        """``(result, hit)``; ``result`` is the JSON dict ``compute()`` returned (or its cache)."""
+        d = self.digest(key)
+        entry = self._old.get(d)
+        hit = entry is not None
+        if entry is None:
+            entry = {"key": _plain(key), "result": _plain(compute())}
+        self._used[d] = entry
+        return entry["result"], hit
+
+    def save(self) -> None:
+        atomic_write_json(self.path, self._used)

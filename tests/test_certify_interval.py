@@ -183,11 +183,12 @@ def test_box_offsets_round_outward_on_a_known_inexact_case():
     assert Fraction(float(d.lo[0])) <= exact[0] and exact[1] <= Fraction(float(d.hi[0]))
 
 
-def _mp_in(iv, value) -> bool:
-    """``value`` (an mpmath number, exact to 40 digits) lies in the float interval."""
+def _mp_in(iv, value, tol: float = 0.0) -> bool:
+    """``value`` (an mpmath number, exact to 40 digits) lies in the float interval (+- ``tol``)."""
     import mpmath as mp
 
-    return mp.mpf(float(iv.lo)) <= value <= mp.mpf(float(iv.hi))
+    lo, hi = mp.mpf(float(np.ravel(iv.lo)[0])), mp.mpf(float(np.ravel(iv.hi)[0]))
+    return lo - tol <= value <= hi + tol
 
 
 def test_itan_at_the_pole_is_the_whole_line_not_inverted():
@@ -302,3 +303,78 @@ def test_level_set_cut_by_the_domain_is_not_certified():
     # the bounding cube of {V <= 0.999} has x1 <= 0.9995 < 1: provably inside the domain
     assert validate_level(system, V, 0.999, max_boxes=20_000).status == "certified"
     assert validate_level(system, V, 1.0001).status == "inconclusive"
+
+
+def _composite(x, xp):
+    """Uses every function of the JET namespace (and /, **) in one expression of two variables."""
+    a, b = x[0], x[1]
+    return (
+        xp.tan(0.3 * a) * xp.arcsinh(b)
+        + xp.sqrt(1.0 + a * a) * xp.log(2.0 + b * b)
+        + xp.arctan(a * b) / (1.5 + xp.cos(b))
+        + xp.exp(-0.5 * a) * xp.sin(a)
+        + (1.0 + b * b) ** -1.5 * a
+    )
+
+
+def _jet_and_mp_derivatives(fn, x, lo, hi):
+    """Interval jet (order 2) of ``fn`` on the box [lo, hi] and 40-digit mpmath derivatives at x."""
+    import mpmath as mp
+
+    from roa.certify.validate import _mp_namespace
+
+    n = len(x)
+    J = fn(Jet.variables(lo[None, :], hi[None, :], order=2), JET)
+    with mp.workdps(40):
+        xs = [mp.mpf(float(v)) for v in x]
+
+        def f(*args):
+            return fn(list(args), _mp_namespace())
+
+        g = [mp.diff(f, xs, tuple(int(k == i) for k in range(n))) for i in range(n)]
+        H = [
+            [mp.diff(f, xs, tuple(int(k == i) + int(k == j) for k in range(n))) for j in range(n)]
+            for i in range(n)
+        ]
+    return J, g, H
+
+
+def _assert_jet_encloses(J, g, H, tol=1e-30):
+    """Enclosure up to ``tol``: 40-digit finite differences of O(1) functions resolve derivatives
+    only to an absolute ~1e-35 (a derivative of 1e-91 at a tiny coordinate reads as 0)."""
+    n = len(g)
+    for i in range(n):
+        assert _mp_in(Interval.of(J.g[i]), g[i], tol), (i, J.g[i], g[i])
+        for j in range(i, n):
+            e = J.h[i][j]
+            assert _mp_in(Interval.of(e), H[i][j], tol), (i, j, e, H[i][j])
+
+
+coord = st.floats(-1.2, 1.2, allow_nan=False)
+offset = st.floats(0, 0.05)
+
+
+@settings(max_examples=80, deadline=None)
+@given(coord, coord, offset, offset)
+def test_jet_gradient_and_hessian_enclose_mpmath_derivatives(a, b, r1, r2):
+    """local_proof and the Taylor form rely on jet enclosures of the gradient and Hessian: the
+    enclosure on a box around x must contain the derivatives at x (mpmath.diff: finite
+    differences at 40 digits)."""
+    x = np.array([a, b])
+    J, g, H = _jet_and_mp_derivatives(_composite, x, x - r1, x + r2)
+    _assert_jet_encloses(J, g, H)
+    Jp, _, _ = _jet_and_mp_derivatives(_composite, x, x, x)  # point box: only rounding
+    _assert_jet_encloses(Jp, g, H)
+
+
+@settings(max_examples=40, deadline=None)
+@given(coord, coord, coord, coord, offset)
+def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
+    """The same for V' of the IPC closed loop (3.8) with the paper's V, as local_proof uses it."""
+    from roa.certify.validate import _vdot
+
+    system = transformed()
+    V = QuadraticLyapunov.for_system(system, _paper_V())
+    x = np.array([a, b, c, d])
+    J, g, H = _jet_and_mp_derivatives(lambda y, xp: _vdot(system, V, y, xp), x, x - r, x + r)
+    _assert_jet_encloses(J, g, H)

@@ -19,7 +19,7 @@ boundary of the admissible set (``V'(x) = 0`` to rounding, or the domain boundar
   best directions refined by sampling in shrinking caps around them. The minimum over the sampled
   directions is an upper bound of c* that decreases as the number of directions grows
   (``result.details["convergence"]``).
-* :func:`casadi_level` -- IPOPT (through CasADi) minimising ``s(x)`` subject to
+* :func:`casadi_level` (in :mod:`roa.levelset_casadi`, re-exported here) -- IPOPT (through CasADi) minimising ``s(x)`` subject to
   ``V'(x) / s(x) >= 0``, multi-start from violating points; the best local minimiser, then moved
   onto V' = 0 exactly by a root search along its ray.
 
@@ -34,8 +34,25 @@ from typing import Any
 import numpy as np
 from scipy import linalg, optimize
 
+from roa.levelset_casadi import casadi_level
 from roa.lyapunov import QuadraticLyapunov, check_positive_definite
 from roa.system import System
+
+__all__ = [
+    "AGREEMENT_RTOL",
+    "BOTH_STATUSES",
+    "LEVEL_STATUSES",
+    "METHODS",
+    "WITNESS_ATOL",
+    "LevelSetResult",
+    "casadi_level",
+    "inner_level",
+    "jacobian",
+    "level_search",
+    "locally_negative",
+    "lyapunov_matrix",
+    "sampled_level",
+]
 
 METHODS = ("sampled", "casadi", "both")
 #: Relative agreement required between the two methods.
@@ -48,6 +65,12 @@ LEVEL_STATUSES = (
     "unbounded",  # no violation found within the search radius (c* >= r_max^2)
     "not_locally_negative",  # V' is not negative definite near the equilibrium: c* = 0
     "failed",  # the method found no admissible point (solver failures)
+)
+#: Statuses of ``level_search(method="both")`` besides the shared ones above.
+BOTH_STATUSES = (
+    "agree",  # both found, within AGREEMENT_RTOL
+    "disagree",  # both found, further apart
+    "partial",  # one found, the other did not (see per_method)
 )
 
 
@@ -326,117 +349,6 @@ def _finish(prob: _Problem, x: np.ndarray, method: str, details: dict[str, Any])
     return LevelSetResult(value, status, method, prob.shape, x, vd, kind, details)
 
 
-# ----------------------------------------------------------------------------- CasADi method
-
-
-def casadi_level(
-    system: System,
-    V: QuadraticLyapunov,
-    S: Any,
-    *,
-    shape: str = "custom",
-    n_starts: int = 16,
-    r_start: tuple[float, float] = (0.1, 30.0),
-    n_candidates: int = 8000,
-    seed: int = 1,
-) -> LevelSetResult:
-    """Largest shape level with V' < 0 by IPOPT: min s(x) s.t. V'(x)/s(x) >= 0.
-
-    The infimum of ``s`` over ``{V' >= 0, x != x0}`` is c* (V' < 0 near ``x0``). IPOPT is started
-    from violating points (V' > 0), drawn by rejection from random directions at shape radii
-    log-uniform in ``r_start``, so that it approaches the boundary from outside and is not pulled to
-    the equilibrium. With a domain (``system.margin``), the same is done for ``margin(x) <= 0``.
-
-    Parameters
-    ----------
-    n_starts : int
-        Number of IPOPT starts (>= 1) per problem.
-    r_start : (float, float)
-        Range of shape radii (sqrt(s)) of the candidate starting points.
-    n_candidates : int
-        Random points drawn to find violating starting points.
-    """
-    import casadi as ca
-
-    from roa.backend import namespace
-
-    if int(n_starts) < 1:
-        raise ValueError(f"n_starts must be >= 1, got {n_starts}")
-    if not (0 < r_start[0] < r_start[1] < np.inf):
-        raise ValueError(f"r_start must be 0 < low < high, got {r_start}")
-    prob = _problem(system, V, S, shape)
-    ok, lam = locally_negative(system, V)
-    if not ok:
-        return LevelSetResult(
-            0.0,
-            "not_locally_negative",
-            "casadi",
-            shape,
-            system.x_eq,
-            0.0,
-            details={"max_eig_AtP_PA": lam},
-        )
-    n = system.n
-    x = ca.SX.sym("x", n)
-    comps = [x[i] for i in range(n)]
-    _, vd = V.symbolic(system, comps, namespace("casadi"))
-    d = x - ca.DM(V.center)
-    s = ca.mtimes([d.T, ca.DM(prob.S), d])
-    opts = {
-        "ipopt.print_level": 0,
-        "print_time": 0,
-        "ipopt.sb": "yes",
-        "ipopt.tol": 1e-10,
-        "ipopt.max_iter": 200,
-        "error_on_fail": False,
-    }
-    rng = np.random.default_rng(seed)
-    U = _unit(rng.standard_normal((int(n_candidates), n)))
-    radii = np.exp(rng.uniform(np.log(r_start[0]), np.log(r_start[1]), int(n_candidates)))
-    cand_x = prob.points(U, radii)
-    with np.errstate(all="ignore"):
-        problems = [("vdot_zero", vd / s, prob.vdot(cand_x) > 0)]
-        if system.margin is not None:
-            mg = system.margin(comps, namespace("casadi"))
-            problems.append(("domain_boundary", -mg, ~system.inside(cand_x)))
-    best: LevelSetResult | None = None
-    n_ok = n_run = 0
-    for _kind, g, violating in problems:
-        starts = cand_x[violating][: int(n_starts)]
-        if len(starts) == 0:
-            continue
-        solver = ca.nlpsol("khalil", "ipopt", {"x": x, "f": s, "g": g}, opts)
-        for x0 in starts:
-            n_run += 1
-            sol = solver(x0=x0, lbg=0.0, ubg=np.inf)
-            if not solver.stats()["success"]:
-                continue
-            n_ok += 1
-            cand = _finish(
-                prob,
-                np.array(sol["x"]).ravel(),
-                "casadi",
-                {"n_starts": int(n_starts), "seed": seed},
-            )
-            if cand.status == "found" and (best is None or cand.value < best.value):
-                best = cand
-    info = {"n_starts": int(n_starts), "n_run": n_run, "n_converged": n_ok, "seed": seed}
-    if n_run == 0:
-        return LevelSetResult(
-            float(r_start[1] ** 2),
-            "unbounded",
-            "casadi",
-            shape,
-            None,
-            None,
-            details={**info, "note": "no violating point found within r_start"},
-        )
-    if best is None:
-        return LevelSetResult(np.inf, "failed", "casadi", shape, None, None, details=info)
-    best.details.update(info)
-    return best
-
-
 # ----------------------------------------------------------------------------- both
 
 
@@ -452,9 +364,16 @@ def level_search(
 ) -> dict[str, Any]:
     """Run one or both methods; returns ``{"value", "status", "method", "shape", "witness", ...}``.
 
-    With ``method="both"`` the value and witness are the smaller of the two (both are upper bounds
-    of c*, each attained at its witness), ``per_method`` holds both results, ``relative_difference``
-    their gap and ``status`` is ``"agree"`` if it is <= :data:`AGREEMENT_RTOL`, else ``"disagree"``.
+    With one method its result is returned as is (status from :data:`LEVEL_STATUSES`). With
+    ``method="both"``, ``per_method`` holds both results and only *successful* ones (status
+    ``"found"``, both upper bounds of c* attained at their witnesses) give the value and witness:
+
+    * both found: the smaller one; ``relative_difference`` is their gap and ``status`` is
+      ``"agree"`` if it is <= :data:`AGREEMENT_RTOL`, else ``"disagree"``;
+    * one found: its result, ``status`` ``"partial"`` (the other's status in ``per_method``);
+    * none found: the common status of both if they agree (e.g. ``"unbounded"``),
+      ``"not_locally_negative"`` if either says so, else ``"failed"``; the value is the smaller
+      one (not an upper bound of c*).
     """
     if method not in METHODS:
         raise ValueError(f"method {method!r}: allowed {', '.join(METHODS)}")
@@ -463,19 +382,30 @@ def level_search(
         results.append(sampled_level(system, V, S, shape=shape, **(sampled or {})))
     if method in ("casadi", "both"):
         results.append(casadi_level(system, V, S, shape=shape, **(casadi or {})))
-    best = min(results, key=lambda r: r.value)
+    if method != "both":
+        return results[0].to_json()
+    found = [r for r in results if r.status == "found"]
+    best = min(found or results, key=lambda r: r.value)
     out = best.to_json()
-    if method == "both":
-        a, b = (r.value for r in results)
+    rel = float("inf")  # no gap measured unless both found
+    if len(found) == 2:
+        a, b = (r.value for r in found)
         rel = abs(a - b) / max(abs(a), abs(b)) if max(abs(a), abs(b)) > 0 else 0.0
-        if not np.isfinite(rel):
-            rel = 0.0 if a == b else float("inf")
-        out.update(
-            method="both",
-            status="agree"
-            if rel <= AGREEMENT_RTOL and best.status == "found"
-            else ("disagree" if best.status == "found" else best.status),
-            relative_difference=rel,
-            per_method={r.method: r.to_json() for r in results},
-        )
+        status = "agree" if rel <= AGREEMENT_RTOL else "disagree"
+    elif len(found) == 1:
+        status = "partial"
+    else:
+        statuses = {r.status for r in results}
+        if len(statuses) == 1:
+            status = statuses.pop()
+        elif "not_locally_negative" in statuses:
+            status = "not_locally_negative"
+        else:
+            status = "failed"
+    out.update(
+        method="both",
+        status=status,
+        relative_difference=rel,
+        per_method={r.method: r.to_json() for r in results},
+    )
     return out

@@ -122,3 +122,17 @@ def test_bad_options():
         level_search(system, V, P_BENCHMARK, method="grid")
     with pytest.raises(ValueError, match="positive definite"):
         level_search(system, V, -np.eye(2))
+
+
+def test_both_takes_only_successful_results():
+    """Van der Pol, V-level shape: c* = 2.3045 (published, Drake notes). A sampled search with
+    r_max = 1 (s <= 1 < c*) ends 'unbounded' with value 1.0, which is not an upper bound of c*:
+    the combined result must be the CasADi level, with status 'partial', not min(1.0, 2.3045)."""
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
+    res = level_search(system, V, P_BENCHMARK, shape="level", method="both", sampled={"r_max": 1.0})
+    assert res["per_method"]["sampled"]["status"] == "unbounded"
+    assert res["per_method"]["casadi"]["status"] == "found"
+    assert res["status"] == "partial"
+    assert res["value"] == pytest.approx(2.3045, abs=1e-3)
+    assert res["witness"] is not None

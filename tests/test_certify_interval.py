@@ -378,3 +378,27 @@ def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
     x = np.array([a, b, c, d])
     J, g, H = _jet_and_mp_derivatives(lambda y, xp: _vdot(system, V, y, xp), x, x - r, x + r)
     _assert_jet_encloses(J, g, H)
+
+
+def test_public_interval_functions_have_docstrings():
+    import inspect
+
+    import roa.certify.interval as mod
+
+    missing = [
+        name
+        for name, obj in vars(mod).items()
+        if not name.startswith("_")
+        and inspect.isfunction(obj)
+        and obj.__module__ == mod.__name__
+        and not inspect.getdoc(obj)
+    ]
+    for cls in (mod.Interval, mod.Jet):
+        for name in vars(cls):
+            if (
+                not name.startswith("_")
+                and callable(getattr(cls, name))
+                and not inspect.getdoc(getattr(cls, name))
+            ):
+                missing.append(f"{cls.__name__}.{name}")
+    assert not missing, missing

@@ -58,6 +58,7 @@ class Interval:
     # -- helpers ---------------------------------------------------------------------------------
     @staticmethod
     def of(x: Any) -> Interval:
+        """``x`` itself if it is an :class:`Interval`, else the point interval(s) ``[x, x]``."""
         return x if isinstance(x, Interval) else Interval(x)
 
     @property
@@ -69,6 +70,7 @@ class Interval:
         return self.hi - self.lo
 
     def contains(self, x: Any) -> np.ndarray:
+        """Boolean mask: ``lo <= x <= hi`` elementwise."""
         return (self.lo <= x) & (x <= self.hi)
 
     def __repr__(self) -> str:
@@ -95,6 +97,7 @@ class Interval:
         return Interval.of(other) - self
 
     def square(self) -> Interval:
+        """``x^2`` as one operation: never negative, 0 included when the interval straddles 0."""
         a, b = self.lo * self.lo, self.hi * self.hi
         hi = _up(np.maximum(a, b))
         lo = np.where((self.lo <= 0) & (self.hi >= 0), 0.0, _down(np.minimum(a, b)))
@@ -112,6 +115,7 @@ class Interval:
     __rmul__ = __mul__
 
     def reciprocal(self) -> Interval:
+        """``1 / x``; the whole line where the interval contains 0."""
         zero = (self.lo <= 0) & (self.hi >= 0)
         with np.errstate(divide="ignore", invalid="ignore"):
             lo = np.where(zero, -_INF, _down(1.0 / self.hi))
@@ -282,6 +286,7 @@ class Jet:
 
     @classmethod
     def variables(cls, lo: np.ndarray, hi: np.ndarray, *, order: int = 1) -> list[Jet]:
+        """Coordinate jets on the boxes ``[lo, hi]`` (shape ``(m, n)``), up to ``order`` (1 or 2)."""
         n = lo.shape[-1]
         out = []
         for i in range(n):

@@ -85,18 +85,6 @@ def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
     return out * 2.0
 
 
-def _value_interval(lyap: QuadraticLyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
-    n = lyap.n
-    d = [Interval(lo[:, i], hi[:, i]) - float(lyap.center[i]) for i in range(n)]
-    out: Any = 0.0
-    for i in range(n):
-        out = d[i].square() * float(lyap.P[i, i]) + out
-        for j in range(i + 1, n):
-            if lyap.P[i, j] != 0.0:
-                out = (d[i] * d[j]) * (2.0 * float(lyap.P[i, j])) + out
-    return out
-
-
 def _mp_namespace() -> Any:
     import mpmath as mp
 
@@ -162,11 +150,6 @@ def recheck_domain_witness(
 
 
 # -- proof near the equilibrium -------------------------------------------------------------------------
-def _bounding_box(lyap: QuadraticLyapunov, level: float) -> tuple[np.ndarray, np.ndarray]:
-    half = np.sqrt(level * np.diag(np.linalg.inv(lyap.P))) * 1.01  # 1% margin covers inv() error
-    return lyap.center - half, lyap.center + half
-
-
 def _exact_negative_definite(lo: np.ndarray, hi: np.ndarray) -> bool:
     """Every symmetric matrix with entries in ``[lo, hi]`` is negative definite (exact rationals)."""
     n = lo.shape[0]

@@ -52,43 +52,50 @@ def _implied_sets(c_tilde: float) -> dict[str, float]:
     return {"V_level_in_slab": v_level, "ball_in_V_level": ball, "slab": c_tilde}
 
 
-def paper_bound() -> dict[str, Any]:
-    """The paper's steps with its printed factors (1 - 3 alpha kappa/2), (1 - alpha kappa/2)."""
-    alpha = 2 / (3 * KAPPA)
+def analytic_bound(*, printed: bool) -> dict[str, Any]:
+    """The steps of (3.13)-(3.14), with the printed factors or the corrected ones.
+
+    Printed: (1 - 3 alpha kappa/2), (1 - alpha kappa/2), so alpha <= 2/(3 kappa) = sqrt(3) and
+    c~ = alpha/(2 kappa) = 9/4. Corrected: (1 - 3 alpha kappa), (1 - alpha kappa), so
+    alpha <= 1/(3 kappa) = sqrt(3)/2 and c~ = 9/8 (open slab).
+    """
+    alpha = (2 if printed else 1) / (3 * KAPPA)
     c_tilde = alpha / (2 * KAPPA)
-    return {
+    steps: dict[str, Any] = {
         "kappa": KAPPA,
         "lambda_min_M": float(np.linalg.eigvalsh(M)[0]),
-        "q1_factor": "1 - 3 alpha kappa / 2 (printed)",
         "alpha_max": alpha,
-        "alpha_max_expr": "2 / (3 kappa) = sqrt(3)",
         "c_tilde": c_tilde,
-        "c_tilde_expr": "alpha / (2 kappa) = 9/4",
-        "paper_printed_c_tilde": 2.25,
-        "claimed_set": "||q(0)||^2 <= c~ (a ball; the paper's conclusion)",
-        "argument_valid": False,
-        "status": "claimed: the printed (3.14) does not hold (erratum E6), so these sets are not proved",
-        **_implied_sets(c_tilde),
+        "argument_valid": not printed,
     }
+    if printed:
+        steps |= {
+            "q1_factor": "1 - 3 alpha kappa / 2 (printed)",
+            "alpha_max_expr": "2 / (3 kappa) = sqrt(3)",
+            "c_tilde_expr": "alpha / (2 kappa) = 9/4",
+            "paper_printed_c_tilde": 2.25,
+            "claimed_set": "||q(0)||^2 <= c~ (a ball; the paper's conclusion)",
+            "status": "claimed: the printed (3.14) does not hold (erratum E6), so these sets are not proved",
+        }
+    else:
+        steps |= {
+            "q1_factor": "1 - 3 alpha kappa",
+            "alpha_max_expr": "1 / (3 kappa) = sqrt(3)/2",
+            "c_tilde_expr": "alpha / (2 kappa) = 9/8 (open slab q4^2 < 9/8)",
+            "strict": "V' < 0 on {0 < ||q||, q4^2 < 9/8}; not on the closed slab in general",
+            "status": "proved by hand; the V-level is re-checked by interval validation in ipc_regions()",
+        }
+    return steps | _implied_sets(c_tilde)
+
+
+def paper_bound() -> dict[str, Any]:
+    """The paper's steps with its printed factors (see :func:`analytic_bound`)."""
+    return analytic_bound(printed=True)
 
 
 def corrected_bound() -> dict[str, Any]:
-    """The corrected steps: factors (1 - 3 alpha kappa), (1 - alpha kappa); alpha -> sqrt(3)/2."""
-    alpha = 1 / (3 * KAPPA)
-    c_tilde = alpha / (2 * KAPPA)
-    return {
-        "kappa": KAPPA,
-        "lambda_min_M": float(np.linalg.eigvalsh(M)[0]),
-        "q1_factor": "1 - 3 alpha kappa",
-        "alpha_max": alpha,
-        "alpha_max_expr": "1 / (3 kappa) = sqrt(3)/2",
-        "c_tilde": c_tilde,
-        "c_tilde_expr": "alpha / (2 kappa) = 9/8 (open slab q4^2 < 9/8)",
-        "strict": "V' < 0 on {0 < ||q||, q4^2 < 9/8}; not on the closed slab in general",
-        "argument_valid": True,
-        "status": "proved by hand; the V-level is re-checked by interval validation in ipc_regions()",
-        **_implied_sets(c_tilde),
-    }
+    """The corrected steps (see :func:`analytic_bound`)."""
+    return analytic_bound(printed=False)
 
 
 def rhs_314(q: np.ndarray, alpha: float, *, printed: bool) -> np.ndarray:

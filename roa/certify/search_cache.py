@@ -4,8 +4,9 @@ The search of :func:`roa.certify.search.optimise_quadratic` takes minutes; its r
 candidate ``P``, which is certified afterwards by the interval validation, recomputed on every
 run. Reusing a cached ``P`` therefore never weakens a certificate: a stale candidate could only
 give a smaller certified region, never an unsound one. The key is a SHA-256 of the search inputs
-(system name, objective, start matrix, options) and of the source of the search code
-(:mod:`roa.certify.search`, :mod:`roa.levelset`), so any change to them recomputes.
+(system name, objective, start matrix, options) and of the source of :mod:`roa.certify.search`,
+so a change of the search recomputes. Changes elsewhere (the level search it calls, the system)
+do not: they can only make the cached candidate suboptimal, and its certificate is redone anyway.
 
 The cache is one JSON file (written atomically); :meth:`SearchCache.save` keeps only the entries
 used in the current run.
@@ -29,12 +30,8 @@ def _plain(obj: Any) -> Any:
 
 def _source_hash() -> str:
     import roa.certify.search as search
-    import roa.levelset as levelset
 
-    h = hashlib.sha256()
-    for mod in (search, levelset):
-        h.update(Path(mod.__file__).read_bytes())
-    return h.hexdigest()
+    return hashlib.sha256(Path(search.__file__).read_bytes()).hexdigest()
 
 
 class SearchCache:

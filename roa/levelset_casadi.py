@@ -72,7 +72,7 @@ def casadi_level(
     _, vd = V.symbolic(system, comps, namespace("casadi"))
     d = x - ca.DM(V.center)
     s = ca.mtimes([d.T, ca.DM(prob.S), d])
-    opts = {
+    opts: dict[str, Any] = {
         "ipopt.print_level": 0,
         "print_time": 0,
         "ipopt.sb": "yes",

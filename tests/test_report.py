@@ -73,3 +73,16 @@ def test_unknown_params_are_rejected_before_work(tmp_path):
     with pytest.raises(ValueError, match=r"unknown params \['t_finall'\]; allowed: .*t_final"):
         run_experiment(cfg, results=tmp_path / "r")
     assert not (tmp_path / "r" / "typo").exists()
+
+
+def test_quick_reproduce_leaves_the_committed_results_alone(tmp_path, monkeypatch):
+    from roa.cli import main
+
+    configs = tmp_path / "configs"
+    configs.mkdir()
+    (configs / "figure1.toml").write_text((ROOT / "experiments" / "figure1.toml").read_text())
+    monkeypatch.chdir(tmp_path)
+    assert main(["reproduce", "--quick", "--experiments", str(configs)]) == 0
+    assert (tmp_path / "results-quick" / "figure1" / "summary.json").is_file()
+    assert (tmp_path / "results-quick" / "paper_repro.md").is_file()
+    assert not (tmp_path / "results").exists() and not (tmp_path / "paper_repro.md").exists()

@@ -31,7 +31,7 @@ def exact_positive_definite(A: list[list[Fraction]]) -> tuple[bool, list[Fractio
     """All leading pivots of the symmetric rational matrix ``A`` are > 0 (Sylvester, via LDL')."""
     n = len(A)
     A = [list(row) for row in A]
-    pivots = []
+    pivots: list[Fraction] = []
     for k in range(n):
         if A[k][k] <= 0:
             return False, pivots + [A[k][k]]

@@ -10,7 +10,7 @@ import numpy as np
 from roa.io import atomic_write_json
 
 
-def _box_fraction(form, level: float, box, n: int, seed: int) -> dict[str, float]:
+def _box_fraction(form, level: float, box, n: int, seed: int) -> dict[str, Any]:
     rng = np.random.default_rng(seed)
     b = np.asarray(box, dtype=float)
     X = b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, b.shape[0]))

@@ -269,6 +269,13 @@ def _n(a: Any) -> Any:
     return 0.0 if isinstance(a, float) and a == 0.0 else -a
 
 
+def _hessian(j: Jet) -> list:
+    """The Hessian of a second-order jet (jets of mixed order are a programming error)."""
+    if j.h is None:
+        raise ValueError("jet arithmetic mixes first- and second-order jets")
+    return j.h
+
+
 class Jet:
     """Value, gradient and optionally Hessian of an expression, each entry an :class:`Interval`.
 
@@ -315,7 +322,7 @@ class Jet:
             if self.h is None
             else [
                 [_a(a, b) for a, b in zip(r1, r2, strict=True)]
-                for r1, r2 in zip(self.h, o.h, strict=True)
+                for r1, r2 in zip(self.h, _hessian(o), strict=True)
             ]
         )
         return Jet(self.v + o.v, [_a(a, b) for a, b in zip(self.g, o.g, strict=True)], h)
@@ -345,7 +352,7 @@ class Jet:
             h = [
                 [
                     _a(
-                        _a(_m(self.h[i][j], o.v), _m(self.v, o.h[i][j])),
+                        _a(_m(self.h[i][j], o.v), _m(self.v, _hessian(o)[i][j])),
                         _a(_m(self.g[i], o.g[j]), _m(self.g[j], o.g[i])),
                     )
                     if j >= i

@@ -102,7 +102,7 @@ def _lyapunov(args: argparse.Namespace, system):
 
         P = P_BENCHMARK
     elif spec is None:
-        P = load_module_attr(args.system, "LYAPUNOV_P")
+        P = load_module_attr(args.system, "LYAPUNOV_P")  # type: ignore[assignment]
         if P is None:
             raise ValueError("--lyapunov: no default for this system; give a file with P")
     else:
@@ -172,9 +172,9 @@ def run(args: argparse.Namespace) -> int:
     if method in ("sos", "both") and level is None:
         sos = sos_level(system, V)
         out["sos"] = sos.to_json()
-        if sos.status == "solved" and method == "sos":
+        if sos.status == "solved" and sos.rho is not None and method == "sos":
             level = sos.rho
-        elif sos.status == "solved":
+        elif sos.status == "solved" and sos.rho is not None:
             out.update(level_source="sos", safety_factor=SOS_SAFETY)
             level = SOS_SAFETY * sos.rho
         elif method == "sos":

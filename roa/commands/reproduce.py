@@ -14,9 +14,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--experiments", default=None, help="directory of configs (default: the packaged ones)"
     )
-    p.add_argument("--results", default="results", help="results directory (default results/)")
     p.add_argument(
-        "--report", default="paper_repro.md", help="report path (default paper_repro.md)"
+        "--results",
+        default=None,
+        help="results directory (default results/, or results-quick/ with --quick)",
+    )
+    p.add_argument(
+        "--report",
+        default=None,
+        help="report path (default paper_repro.md, or RESULTS/paper_repro.md with --quick)",
     )
     p.set_defaults(func=run)
 

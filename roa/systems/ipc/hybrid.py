@@ -85,7 +85,8 @@ def physical_to_hybrid_or_inf(x: np.ndarray) -> np.ndarray:
     x = np.asarray(x, dtype=float)
     ok = np.isfinite(x).all(axis=-1) & (np.abs(x[..., 2]) < HALF_PI)
     safe = np.where(ok[..., None], x, 0.0)
-    _, z2, w1, w2 = to_flat_components(*np.moveaxis(safe, -1, 0), xp=NP)
+    q, qd, th, thd = np.moveaxis(safe, -1, 0)
+    _, z2, w1, w2 = to_flat_components(q, qd, th, thd, xp=NP)
     y = np.stack([safe[..., 0], z2, w1, w2], axis=-1)
     return np.where(ok[..., None], y, np.inf)
 

@@ -36,7 +36,7 @@ KINDS: dict[str, str] = {
     "basin_box": "roa.systems.ipc.basins:run_box",
     "basin_region": "roa.systems.ipc.basins:run_region",
     "basin_global": "roa.systems.ipc.basins:run_global",
-    "certify": "roa.certify.experiment:run",
+    "certify": "roa.systems.ipc.certify_runs:run",
 }
 
 Runner = Callable[..., dict[str, Any]]

@@ -62,7 +62,7 @@ REGISTRY: dict[str, Entry] = {
         item="c_tilde",
     ),
     "ipc.certify.paper.interval": Entry(
-        "roa.certify.experiment:certified_level", 1e-6, "0.999 x IPOPT optimum, interval-certified"
+        "roa.systems.ipc.certify_runs:certified_level", 1e-6, "0.999 x IPOPT optimum, interval-certified"
     ),
     "vanderpol.level.casadi": Entry(
         "roa.reference:vanderpol_level", 1e-6, _K, {"method": "casadi"}

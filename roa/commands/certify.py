@@ -94,7 +94,7 @@ def _lyapunov(args: argparse.Namespace, system):
     elif spec in ("optimised", "sector"):
         if args.system != "ipc-flat":
             raise ValueError(f"--lyapunov {spec} is only defined for --system ipc-flat")
-        from roa.certify.regions import load_optimised_P
+        from roa.systems.ipc.certified import load_optimised_P
 
         P = load_optimised_P(which="box" if spec == "optimised" else "sector")
     elif spec == "benchmark":

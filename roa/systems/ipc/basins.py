@@ -44,7 +44,7 @@ def regions(results: str | Path = "results") -> tuple[list[Region], str]:
     ``ipc_regions()`` (paper's claims, sampled and analytic-bound sets) plus the certified sets of
     ``RESULTS/certify/certified.json`` when the certify experiment has run.
     """
-    from roa.certify.regions import ipc_certified_regions
+    from roa.systems.ipc.certified import ipc_certified_regions
     from roa.systems.ipc.lyapunov import ipc_regions
 
     found = list(ipc_regions())

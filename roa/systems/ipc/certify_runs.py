@@ -44,8 +44,8 @@ def _ball_surface(u: np.ndarray) -> np.ndarray:
 def _physical(
     P: np.ndarray, level: float, box, n_box: int, seed: int, coords: str = "flat"
 ) -> dict[str, Any]:
-    from roa.certify.regions import coords_map
     from roa.certify.search import sector
+    from roa.systems.ipc.certified import coords_map
 
     c2y = coords_map(coords)
 
@@ -71,12 +71,12 @@ def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
 
 
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
-    from roa.certify.regions import coords_map
     from roa.certify.search import optimise_quadratic
     from roa.certify.sos import sos_level
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
     from roa.systems.ipc import REFERENCE_BOX, transformed
+    from roa.systems.ipc.certified import coords_map
     from roa.systems.ipc.lyapunov import paper_lyapunov
     from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 

@@ -17,6 +17,34 @@ import numpy as np
 
 from roa.lyapunov import check_positive_definite
 
+
+def symmetric_extent(
+    inside_at: Callable[[np.ndarray], np.ndarray], t_max: float, *, n_grid: int, n_bisect: int
+) -> float:
+    """Largest t in [0, t_max] with ``inside_at(s)`` true for every |s| <= t.
+
+    ``inside_at`` maps an array of curve parameters to booleans. A grid of ``n_grid`` points finds
+    the first exit on each side, ``n_bisect`` bisection steps refine it; returns the smaller side.
+    """
+    grid = np.linspace(0.0, t_max, n_grid)[1:]
+    out = []
+    for sgn in (1.0, -1.0):
+        inside = inside_at(sgn * grid)
+        if inside.all():
+            out.append(t_max)
+            continue
+        k = int(np.argmin(inside))
+        lo, hi = (grid[k - 1] if k > 0 else 0.0), grid[k]
+        for _ in range(n_bisect):
+            mid = 0.5 * (lo + hi)
+            if inside_at(np.array([sgn * mid]))[0]:
+                lo = mid
+            else:
+                hi = mid
+        out.append(lo)
+    return float(min(out))
+
+
 #: Status of an estimate: how much it is worth.
 REGION_STATUSES = (
     "claimed",  # stated by a paper, not checked

@@ -8,6 +8,7 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from roa.backend import NP
 from roa.status import RunStatus, StopRules
 from roa.system import System
 
@@ -80,7 +81,7 @@ def simulate(
     if margin is not None:
 
         def ev_dom(t: float, x: np.ndarray) -> float:
-            return float(margin(list(x), _np_ns()))
+            return float(margin(list(x), NP))
 
         ev_dom.terminal = True  # type: ignore[attr-defined]
         ev_dom.direction = -1  # type: ignore[attr-defined]
@@ -146,9 +147,3 @@ def simulate(
         "try increasing t_final or converge_tol",
         system.name,
     )
-
-
-def _np_ns() -> Any:
-    from roa.backend import NP
-
-    return NP

@@ -19,7 +19,9 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
+from roa.levelset import _crossings, _problem
 from roa.lyapunov import QuadraticLyapunov
+from roa.regions import symmetric_extent
 from roa.system import System
 
 OBJECTIVES = ("box", "sector")
@@ -41,54 +43,20 @@ def ray_level(
     (``x - x_eq``, any length), e.g. the witnesses of earlier local searches.
     """
     V = QuadraticLyapunov.for_system(system, P)
-    Lc = np.linalg.cholesky(V.P)
-    M = np.linalg.inv(Lc.T)
+    prob = _problem(system, V, V.P, "level")  # rays whitened by V itself: shape radius^2 = V
     if extra is not None and len(extra):
-        W = np.asarray(extra, dtype=float) @ Lc  # whitened: u = L' x
+        W = np.asarray(extra, dtype=float) @ np.linalg.cholesky(V.P)  # whitened: u = L' x
         W /= np.linalg.norm(W, axis=1, keepdims=True)
         directions = np.concatenate([directions, W, -W])
-    X = directions @ M.T  # (k, n): x - x_eq per unit whitened step
     r = np.geomspace(1e-2, r_max, n_radial)
-    pts = V.center + r[None, :, None] * X[:, None, :]
-    with np.errstate(all="ignore"):
-        bad = ~(V.derivative(system, pts) < 0)
-    hit = bad.any(axis=1)
-    if not hit.any():
-        return float("inf")
-    k = np.argmax(bad, axis=1)[hit]
-    hi = r[k]
-    lo = np.where(k > 0, r[np.maximum(k - 1, 0)], 0.0)
-    Xh = X[hit]
-    for _ in range(30):
-        mid = 0.5 * (lo + hi)
-        with np.errstate(all="ignore"):
-            b = ~(V.derivative(system, V.center + mid[:, None] * Xh) < 0)
-        hi = np.where(b, mid, hi)
-        lo = np.where(b, lo, mid)
-    return float(np.min(hi) ** 2)
+    return float(np.min(_crossings(prob, directions, r, iters=30)) ** 2)
 
 
 def sector(
     form: Callable[[np.ndarray], np.ndarray], level: float, curve: Callable, t_max: float
 ) -> float:
     """Largest t in [0, t_max] with ``form(curve(s)) <= level`` for all |s| <= t (grid + bisection)."""
-    grid = np.linspace(0.0, t_max, 2001)[1:]
-    out = []
-    for sgn in (1.0, -1.0):
-        inside = form(curve(sgn * grid)) <= level
-        if inside.all():
-            out.append(t_max)
-            continue
-        k = int(np.argmin(inside))
-        lo, hi = (grid[k - 1] if k else 0.0), grid[k]
-        for _ in range(50):
-            mid = 0.5 * (lo + hi)
-            if form(curve(np.array([sgn * mid])))[0] <= level:
-                lo = mid
-            else:
-                hi = mid
-        out.append(lo)
-    return float(min(out))
+    return symmetric_extent(lambda s: form(curve(s)) <= level, t_max, n_grid=2001, n_bisect=50)
 
 
 @dataclass

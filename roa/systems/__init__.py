@@ -7,9 +7,11 @@ analysis. ``--system path/to/file.py:NAME`` loads ``NAME`` from it.
 
 from __future__ import annotations
 
+import functools
 import importlib.util
 from collections.abc import Callable
 from pathlib import Path
+from types import ModuleType
 
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
@@ -37,13 +39,7 @@ def load_system(spec: str) -> System:
         )
     path_str, name = spec.rsplit(":", 1)
     path = Path(path_str)
-    if not path.is_file():
-        raise ValueError(f"--system: file {path} does not exist")
-    mod_spec = importlib.util.spec_from_file_location(f"roa_user_{path.stem}", path)
-    if mod_spec is None or mod_spec.loader is None:
-        raise ValueError(f"--system: cannot import {path}")
-    module = importlib.util.module_from_spec(mod_spec)
-    mod_spec.loader.exec_module(module)
+    module = _user_module(path)
     if not hasattr(module, name):
         raise ValueError(f"--system: {path} defines no {name!r}")
     obj = getattr(module, name)
@@ -83,9 +79,22 @@ def load_module_attr(spec: str, attr: str) -> object:
     """Return ``attr`` of the user file behind ``spec`` (``None`` for built-ins or if missing)."""
     if spec in BUILTIN or ":" not in spec:
         return None
-    path = Path(spec.rsplit(":", 1)[0])
-    mod_spec = importlib.util.spec_from_file_location(f"roa_user_{path.stem}_attr", path)
-    assert mod_spec is not None and mod_spec.loader is not None
+    return getattr(_user_module(Path(spec.rsplit(":", 1)[0])), attr, None)
+
+
+def _user_module(path: Path) -> ModuleType:
+    """Import a user's system file once per content (keyed by path and modification time)."""
+    if not path.is_file():
+        raise ValueError(f"--system: file {path} does not exist")
+    return _import_file(str(path.resolve()), path.stat().st_mtime_ns)
+
+
+@functools.lru_cache(maxsize=32)
+def _import_file(path_str: str, mtime_ns: int) -> ModuleType:
+    path = Path(path_str)
+    mod_spec = importlib.util.spec_from_file_location(f"roa_user_{path.stem}", path)
+    if mod_spec is None or mod_spec.loader is None:
+        raise ValueError(f"--system: cannot import {path}")
     module = importlib.util.module_from_spec(mod_spec)
     mod_spec.loader.exec_module(module)
-    return getattr(module, attr, None)
+    return module

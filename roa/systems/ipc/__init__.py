@@ -25,6 +25,7 @@ from roa.systems.ipc.controller import (
 from roa.systems.ipc.coordinates import (
     HALF_PI,
     from_flat,
+    physical_to_flat_or_inf,
     to_flat,
     to_flat_components,
 )
@@ -40,6 +41,8 @@ __all__ = [
     "from_flat",
     "DEFAULT_DELTA",
     "phi0",
+    "physical_to_flat_or_inf",
+    "REFERENCE_BOX",
 ]
 
 PHYSICAL_NAMES = ("q", "q_dot", "theta", "theta_dot")
@@ -108,7 +111,13 @@ def closed_loop(
     def field(t: Any, x: Any, xp: Any) -> tuple:
         q, qd, th, thd = x[0], x[1], x[2], x[3]
         u = control_force(
-            t, (q, qd, th, thd), delta=delta, gains=gains, reference=reference, saturation=sat, xp=xp
+            t,
+            (q, qd, th, thd),
+            delta=delta,
+            gains=gains,
+            reference=reference,
+            saturation=sat,
+            xp=xp,
         )
         qdd, thdd = accelerations(qd, th, thd, u, delta, xp)
         return (qd, qdd, thd, thdd)
@@ -170,17 +179,6 @@ def _numba_meta(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
     return {"numba": fast.PhysicalKernels(**kw) if which == "physical" else fast.FlatKernels(**kw)}
 
 
-
-
 #: The reference 4D box of physical initial states (q, q', theta, theta') shared by the Monte Carlo
 #: and certification experiments; it contains the paper's claimed sector |theta(0)| < 60 deg.
 REFERENCE_BOX = ((-1.0, 1.0), (-1.0, 1.0), (-np.pi / 3, np.pi / 3), (-1.0, 1.0))
-
-
-def physical_to_flat_or_inf(x: np.ndarray) -> np.ndarray:
-    """(2.2) without raising: states with |theta| >= pi/2 or non-finite map to inf (for set tests)."""
-    x = np.asarray(x, dtype=float)
-    ok = np.isfinite(x).all(axis=-1) & (np.abs(x[..., 2]) < HALF_PI)
-    safe = np.where(ok[..., None], x, 0.0)
-    y = np.stack(to_flat_components(*np.moveaxis(safe, -1, 0)), axis=-1)
-    return np.where(ok[..., None], y, np.inf)

@@ -2,7 +2,7 @@
 
 Runners for ``roa run experiments/basin_*.toml``. Regions drawn and tested are those of
 :func:`regions`: every estimate of ``ipc_regions()`` and every certified set of the certify
-experiment; further ones can be added through :data:`EXTRA_REGIONS`.
+experiment.
 """
 
 from __future__ import annotations
@@ -20,22 +20,13 @@ from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
 from roa.regions import Region
 from roa.status import StopRules
 from roa.systems import ipc
+from roa.systems.ipc.lyapunov import paper_ball
 
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
 #: ``[params]`` keys every basin runner accepts (integration, stop rules, parallelism, claim text).
 COMMON_PARAMS = ("atol", "rtol", "t_final", "converge_tol", "diverge_bound", "jobs", "seed", "title",
                  "claim", "claim_id", "paper", "verdict")  # fmt: skip
-#: Further regions to draw and test (appended by other modules, e.g. certification).
-EXTRA_REGIONS: list[Region] = []
-
-
-def paper_ball() -> Region:
-    """The paper's (3.15)-(3.16) estimate ||T xi||^2 <= 4.89 in flat coordinates."""
-    from roa.systems.ipc.lyapunov import PAPER_C_STAR_SQ, T
-
-    return Region(f"paper: ||Tx||^2 <= {PAPER_C_STAR_SQ:g}", T.T @ T, PAPER_C_STAR_SQ, "claimed",
-                  ipc.physical_to_flat_or_inf)  # fmt: skip
 
 
 def regions(results: str | Path = "results") -> tuple[list[Region], str]:
@@ -55,7 +46,7 @@ def regions(results: str | Path = "results") -> tuple[list[Region], str]:
         source += f" + certified regions of {path}"
     else:
         source += f" (no certified regions: {path} missing; run experiments/certify.toml first)"
-    return found + list(EXTRA_REGIONS), source
+    return found, source
 
 
 def _opts(params: dict[str, Any]) -> dict[str, Any]:

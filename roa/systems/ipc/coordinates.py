@@ -70,3 +70,12 @@ def from_flat(xi: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(xi)):
         raise ValueError("flat state must be finite (no NaN/inf) in z1, z2, w1, w2")
     return np.stack(from_flat_components(*np.moveaxis(xi, -1, 0)), axis=-1)
+
+
+def physical_to_flat_or_inf(x: np.ndarray) -> np.ndarray:
+    """(2.2) without raising: states with |theta| >= pi/2 or non-finite map to inf (for set tests)."""
+    x = np.asarray(x, dtype=float)
+    ok = np.isfinite(x).all(axis=-1) & (np.abs(x[..., 2]) < HALF_PI)
+    safe = np.where(ok[..., None], x, 0.0)
+    y = np.stack(to_flat_components(*np.moveaxis(safe, -1, 0)), axis=-1)
+    return np.where(ok[..., None], y, np.inf)

@@ -22,10 +22,9 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import NP
 from roa.system import System
 from roa.systems.ipc.controller import Gains, Reference, make_reference, virtual_input
-from roa.systems.ipc.coordinates import HALF_PI, to_flat_components
+from roa.systems.ipc.coordinates import physical_to_flat_or_inf
 from roa.systems.ipc.model import phi0
 
 HYBRID_NAMES = ("q", "z2", "w1", "w2")
@@ -83,12 +82,9 @@ def hybrid_to_flat(y: np.ndarray) -> np.ndarray:
 def physical_to_hybrid_or_inf(x: np.ndarray) -> np.ndarray:
     """Physical states -> hybrid coordinates; |theta| >= pi/2 or non-finite map to inf (set tests)."""
     x = np.asarray(x, dtype=float)
-    ok = np.isfinite(x).all(axis=-1) & (np.abs(x[..., 2]) < HALF_PI)
-    safe = np.where(ok[..., None], x, 0.0)
-    q, qd, th, thd = np.moveaxis(safe, -1, 0)
-    _, z2, w1, w2 = to_flat_components(q, qd, th, thd, xp=NP)
-    y = np.stack([safe[..., 0], z2, w1, w2], axis=-1)
-    return np.where(ok[..., None], y, np.inf)
+    y = physical_to_flat_or_inf(x)  # inf rows outside the domain
+    y[..., 0] = np.where(np.isfinite(y[..., 0]), x[..., 0], np.inf)  # z1 -> q
+    return y
 
 
 def hybrid_to_physical(y: np.ndarray) -> np.ndarray:

@@ -21,7 +21,7 @@ import numpy as np
 
 from roa.levelset import inner_level, level_search
 from roa.lyapunov import QuadraticLyapunov
-from roa.regions import Region
+from roa.regions import Region, symmetric_extent
 from roa.systems.ipc.model import phi0
 
 #: (3.9): q = T (z1, z2, w1, w2).
@@ -116,25 +116,13 @@ def sector_theta(region: Region, *, t_max: float = np.pi / 2 - 1e-9) -> float:
     Scans a fine grid then bisects the first exit; the same for -theta by the symmetry of the sets
     (checked: the returned value is the minimum of both signs).
     """
-    grid = np.linspace(0.0, t_max, 4001)[1:]
-    out = []
-    for sgn in (1.0, -1.0):
-        X = np.zeros((grid.size, 4))
-        X[:, 2] = sgn * grid
-        inside = region.contains(X)
-        if inside.all():
-            out.append(t_max)
-            continue
-        k = int(np.argmin(inside))
-        lo, hi = (grid[k - 1] if k > 0 else 0.0), grid[k]
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if region.contains(np.array([0.0, 0.0, sgn * mid, 0.0])):
-                lo = mid
-            else:
-                hi = mid
-        out.append(lo)
-    return float(min(out))
+
+    def inside_at(th: np.ndarray) -> np.ndarray:
+        X = np.zeros((th.size, 4))
+        X[:, 2] = th
+        return region.contains(X)
+
+    return symmetric_extent(inside_at, t_max, n_grid=4001, n_bisect=60)
 
 
 @functools.lru_cache(maxsize=1)
@@ -152,14 +140,7 @@ def _regions() -> tuple[Region, ...]:
 
     verdict = validate_level(flat_system(), paper_lyapunov(), corr["V_level_in_slab"])
     return (
-        Region(
-            "paper (3.15): ||Tx||^2 <= 4.89",
-            S_ball,
-            PAPER_C_STAR_SQ,
-            "claimed",
-            coords,
-            {"source": "paper c*^2 = 4.89", "invariant": False},
-        ),
+        paper_ball(),
         Region(
             "paper (3.16) literal: ||Tx||^2 <= c* = 2.211",
             S_ball,
@@ -228,6 +209,20 @@ def _regions() -> tuple[Region, ...]:
                 "invariant": False,
             },
         ),
+    )
+
+
+def paper_ball() -> Region:
+    """The paper's estimate (3.15)-(3.16), ``||T xi||^2 <= 4.89`` in flat coordinates (claimed)."""
+    from roa.systems.ipc import physical_to_flat_or_inf
+
+    return Region(
+        "paper (3.15): ||Tx||^2 <= 4.89",
+        shape_matrix("ball"),
+        PAPER_C_STAR_SQ,
+        "claimed",
+        physical_to_flat_or_inf,
+        {"source": "paper c*^2 = 4.89", "invariant": False},
     )
 
 

@@ -16,10 +16,10 @@ import time
 
 import numpy as np
 
-from roa.certify import validate as va
-from roa.certify.sos import sos_level
 from roa.levelset import level_search
 from roa.lyapunov import QuadraticLyapunov
+from roa.proof import validate as va
+from roa.proof.sos import sos_level
 from roa.systems.ipc import transformed
 from roa.systems.ipc.lyapunov import paper_lyapunov
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
@@ -58,7 +58,7 @@ def main() -> None:
     t = time.perf_counter()
     s = sos_level(vdp, Vv)
     row(
-        f"VdP SOS rho = {s.rho:.5f} (published {RHO_BENCHMARK})",
+        f"VdP SOS rho = {s.level:.5f} (published {RHO_BENCHMARK})",
         s.status,
         0,
         time.perf_counter() - t,
@@ -72,7 +72,7 @@ def main() -> None:
     ipc = transformed()
     Vp = paper_lyapunov()
     t = time.perf_counter()
-    opt = float(level_search(ipc, Vp, Vp.P, shape="level", method="sampled")["value"])
+    opt = float(level_search(ipc, Vp, shape="level", method="sampled").level)
     row(f"IPC sampled optimum {opt:.6f}", "sampled", 0, time.perf_counter() - t)
     v = va.validate_level(ipc, Vp, 0.999 * opt)
     row("IPC interval B&B at 0.999 x optimum (target 60 s)", v.status, v.boxes, v.seconds)
@@ -82,14 +82,14 @@ def main() -> None:
     v2 = va.validate_level(ipc, Vp, 1.001 * opt)
     row("IPC interval B&B at 1.001 x optimum", v2.status, v2.boxes, v2.seconds)
     s = sos_level(ipc, Vp, recast_mode="enclosure")
-    row(f"IPC SOS enclosure rho = {s.rho}", s.status, 0, s.seconds)
+    row(f"IPC SOS enclosure rho = {s.level}", s.status, 0, s.seconds)
     ex = sos_level(ipc, Vp, recast_mode="exact", aux_degree=2)
-    row(f"IPC SOS exact, even/odd blocks rho = {ex.rho} (target 30 s)", ex.status, 0, ex.seconds)
+    row(f"IPC SOS exact, even/odd blocks rho = {ex.level} (target 30 s)", ex.status, 0, ex.seconds)
     if "--no-symmetry" in sys.argv:  # baseline: the full Gram matrix (about 150 s, inaccurate)
         base = sos_level(
             ipc, Vp, recast_mode="exact", symmetry=False, solver_options={"time_limit": 300}
         )
-        row(f"IPC SOS exact, one Gram block rho = {base.rho}", base.status, 0, base.seconds)
+        row(f"IPC SOS exact, one Gram block rho = {base.level}", base.status, 0, base.seconds)
         print(f"ratio one-block/blocks SOS time: {base.seconds / ex.seconds:.1f}x")
 
 

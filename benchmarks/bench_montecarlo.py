@@ -22,7 +22,7 @@ from joblib import Parallel, delayed
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample
-from roa.simulate import simulate
+from roa.simulation import simulate
 from roa.status import StopRules
 from roa.systems import ipc
 

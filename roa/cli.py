@@ -6,11 +6,15 @@ import argparse
 import importlib
 import sys
 
-#: Subcommand modules under roa.commands, in --help order.
-COMMANDS = ("simulate", "run", "reproduce", "report", "basin", "bound", "khalil", "check", "certify")
+from roa.errors import RoaError, RoaInputError
+
+#: Subcommand modules under roa.commands, in --help order (studies add their own after these).
+COMMANDS = ("simulate", "khalil", "certify", "basin", "run", "reproduce", "report", "check")
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from roa import studies
+
     parser = argparse.ArgumentParser(
         prog="roa",
         description="Region-of-attraction verification toolkit: simulate, estimate, certify, map basins.",
@@ -18,17 +22,27 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"roa.commands.{name}").register(sub)
+    for study in studies.registered().values():
+        for module in study.commands:
+            importlib.import_module(module).register(sub)
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
+    """Run the CLI: input errors exit 2, other roa errors exit 1 with their message, bugs raise."""
+    import matplotlib
+
+    matplotlib.use("Agg")  # files only, never a window
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except ValueError as exc:
+    except RoaInputError as exc:
         print(f"roa {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except RoaError as exc:
+        print(f"roa {args.command}: failed: {exc}", file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f"roa {args.command}: interrupted; completed work was kept", file=sys.stderr)
         return 130

@@ -1,7 +1,8 @@
 """Experiment configs (TOML) and their runners.
 
-A config has a ``kind`` (a key of :data:`KINDS`), an optional ``title`` and a ``[params]`` table,
-and optionally ``[quick]`` overrides used by ``--quick``. A runner has the signature
+A config names its ``runner`` as ``"module:function"`` inside a registered study's package
+(:mod:`roa.studies`; a config is data and cannot name any other code), an optional ``title`` and a
+``[params]`` table, and optionally ``[quick]`` overrides used by ``--quick``. A runner has the signature
 ``run(params: dict, out: Path, *, quick: bool) -> dict`` and returns a JSON-able summary with, where
 it has something to say about the paper, a list ``claims`` of rows for ``paper_repro.md``::
 
@@ -17,27 +18,16 @@ from __future__ import annotations
 import hashlib
 import importlib
 import json
+import re
 import time
 import tomllib
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from roa import studies
+from roa.errors import RoaInputError
 from roa.io import atomic_write_json, code_hash, git_revision, package_versions
-
-#: kind -> "module:function"
-KINDS: dict[str, str] = {
-    "errata": "roa.systems.ipc.errata:run_experiment",
-    "figure1": "roa.systems.ipc.figures:run_figure1",
-    "figure2": "roa.systems.ipc.figures:run_figure2",
-    "bound": "roa.systems.ipc.lyapunov_report:run_bound",
-    "khalil": "roa.systems.ipc.lyapunov_report:run_khalil",
-    "basin_slice": "roa.systems.ipc.basins:run_slice",
-    "basin_box": "roa.systems.ipc.basins:run_box",
-    "basin_region": "roa.systems.ipc.basins:run_region",
-    "basin_global": "roa.systems.ipc.basins:run_global",
-    "certify": "roa.systems.ipc.certify_runs:run",
-}
 
 Runner = Callable[..., dict[str, Any]]
 
@@ -57,10 +47,10 @@ def accepts(*names: str) -> Callable[[Runner], Runner]:
 def check_params(name: str, runner: Runner, params: dict[str, Any]) -> None:
     allowed = getattr(runner, "params", None)
     if allowed is None:
-        raise ValueError(f"{name}: runner {runner.__name__} does not declare its params (@accepts)")
+        raise RoaInputError(f"{name}: runner {runner.__name__} does not declare its params (@accepts)")
     unknown = set(params) - allowed
     if unknown:
-        raise ValueError(
+        raise RoaInputError(
             f"{name}: unknown params {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}"
         )
 
@@ -69,26 +59,31 @@ def load_config(path: str | Path) -> dict[str, Any]:
     """Read and validate an experiment config."""
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"experiment config {path} does not exist")
+        raise RoaInputError(f"experiment config {path} does not exist")
     try:
         cfg = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"experiment config {path}: invalid TOML: {exc}") from exc
-    kind = cfg.get("kind")
-    if kind not in KINDS:
-        raise ValueError(
-            f"experiment config {path}: kind = {kind!r}; allowed: {', '.join(sorted(KINDS))}"
+        raise RoaInputError(f"experiment config {path}: invalid TOML: {exc}") from exc
+    runner = cfg.get("runner")
+    if not isinstance(runner, str) or not re.fullmatch(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*", runner):
+        raise RoaInputError(
+            f"experiment config {path}: runner must be 'module:function', got {runner!r}"
+        )
+    if not studies.runner_allowed(runner):
+        raise RoaInputError(
+            f"experiment config {path}: runner {runner!r} is not in a registered study's package "
+            f"({', '.join(s.package for s in studies.registered().values())})"
         )
     params = cfg.get("params", {})
     quick = cfg.get("quick", {})
     if not isinstance(params, dict) or not isinstance(quick, dict):
-        raise ValueError(f"experiment config {path}: [params] and [quick] must be tables")
+        raise RoaInputError(f"experiment config {path}: [params] and [quick] must be tables")
     depends = cfg.get("depends", [])
     if not isinstance(depends, list) or not all(isinstance(d, str) for d in depends):
-        raise ValueError(f"experiment config {path}: depends must be a list of experiment names")
-    unknown = set(cfg) - {"kind", "title", "params", "quick", "order", "depends"}
+        raise RoaInputError(f"experiment config {path}: depends must be a list of experiment names")
+    unknown = set(cfg) - {"runner", "title", "params", "quick", "order", "depends"}
     if unknown:
-        raise ValueError(f"experiment config {path}: unknown keys {sorted(unknown)}")
+        raise RoaInputError(f"experiment config {path}: unknown keys {sorted(unknown)}")
     cfg.setdefault("title", path.stem)
     cfg["name"] = path.stem
     return cfg
@@ -101,7 +96,13 @@ def config_hash(cfg: dict[str, Any], quick: bool, results: Path) -> str:
         summary = results / dep / "summary.json"
         inputs[dep] = hashlib.sha256(summary.read_bytes()).hexdigest() if summary.is_file() else None
     blob = json.dumps(
-        {"cfg": cfg, "quick": quick, "code": code_hash(), "inputs": inputs},
+        {
+            "cfg": cfg,
+            "quick": quick,
+            "code": code_hash(),
+            "study_code": code_hash(cfg["runner"].split(":")[0].split(".")[0]),
+            "inputs": inputs,
+        },
         sort_keys=True,
         default=str,
     )
@@ -120,7 +121,7 @@ def run_experiment(
     out = Path(results) / cfg["name"]
     for dep in cfg.get("depends", []):
         if not (Path(results) / dep / "summary.json").is_file():
-            raise ValueError(
+            raise RoaInputError(
                 f"experiment {cfg['name']} depends on {dep!r}: run experiments/{dep}.toml first "
                 f"(no {Path(results) / dep / 'summary.json'})"
             )
@@ -138,8 +139,10 @@ def run_experiment(
     params = dict(cfg.get("params", {}))
     if quick:
         params.update(cfg.get("quick", {}))
-    module, func = KINDS[cfg["kind"]].split(":")
-    runner = getattr(importlib.import_module(module), func)
+    module, func = cfg["runner"].split(":")
+    runner = getattr(importlib.import_module(module), func, None)
+    if runner is None:
+        raise RoaInputError(f"experiment {cfg['name']}: {module} has no runner {func!r}")
     check_params(cfg["name"], runner, params)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
@@ -147,7 +150,7 @@ def run_experiment(
     elapsed = time.perf_counter() - t0
     for claim in summary.get("claims", []):
         if claim.get("verdict") not in VERDICTS:
-            raise ValueError(
+            raise RoaInputError(
                 f"{cfg['name']}: claim {claim.get('id')} has verdict {claim.get('verdict')!r}"
             )
     summary = {"experiment": cfg["name"], "title": cfg["title"], "quick": quick, **summary}
@@ -180,3 +183,18 @@ def list_experiments(directory: str | Path = "experiments") -> list[Path]:
             return (100, p.name)
 
     return sorted(paths, key=key)
+
+
+def experiments_dir(study: studies.Study) -> Path:
+    """A study's configs: ``./experiments`` if present (a checkout), else the study's own copy."""
+    local = Path("experiments")
+    if local.is_dir() and any(local.glob("*.toml")):
+        return local
+    return study.experiments
+
+
+def write_report(study: studies.Study, results: str | Path, out: str | Path) -> Path:
+    """Render the study's report from ``results`` and write it atomically to ``out``."""
+    from roa.io import atomic_write_text
+
+    return atomic_write_text(out, study.render_report(results, out))

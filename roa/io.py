@@ -115,10 +115,13 @@ def package_versions() -> dict[str, str | None]:
     return versions
 
 
-def code_hash() -> str:
-    """SHA-256 of the package's source files: a change of code invalidates cached experiment runs."""
+def code_hash(package: str = "roa") -> str:
+    """SHA-256 of a package's source files: a change of code invalidates cached experiment runs."""
+    import importlib
+
     h = hashlib.sha256()
-    root = Path(__file__).resolve().parent
+    mod = importlib.import_module(package)
+    root = Path(mod.__file__ or "").resolve().parent
     for path in sorted(root.rglob("*.py")):
         h.update(str(path.relative_to(root)).encode())
         h.update(path.read_bytes())

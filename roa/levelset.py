@@ -1,411 +1,302 @@
-"""Khalil's level-set search: the largest set {s(x) <= c} on which V' < 0 (except at the equilibrium).
+"""Khalil's level-set search (3.15): the largest set {s(x) <= level} on which V' < 0.
 
-Given a :class:`~roa.system.System` with an equilibrium ``x0``, a quadratic Lyapunov candidate
-``V(x) = (x - x0)' P (x - x0)`` and a *shape* ``s(x) = (x - x0)' S (x - x0)`` (``S`` positive
-definite: ``S = P`` searches sublevel sets of ``V`` itself, ``S = I`` Euclidean balls), find::
+:func:`level_search` is the one entry point. Two independent methods, each returning a witness on
+the boundary of the admissible set (``V'(x) = 0`` to rounding, or the domain boundary):
 
-    c* = sup { c > 0 : V'(x) < 0 for all x with 0 < s(x) <= c, x inside the system's domain }
-       = inf { s(x) : x != x0, V'(x) >= 0 or x outside the domain }
+* ``"sampled"`` (:mod:`roa.levelset_sampled`): rays in random directions, bisection, cap refinement;
+* ``"casadi"`` (:mod:`roa.levelset_casadi`): IPOPT multi-start ``min s(x) s.t. V'(x)/s(x) >= 0``;
+* ``"both"`` runs the two and checks that they agree.
 
-(the second form holds because V' < 0 near ``x0`` when ``V`` is a strict Lyapunov function of the
-linearisation; otherwise ``c* = 0``). Reading "Phi <= 0" instead of "V' < 0" gives the same number
-unless V' touches zero without changing sign, which the witness check would show.
-
-Two independent methods, both returning a :class:`LevelSetResult` with a *witness* ``x`` on the
-boundary of the admissible set (``V'(x) = 0`` to rounding, or the domain boundary):
-
-* :func:`sampled_level` -- vectorised directions on the unit sphere of the shape, the first
-  sign change of V' along each ray bracketed on a radial grid and refined by bisection, then the
-  best directions refined by sampling in shrinking caps around them. The minimum over the sampled
-  directions is an upper bound of c* that decreases as the number of directions grows
-  (``result.details["convergence"]``).
-* :func:`casadi_level` (in :mod:`roa.levelset_casadi`, re-exported here) -- IPOPT (through CasADi) minimising ``s(x)`` subject to
-  ``V'(x) / s(x) >= 0``, multi-start from violating points; the best local minimiser, then moved
-  onto V' = 0 exactly by a root search along its ray.
-
-:func:`level_search` runs one or both and checks their agreement.
+The largest level is an *estimate* (an upper bound attained at the witness), not a certificate:
+:func:`roa.certify` proves a level.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from scipy import linalg, optimize
 
+from roa.errors import RoaInputError
 from roa.levelset_casadi import casadi_level
-from roa.lyapunov import QuadraticLyapunov, check_positive_definite
+from roa.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
+from roa.levelset_sampled import sampled_level
+from roa.linearisation import jacobian, lyapunov_matrix
+from roa.lyapunov import QuadraticLyapunov, as_lyapunov
+from roa.options import CasadiOptions, SampledOptions
+from roa.status import LevelStatus
 from roa.system import System
 
 __all__ = [
     "AGREEMENT_RTOL",
-    "BOTH_STATUSES",
-    "LEVEL_STATUSES",
     "METHODS",
+    "SHAPES",
     "WITNESS_ATOL",
-    "LevelSetResult",
+    "LevelSearchResult",
     "casadi_level",
     "inner_level",
     "jacobian",
     "level_search",
-    "locally_negative",
     "lyapunov_matrix",
     "sampled_level",
+    "shape_matrix",
 ]
 
 METHODS = ("sampled", "casadi", "both")
-#: Relative agreement required between the two methods.
-AGREEMENT_RTOL = 1e-4
-#: A witness is accepted when |V'(witness)| is below this.
-WITNESS_ATOL = 1e-8
+SHAPES = ("level", "ball")
 
-LEVEL_STATUSES = (
-    "found",  # a finite c* with a witness
-    "unbounded",  # no violation found within the search radius (c* >= r_max^2)
-    "not_locally_negative",  # V' is not negative definite near the equilibrium: c* = 0
-    "failed",  # the method found no admissible point (solver failures)
-)
-#: Statuses of ``level_search(method="both")`` besides the shared ones above.
-BOTH_STATUSES = (
-    "agree",  # both found, within AGREEMENT_RTOL
-    "disagree",  # both found, further apart
-    "partial",  # one found, the other did not (see per_method)
-)
+
+def _finite(x: float | None) -> float | None:
+    return None if x is None or not np.isfinite(x) else float(x)
 
 
 @dataclass(frozen=True)
-class LevelSetResult:
-    """A largest level ``c*`` of the shape, with how it was found and a point that proves it tight."""
+class LevelSearchResult:
+    """The largest level of a shape on which V' < 0, how it was found, and a witness.
 
-    value: float
-    status: str
+    Attributes
+    ----------
+    status : LevelStatus
+        ``found`` (one method), ``agree`` / ``disagree`` / ``partial`` (both), or why there is no
+        level (``unbounded``, ``not_locally_negative``, ``failed``).
+    level : float or None
+        The largest level (an upper bound attained at the witness); ``None`` when no level was
+        found (then ``lower_bound`` may say how far the search reached).
+    method, shape : str
+        What ran and which shape (``"level"``, ``"ball"`` or ``"custom"``).
+    witness : ndarray or None
+        A state with ``V' = 0`` (or on the domain boundary) and ``s(witness) = level``.
+    per_method : dict
+        Each method's own result (``method="both"``).
+    """
+
+    status: LevelStatus
+    level: float | None
     method: str
     shape: str
     witness: np.ndarray | None
     vdot_witness: float | None
-    witness_kind: str | None = None  # "vdot_zero" or "domain_boundary"
+    witness_kind: str | None
+    seconds: float
+    message: str = ""
+    lower_bound: float | None = None
+    relative_difference: float | None = None
+    per_method: dict[str, LevelSearchResult] = field(default_factory=dict)
     details: dict[str, Any] = field(default_factory=dict)
+    system: System | None = field(default=None, repr=False, compare=False)
+    V: QuadraticLyapunov | None = field(default=None, repr=False, compare=False)
+    S: np.ndarray | None = field(default=None, repr=False, compare=False)
 
-    def to_json(self) -> dict[str, Any]:
-        return {
-            "value": float(self.value),
-            "status": self.status,
+    @property
+    def ok(self) -> bool:
+        """True when a level was found (and, with both methods, they agree)."""
+        return self.status.ok
+
+    def to_dict(self) -> dict[str, Any]:
+        """What ``roa khalil --json`` prints (``value`` is a deprecated alias of ``level``)."""
+        out: dict[str, Any] = {
+            "level": self.level,
+            "value": self.level,
+            "status": self.status.value,
             "method": self.method,
             "shape": self.shape,
-            "witness": None if self.witness is None else self.witness.tolist(),
-            "vdot_witness": self.vdot_witness,
+            "witness": None if self.witness is None else [float(v) for v in self.witness],
+            "vdot_witness": _finite(self.vdot_witness),
             "witness_kind": self.witness_kind,
+            "lower_bound": self.lower_bound,
+            "seconds": round(self.seconds, 3),
+            "message": self.message,
             **self.details,
         }
-
-
-@dataclass(frozen=True)
-class _Problem:
-    system: System
-    V: QuadraticLyapunov
-    S: np.ndarray
-    shape: str
-    Linv_T: np.ndarray  # x = x0 + Linv_T @ y with |y|^2 = s(x)
-
-    def vdot(self, X: np.ndarray) -> np.ndarray:
-        with np.errstate(all="ignore"):
-            return self.V.derivative(self.system, X)
-
-    def bad(self, X: np.ndarray) -> np.ndarray:
-        """Violation: V' >= 0, not finite, or outside the domain."""
-        vd = self.vdot(X)
-        out = ~(vd < 0)
-        if self.system.margin is not None:
-            out |= ~self.system.inside(X)
+        if self.per_method:
+            out["relative_difference"] = self.relative_difference
+            out["per_method"] = {k: v.to_dict() for k, v in self.per_method.items()}
+        if self.system is not None:
+            out["system"] = self.system.name
+        if self.V is not None:
+            out["P"] = self.V.P.tolist()
         return out
 
-    def points(self, U: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """States at shape radius ``r`` (s = r^2) along unit directions ``U`` (broadcast)."""
-        return self.V.center + (r[..., None] * U) @ self.Linv_T.T
+    def plot(self, ax: Any = None, *, n: int = 400) -> Any:
+        """V' along the witness's ray against the shape value s, with the level marked."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(6, 3.5))
+        if self.witness is None or self.system is None or self.V is None or self.level is None:
+            ax.set_title(f"no witness ({self.status.value})")
+            return ax
+        c = self.V.center
+        t = np.linspace(0.0, 1.5, n)[1:]
+        X = c + t[:, None] * (self.witness - c)
+        with np.errstate(all="ignore"):
+            vd = self.V.derivative(self.system, X)
+        ax.plot(self.level * t**2, vd, label="V' along the witness's ray")
+        ax.axhline(0.0, color="k", lw=0.6)
+        ax.axvline(self.level, color="C3", ls="--", label=f"level {self.level:.6g} ({self.status})")
+        ax.set_xlabel(f"shape value s(x) ({self.shape}) [-]")
+        ax.set_ylabel("V'(x) [1/time]")
+        ax.legend(loc="best")
+        return ax
 
 
-def _problem(system: System, V: QuadraticLyapunov, S: Any, shape: str) -> _Problem:
-    S = check_positive_definite(S, what=f"shape {shape!r} matrix")
-    if S.shape != V.P.shape:
-        raise ValueError(f"shape matrix must be {V.P.shape}, got {S.shape}")
-    if system.equilibrium is None:
-        raise ValueError(f"system {system.name!r} has no equilibrium: no level-set search")
-    if not np.allclose(system.x_eq, V.center):
-        raise ValueError("V must be centred at the system's equilibrium")
-    L = np.linalg.cholesky(S)  # S = L L'
-    return _Problem(system, V, S, shape, np.linalg.inv(L.T))
+def shape_matrix(system: System, V: QuadraticLyapunov, shape: Any) -> tuple[np.ndarray, str]:
+    """The matrix S and name of a shape: ``"level"`` (V's P), ``"ball"`` (the system's norm, else
+    the identity) or an n x n positive-definite matrix (``"custom"``)."""
+    if isinstance(shape, str):
+        if shape == "level":
+            return V.P, "level"
+        if shape == "ball":
+            return (np.eye(system.n) if system.norm is None else np.asarray(system.norm)), "ball"
+        raise RoaInputError(f"shape must be one of {SHAPES} or an n x n matrix, got {shape!r}")
+    S = np.asarray(shape, dtype=float)
+    if S.shape != (system.n, system.n):
+        raise RoaInputError(f"shape matrix must be {system.n}x{system.n}, got {S.shape}")
+    return S, "custom"
 
 
-def jacobian(system: System, x: np.ndarray | None = None) -> np.ndarray:
-    """Jacobian of the field at ``x`` (default the equilibrium), exact via CasADi."""
-    import casadi as ca
-
-    from roa.backend import namespace
-
-    x = system.x_eq if x is None else np.asarray(x, dtype=float)
-    sym = ca.SX.sym("x", system.n)
-    f = ca.vertcat(*system.field(0.0, [sym[i] for i in range(system.n)], namespace("casadi")))
-    return np.array(ca.Function("J", [sym], [ca.jacobian(f, sym)])(x), dtype=float)
-
-
-def lyapunov_matrix(system: System) -> np.ndarray:
-    """P solving A'P + PA = -I for the linearisation A at the equilibrium (A must be Hurwitz)."""
-    A = jacobian(system)
-    eig = np.linalg.eigvals(A)
-    if np.max(eig.real) >= 0:
-        raise ValueError(
-            f"linearisation of {system.name!r} is not Hurwitz (eigenvalue {eig[np.argmax(eig.real)]:.4g}): "
-            "no quadratic Lyapunov function from A'P + PA = -I; give LYAPUNOV_P in the system file"
+def _wrap(r: LevelSetResult, seconds: float, **extra: Any) -> LevelSearchResult:
+    status = LevelStatus(r.status)
+    found = status is LevelStatus.FOUND
+    details = dict(r.details)
+    lower = None
+    message = ""
+    if status is LevelStatus.UNBOUNDED:
+        lower = _finite(r.value)
+        message = (
+            f"no point with V' >= 0 found up to s = {r.value:.4g}: the largest level is at least "
+            "that (V' < 0 may hold on every sublevel set); increase r_max to search further"
         )
-    P = linalg.solve_continuous_lyapunov(A.T, -np.eye(system.n))
-    return 0.5 * (P + P.T)
-
-
-def locally_negative(system: System, V: QuadraticLyapunov) -> tuple[bool, float]:
-    """Whether V' is negative definite near the equilibrium: A'P + PA < 0. Returns (ok, max eig)."""
-    A = jacobian(system)
-    Q = A.T @ V.P + V.P @ A
-    lam = float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[-1])
-    return lam < 0, lam
-
-
-def inner_level(P_outer: Any, level: float, S_inner: Any) -> float:
-    """Largest c with {y'S y <= c} inside {y'P y <= level}: ``level / lambda_max(P, S)``."""
-    lam = linalg.eigh(np.asarray(P_outer, float), np.asarray(S_inner, float), eigvals_only=True)
-    return float(level / lam[-1])
-
-
-# ----------------------------------------------------------------------------- sampled method
-
-
-def _unit(Z: np.ndarray) -> np.ndarray:
-    return Z / np.linalg.norm(Z, axis=-1, keepdims=True)
-
-
-def _crossings(
-    prob: _Problem, U: np.ndarray, r_grid: np.ndarray, *, iters: int = 40, chunk: int = 4096
-) -> np.ndarray:
-    """Shape radius of the first violation along each direction (inf if none on the grid)."""
-    out = np.full(len(U), np.inf)
-    for a in range(0, len(U), chunk):
-        Uc = U[a : a + chunk]
-        bad = prob.bad(prob.points(Uc[:, None, :], np.broadcast_to(r_grid, (len(Uc), len(r_grid)))))
-        hit = bad.any(axis=1)
-        if not hit.any():
-            continue
-        k = np.argmax(bad, axis=1)[hit]
-        Uh = Uc[hit]
-        hi = r_grid[k]
-        lo = np.where(k > 0, r_grid[np.maximum(k - 1, 0)], 0.0)
-        for _ in range(iters):  # invariant: lo admissible (or 0), hi violating
-            mid = 0.5 * (lo + hi)
-            b = prob.bad(prob.points(Uh, mid))
-            hi = np.where(b, mid, hi)
-            lo = np.where(b, lo, mid)
-        res = out[a : a + chunk]
-        res[hit] = hi
-        out[a : a + chunk] = res
-    return out
-
-
-def sampled_level(
-    system: System,
-    V: QuadraticLyapunov,
-    S: Any,
-    *,
-    shape: str = "custom",
-    n_directions: int = 20000,
-    r_max: float = 100.0,
-    n_radial: int = 96,
-    refine_rounds: int = 20,
-    refine_directions: int = 192,
-    n_candidates: int = 3,
-    seed: int = 0,
-) -> LevelSetResult:
-    """Largest shape level with V' < 0, by rays in sampled directions (see module docstring).
-
-    Parameters
-    ----------
-    system, V, S
-        The system, the Lyapunov candidate and the shape matrix.
-    n_directions : int
-        Number of random directions on the unit sphere of the shape (>= 16).
-    r_max : float
-        Search radius in shape units (sqrt(s)); rays without violation up to it count as infinite.
-    n_radial : int
-        Points of the geometric radial grid from ``1e-4 r_max`` to ``r_max`` used for bracketing.
-    refine_rounds, refine_directions, n_candidates : int
-        Cap-refinement: rounds, directions per round, and how many of the best directions to refine.
-    seed : int
-        Random seed.
-    """
-    if int(n_directions) < 16:
-        raise ValueError(f"n_directions must be >= 16, got {n_directions}")
-    if not (np.isfinite(r_max) and r_max > 0):
-        raise ValueError(f"r_max must be finite and > 0, got {r_max}")
-    if int(n_radial) < 8:
-        raise ValueError(f"n_radial must be >= 8, got {n_radial}")
-    prob = _problem(system, V, S, shape)
-    ok, lam = locally_negative(system, V)
-    if not ok:
-        return LevelSetResult(
-            0.0,
-            "not_locally_negative",
-            "sampled",
-            shape,
-            system.x_eq,
-            0.0,
-            details={"max_eig_AtP_PA": lam},
+    elif status is LevelStatus.NOT_LOCALLY_NEGATIVE:
+        message = (
+            "V' is not negative definite at the equilibrium (largest eigenvalue of A'P + PA = "
+            f"{details.get('max_eig_AtP_PA', float('nan')):.4g} >= 0): no level > 0 for this V"
         )
-    rng = np.random.default_rng(seed)
-    n = system.n
-    U = _unit(rng.standard_normal((int(n_directions), n)))
-    r_grid = r_max * np.geomspace(1e-4, 1.0, int(n_radial))
-    r = _crossings(prob, U, r_grid)
-    convergence = []
-    m = int(n_directions)
-    sizes = sorted({max(16, m // 4**k) for k in range(4)})
-    for size in sizes:
-        convergence.append({"n_directions": size, "value": float(np.min(r[:size]) ** 2)})
-    if not np.isfinite(r).any():
-        return LevelSetResult(
-            float(r_max**2),
-            "unbounded",
-            "sampled",
-            shape,
-            None,
-            None,
-            details={"r_max": r_max, "convergence": convergence},
-        )
-    # Cap refinement around the best few (well separated) directions.
-    order = np.argsort(r)
-    cands: list[int] = []
-    for i in order:
-        if not np.isfinite(r[i]):
-            break
-        if all(abs(U[i] @ U[j]) < 0.95 for j in cands):
-            cands.append(int(i))
-        if len(cands) >= n_candidates:
-            break
-    best_r, best_u = np.inf, None
-    for i in cands:
-        u, ru = U[i], r[i]
-        sigma = 0.1
-        for _ in range(int(refine_rounds)):
-            Z = _unit(u + sigma * rng.standard_normal((int(refine_directions), n)))
-            grid = ru * np.linspace(1.0 / 24, 1.25, 30)
-            rz = _crossings(prob, Z, grid)
-            j = int(np.argmin(rz))
-            if rz[j] < ru:
-                u, ru = Z[j], rz[j]
-            sigma *= 0.55
-        if ru < best_r:
-            best_r, best_u = ru, u
-    assert best_u is not None
-    witness = prob.points(best_u, np.asarray(best_r))
-    return _finish(
-        prob,
-        witness,
-        "sampled",
-        {
-            "n_directions": m,
-            "r_max": r_max,
-            "n_radial": int(n_radial),
-            "raw_value": float(np.min(r) ** 2),
-            "convergence": convergence,
-            "refine_rounds": int(refine_rounds),
-            "seed": seed,
-        },
+    elif status is LevelStatus.FAILED:
+        message = "no admissible point found: try more starts or directions"
+    return LevelSearchResult(
+        status,
+        _finite(r.value) if found else None,
+        r.method,
+        r.shape,
+        r.witness,
+        r.vdot_witness,
+        r.witness_kind,
+        seconds,
+        message,
+        lower,
+        details=details,
+        **extra,
     )
-
-
-def _finish(prob: _Problem, x: np.ndarray, method: str, details: dict[str, Any]) -> LevelSetResult:
-    """Put ``x`` exactly on V' = 0 along its ray (if it is a V' root), evaluate, wrap."""
-    x = np.asarray(x, dtype=float)
-    c = prob.V.center
-    inside = prob.system.margin is None or bool(prob.system.inside(x))
-    vd = float(prob.vdot(x))
-    if inside and np.isfinite(vd):
-
-        def g(t: float) -> float:
-            return float(prob.vdot(c + t * (x - c)))
-
-        for width in (1e-9, 1e-6, 1e-3):
-            a, b = 1 - width, 1 + width
-            if g(a) * g(b) < 0:
-                t = optimize.brentq(g, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
-                x = c + t * (x - c)
-                vd = float(prob.vdot(x))
-                break
-    d = x - c
-    value = float(d @ prob.S @ d)
-    kind = (
-        "vdot_zero"
-        if inside and abs(vd) < WITNESS_ATOL
-        else ("domain_boundary" if not inside else None)
-    )
-    status = "found" if kind is not None else "failed"
-    return LevelSetResult(value, status, method, prob.shape, x, vd, kind, details)
-
-
-# ----------------------------------------------------------------------------- both
 
 
 def level_search(
     system: System,
-    V: QuadraticLyapunov,
-    S: Any,
+    V: Any = None,
     *,
-    shape: str = "custom",
+    shape: Any = "level",
     method: str = "both",
-    sampled: dict[str, Any] | None = None,
-    casadi: dict[str, Any] | None = None,
-) -> dict[str, Any]:
-    """Run one or both methods; returns ``{"value", "status", "method", "shape", "witness", ...}``.
+    sampled: SampledOptions | None = None,
+    casadi: CasadiOptions | None = None,
+) -> LevelSearchResult:
+    """Largest level of ``shape`` on which ``V' < 0`` (Khalil's estimate (3.15)).
 
-    With one method its result is returned as is (status from :data:`LEVEL_STATUSES`). With
-    ``method="both"``, ``per_method`` holds both results and only *successful* ones (status
-    ``"found"``, both upper bounds of c* attained at their witnesses) give the value and witness:
+    Parameters
+    ----------
+    system : System
+        An autonomous system with an equilibrium.
+    V : QuadraticLyapunov or n x n matrix, optional
+        The Lyapunov candidate (default :func:`roa.default_lyapunov`).
+    shape : {"level", "ball"} or n x n matrix
+        Sublevel sets of ``V`` itself, balls of the system's norm, or ``(x - x_eq)' S (x - x_eq)``.
+    method : {"sampled", "casadi", "both"}
+        ``both`` runs the two methods and reports whether they agree (relative gap 1e-4).
+    sampled, casadi : SampledOptions, CasadiOptions, optional
+        Options of each method (defaults in :mod:`roa.options`).
 
-    * both found: the smaller one; ``relative_difference`` is their gap and ``status`` is
-      ``"agree"`` if it is <= :data:`AGREEMENT_RTOL`, else ``"disagree"``;
-    * one found: its result, ``status`` ``"partial"`` (the other's status in ``per_method``);
-    * none found: the common status of both if they agree (e.g. ``"unbounded"``),
-      ``"not_locally_negative"`` if either says so, else ``"failed"``; the value is the smaller
-      one (not an upper bound of c*).
+    Returns
+    -------
+    LevelSearchResult
+        ``.level`` (``None`` unless a level was found), ``.status``, ``.witness``.
+
+    Examples
+    --------
+    >>> import roa
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> res = roa.level_search(vanderpol(), method="casadi")
+    >>> res.status, round(res.level, 4)
+    (<LevelStatus.FOUND: 'found'>, 2.3045)
     """
     if method not in METHODS:
-        raise ValueError(f"method {method!r}: allowed {', '.join(METHODS)}")
-    results = []
+        raise RoaInputError(f"method must be one of {METHODS}, got {method!r}")
+    if system.equilibrium is None or system.time_varying:
+        raise RoaInputError(
+            f"system {system.name!r} has no equilibrium (time-varying): no level-set search"
+        )
+    lyap = as_lyapunov(system, V)
+    S, name = shape_matrix(system, lyap, shape)
+    sampled = SampledOptions() if sampled is None else sampled
+    casadi = CasadiOptions() if casadi is None else casadi
+    keep = {"system": system, "V": lyap, "S": S}
+    runs: list[LevelSearchResult] = []
     if method in ("sampled", "both"):
-        results.append(sampled_level(system, V, S, shape=shape, **(sampled or {})))
+        t0 = time.perf_counter()
+        r = sampled_level(system, lyap, S, shape=name, **sampled.to_dict())
+        runs.append(_wrap(r, time.perf_counter() - t0, **keep))
     if method in ("casadi", "both"):
-        results.append(casadi_level(system, V, S, shape=shape, **(casadi or {})))
+        t0 = time.perf_counter()
+        opts = casadi.to_dict()
+        r = casadi_level(system, lyap, S, shape=name, **opts)
+        runs.append(_wrap(r, time.perf_counter() - t0, **keep))
     if method != "both":
-        return results[0].to_json()
-    found = [r for r in results if r.status == "found"]
-    best = min(found or results, key=lambda r: r.value)
-    out = best.to_json()
-    rel = float("inf")  # no gap measured unless both found
+        return runs[0]
+    return _combine(runs, keep)
+
+
+def _combine(runs: list[LevelSearchResult], keep: dict[str, Any]) -> LevelSearchResult:
+    """Both methods: the smaller found level, and whether they agree."""
+    found = [r for r in runs if r.status is LevelStatus.FOUND]
+    seconds = sum(r.seconds for r in runs)
+    per = {r.method: r for r in runs}
+    rel = None
     if len(found) == 2:
-        a, b = (r.value for r in found)
+        a, b = (float(r.level) for r in found)  # type: ignore[arg-type]
         rel = abs(a - b) / max(abs(a), abs(b)) if max(abs(a), abs(b)) > 0 else 0.0
-        status = "agree" if rel <= AGREEMENT_RTOL else "disagree"
+        status = LevelStatus.AGREE if rel <= AGREEMENT_RTOL else LevelStatus.DISAGREE
+        best = min(found, key=lambda r: float(r.level))  # type: ignore[arg-type]
+        message = f"methods agree to {rel:.2g}" if status is LevelStatus.AGREE else (
+            f"methods differ by {rel:.2g} (> {AGREEMENT_RTOL:g}): the smaller level is reported; "
+            "try more directions or starts"
+        )
     elif len(found) == 1:
-        status = "partial"
+        status, best = LevelStatus.PARTIAL, found[0]
+        other = next(r for r in runs if r is not best)
+        message = f"only {best.method} found a level ({other.method}: {other.status.value})"
     else:
-        statuses = {r.status for r in results}
+        statuses = {r.status for r in runs}
         if len(statuses) == 1:
             status = statuses.pop()
-        elif "not_locally_negative" in statuses:
-            status = "not_locally_negative"
+        elif LevelStatus.NOT_LOCALLY_NEGATIVE in statuses:
+            status = LevelStatus.NOT_LOCALLY_NEGATIVE
         else:
-            status = "failed"
-    out.update(
-        method="both",
-        status=status,
-        relative_difference=rel,
-        per_method={r.method: r.to_json() for r in results},
+            status = LevelStatus.FAILED
+        best = next((r for r in runs if r.status is status), runs[0])
+        message = best.message
+    return LevelSearchResult(
+        status,
+        best.level if found else None,
+        "both",
+        best.shape,
+        best.witness,
+        best.vdot_witness,
+        best.witness_kind,
+        seconds,
+        message,
+        best.lower_bound,
+        rel,
+        per,
+        dict(best.details),
+        **keep,
     )
-    return out

@@ -1,21 +1,20 @@
 """CasADi/IPOPT method of Khalil's level-set search (see :mod:`roa.levelset`).
 
 :func:`casadi_level` minimises the shape ``s(x)`` subject to ``V'(x) / s(x) >= 0`` from violating
-starting points; it is re-exported by :mod:`roa.levelset` (``from roa.levelset import
-casadi_level``), which holds the shared problem set-up and the witness refinement.
+starting points; the problem set-up and the witness refinement are shared with the sampled method
+(:mod:`roa.levelset_core`).
 """
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 
+from roa.backend import namespace
+from roa.levelset_core import LevelSetResult, finish, locally_negative, problem, unit
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
-
-if TYPE_CHECKING:
-    from roa.levelset import LevelSetResult
 
 
 def casadi_level(
@@ -47,14 +46,11 @@ def casadi_level(
     """
     import casadi as ca
 
-    from roa.backend import namespace
-    from roa.levelset import LevelSetResult, _finish, _problem, _unit, locally_negative
-
     if int(n_starts) < 1:
         raise ValueError(f"n_starts must be >= 1, got {n_starts}")
     if not (0 < r_start[0] < r_start[1] < np.inf):
         raise ValueError(f"r_start must be 0 < low < high, got {r_start}")
-    prob = _problem(system, V, S, shape)
+    prob = problem(system, V, S, shape)
     ok, lam = locally_negative(system, V)
     if not ok:
         return LevelSetResult(
@@ -81,7 +77,7 @@ def casadi_level(
         "error_on_fail": False,
     }
     rng = np.random.default_rng(seed)
-    U = _unit(rng.standard_normal((int(n_candidates), n)))
+    U = unit(rng.standard_normal((int(n_candidates), n)))
     radii = np.exp(rng.uniform(np.log(r_start[0]), np.log(r_start[1]), int(n_candidates)))
     cand_x = prob.points(U, radii)
     with np.errstate(all="ignore"):
@@ -102,7 +98,7 @@ def casadi_level(
             if not solver.stats()["success"]:
                 continue
             n_ok += 1
-            cand = _finish(
+            cand = finish(
                 prob,
                 np.array(sol["x"]).ravel(),
                 "casadi",

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.system import System
 
 
@@ -14,14 +15,14 @@ def check_positive_definite(P: Any, *, what: str = "P") -> np.ndarray:
     """Return ``P`` as a symmetric float array; raise if not symmetric positive definite."""
     P = np.asarray(P, dtype=float)
     if P.ndim != 2 or P.shape[0] != P.shape[1]:
-        raise ValueError(f"{what} must be a square matrix, got shape {P.shape}")
+        raise RoaInputError(f"{what} must be a square matrix, got shape {P.shape}")
     if not np.all(np.isfinite(P)):
-        raise ValueError(f"{what} must be finite")
+        raise RoaInputError(f"{what} must be finite")
     if not np.allclose(P, P.T, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(P).max())):
-        raise ValueError(f"{what} must be symmetric")
+        raise RoaInputError(f"{what} must be symmetric")
     lam = np.linalg.eigvalsh(P)
     if lam[0] <= 0:
-        raise ValueError(
+        raise RoaInputError(
             f"{what} is not positive definite (smallest eigenvalue {lam[0]:.3g} <= 0): "
             "a Lyapunov candidate must be positive definite"
         )
@@ -40,15 +41,15 @@ class QuadraticLyapunov:
         object.__setattr__(self, "P", check_positive_definite(self.P, what=f"{self.name}.P"))
         c = np.asarray(self.center, dtype=float).reshape(-1)
         if c.shape[0] != self.P.shape[0]:
-            raise ValueError(f"{self.name}.center must have {self.P.shape[0]} components")
+            raise RoaInputError(f"{self.name}.center must have {self.P.shape[0]} components")
         object.__setattr__(self, "center", c)
 
     @classmethod
     def for_system(cls, system: System, P: Any, name: str = "V") -> QuadraticLyapunov:
         P = np.asarray(P, dtype=float)
         if P.shape != (system.n, system.n):
-            raise ValueError(
-                f"P must be {system.n}x{system.n} for system {system.name!r}, got {P.shape}"
+            raise RoaInputError(
+                f"V: P must be {system.n}x{system.n} for system {system.name!r}, got {P.shape}"
             )
         return cls(P, system.x_eq, name)
 
@@ -74,3 +75,37 @@ class QuadraticLyapunov:
         V = sum(d[i] * Pd[i] for i in range(self.n))
         Vd = 2 * sum(Pd[i] * f[i] for i in range(self.n))
         return V, Vd
+
+
+def as_lyapunov(system: System, V: Any = None) -> QuadraticLyapunov:
+    """``V`` as a :class:`QuadraticLyapunov` of ``system``: ``None`` (the default candidate), a
+    ``QuadraticLyapunov``, or an n x n matrix ``P``."""
+    if V is None:
+        return default_lyapunov(system)
+    if isinstance(V, QuadraticLyapunov):
+        if V.n != system.n:
+            raise RoaInputError(f"V has {V.n} states, system {system.name!r} has {system.n}")
+        return V
+    return QuadraticLyapunov.for_system(system, V, name="P")
+
+
+def default_lyapunov(system: System) -> QuadraticLyapunov:
+    """The quadratic Lyapunov candidate of a system.
+
+    ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix), else
+    ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium.
+
+    Examples
+    --------
+    >>> import roa
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> roa.default_lyapunov(vanderpol()).P.tolist()
+    [[1.5, -0.5], [-0.5, 1.0]]
+    """
+    if system.equilibrium is None:
+        raise RoaInputError(f"system {system.name!r} has no equilibrium: no Lyapunov candidate")
+    if system.lyapunov is not None:
+        return QuadraticLyapunov.for_system(system, system.lyapunov, name=f"{system.name} V")
+    from roa.linearisation import lyapunov_matrix
+
+    return QuadraticLyapunov.for_system(system, lyapunov_matrix(system), name="P from A'P + PA = -I")

@@ -1,9 +1,11 @@
-"""Regression values: ``results/reference.json`` and the registry of functions that recompute them.
+"""Regression values: a reference file (``results/reference.json``) and the functions that recompute them.
 
 ``roa check`` recomputes every stored value and exits non-zero naming each one that drifts beyond
 its tolerance (or is missing, unregistered or fails); ``tests/test_reference.py`` runs the same check.
+The registry ``{key: Entry}`` belongs to a study (:mod:`roa.studies`); the functions here take it
+as an argument and never read the working directory on their own.
 
-How to add a value (one line in :data:`REGISTRY`)::
+How to add a value (one line in the study's registry)::
 
     "area.name": Entry("package.module:function", rtol=1e-6, method="how it is computed"),
 
@@ -21,9 +23,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from roa.errors import ResultsError, RoaInputError
 from roa.io import atomic_write_json
-
-DEFAULT_PATH = Path("results/reference.json")
 
 
 @dataclass(frozen=True)
@@ -45,63 +46,38 @@ class Entry:
         return float(out)
 
 
-_L = "roa.systems.ipc.lyapunov:khalil_value"
-_K = "IPOPT multi-start min s s.t. V'/s >= 0, witness on V' = 0"
-_S = "20000 sampled rays + cap refinement, bisection of the first V' >= 0"
-
-#: key -> Entry. Add yours here (one line each); see the module docstring.
-REGISTRY: dict[str, Entry] = {
-    "ipc.khalil.ball.casadi": Entry(_L, 1e-6, _K, {"shape": "ball", "method": "casadi"}),
-    "ipc.khalil.ball.sampled": Entry(_L, 1e-4, _S, {"shape": "ball", "method": "sampled"}),
-    "ipc.khalil.level.casadi": Entry(_L, 1e-6, _K, {"shape": "level", "method": "casadi"}),
-    "ipc.khalil.level.sampled": Entry(_L, 1e-4, _S, {"shape": "level", "method": "sampled"}),
-    "ipc.bound.corrected.c_tilde": Entry(
-        "roa.systems.ipc.bound:corrected_bound",
-        1e-12,
-        "closed form alpha/(2 kappa)",
-        item="c_tilde",
-    ),
-    "ipc.certify.paper.interval": Entry(
-        "roa.systems.ipc.certify_runs:certified_level", 1e-6, "0.999 x IPOPT optimum, interval-certified"
-    ),
-    "vanderpol.level.casadi": Entry(
-        "roa.reference:vanderpol_level", 1e-6, _K, {"method": "casadi"}
-    ),
-}
+Registry = dict[str, Entry]
 
 
-def vanderpol_level(method: str = "casadi") -> float:
-    """Largest V-level of the time-reversed Van der Pol benchmark (published 2.3045)."""
-    from roa.levelset import level_search
-    from roa.lyapunov import QuadraticLyapunov
-    from roa.systems.vanderpol import P_BENCHMARK, vanderpol
-
-    system = vanderpol()
-    V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
-    return float(level_search(system, V, P_BENCHMARK, shape="level", method=method)["value"])
-
-
-def load(path: str | Path = DEFAULT_PATH) -> dict[str, Any]:
+def load(path: str | Path, *, must_exist: bool = False) -> dict[str, Any]:
+    """The stored values in ``path`` (``{}`` if absent, unless ``must_exist``)."""
     path = Path(path)
     if not path.is_file():
+        if must_exist:
+            raise ResultsError(
+                f"reference file {path.resolve()} does not exist: run roa check from the "
+                "project's checkout, or pass the reference file's path"
+            )
         return {}
     try:
         return json.loads(path.read_text())
     except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: invalid JSON: {exc}") from exc
+        raise ResultsError(f"{path}: invalid JSON: {exc}") from exc
 
 
-def _select(keys: list[str] | None) -> list[str]:
+def _select(registry: Registry, keys: list[str] | None) -> list[str]:
     if not keys:
-        return list(REGISTRY)
-    unknown = [k for k in keys if k not in REGISTRY]
+        return list(registry)
+    unknown = [k for k in keys if k not in registry]
     if unknown:
-        raise ValueError(f"unknown reference key(s) {unknown}; registered: {', '.join(REGISTRY)}")
+        raise RoaInputError(
+            f"unknown reference key(s) {unknown}; registered: {', '.join(registry)}"
+        )
     return list(keys)
 
 
 def check(
-    keys: list[str] | None = None, *, path: str | Path = DEFAULT_PATH
+    registry: Registry, keys: list[str] | None = None, *, path: str | Path
 ) -> list[dict[str, Any]]:
     """Recompute registered values and compare with the stored ones.
 
@@ -109,10 +85,10 @@ def check(
     status ``ok``, ``drift``, ``missing`` (registered, not stored), ``unregistered`` (stored, not
     registered; only when ``keys`` is None) or ``error``.
     """
-    stored = load(path)
+    stored = load(path, must_exist=True)
     rows = []
-    for key in _select(keys):
-        entry = REGISTRY[key]
+    for key in _select(registry, keys):
+        entry = registry[key]
         row: dict[str, Any] = {"key": key, "rtol": entry.rtol, "atol": entry.atol}
         try:
             value = entry.compute()
@@ -129,15 +105,15 @@ def check(
         row["status"] = "ok" if ok else "drift"
         rows.append(row)
     if not keys:
-        rows += [{"key": k, "status": "unregistered"} for k in stored if k not in REGISTRY]
+        rows += [{"key": k, "status": "unregistered"} for k in stored if k not in registry]
     return rows
 
 
-def update(keys: list[str] | None = None, *, path: str | Path = DEFAULT_PATH) -> dict[str, Any]:
+def update(registry: Registry, keys: list[str] | None = None, *, path: str | Path) -> dict[str, Any]:
     """Recompute ``keys`` (default all registered) and store them in ``path`` (atomic)."""
     stored = load(path)
-    for key in _select(keys):
-        entry = REGISTRY[key]
+    for key in _select(registry, keys):
+        entry = registry[key]
         stored[key] = {
             "value": entry.compute(),
             "rtol": entry.rtol,

@@ -1,19 +1,102 @@
-"""Statuses of runs and the stop rules that decide them."""
+"""Statuses of every kind of answer, and the stop rules of a trajectory.
+
+One :class:`enum.StrEnum` per kind of answer; every member carries a one-line ``meaning``::
+
+    >>> from roa.status import Verdict
+    >>> Verdict.CERTIFIED.meaning
+    'proved by a check independent of the solver that proposed it'
+"""
 
 from __future__ import annotations
 
 import enum
+import math
 from dataclasses import dataclass
 
+from roa.errors import RoaInputError
 
-class RunStatus(enum.StrEnum):
+
+class _Status(enum.StrEnum):
+    """A string-valued status whose members carry a one-line ``meaning``."""
+
+    meaning: str
+
+    def __new__(cls, value: str, meaning: str = "") -> _Status:
+        obj = str.__new__(cls, value)
+        obj._value_ = value
+        obj.meaning = meaning
+        return obj
+
+    @classmethod
+    def describe(cls) -> dict[str, str]:
+        """``{value: meaning}`` of every member, in definition order."""
+        return {m.value: m.meaning for m in cls}
+
+
+class RunStatus(_Status):
     """How one trajectory ended. Never merged: each is counted on its own."""
 
-    CONVERGED = "converged"  # entered the ball ||x - x_eq|| <= converge_tol
-    LEFT_DOMAIN = "left_domain"  # crossed the boundary of the system's domain
-    DIVERGED = "diverged"  # norm above diverge_bound, or a non-finite state
-    UNDECIDED = "undecided"  # none of the above by t_final
-    COMPLETED = "completed"  # time-varying run (tracking): reached t_final inside the domain
+    CONVERGED = "converged", "entered the ball ||x - x_eq|| <= converge_tol around the equilibrium"
+    LEFT_DOMAIN = "left_domain", "crossed the boundary of the system's domain"
+    DIVERGED = "diverged", "norm above diverge_bound, or a non-finite state"
+    UNDECIDED = "undecided", "none of the above by t_final (or the step size collapsed)"
+    COMPLETED = "completed", "time-varying run (tracking) that reached t_final inside the domain"
+
+
+class LevelStatus(_Status):
+    """Outcome of Khalil's level-set search (:func:`roa.level_search`)."""
+
+    FOUND = "found", "a largest level with a witness on V' = 0 or on the domain boundary"
+    AGREE = "agree", "both methods found a level and agree within the tolerance"
+    DISAGREE = "disagree", "both methods found a level but they differ: the smaller is reported"
+    PARTIAL = "partial", "one method found a level, the other did not (see per_method)"
+    UNBOUNDED = "unbounded", "no point with V' >= 0 within the search radius: level >= r_max^2"
+    NOT_LOCALLY_NEGATIVE = (
+        "not_locally_negative",
+        "V' is not negative definite at the equilibrium: no level > 0 exists for this V",
+    )
+    FAILED = "failed", "no admissible point was found (solver failures)"
+
+    @property
+    def ok(self) -> bool:
+        """Whether the reported level is a found upper bound of the largest level."""
+        return self in (LevelStatus.FOUND, LevelStatus.AGREE)
+
+
+class Verdict(_Status):
+    """Verdict on a level set of a Lyapunov candidate: the only names used for certificates."""
+
+    CERTIFIED = "certified", "proved by a check independent of the solver that proposed it"
+    REFUTED = "refuted", "a counterexample exists, checked at 50 digits"
+    INCONCLUSIVE = "inconclusive", "neither proved nor refuted (budget, domain, or no candidate)"
+
+
+class SosStatus(_Status):
+    """Outcome of the SOS program (a candidate level, not a certificate)."""
+
+    SOLVED = "solved", "the SDP solver reports an optimal solution"
+    INACCURATE = "inaccurate", "the solver stopped with reduced accuracy: the level is unreliable"
+    INFEASIBLE = "infeasible", "the SOS program is infeasible at this degree"
+    FAILED = "failed", "the solver failed (iterations, time limit, numerical trouble)"
+    NOT_POLYNOMIAL = "not_polynomial", "V' is not polynomial after recasting: SOS does not apply"
+
+
+class RegionStatus(_Status):
+    """How much an estimate of the region of attraction is worth."""
+
+    CLAIMED = "claimed", "stated by a paper, not checked"
+    SAMPLED = "sampled", "largest level found by sampling or optimisation, no proof"
+    CERTIFIED = "certified", "proved, checked independently of the solver that produced it"
+    REFUTED = "refuted", "a counterexample exists"
+    INCONCLUSIVE = "inconclusive", "neither proved nor refuted"
+
+
+class BasinStatus(_Status):
+    """Summary of a Monte Carlo basin run."""
+
+    ALL_CONVERGED = "all_converged", "every initial condition converged to the equilibrium"
+    PARTLY_CONVERGED = "partly_converged", "some initial conditions did not converge (see counts)"
+    NONE_CONVERGED = "none_converged", "no initial condition converged"
 
 
 @dataclass(frozen=True)
@@ -37,7 +120,7 @@ class StopRules:
     def __post_init__(self) -> None:
         for name in ("t_final", "converge_tol", "diverge_bound"):
             value = getattr(self, name)
-            if not (value > 0 and value < float("inf")):
-                raise ValueError(f"StopRules.{name} must be a finite number > 0, got {value!r}")
+            if not (isinstance(value, int | float) and 0 < value < math.inf):
+                raise RoaInputError(f"rules.{name} must be a finite number > 0, got {value!r}")
         if self.converge_tol >= self.diverge_bound:
-            raise ValueError("StopRules.converge_tol must be smaller than StopRules.diverge_bound")
+            raise RoaInputError("rules.converge_tol must be smaller than rules.diverge_bound")

@@ -6,8 +6,6 @@ import json
 
 import numpy as np
 import pytest
-
-from roa.cli import main
 from roa.systems.ipc.bound import (
     KAPPA,
     check_against_phi,
@@ -16,6 +14,8 @@ from roa.systems.ipc.bound import (
     paper_bound,
     rhs_314,
 )
+
+from roa.cli import main
 
 
 def test_kappa_closed_form():

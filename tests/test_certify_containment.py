@@ -12,8 +12,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from roa.certify.containment import ellipsoid_contains
-from roa.certify.search_cache import SearchCache
+from roa.proof.containment import ellipsoid_contains
+from roa.proof.search_cache import SearchCache
 
 
 def test_diagonal_containment_decided_on_both_sides_of_the_exact_bound():

@@ -15,9 +15,9 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 
-from roa.certify.interval import INTERVAL, JET, Interval, Jet
-from roa.certify.validate import box_offsets, local_proof, validate_level
 from roa.lyapunov import QuadraticLyapunov
+from roa.proof.interval import INTERVAL, JET, Interval, Jet
+from roa.proof.validate import box_offsets, local_proof, validate_level
 from roa.systems.ipc import phi0, transformed
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
@@ -321,7 +321,7 @@ def _jet_and_mp_derivatives(fn, x, lo, hi):
     """Interval jet (order 2) of ``fn`` on the box [lo, hi] and 40-digit mpmath derivatives at x."""
     import mpmath as mp
 
-    from roa.certify.validate import _mp_namespace
+    from roa.proof.validate import _mp_namespace
 
     n = len(x)
     J = fn(Jet.variables(lo[None, :], hi[None, :], order=2), JET)
@@ -371,7 +371,7 @@ def test_jet_gradient_and_hessian_enclose_mpmath_derivatives(a, b, r1, r2):
 @given(coord, coord, coord, coord, offset)
 def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
     """The same for V' of the IPC closed loop (3.8) with the paper's V, as local_proof uses it."""
-    from roa.certify.validate import _vdot
+    from roa.proof.validate import _vdot
 
     system = transformed()
     V = QuadraticLyapunov.for_system(system, _paper_V())
@@ -383,7 +383,7 @@ def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
 def test_public_interval_functions_have_docstrings():
     import inspect
 
-    import roa.certify.interval as mod
+    import roa.proof.interval as mod
 
     missing = [
         name

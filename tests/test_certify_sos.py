@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from roa.certify.sos import recast, sos_level
-from roa.certify.validate import validate_level
 from roa.lyapunov import QuadraticLyapunov
+from roa.proof.sos import recast, sos_level
+from roa.proof.validate import validate_level
 from roa.systems.ipc import transformed
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
@@ -19,8 +19,8 @@ def test_vanderpol_sos_level_matches_published_and_validates():
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
     r = sos_level(system, V)
     assert r.status == "solved"
-    assert abs(r.rho - RHO_BENCHMARK) < 1e-3  # published value has 4 decimals (2.3045)
-    assert validate_level(system, V, r.rho * (1 - 1e-4)).status == "certified"
+    assert abs(r.level - RHO_BENCHMARK) < 1e-3  # published value has 4 decimals (2.3045)
+    assert validate_level(system, V, r.level * (1 - 1e-4)).status == "certified"
 
 
 def test_forced_solver_failure_is_a_status_not_a_certificate():
@@ -59,7 +59,7 @@ def test_symmetry_reduction_keeps_the_vanderpol_optimum():
     full = sos_level(system, V, symmetry=False)
     red = sos_level(system, V, symmetry=True)
     assert full.status == red.status == "solved"
-    assert abs(full.rho - red.rho) < 1e-5 * RHO_BENCHMARK
+    assert abs(full.level - red.level) < 1e-5 * RHO_BENCHMARK
     assert max(red.sizes["gram_sizes"]) < max(full.sizes["gram_sizes"])
     assert red.sizes["symmetry"] != "none" and full.sizes["symmetry"] == "none"
 
@@ -93,6 +93,6 @@ def test_ipc_exact_sos_solves_with_symmetry_and_matches_sampled_optimum():
 
     system, V = transformed(), paper_lyapunov()
     r = sos_level(system, V, recast_mode="exact", aux_degree=2)
-    opt = level_search(system, V, V.P, shape="level", method="casadi")["value"]
+    opt = level_search(system, V, shape="level", method="casadi").level
     assert r.status == "solved"
-    assert opt * (1 - 1e-3) < r.rho < opt * (1 + 1e-5)
+    assert opt * (1 - 1e-3) < r.level < opt * (1 + 1e-5)

@@ -12,8 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roa.certify.interval import INTERVAL, JET, Interval, Jet
-from roa.simulate import simulate
+from roa.proof.interval import INTERVAL, JET, Interval, Jet
+from roa.simulation import simulate
 from roa.status import StopRules
 from roa.systems import ipc
 from roa.systems.ipc.hybrid import (
@@ -73,8 +73,8 @@ def test_physical_and_hybrid_simulations_agree(x0):
 
 
 def test_hybrid_equilibrium_is_exact_and_linearisation_hurwitz():
-    from roa.certify.validate import exact_equilibrium
     from roa.levelset import jacobian
+    from roa.proof.validate import exact_equilibrium
 
     h = hybrid()
     assert exact_equilibrium(h, h.x_eq)

@@ -5,7 +5,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roa.simulate import simulate
+from roa.simulation import simulate
 from roa.status import RunStatus, StopRules
 from roa.systems import ipc
 from roa.systems.ipc.controller import ExpressionReference, Gains, SineReference, make_reference

@@ -3,9 +3,9 @@
 from pathlib import Path
 
 import pytest
+from roa.report import collect, experiments_dir, render_report
 
 from roa.experiment import VERDICTS, list_experiments, load_config, run_experiment
-from roa.report import collect, experiments_dir, render_report
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = list_experiments(ROOT / "experiments")

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 import sympy as sp
+from roa.systems.ipc.errata import analyse
 
 from roa.systems.ipc import model
 from roa.systems.ipc import symbolic as S
-from roa.systems.ipc.errata import analyse
 
 
 @pytest.fixture(scope="module")

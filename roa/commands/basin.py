@@ -1,4 +1,4 @@
-"""``roa basin``: Monte Carlo basin of attraction over a 2D slice or a box, in parallel."""
+"""``roa basin``: Monte Carlo basin of attraction over a 2D slice or a box (:func:`roa.basin`)."""
 
 from __future__ import annotations
 
@@ -9,13 +9,15 @@ from pathlib import Path
 
 import numpy as np
 
+from roa.commands import _common as C
+from roa.errors import RoaInputError
 from roa.io import atomic_write_json, to_json
 from roa.system import System
 
 EPILOG = """examples:
-  roa basin --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
-  roa basin --slice q,theta --grid 100x100 --fix theta_dot=0.5 --saturation 2 --json
-  roa basin --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
+  roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
+  roa basin --system ipc:saturation=2 --slice q,theta --grid 100x100 --fix theta_dot=0.5 --json
+  roa basin --system ipc --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
   roa basin --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
 """
 
@@ -27,9 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument(
-        "--system", default="ipc", help="ipc (default), ipc-flat, vanderpol or FILE.py:NAME"
-    )
+    C.add_system(p, lyapunov=True)
     p.add_argument(
         "--slice", default=None, metavar="AXIS1,AXIS2", help="two state names, e.g. theta,theta_dot"
     )
@@ -41,10 +41,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--box", default=None, metavar="NAME=LO:HI,...",
                    help="ranges of the slice axes or of the sampled box (default: equilibrium +- 1)")  # fmt: skip
     p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
-    p.add_argument(
-        "--saturation", type=float, default=None, help="actuator limit |u| <= U (ipc only)"
-    )
-    p.add_argument("--t-final", type=float, default=60.0, help="final time (default 60)")
+    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
+    p.add_argument("--converge-tol", type=float, default=1e-3,
+                   help="radius of the ball around the equilibrium that counts as converged "
+                   "(default 1e-3)")  # fmt: skip
     p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
     p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
     p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
@@ -57,16 +57,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--out", default=None, metavar="DIR", help="resumable run directory (chunks, summary.json)"
     )
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
-    p.add_argument("--regions", choices=("none", "paper", "all"), default="none",
-                   help="ipc: draw the paper's ball (paper) or every estimate of ipc_regions() (all)")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
         type=float,
         action="append",
         default=[],
         metavar="RHO",
-        help="draw {V <= RHO} for the system's quadratic V (LYAPUNOV_P, or A'P + PA = -I), after "
-        "validating RHO with interval arithmetic (its status goes in the legend); repeatable",
+        help="draw {V <= RHO} for --lyapunov (default the system's V) after validating RHO with "
+        "interval arithmetic (its verdict goes in the legend); needs --plot or --out; repeatable",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
@@ -125,25 +123,16 @@ def build(args: argparse.Namespace):
     """Validate everything and return ``(system, sampler, rules, mode)`` before any work."""
     from roa.montecarlo.sampling import box_sample, grid_slice
     from roa.status import StopRules
-    from roa.systems import load_system
 
-    if args.regions != "none" and args.system != "ipc":
-        raise ValueError("--regions applies to the ipc system only")
-    if args.saturation is not None:
-        if args.system != "ipc":
-            raise ValueError("--saturation applies to the ipc system only")
-        if not args.saturation > 0:
-            raise ValueError(f"--saturation must be a force bound > 0, got {args.saturation}")
-        from roa.systems.ipc import closed_loop
-
-        system = closed_loop(saturation=args.saturation)
-    else:
-        system = load_system(args.system)
+    system = C.system(args)
     if system.equilibrium is None or system.time_varying:
         raise ValueError(
             f"--system {args.system}: basins need an autonomous system with an equilibrium"
         )
-    rules = StopRules(t_final=args.t_final)
+    for flag, value in (("--t-final", args.t_final), ("--converge-tol", args.converge_tol)):
+        if not (np.isfinite(value) and value > 0):
+            raise RoaInputError(f"{flag} must be a finite number > 0, got {value}")
+    rules = StopRules(t_final=args.t_final, converge_tol=args.converge_tol)
     names = system.state_names
     box = parse_box(args.box, names)
     fixed = parse_fix(args.fix, names)
@@ -211,57 +200,55 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
 
 
 def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
-    """Regions {V <= rho} of ``--lyapunov-level``, each with the verdict of the interval check."""
-    from roa.certify.validate import validate_level
+    """Regions {V <= rho} of ``--lyapunov-level``, each with the verdict of :func:`roa.certify`."""
+    import roa
     from roa.regions import Region
-    from roa.systems import default_lyapunov
 
     if not args.lyapunov_level:
         return []
-    if args.system in ("ipc",):
-        raise ValueError("--lyapunov-level: the IPC's estimates are drawn with --regions all")
-    V = default_lyapunov(args.system, system)
+    V = C.lyapunov(args, system)
     out = []
     for rho in args.lyapunov_level:
-        if not rho > 0:
-            raise ValueError(f"--lyapunov-level must be > 0, got {rho}")
-        verdict = validate_level(system, V, rho)
+        if not (np.isfinite(rho) and rho > 0):
+            raise RoaInputError(f"--lyapunov-level must be a finite number > 0, got {rho}")
+        verdict = roa.certify(system, V, level=rho, method="interval")
         shift = lambda x, c=V.center: np.asarray(x, dtype=float) - c  # noqa: E731
-        out.append(Region(f"V <= {rho:g} ({V.name})", V.P, rho, verdict.status, shift))
+        out.append(Region(f"V <= {rho:g} ({V.name})", V.P, rho, verdict.status.value, shift))
     return out
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa.montecarlo.engine import run_basin
+    import roa
 
     system, sampler, rules, mode = build(args)
     if args.plot and mode["mode"] != "slice":
-        raise ValueError("--plot draws a slice: use it with --slice")
-    result = run_basin(
-        system, sampler, rules=rules, rtol=args.rtol, atol=args.atol, chunk_size=args.chunk_size,
-        n_jobs=args.jobs, out_dir=args.out, scheduler=args.scheduler,
-    )  # fmt: skip
-    summary = {"system": system.name, "saturation": args.saturation, **mode,
-               "t_final": rules.t_final, "rtol": args.rtol, "atol": args.atol, **result.summary()}  # fmt: skip
+        raise RoaInputError("--plot draws a slice: use it with --slice")
     plot = args.plot or (
         str(Path(args.out) / "basin.png") if args.out and mode["mode"] == "slice" else None
     )
+    if args.lyapunov_level and not plot:
+        raise RoaInputError("--lyapunov-level draws level sets on the map: give --plot FILE")
+    regs = lyapunov_regions(args, system)
+    try:
+        integrator = roa.IntegratorOptions(rtol=args.rtol, atol=args.atol)
+        run_opts = roa.RunOptions(chunk_size=args.chunk_size, n_jobs=args.jobs, out_dir=args.out,
+                                  scheduler=args.scheduler)  # fmt: skip
+    except RoaInputError as exc:
+        msg = str(exc)
+        for field, flag in (("IntegratorOptions.rtol", "--rtol"), ("IntegratorOptions.atol", "--atol"),
+                            ("RunOptions.chunk_size", "--chunk-size"), ("RunOptions.n_jobs", "--jobs")):  # fmt: skip
+            msg = msg.replace(field, flag)
+        raise RoaInputError(msg) from None
+    result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts)
+    summary = {**result.to_dict(), **mode}
     if plot:
         from roa.plotting.basin import plot_slice
 
-        regs = []
-        if args.regions != "none":
-            from roa.systems.ipc.basins import paper_ball, regions
-
-            regs = [paper_ball()] if args.regions == "paper" else regions()[0]
-        regs += lyapunov_regions(args, system)
         summary["regions"] = [
             {"name": r.name, "level": r.level, "status": r.status} for r in regs
         ]
-        sat = "" if args.saturation is None else f", saturation |u| <= {args.saturation:g}"
-        plot_slice(
-            system, sampler, result.code, plot, regions=regs, title=f"basin of {system.name}{sat}"
-        )
+        plot_slice(system, sampler, result.code, plot, regions=regs,
+                   title=f"basin of {args.system}")  # fmt: skip
         summary["plot"] = plot
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)

@@ -1,62 +1,35 @@
-"""``roa certify``: SOS and/or rigorous interval certification of a Lyapunov level set."""
+"""``roa certify``: certify or refute a Lyapunov level set, a thin shell over :func:`roa.certify`."""
 
 from __future__ import annotations
 
 import argparse
-import json
 
-import numpy as np
-
-from roa.io import to_json
-
-#: SOS levels are validated at this fraction of rho: the SOS optimum is a supremum, attained on the
-#: level surface only in the limit, so validation exactly at rho needs unboundedly many boxes.
-SOS_SAFETY = 1 - 1e-4
-#: A sampled optimum (an upper bound of the largest level) is validated at this fraction.
-SAMPLED_SAFETY = 0.999
+from roa.commands import _common as C
+from roa.options import IntervalOptions, SosOptions
 
 
 def register(sub: argparse._SubParsersAction) -> None:
+    sos, itv = SosOptions(), IntervalOptions()
     p = sub.add_parser(
         "certify",
-        help="certify V' < 0 on {V <= rho} (SOS + interval validation)",
+        help="certify V' < 0 on {V <= level} (SOS + interval validation)",
         description=(
-            "Certify that the sublevel set {V <= rho} of a quadratic Lyapunov candidate lies in the "
-            "region of attraction: V' < 0 on it minus the equilibrium (and inside the system's "
-            "domain). With --level RHO, that level is checked by interval branch and bound "
+            "Certify that the sublevel set {V <= level} of a quadratic Lyapunov candidate lies in "
+            "the region of attraction: V' < 0 on it minus the equilibrium (and inside the system's "
+            "domain). With --level, that level is checked by interval branch and bound "
             "(certified / refuted with a 50-digit checked witness / inconclusive). Without --level "
             "(the default, --maximise), a candidate level is found first -- by the SOS program "
-            f"(validated at {SOS_SAFETY} rho) and/or the sampled level search (validated at "
-            f"{SAMPLED_SAFETY} of the sampled optimum) -- and then validated. Only an interval "
-            "validation gives status 'certified'. The IPC analysis is in flat coordinates: use "
-            "--system ipc-flat. Exit code 0 iff certified."
+            f"(validated at {sos.safety_factor} x its level) and/or the sampled level search "
+            f"(validated at {itv.sampled_safety} x the sampled optimum) -- and then validated. "
+            "Only an interval validation gives status 'certified'. Exit code 0 iff certified."
         ),
     )
-    p.add_argument(
-        "--system",
-        default="ipc-flat",
-        help="ipc-flat, vanderpol, or path/file.py:NAME (with LYAPUNOV_P); default ipc-flat",
-    )
-    p.add_argument(
-        "--lyapunov",
-        default=None,
-        help="paper | optimised | sector (IPC), benchmark (Van der Pol), or a .json/.npy file with "
-        "P; default: the system's own (paper / benchmark / LYAPUNOV_P)",
-    )
+    C.add_system(p, lyapunov=True)
     g = p.add_mutually_exclusive_group()
-    g.add_argument(
-        "--level",
-        type=float,
-        default=None,
-        help="validate this level rho > 0 by interval branch and bound (--method interval); "
-        "default: none, maximise",
-    )
-    g.add_argument(
-        "--maximise",
-        action="store_true",
-        help="find the largest level (SOS and/or sampled search), then validate it; this is what "
-        "happens whenever --level is not given (default), the flag only makes it explicit",
-    )
+    g.add_argument("--level", type=float, default=None,
+                   help="validate this level > 0 by interval branch and bound; default: maximise")  # fmt: skip
+    g.add_argument("--maximise", action="store_true",
+                   help="find the largest level, then validate it (what happens without --level)")  # fmt: skip
     p.add_argument(
         "--method",
         choices=("sos", "interval", "both"),
@@ -66,156 +39,60 @@ def register(sub: argparse._SubParsersAction) -> None:
         "interval validation; sampled search if SOS fails). With --level only 'interval' is "
         "possible. Default: both, or interval with --level",
     )
-    p.add_argument(
-        "--max-boxes",
-        type=int,
-        default=3_000_000,
-        help="box budget of the interval validation (exhausted -> inconclusive); default 3000000",
-    )
+    p.add_argument("--max-boxes", type=int, default=itv.max_boxes,
+                   help=f"box budget of the interval validation, 1..2e8 (default {itv.max_boxes})")  # fmt: skip
+    p.add_argument("--check-above", type=float, default=None, metavar="FACTOR",
+                   help="also validate FACTOR x the candidate level (> 1, e.g. 1.001): a refutation "
+                   "there shows the certified level is close to the best for this V")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object (default: text)")
     p.set_defaults(func=run)
 
 
-def _lyapunov(args: argparse.Namespace, system):
-    from pathlib import Path
+def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
+    import roa
+    from roa.errors import RoaInputError
 
-    from roa.lyapunov import QuadraticLyapunov
-    from roa.systems import load_module_attr
-
-    spec = args.lyapunov
-    if spec is None:
-        spec = {"ipc-flat": "paper", "vanderpol": "benchmark"}.get(args.system)
-    if spec == "paper":
-        if args.system != "ipc-flat":
-            raise ValueError("--lyapunov paper is only defined for --system ipc-flat")
-        from roa.systems.ipc.lyapunov import paper_lyapunov
-
-        P = paper_lyapunov().P
-    elif spec in ("optimised", "sector"):
-        if args.system != "ipc-flat":
-            raise ValueError(f"--lyapunov {spec} is only defined for --system ipc-flat")
-        from roa.systems.ipc.certified import load_optimised_P
-
-        P = load_optimised_P(which="box" if spec == "optimised" else "sector")
-    elif spec == "benchmark":
-        from roa.systems.vanderpol import P_BENCHMARK
-
-        P = P_BENCHMARK
-    elif spec is None:
-        P = load_module_attr(args.system, "LYAPUNOV_P")  # type: ignore[assignment]
-        if P is None:
-            raise ValueError("--lyapunov: no default for this system; give a file with P")
-    else:
-        path = Path(spec)
-        if not path.is_file():
-            raise ValueError(
-                f"--lyapunov {spec!r}: not paper/optimised/sector/benchmark and no such file"
-            )
-        P = np.load(path) if path.suffix == ".npy" else np.asarray(json.loads(path.read_text()))
-    return QuadraticLyapunov.for_system(system, P, name=str(spec))
-
-
-def _search_level(system, V, out: dict):
-    """Sampled optimum of the level (an upper bound), or ``None`` with status and message set."""
-    from roa.levelset import level_search
-
-    res = level_search(system, V, V.P, shape="level", method="sampled")
-    out["level_search"] = {k: res[k] for k in ("status", "value", "method") if k in res}
-    if res["status"] == "found":
-        out.update(
-            sampled_level=float(res["value"]), level_source="sampled", safety_factor=SAMPLED_SAFETY
-        )
-        return SAMPLED_SAFETY * float(res["value"])
-    if res["status"] == "unbounded":
-        msg = (
-            f"the level search found no point with V' >= 0 up to V = {res['value']:.4g}: no "
-            "finite candidate level (V' < 0 may hold on every sublevel set); give --level RHO"
-        )
-    elif res["status"] == "not_locally_negative":
-        msg = (
-            "V' is not negative definite at the equilibrium (largest eigenvalue of A'P + PA = "
-            f"{res.get('max_eig_AtP_PA', float('nan')):.4g} >= 0): no level > 0 can be certified"
-        )
-    else:
-        msg = f"the level search ended with status {res['status']!r}: no candidate level"
-    out.update(status="inconclusive", level=None, method="level search", message=msg)
-    return None
-
-
-def run(args: argparse.Namespace) -> int:
-    from roa.certify.sos import sos_level
-    from roa.certify.validate import validate_level
-    from roa.systems import load_system
-
-    if args.level is not None and not (np.isfinite(args.level) and args.level > 0):
-        raise ValueError(f"--level must be a finite number > 0, got {args.level}")
     if args.level is not None and args.method not in (None, "interval"):
-        raise ValueError(
+        raise RoaInputError(
             f"--method {args.method} with --level: a given level is checked by interval "
             "validation only; use --method interval (or omit --method), or drop --level to let "
             f"{args.method} find the level"
         )
+    if args.level is not None and not args.level > 0:
+        raise RoaInputError(f"--level must be a finite number > 0, got {args.level}")
+    try:
+        interval = roa.IntervalOptions(max_boxes=args.max_boxes)
+    except RoaInputError as exc:
+        raise RoaInputError(str(exc).replace("IntervalOptions.max_boxes", "--max-boxes")) from None
+    system = C.system(args)
+    V = C.lyapunov(args, system)
     method = args.method or ("interval" if args.level is not None else "both")
-    if args.max_boxes < 1:
-        raise ValueError(f"--max-boxes must be >= 1, got {args.max_boxes}")
-    if args.system == "ipc":
-        raise ValueError(
-            "--system ipc: the IPC Lyapunov analysis (V of (3.11)) is in the flat coordinates "
-            "(z1, z2, w1, w2); use --system ipc-flat"
-        )
-    system = load_system(args.system)
-    if system.time_varying:
-        raise ValueError("--system must be autonomous with an equilibrium")
-    V = _lyapunov(args, system)
-    out: dict = {"system": system.name, "lyapunov": V.name, "P": V.P.tolist()}
-    level = args.level
-    if method in ("sos", "both") and level is None:
-        sos = sos_level(system, V)
-        out["sos"] = sos.to_json()
-        if sos.status == "solved" and sos.rho is not None and method == "sos":
-            level = sos.rho
-        elif sos.status == "solved" and sos.rho is not None:
-            out.update(level_source="sos", safety_factor=SOS_SAFETY)
-            level = SOS_SAFETY * sos.rho
-        elif method == "sos":
-            out.update(status="inconclusive", level=None, method="sos", message=sos.message)
-    if level is None and method != "sos":
-        level = _search_level(system, V, out)
-    if level is not None:
-        if method == "sos":
-            out.update(
-                status="inconclusive",
-                level=level,
-                method="sos",
-                message="SOS candidate only (not independently checked); use --method both for "
-                "an interval validation",
-            )
-        else:
-            v = validate_level(system, V, level, max_boxes=args.max_boxes)
-            out.update(v.to_json())
-            out["method"] = "sos+interval" if "sos" in out else "interval"
+    return roa.certify(system, V, level=args.level, method=method, interval=interval,
+                       check_above=args.check_above)  # fmt: skip
+
+
+def run(args: argparse.Namespace) -> int:
+    cert = compute(args)
+    out = cert.to_dict()
     if args.json:
-        print(to_json(out))
-    else:
-        print(f"{system.name}: V = {V.name}")
-        if "sos" in out:
-            s = out["sos"]
-            print(
-                f"  SOS: {s['status']} (solver {s['solver_status']}), rho = {s['level']}, {s['seconds']} s"
-            )
-        if out.get("level_source") == "sos":
-            print(f"  validating {out['safety_factor']} x SOS rho")
-        if "sampled_level" in out:
-            print(
-                f"  sampled optimum: {out['sampled_level']:.6g} "
-                f"(validating {out['safety_factor']} of it)"
-            )
-        print(
-            f"  {out['status']}: level {out.get('level')}, method {out.get('method')}, "
-            f"{out.get('boxes', '-')} boxes, {out.get('seconds', '-')} s"
-        )
-        if out.get("message"):
-            print(f"  {out['message']}")
-        if out.get("witness") is not None:
-            print(f"  witness: {out['witness']}  ({out['witness_check']})")
-    return 0 if out["status"] == "certified" else 1
+        C.emit(args, out)
+        return 0 if cert.certified else 1
+    print(f"{out.get('system')}: V = {out.get('lyapunov')}")
+    if cert.sos is not None:
+        s = cert.sos
+        print(f"  SOS: {s.status.value} (solver {s.solver_status}), level {C.fmt(s.level)}, "
+              f"{s.seconds:.3g} s")  # fmt: skip
+    if cert.safety_factor is not None:
+        print(f"  candidate from {cert.level_source}: {C.fmt(cert.candidate)} "
+              f"(validating {cert.safety_factor} x it)")  # fmt: skip
+    v = cert.validation
+    boxes = "no boxes" if v is None else f"{v.boxes} boxes"
+    print(f"  {cert.status.value}: level {C.fmt(cert.level)}, by {cert.method}, {boxes}, "
+          f"{cert.seconds:.3g} s")  # fmt: skip
+    if cert.message:
+        print(f"  {cert.message}")
+    if v is not None and v.witness is not None:
+        print(f"  witness: {v.witness}  ({v.witness_check})")
+    if cert.above is not None:
+        print(f"  above: {cert.above.status.value} at {C.fmt(cert.above.level)}")
+    return 0 if cert.certified else 1

@@ -15,22 +15,25 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="recompute and STORE the selected keys (all if no --only) instead of checking",
     )
-    p.add_argument("--reference", default="results/reference.json", help="reference file")
+    p.add_argument("--study", default=None, help="the study whose values are checked (default: ipc)")
+    p.add_argument("--reference", default="results/reference.json",
+                   help="reference file (default results/reference.json of the checkout)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa import reference
+    from roa import reference, studies
 
+    registry = studies.get(args.study).registry()
     if args.update:
-        stored = reference.update(args.only, path=args.reference)
+        stored = reference.update(registry, args.only, path=args.reference)
         print(
-            f"stored {len(args.only or reference.REGISTRY)} value(s) in {args.reference} "
+            f"stored {len(args.only or registry)} value(s) in {args.reference} "
             f"({len(stored)} entries)"
         )
         return 0
-    rows = reference.check(args.only, path=args.reference)
+    rows = reference.check(registry, args.only, path=args.reference)
     bad = [r for r in rows if r["status"] != "ok"]
     if args.json:
         print(to_json({"rows": rows, "failed": [r["key"] for r in bad]}))

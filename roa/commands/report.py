@@ -6,9 +6,10 @@ import argparse
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("report", help="generate paper_repro.md from the results/ summaries")
+    p = sub.add_parser("report", help="generate the study's report (paper_repro.md) from results/")
+    p.add_argument("--study", default=None, help="the study (default: ipc)")
     p.add_argument("--results", default="results", help="results directory (default results/)")
-    p.add_argument("--out", default="paper_repro.md", help="output path (default paper_repro.md)")
+    p.add_argument("--out", default=None, help="output path (default the study's, paper_repro.md)")
     p.add_argument(
         "--check",
         action="store_true",
@@ -20,17 +21,34 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from pathlib import Path
 
-    from roa.report import render_report, write_report
+    from roa import studies
+    from roa.errors import ResultsError
+    from roa.experiment import write_report
 
+    study = studies.get(args.study)
+    out = args.out or study.report_name
+    if not any(Path(args.results).glob("*/summary.json")):
+        raise ResultsError(
+            f"no experiment summaries in {Path(args.results).resolve()} (expected "
+            "RESULTS/NAME/summary.json): run roa reproduce first, or pass --results"
+        )
     if args.check:
-        text = render_report(args.results, args.out)
-        current = Path(args.out).read_text() if Path(args.out).is_file() else ""
+        text = study.render_report(args.results, out)
+        current = Path(out).read_text() if Path(out).is_file() else ""
         if text != current:
-            print(
-                f"{args.out} differs from the report generated from {args.results}/; run `roa report`"
-            )
+            import difflib
+
+            diff = [
+                line
+                for line in difflib.unified_diff(current.splitlines(), text.splitlines(), lineterm="", n=0)
+                if line[:1] in "+-" and line[:3] not in ("+++", "---")
+            ]
+            print(f"{out} differs from the report generated from {args.results}/ "
+                  f"({len(diff)} lines); run `roa report`:")  # fmt: skip
+            for line in diff[:40]:
+                print(f"  {line[:160]}")
             return 1
-        print(f"{args.out} is up to date")
+        print(f"{out} is up to date")
         return 0
-    print(write_report(args.results, args.out))
+    print(write_report(study, args.results, out))
     return 0

@@ -6,13 +6,18 @@ import argparse
 import time
 from pathlib import Path
 
+from roa.errors import RoaInputError
+
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("reproduce", help="run every experiment and regenerate paper_repro.md")
     p.add_argument("--quick", action="store_true", help="reduced grids (minutes, what CI runs)")
     p.add_argument("--force", action="store_true", help="re-run experiments even if cached")
+    p.add_argument("--study", default=None, help="the study to reproduce (default: ipc)")
     p.add_argument(
-        "--experiments", default=None, help="directory of configs (default: the packaged ones)"
+        "--experiments",
+        default=None,
+        help="directory of configs (default: ./experiments if present, else the study's own)",
     )
     p.add_argument(
         "--results",
@@ -22,21 +27,24 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--report",
         default=None,
-        help="report path (default paper_repro.md, or RESULTS/paper_repro.md with --quick)",
+        help="report path (default the study's report, paper_repro.md for ipc; under RESULTS/ "
+        "with --quick)",
     )
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa.experiment import list_experiments, run_experiment
-    from roa.report import experiments_dir, write_report
+    from roa import studies
+    from roa.experiment import experiments_dir, list_experiments, run_experiment, write_report
 
+    study = studies.get(args.study)
     results = args.results or ("results-quick" if args.quick else "results")
-    report_path = args.report or (f"{results}/paper_repro.md" if args.quick else "paper_repro.md")
-    directory = Path(args.experiments) if args.experiments else experiments_dir()
+    name = study.report_name
+    report_path = args.report or (f"{results}/{name}" if args.quick else name)
+    directory = Path(args.experiments) if args.experiments else experiments_dir(study)
     configs = list_experiments(directory)
     if not configs:
-        raise ValueError(f"--experiments: no *.toml configs in {directory}")
+        raise RoaInputError(f"--experiments: no *.toml configs in {directory}")
     t_all = time.perf_counter()
     for i, path in enumerate(configs, 1):
         t0 = time.perf_counter()
@@ -44,6 +52,6 @@ def run(args: argparse.Namespace) -> int:
         summary = run_experiment(path, results=results, quick=args.quick, force=args.force)
         state = "cached" if summary.get("cached") else f"{time.perf_counter() - t0:.1f} s"
         print(f"[{i}/{len(configs)}] {path.stem}: {state}", flush=True)
-    report = write_report(results, report_path)
+    report = write_report(study, results, report_path)
     print(f"report: {report}  (total {time.perf_counter() - t_all:.1f} s)")
     return 0

@@ -1,4 +1,4 @@
-"""``roa simulate``: one closed-loop run of the IPC."""
+"""``roa simulate``: one trajectory of any system, a thin shell over :func:`roa.simulate`."""
 
 from __future__ import annotations
 
@@ -6,111 +6,62 @@ import argparse
 
 import numpy as np
 
-from roa.io import to_json
-
-
-def _floats(text: str, what: str, n: int | None = None) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip() != ""]
-    except ValueError as exc:
-        raise ValueError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
-    if n is not None and len(vals) != n:
-        raise ValueError(f"{what}: expected {n} comma-separated numbers, got {len(vals)}")
-    return vals
+from roa.commands import _common as C
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("simulate", help="simulate the IPC closed loop from one initial state")
-    p.add_argument(
-        "--ic", required=True, help="initial state Q,QD,TH,THD (theta in rad, |theta| < pi/2)"
+    p = sub.add_parser(
+        "simulate",
+        help="simulate a system from one initial state (status: converged, left_domain, ...)",
+        description="One trajectory by scipy's solve_ivp (DOP853) until it converges to the "
+        "equilibrium, leaves the domain, diverges or reaches --t-final. Exit code 1 iff diverged.",
     )
-    p.add_argument(
-        "--reference",
-        default=None,
-        help="F*(t): 'sin:A,W', or an expression in t, e.g. '2*sin(t/2)'",
-    )
-    p.add_argument("--t-final", type=float, default=60.0, help="final time (default 60)")
-    p.add_argument("--delta", type=float, default=None, help="mass ratio M/m > 0 (default 1.0)")
-    p.add_argument(
-        "--poles",
-        default=None,
-        help="4 closed-loop poles, e.g. --poles=-1,-1,-2,-2 (default -1,-1,-1,-1; complex as -1+1j)",
-    )
-    p.add_argument("--coefficients", default=None, help="h0,h1,h2,h3 of p(s) instead of --poles")
-    p.add_argument("--saturation", type=float, default=None, help="actuator limit |u| <= U")
-    p.add_argument(
-        "--coordinates",
-        choices=("physical", "flat"),
-        default="physical",
-        help="integrate the physical model or the closed loop (3.8) in flat coordinates",
-    )
+    C.add_system(p)
+    p.add_argument("--x0", "--ic", dest="x0", required=True, metavar="X1,X2,...",
+                   help="initial state, one number per state of the system")  # fmt: skip
+    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
+    p.add_argument("--converge-tol", type=float, default=1e-3,
+                   help="radius of the ball around the equilibrium that counts as converged "
+                   "(default 1e-3)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")
     p.set_defaults(func=run)
 
 
+def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
+    import roa
+    from roa.errors import RoaInputError
+
+    system = C.system(args)
+    x0 = np.array(C.floats(args.x0, "--x0", system.n))
+    for flag, value in (("--t-final", args.t_final), ("--converge-tol", args.converge_tol)):
+        if not (np.isfinite(value) and value > 0):
+            raise RoaInputError(f"{flag} must be a finite number > 0, got {value}")
+    rules = roa.StopRules(t_final=args.t_final, converge_tol=args.converge_tol)
+    try:
+        return roa.simulate(system, x0, rules=rules)
+    except RoaInputError as exc:
+        raise RoaInputError(f"--x0: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
-    from roa.simulate import simulate
-    from roa.status import StopRules
-    from roa.systems import ipc
-    from roa.systems.ipc.controller import Gains, make_reference
-
-    x0 = np.array(_floats(args.ic, "--ic", 4))
-    if args.poles and args.coefficients:
-        raise ValueError("--poles and --coefficients are exclusive")
-    if args.poles:
-        gains = Gains.from_poles([complex(p.replace("i", "j")) for p in args.poles.split(",")])
-    elif args.coefficients:
-        gains = Gains.from_coefficients(_floats(args.coefficients, "--coefficients", 4))
-    else:
-        gains = Gains.default()
-    if not args.t_final > 0:
-        raise ValueError(f"--t-final must be > 0, got {args.t_final}")
-    ipc.coordinates.check_physical(x0)
-    reference = make_reference(args.reference)
-    delta = ipc.DEFAULT_DELTA if args.delta is None else args.delta
-    rules = StopRules(t_final=args.t_final)
-    if args.coordinates == "flat":
-        system = ipc.transformed(gains=gains, reference=reference)
-        traj = simulate(system, ipc.to_flat(x0), rules=rules)
-        x_phys = ipc.from_flat(traj.x)
-    else:
-        system = ipc.closed_loop(
-            delta=delta, gains=gains, reference=reference, saturation=args.saturation
-        )
-        traj = simulate(system, x0, rules=rules)
-        x_phys = traj.x
-    out = {
-        "status": traj.status.value,
-        "message": traj.message,
-        "t_end": traj.t_end,
-        "final_state": x_phys[-1].tolist(),
-        "state_names": list(ipc.PHYSICAL_NAMES),
-        "delta": delta,
-        "gains": list(gains.h),
-        "reference": reference.description,
-    }
-    if not reference.is_zero:
-        z1 = ipc.to_flat(x_phys)[:, 0]
-        err = np.abs(z1 - reference.derivatives(traj.t)[0])
-        half = traj.t >= traj.t_end / 2
-        out["tracking_error_max_last_half"] = float(err[half].max())
+    traj = compute(args)
+    out = traj.to_dict()
     if args.plot:
-        from roa.plotting.trajectories import plot_run
+        import matplotlib.pyplot as plt
 
-        plot_run(
-            ipc.closed_loop(delta=delta, gains=gains),
-            traj.t,
-            x_phys,
-            args.plot,
-            title=f"IPC from {args.ic}: {traj.status.value}",
-        )
+        from roa.io import atomic_savefig
+
+        fig, ax = plt.subplots(figsize=(8, 4))
+        traj.plot(ax)
+        fig.tight_layout()
+        atomic_savefig(fig, args.plot)
+        plt.close(fig)
         out["plot"] = args.plot
     if args.json:
-        print(to_json(out))
+        C.emit(args, out)
     else:
         print(f"status: {out['status']} ({traj.message})")
-        print("final state (q, q_dot, theta, theta_dot):", np.array2string(x_phys[-1], precision=6))
-        if "tracking_error_max_last_half" in out:
-            print(f"max |z1 - F*| over the last half: {out['tracking_error_max_last_half']:.4g}")
-    return 0 if traj.status.value != "diverged" else 1
+        print(f"final state ({', '.join(out['state_names'])}):",
+              np.array2string(traj.final_state, precision=6))  # fmt: skip
+    return 1 if traj.status.value == "diverged" else 0

@@ -1,7 +1,7 @@
 """Batch adaptive Dormand-Prince 5(4) integration of many initial conditions, each with its own events.
 
 Every trajectory has its own step size and stops at its own first event, with the semantics of
-:func:`roa.simulate.simulate` / scipy's ``solve_ivp(method="RK45")``:
+:func:`roa.simulation.simulate` / scipy's ``solve_ivp(method="RK45")``:
 
 * ``converged``: ``||x - x_eq|| - converge_tol`` goes from >= 0 to <= 0;
 * ``left_domain``: the system's ``margin(x) - margin_tol`` goes from >= 0 to <= 0 (``margin_tol`` is 0

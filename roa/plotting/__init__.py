@@ -1,5 +1,1 @@
-"""Plotting helpers (matplotlib, Agg backend)."""
-
-import matplotlib
-
-matplotlib.use("Agg")
+"""Plotting helpers (matplotlib). The CLI selects the Agg backend; the library never does."""

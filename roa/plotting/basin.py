@@ -12,7 +12,6 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-import roa.plotting  # noqa: F401  (Agg backend)
 from roa.io import atomic_savefig
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.sampling import GridSlice
@@ -61,7 +60,29 @@ def plot_slice(
     title: str = "",
     contour_resolution: int = 401,
 ) -> Path:
-    """Heatmap of statuses over ``grid`` with region boundaries ``form(x) = level`` and marker lines.
+    """Heatmap of statuses over ``grid`` with region boundaries ``form(x) = level`` and marker lines,
+    saved to ``path`` (see :func:`draw_slice`)."""
+    fig, ax = plt.subplots(figsize=(8.6, 6.0))
+    draw_slice(ax, system, grid, code, regions=regions, lines=lines, title=title,
+               contour_resolution=contour_resolution)  # fmt: skip
+    fig.tight_layout()
+    out = atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
+
+
+def draw_slice(
+    ax: Any,
+    system: System,
+    grid: GridSlice,
+    code: np.ndarray,
+    *,
+    regions: Sequence[Region] = (),
+    lines: Sequence[tuple[str, float, str]] = (),
+    title: str = "",
+    contour_resolution: int = 401,
+) -> Any:
+    """Draw the statuses of ``grid`` into ``ax`` with region boundaries and marker lines.
 
     ``lines`` are ``(state name, value, label)``: a line at that value of a slice axis (e.g. the
     paper's claimed sector theta = +-60 deg); lines with the same label share one legend entry.
@@ -70,7 +91,6 @@ def plot_slice(
     shown = np.where(code == I.STEP_FAILURE, I.UNDECIDED, code).reshape(grid.shape)
     cmap = ListedColormap([STATUS_COLOURS[c] for c in range(4)])
     norm = BoundaryNorm(np.arange(-0.5, 4.5), 4)
-    fig, ax = plt.subplots(figsize=(8.6, 6.0))
     dx = (grid.xs[-1] - grid.xs[0]) / (len(grid.xs) - 1) / 2
     dy = (grid.ys[-1] - grid.ys[0]) / (len(grid.ys) - 1) / 2
     extent = (grid.xs[0] - dx, grid.xs[-1] + dx, grid.ys[0] - dy, grid.ys[-1] + dy)
@@ -118,7 +138,4 @@ def plot_slice(
     ax.set_title(f"{title}\n({fixed})" if fixed else title, fontsize=10)
     ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2,
               fontsize=8, frameon=False)  # fmt: skip
-    fig.tight_layout()
-    out = atomic_savefig(fig, path)
-    plt.close(fig)
-    return out
+    return ax

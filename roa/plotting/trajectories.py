@@ -8,7 +8,6 @@ from pathlib import Path
 import matplotlib.pyplot as plt
 import numpy as np
 
-import roa.plotting  # noqa: F401  (Agg backend)
 from roa.io import atomic_savefig
 from roa.system import System
 

@@ -1,21 +1,29 @@
 """Built-in systems and loading a user's own system from a Python file.
 
-A user file defines a :class:`roa.system.System` (or a function with no required arguments that
-returns one) and, optionally, ``LYAPUNOV_P`` (an n x n positive-definite matrix) for the Lyapunov
-analysis. ``--system path/to/file.py:NAME`` loads ``NAME`` from it.
+``load_system(spec)`` takes
+
+* a built-in name (:data:`BUILTIN`), optionally with keyword parameters:
+  ``"ipc"``, ``"ipc:saturation=2"``, ``"vanderpol:mu=0.5"``;
+* ``"path/to/file.py:NAME"``: ``NAME`` in a user's file is a :class:`roa.System` (or a function
+  with no required arguments returning one). An optional ``LYAPUNOV_P`` in the file (an n x n
+  positive-definite matrix) becomes the system's ``lyapunov`` unless it already has one.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
+import importlib
 import importlib.util
+import traceback
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
 
-from roa.lyapunov import QuadraticLyapunov
+from roa.errors import RoaInputError, SystemDefinitionError
 from roa.system import System
 
+#: name -> "module:factory"; factories take keyword parameters (floats).
 BUILTIN: dict[str, str] = {
     "ipc": "roa.systems.ipc:closed_loop",
     "ipc-flat": "roa.systems.ipc:transformed",
@@ -28,64 +36,85 @@ def _resolve(target: str) -> Callable[..., System]:
     return getattr(importlib.import_module(module), attr)
 
 
+def _builtin(spec: str) -> System | None:
+    name, _, params = spec.partition(":")
+    if name not in BUILTIN:
+        return None
+    kwargs: dict[str, float] = {}
+    for part in filter(None, (p.strip() for p in params.split(","))):
+        key, sep, value = part.partition("=")
+        try:
+            if not sep:
+                raise ValueError
+            kwargs[key.strip()] = float(value)
+        except ValueError:
+            raise RoaInputError(
+                f"system {spec!r}: parameters must be NAME=NUMBER separated by commas "
+                f"(e.g. ipc:saturation=2), got {part!r}"
+            ) from None
+    try:
+        return _resolve(BUILTIN[name])(**kwargs)
+    except TypeError as exc:
+        raise RoaInputError(f"system {spec!r}: {exc}") from None
+
+
 def load_system(spec: str) -> System:
-    """Load a built-in system by name or ``path/to/file.py:NAME`` from a user's file."""
-    if spec in BUILTIN:
-        return _resolve(BUILTIN[spec])()
+    """A built-in system by name (with parameters) or ``path/to/file.py:NAME`` from a user's file.
+
+    Examples
+    --------
+    >>> from roa.systems import load_system
+    >>> load_system("vanderpol").state_names
+    ('x1', 'x2')
+    """
+    builtin = _builtin(spec)
+    if builtin is not None:
+        return builtin
     if ":" not in spec:
-        raise ValueError(
-            f"--system {spec!r}: not a built-in system ({', '.join(BUILTIN)}) and not of the form "
+        raise RoaInputError(
+            f"system {spec!r}: not a built-in system ({', '.join(BUILTIN)}) and not of the form "
             "path/to/file.py:NAME"
         )
     path_str, name = spec.rsplit(":", 1)
     path = Path(path_str)
     module = _user_module(path)
     if not hasattr(module, name):
-        raise ValueError(f"--system: {path} defines no {name!r}")
+        raise SystemDefinitionError(f"system file {path} defines no {name!r}")
     obj = getattr(module, name)
-    system = obj() if callable(obj) and not isinstance(obj, System) else obj
+    try:
+        system = obj() if callable(obj) and not isinstance(obj, System) else obj
+    except Exception as exc:  # the user's code: report where it failed, in one line
+        raise SystemDefinitionError(_where(path, exc)) from exc
     if not isinstance(system, System):
-        raise ValueError(
-            f"--system: {path}:{name} is not a roa.System (got {type(system).__name__})"
+        raise SystemDefinitionError(
+            f"{path}:{name} is not a roa.System (got {type(system).__name__})"
         )
+    P = getattr(module, "LYAPUNOV_P", None)
+    if P is not None and system.lyapunov is None:
+        try:
+            system = dataclasses.replace(system, lyapunov=P)
+        except RoaInputError as exc:
+            raise SystemDefinitionError(f"{path}: LYAPUNOV_P: {exc}") from None
     return system
 
 
-def default_lyapunov(spec: str, system: System | None = None) -> QuadraticLyapunov:
-    """The quadratic Lyapunov candidate of a ``--system`` spec.
-
-    ``LYAPUNOV_P`` from a user's file; the published matrix for ``vanderpol``; the paper's (3.11)
-    for ``ipc-flat``; otherwise P from A'P + PA = -I at the equilibrium.
-    """
-    system = load_system(spec) if system is None else system
-    if spec == "ipc-flat":
-        from roa.systems.ipc.lyapunov import paper_lyapunov
-
-        return paper_lyapunov()
-    if spec == "vanderpol":
-        from roa.systems.vanderpol import P_BENCHMARK
-
-        return QuadraticLyapunov.for_system(system, P_BENCHMARK, name="benchmark P")
-    P = load_module_attr(spec, "LYAPUNOV_P")
-    name = "LYAPUNOV_P"
-    if P is None:
-        from roa.levelset import lyapunov_matrix
-
-        P, name = lyapunov_matrix(system), "P from A'P + PA = -I"
-    return QuadraticLyapunov.for_system(system, P, name=name)
-
-
-def load_module_attr(spec: str, attr: str) -> object:
-    """Return ``attr`` of the user file behind ``spec`` (``None`` for built-ins or if missing)."""
-    if spec in BUILTIN or ":" not in spec:
-        return None
-    return getattr(_user_module(Path(spec.rsplit(":", 1)[0])), attr, None)
+def _where(path: Path, exc: BaseException) -> str:
+    """``file:line: Type: message`` of the innermost frame in ``path`` (one line)."""
+    line = "?"
+    if isinstance(exc, SyntaxError) and exc.lineno is not None:
+        line = str(exc.lineno)
+    else:
+        for frame in traceback.extract_tb(exc.__traceback__):
+            if Path(frame.filename).resolve() == path.resolve():
+                line = str(frame.lineno)
+    msg = exc.msg if isinstance(exc, SyntaxError) else str(exc)
+    return f"system file {path}:{line}: {type(exc).__name__}: {msg}"
 
 
 def _user_module(path: Path) -> ModuleType:
     """Import a user's system file once per content (keyed by path and modification time)."""
     if not path.is_file():
-        raise ValueError(f"--system: file {path} does not exist")
+        raise SystemDefinitionError(f"system file {path} does not exist")
     return _import_file(str(path.resolve()), path.stat().st_mtime_ns)
 
 
@@ -94,7 +123,10 @@ def _import_file(path_str: str, mtime_ns: int) -> ModuleType:
     path = Path(path_str)
     mod_spec = importlib.util.spec_from_file_location(f"roa_user_{path.stem}", path)
     if mod_spec is None or mod_spec.loader is None:
-        raise ValueError(f"--system: cannot import {path}")
+        raise SystemDefinitionError(f"cannot import system file {path}")
     module = importlib.util.module_from_spec(mod_spec)
-    mod_spec.loader.exec_module(module)
+    try:
+        mod_spec.loader.exec_module(module)
+    except Exception as exc:  # syntax errors, import errors, ... in the user's file
+        raise SystemDefinitionError(_where(path, exc)) from exc
     return module

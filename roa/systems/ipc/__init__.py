@@ -145,7 +145,11 @@ def closed_loop(
 
 
 def transformed(*, gains: Gains | None = None, reference: Reference | str | None = None) -> System:
-    """The closed loop (3.8) in flat coordinates ``(z1, z2, w1, w2)``; independent of delta."""
+    """The closed loop (3.8) in flat coordinates ``(z1, z2, w1, w2)``; independent of delta.
+
+    With the paper's gains and no reference, the system carries the paper's V (3.11),
+    ``P = T' P_q T``, as its ``lyapunov`` and the paper's ball ``||T xi||^2`` as its ``norm``.
+    """
     gains, reference = _settings(gains, reference)
 
     def field(t: Any, x: Any, xp: Any) -> tuple:
@@ -153,10 +157,16 @@ def transformed(*, gains: Gains | None = None, reference: Reference | str | None
         v = virtual_input(t, (z1, z2, w1, w2), gains, reference)
         return (z2, w1 + phi0(w1, xp) * w2 * w2, w2, v)
 
+    paper_v = reference.is_zero and np.allclose(gains.h, Gains.default().h)
+    from roa.systems.ipc.lyapunov import P_Q, T
+
     return System(
         name="ipc_flat",
         field=field,
         equilibrium=None if not reference.is_zero else (0.0, 0.0, 0.0, 0.0),
+        # the paper's V (3.11) and ball ||q||^2 = ||T xi||^2 are for its gains, p(s) = (s + 1)^4
+        lyapunov=T.T @ P_Q @ T if paper_v else None,
+        norm=T.T @ T if paper_v else None,
         state_names=FLAT_NAMES,
         state_units=("1", "1/s", "1", "1/s"),
         margin=None,

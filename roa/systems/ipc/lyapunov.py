@@ -6,22 +6,20 @@
   :func:`roa.systems.ipc.transformed` it has ``P = T' P_q T``;
 * ``Phi(q) = -q'Mq + (3 q1 + q2) beta(q) + q3 q4 - q4^2`` of (3.12), ``M = (I + 11')/2``.
 
-:func:`khalil` runs the generic level-set search (:mod:`roa.levelset`) for the two shapes (the
-paper's ball ``||q||^2 = xi' T'T xi`` and the level sets of ``V``); :func:`ipc_regions` returns the
-estimates as :class:`roa.regions.Region` objects in flat coordinates with
-``coords = physical_to_flat_or_inf``, so they can be drawn over physical basin maps.
+The flat closed loop :func:`roa.systems.ipc.transformed` carries ``P = T' P_q T`` as its
+``lyapunov`` and ``T'T`` as its ``norm`` (the paper's ball ``||q||^2``), so the generic analyses
+(:func:`roa.level_search`, :func:`roa.certify`) use the paper's setting by default. The paper's
+estimates and their reproduction live in the study (``ipc_paper``), not here.
 """
 
 from __future__ import annotations
 
-import functools
 from typing import Any
 
 import numpy as np
 
-from roa.levelset import inner_level, level_search
+from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
-from roa.regions import Region, symmetric_extent
 from roa.systems.ipc.model import phi0
 
 #: (3.9): q = T (z1, z2, w1, w2).
@@ -83,160 +81,8 @@ def shape_matrix(shape: str) -> np.ndarray:
         return T.T @ T
     if shape == "level":
         return T.T @ P_Q @ T
-    raise ValueError(f"shape {shape!r}: allowed {', '.join(SHAPES)}")
+    raise RoaInputError(f"shape must be one of {SHAPES}, got {shape!r}")
 
 
 def to_q(xi: np.ndarray) -> np.ndarray:
     return np.asarray(xi, dtype=float) @ T.T
-
-
-@functools.lru_cache(maxsize=8)
-def khalil(shape: str = "ball", method: str = "both") -> dict[str, Any]:
-    """Khalil's search (3.15) for the IPC with shape ``ball`` (||q||^2) or ``level`` (V).
-
-    Returns the :func:`roa.levelset.level_search` dict, plus the witness in q and physical
-    coordinates and Phi(q) at the witness. Cached; do not mutate the result.
-    """
-    from roa.systems.ipc import from_flat
-
-    res = level_search(
-        flat_system(), paper_lyapunov(), shape_matrix(shape), shape=shape, method=method
-    )
-    if res["witness"] is not None:
-        xi = np.asarray(res["witness"])
-        res["witness_q"] = to_q(xi).tolist()
-        res["witness_physical"] = from_flat(xi).tolist()
-        res["Phi_witness"] = float(Phi(to_q(xi)))
-    return res
-
-
-def sector_theta(region: Region, *, t_max: float = np.pi / 2 - 1e-9) -> float:
-    """Largest theta in (0, pi/2) with (0, 0, th, 0) in ``region`` for all 0 <= th <= theta (rad).
-
-    Scans a fine grid then bisects the first exit; the same for -theta by the symmetry of the sets
-    (checked: the returned value is the minimum of both signs).
-    """
-
-    def inside_at(th: np.ndarray) -> np.ndarray:
-        X = np.zeros((th.size, 4))
-        X[:, 2] = th
-        return region.contains(X)
-
-    return symmetric_extent(inside_at, t_max, n_grid=4001, n_bisect=60)
-
-
-@functools.lru_cache(maxsize=1)
-def _regions() -> tuple[Region, ...]:
-    from roa.systems.ipc import physical_to_flat_or_inf as coords
-    from roa.systems.ipc.bound import corrected_bound, paper_bound
-
-    ball = khalil("ball")
-    level = khalil("level")
-    S_ball, S_level = shape_matrix("ball"), shape_matrix("level")
-    c_ball, c_level = float(ball["value"]), float(level["value"])
-    paper, corr = paper_bound(), corrected_bound()
-    # the hand proof is not taken on trust: the level is validated with interval arithmetic
-    from roa.certify.validate import validate_level
-
-    verdict = validate_level(flat_system(), paper_lyapunov(), corr["V_level_in_slab"])
-    return (
-        paper_ball(),
-        Region(
-            "paper (3.16) literal: ||Tx||^2 <= c* = 2.211",
-            S_ball,
-            float(np.sqrt(PAPER_C_STAR_SQ)),
-            "claimed",
-            coords,
-            {"source": "paper (3.16) as printed", "invariant": False},
-        ),
-        Region(
-            f"ours: ||Tx||^2 <= c*^2 = {c_ball:.4f} (Phi <= 0)",
-            S_ball,
-            c_ball,
-            "sampled",
-            coords,
-            {
-                "source": "Khalil search, ball shape",
-                "invariant": False,
-                "note": "V' < 0 on this ball, but a ball is not invariant: not an ROA estimate",
-            },
-        ),
-        Region(
-            f"ours: V <= {c_level:.4f} (V' < 0 on it)",
-            S_level,
-            c_level,
-            "sampled",
-            coords,
-            {"source": "Khalil search, V-level shape", "invariant": True},
-        ),
-        Region(
-            f"ours: ball inside V <= {c_level:.4f}: ||Tx||^2 <= "
-            f"{inner_level(S_level, c_level, S_ball):.4f}",
-            S_ball,
-            inner_level(S_level, c_level, S_ball),
-            "sampled",
-            coords,
-            {"source": "largest ball inside the sound V-level set", "invariant": False},
-        ),
-        Region(
-            "paper bound (3.14): ||Tx||^2 <= 2.25",
-            S_ball,
-            paper["c_tilde"],
-            "claimed",
-            coords,
-            {"source": "paper c~ = 2.25", "invariant": False},
-        ),
-        Region(
-            f"corrected bound: V < {corr['V_level_in_slab']:.5f}",
-            S_level,
-            corr["V_level_in_slab"],
-            verdict.status,
-            coords,
-            {
-                "source": "corrected analytic bound (3.14), proof by hand, re-checked by interval "
-                f"validation: {verdict.message}",
-                "invariant": True,
-            },
-        ),
-        Region(
-            f"corrected bound: ||Tx||^2 < {corr['ball_in_V_level']:.5f}",
-            S_ball,
-            corr["ball_in_V_level"],
-            verdict.status,
-            coords,
-            {
-                "source": "ball inside the corrected-bound V-level set (lambda_max(P_q) bound)",
-                "invariant": False,
-            },
-        ),
-    )
-
-
-def paper_ball() -> Region:
-    """The paper's estimate (3.15)-(3.16), ``||T xi||^2 <= 4.89`` in flat coordinates (claimed)."""
-    from roa.systems.ipc import physical_to_flat_or_inf
-
-    return Region(
-        "paper (3.15): ||Tx||^2 <= 4.89",
-        shape_matrix("ball"),
-        PAPER_C_STAR_SQ,
-        "claimed",
-        physical_to_flat_or_inf,
-        {"source": "paper c*^2 = 4.89", "invariant": False},
-    )
-
-
-def ipc_regions() -> list[Region]:
-    """The IPC's estimates as :class:`roa.regions.Region` objects (flat coordinates, physical coords).
-
-    Names say what each is; ``meta["invariant"]`` tells whether the set is a sublevel set of V
-    (forward invariant, hence an ROA estimate) or a ball. Values are computed once and cached.
-    """
-    return list(_regions())
-
-
-def khalil_value(shape: str = "ball", method: str = "casadi") -> float:
-    """c* of :func:`khalil` for one shape and one method (``sampled`` or ``casadi``)."""
-    if method not in ("sampled", "casadi"):
-        raise ValueError(f"method {method!r}: allowed sampled, casadi")
-    return float(khalil(shape, "both")["per_method"][method]["value"])

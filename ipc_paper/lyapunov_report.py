@@ -7,12 +7,14 @@ from typing import Any
 
 import numpy as np
 
+from ipc_paper import estimates as est
+from ipc_paper.bound import check_against_phi, corrected_bound, kappa_numeric, paper_bound
 from roa.experiment import accepts
 from roa.io import atomic_savefig, atomic_write_json
 from roa.levelset import inner_level, level_search
+from roa.options import CasadiOptions, SampledOptions
 from roa.systems.ipc import from_flat
 from roa.systems.ipc import lyapunov as ly
-from roa.systems.ipc.bound import check_against_phi, corrected_bound, kappa_numeric, paper_bound
 
 _DERIVATION = (
     "From (3.12), Phi = -q'Mq + (3q1+q2) beta + q3 q4 - q4^2 with |beta| <= kappa q4^2, "
@@ -32,8 +34,8 @@ def run_bound(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
     paper, corr = paper_bound(), corrected_bound()
     kap = kappa_numeric()
     chk = check_against_phi(int(params.get("n_points", 200000)), int(params.get("seed", 0)))
-    ball = ly.khalil("ball")
-    level = ly.khalil("level")
+    ball = est.khalil("ball")
+    level = est.khalil("level")
     paper_ball_ok = bool(ball["value"] >= paper["c_tilde"])
     paper_ball_in_level = bool(paper["c_tilde"] * np.linalg.eigvalsh(ly.P_Q)[-1] <= level["value"])
     res = {
@@ -196,23 +198,21 @@ def _figure(results: dict[str, Any], path: Path) -> None:
 @accepts("n_directions", "n_starts", "seed")
 def run_khalil(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Khalil's search (3.15), both shapes and both methods; the 60 deg sector."""
-    sampled = {
-        "n_directions": int(params.get("n_directions", 20000)),
-        "seed": int(params.get("seed", 0)),
-    }
-    casadi = {"n_starts": int(params.get("n_starts", 16)), "seed": int(params.get("seed", 0)) + 1}
+    sampled = SampledOptions(
+        n_directions=int(params.get("n_directions", 20000)), seed=int(params.get("seed", 0))
+    )
+    casadi = CasadiOptions(
+        n_starts=int(params.get("n_starts", 16)), seed=int(params.get("seed", 0)) + 1
+    )
     system, V = ly.flat_system(), ly.paper_lyapunov()
     results: dict[str, Any] = {}
     for shape in ly.SHAPES:
         r = level_search(
-            system,
-            V,
-            ly.shape_matrix(shape),
-            shape=shape,
-            method="both",
-            sampled=sampled,
-            casadi=casadi,
-        )
+            system, V, shape=ly.shape_matrix(shape), method="both", sampled=sampled, casadi=casadi
+        ).to_dict()
+        r["shape"] = shape
+        for per in r["per_method"].values():
+            per["shape"] = shape
         xi = np.asarray(r["witness"])
         r.update(
             witness_q=ly.to_q(xi).tolist(),
@@ -226,7 +226,7 @@ def run_khalil(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     results["counterexample"] = ce
     S_ball, S_level = ly.shape_matrix("ball"), ly.shape_matrix("level")
     ball_in_level = inner_level(S_level, cv, S_ball)
-    sectors = {reg.name: float(np.degrees(ly.sector_theta(reg))) for reg in ly.ipc_regions()}
+    sectors = {reg.name: float(np.degrees(est.sector_theta(reg))) for reg in est.ipc_regions()}
     results.update(ball_inside_sound_level=ball_in_level, sector_deg=sectors)
     atomic_write_json(out / "khalil.json", results)
     _figure(results, out / "khalil.png")

@@ -6,7 +6,7 @@ set of whitened rays (grid bracketing + bisection, vectorised). The objective is
 *physical* coordinates of the user: either the smooth fraction of a reference box of physical
 states inside ``{V(coords(x)) <= rho}`` (``objective="box"``) or the sector ``theta_max`` along a
 curve of physical states (``objective="sector"``). The result is only a candidate: it is certified
-afterwards by :func:`roa.certify.validate.validate_level` at a level just below ``rho``.
+afterwards by :func:`roa.proof.validate.validate_level` at a level just below ``rho``.
 """
 
 from __future__ import annotations
@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from roa.levelset import _crossings, _problem
+from roa.levelset_core import problem
+from roa.levelset_sampled import crossings
 from roa.lyapunov import QuadraticLyapunov
 from roa.regions import symmetric_extent
 from roa.system import System
@@ -43,13 +44,13 @@ def ray_level(
     (``x - x_eq``, any length), e.g. the witnesses of earlier local searches.
     """
     V = QuadraticLyapunov.for_system(system, P)
-    prob = _problem(system, V, V.P, "level")  # rays whitened by V itself: shape radius^2 = V
+    prob = problem(system, V, V.P, "level")  # rays whitened by V itself: shape radius^2 = V
     if extra is not None and len(extra):
         W = np.asarray(extra, dtype=float) @ np.linalg.cholesky(V.P)  # whitened: u = L' x
         W /= np.linalg.norm(W, axis=1, keepdims=True)
         directions = np.concatenate([directions, W, -W])
     r = np.geomspace(1e-2, r_max, n_radial)
-    return float(np.min(_crossings(prob, directions, r, iters=30)) ** 2)
+    return float(np.min(crossings(prob, directions, r, iters=30)) ** 2)
 
 
 def sector(

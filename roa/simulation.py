@@ -1,7 +1,13 @@
-"""One trajectory of a system, with a status: the reference integrator (scipy's solve_ivp)."""
+"""One trajectory of a system, with a status: the reference integrator (scipy's solve_ivp).
+
+:func:`simulate` is the entry point; it returns a :class:`Trajectory` whose ``status`` is a
+:class:`roa.status.RunStatus` (converged, left_domain, diverged, undecided, completed).
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -27,6 +33,8 @@ class Trajectory:
     message: str
     system: str
     meta: dict[str, Any] = field(default_factory=dict)
+    seconds: float = 0.0
+    problem: System | None = field(default=None, repr=False, compare=False)
 
     @property
     def final_state(self) -> np.ndarray:
@@ -35,6 +43,36 @@ class Trajectory:
     @property
     def t_end(self) -> float:
         return float(self.t[-1])
+
+    def to_dict(self) -> dict[str, Any]:
+        """What ``roa simulate --json`` prints."""
+        out: dict[str, Any] = {
+            "system": self.system,
+            "status": self.status.value,
+            "message": self.message,
+            "t_end": self.t_end,
+            "final_state": [float(v) for v in self.final_state],
+            "seconds": round(self.seconds, 4),
+        }
+        if self.problem is not None:
+            out["state_names"] = list(self.problem.state_names)
+        return out
+
+    def plot(self, ax: Any = None) -> Any:
+        """Every state against time (one axis; pass ``ax`` to draw into it)."""
+        import matplotlib.pyplot as plt
+
+        if ax is None:
+            _, ax = plt.subplots(figsize=(7, 3.5))
+        names = self.problem.state_names if self.problem else tuple(f"x{i}" for i in range(self.x.shape[1]))
+        units = (self.problem.state_units if self.problem else ()) or ("-",) * len(names)
+        for i, (nm, un) in enumerate(zip(names, units, strict=True)):
+            ax.plot(self.t, self.x[:, i], label=f"{nm} [{un}]")
+        ax.set_xlabel("time t [s or normalised]")
+        ax.set_ylabel("state")
+        ax.set_title(f"{self.system}: {self.status.value}")
+        ax.legend(loc="best", fontsize=8)
+        return ax
 
 
 def simulate(
@@ -53,7 +91,47 @@ def simulate(
     Events (terminal): entering the convergence ball (autonomous systems with an equilibrium),
     reaching the domain boundary, exceeding the divergence bound. Non-finite states end the run as
     ``diverged``; nothing is returned as a silent NaN.
+
+    Parameters
+    ----------
+    system : System
+        The system.
+    x0 : sequence of float
+        Initial state (n components, inside the domain).
+    rules : StopRules, optional
+        ``t_final``, ``converge_tol``, ``diverge_bound``.
+    rtol, atol, method, t_eval, max_step
+        Passed to :func:`scipy.integrate.solve_ivp`.
+
+    Returns
+    -------
+    Trajectory
+        ``.status`` (a :class:`RunStatus`), ``.t``, ``.x``, ``.message``.
+
+    Examples
+    --------
+    >>> import roa
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> roa.simulate(vanderpol(), [0.5, 0.5]).status
+    <RunStatus.CONVERGED: 'converged'>
     """
+    t_start = time.perf_counter()
+    traj = _integrate(system, x0, rules=rules, rtol=rtol, atol=atol, method=method,
+                      t_eval=t_eval, max_step=max_step)  # fmt: skip
+    return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
+
+
+def _integrate(
+    system: System,
+    x0: Any,
+    *,
+    rules: StopRules | None = None,
+    rtol: float = 1e-9,
+    atol: float = 1e-11,
+    method: str = "DOP853",
+    t_eval: np.ndarray | None = None,
+    max_step: float = np.inf,
+) -> Trajectory:
     rules = StopRules() if rules is None else rules
     x0 = system.check_state(x0, what="initial state")
     if x0.ndim != 1:

@@ -12,6 +12,7 @@ from typing import Any
 
 import numpy as np
 
+from ipc_paper.estimates import paper_ball
 from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.montecarlo import integrator as I  # noqa: N812
@@ -20,7 +21,6 @@ from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
 from roa.regions import Region
 from roa.status import StopRules
 from roa.systems import ipc
-from roa.systems.ipc.lyapunov import paper_ball
 
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
@@ -35,8 +35,8 @@ def regions(results: str | Path = "results") -> tuple[list[Region], str]:
     ``ipc_regions()`` (paper's claims, sampled and analytic-bound sets) plus the certified sets of
     ``RESULTS/certify/certified.json`` when the certify experiment has run.
     """
-    from roa.systems.ipc.certified import ipc_certified_regions
-    from roa.systems.ipc.lyapunov import ipc_regions
+    from ipc_paper.certified import ipc_certified_regions
+    from ipc_paper.estimates import ipc_regions
 
     found = list(ipc_regions())
     source = "roa.systems.ipc.lyapunov.ipc_regions()"

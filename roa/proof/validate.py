@@ -17,7 +17,7 @@ Two proofs, both independent of any optimisation solver:
    centres of undecided boxes, scaled radially to the level surface, are tried as
    counterexamples; a witness is re-checked at 50 digits with mpmath.
 
-Verdicts are values (:class:`Verdict`): ``certified`` (boxes, time), ``refuted`` (witness),
+Verdicts are values (:class:`Validation` with a :class:`roa.status.Verdict`): ``certified`` (boxes, time), ``refuted`` (witness),
 ``inconclusive`` (box budget exhausted, or the level set leaves the domain).
 """
 
@@ -31,18 +31,17 @@ from typing import Any
 
 import numpy as np
 
-from roa.certify.interval import INTERVAL, JET, Interval, Jet, _down, _up
 from roa.lyapunov import QuadraticLyapunov
+from roa.proof.interval import INTERVAL, JET, Interval, Jet, _down, _up
+from roa.status import Verdict
 from roa.system import System
-
-VERDICTS = ("certified", "refuted", "inconclusive")
 
 
 @dataclass(frozen=True)
-class Verdict:
+class Validation:
     """Outcome of an interval validation of ``V' < 0`` on ``{V <= level} \\ {x_eq}``."""
 
-    status: str
+    status: Verdict
     level: float
     boxes: int
     seconds: float
@@ -54,7 +53,7 @@ class Verdict:
 
     def to_json(self) -> dict[str, Any]:
         out = {
-            "status": self.status,
+            "status": self.status.value,
             "level": self.level,
             "method": "interval",
             "boxes": self.boxes,
@@ -358,7 +357,7 @@ def validate_level(
     max_boxes: int = 3_000_000,
     batch: int = 100_000,
     eps: float | None = None,
-) -> Verdict:
+) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
     Parameters
@@ -387,8 +386,8 @@ def validate_level(
     elif not local_proof(system, lyap, eps):
         eps = None
     if eps is None:
-        return Verdict(
-            "inconclusive",
+        return Validation(
+            Verdict.INCONCLUSIVE,
             level,
             0,
             time.perf_counter() - t0,
@@ -420,8 +419,8 @@ def validate_level(
             if w is not None:
                 check = recheck_domain_witness(system, lyap, w, level)
                 if check["confirmed"]:
-                    return Verdict(
-                        "inconclusive",
+                    return Validation(
+                        Verdict.INCONCLUSIVE,
                         level,
                         boxes,
                         time.perf_counter() - t0,
@@ -436,8 +435,8 @@ def validate_level(
             if w is not None:
                 check = recheck_witness(system, lyap, w, level)
                 if check["confirmed"]:
-                    return Verdict(
-                        "refuted",
+                    return Validation(
+                        Verdict.REFUTED,
                         level,
                         boxes,
                         time.perf_counter() - t0,
@@ -447,8 +446,8 @@ def validate_level(
                         message="V' >= 0 at a point of the level set (float and 50 digits)",
                     )
         if boxes + 2 * len(lo) > max_boxes and len(lo):
-            return Verdict(
-                "inconclusive",
+            return Validation(
+                Verdict.INCONCLUSIVE,
                 level,
                 boxes,
                 time.perf_counter() - t0,
@@ -470,8 +469,8 @@ def validate_level(
             lo2[rows, k] = m
             queue_lo = [lo, lo2, *queue_lo]
             queue_hi = [hi1, hi, *queue_hi]
-    return Verdict(
-        "certified",
+    return Validation(
+        Verdict.CERTIFIED,
         level,
         boxes,
         time.perf_counter() - t0,

@@ -12,7 +12,7 @@ from scipy.integrate import solve_ivp
 from roa.experiment import accepts
 from roa.io import atomic_savefig, atomic_write_json
 from roa.plotting.trajectories import plot_runs
-from roa.simulate import simulate
+from roa.simulation import simulate
 from roa.status import StopRules
 from roa.systems import ipc
 from roa.systems.ipc.controller import Gains, make_reference

@@ -21,7 +21,7 @@ even in ``d``; the program is then solved with even multipliers and Gram matrice
 odd monomial blocks (same optimum, see :func:`sos_level`).
 
 The result is a value with the solver's status; ``rho`` is a *candidate* until checked by
-:func:`roa.certify.validate.validate_level` (the SDP is solved in floating point).
+:func:`roa.proof.validate.validate_level` (the SDP is solved in floating point).
 """
 
 from __future__ import annotations
@@ -37,6 +37,7 @@ import sympy as sp
 
 from roa.backend import namespace
 from roa.lyapunov import QuadraticLyapunov
+from roa.status import SosStatus
 from roa.system import System
 
 SYMMETRY = ("auto", True, False)
@@ -45,10 +46,10 @@ SOS_STATUSES = ("solved", "inaccurate", "infeasible", "failed", "not_polynomial"
 
 @dataclass(frozen=True)
 class SOSResult:
-    """Outcome of the SOS program: ``rho`` is meaningful only with ``status == "solved"``."""
+    """Outcome of the SOS program: ``level`` is meaningful only with ``status == "solved"``."""
 
-    status: str
-    rho: float | None
+    status: SosStatus
+    level: float | None
     solver_status: str
     seconds: float
     recast: str
@@ -57,8 +58,8 @@ class SOSResult:
 
     def to_json(self) -> dict[str, Any]:
         return {
-            "status": self.status,
-            "level": self.rho,
+            "status": self.status.value,
+            "level": self.level,
             "method": "sos",
             "solver_status": self.solver_status,
             "seconds": round(self.seconds, 3),
@@ -278,7 +279,7 @@ def sos_level(
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
         return SOSResult(
-            "not_polynomial", None, "not run", time.perf_counter() - t0, "", message=str(exc)
+            SosStatus.NOT_POLYNOMIAL, None, "not run", time.perf_counter() - t0, "", message=str(exc)
         )
     gens = rc.d + rc.aux
     nv = len(gens)
@@ -368,7 +369,7 @@ def sos_level(
         solver_status = str(prob.status)
     except cp.error.SolverError as exc:
         return SOSResult(
-            "failed",
+            SosStatus.FAILED,
             None,
             f"solver error: {exc}",
             time.perf_counter() - t0,
@@ -392,5 +393,5 @@ def sos_level(
         "failed": f"solver status {prob.status}: no certificate",
     }[status]
     return SOSResult(
-        status, value, solver_status, time.perf_counter() - t0, rc.description, sizes, msg
+        SosStatus(status), value, solver_status, time.perf_counter() - t0, rc.description, sizes, msg
     )

@@ -16,7 +16,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa.systems.ipc.bound import corrected_bound, paper_bound
+    from ipc_paper.bound import corrected_bound, paper_bound
 
     out = {"paper": paper_bound(), "corrected": corrected_bound()}
     if args.json:

@@ -27,14 +27,6 @@ disagrees with our derivation; the derivation wins), **beyond the paper**.
 """
 
 
-def experiments_dir() -> Path:
-    """The experiment configs: ``./experiments`` if present, else the copy shipped in the package."""
-    local = Path("experiments")
-    if local.is_dir() and any(local.glob("*.toml")):
-        return local
-    return Path(__file__).resolve().parent / "data" / "experiments"
-
-
 def _cell(text: object) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
@@ -108,4 +100,5 @@ def render_report(results: str | Path = "results", out: str | Path = "paper_repr
 
 
 def write_report(results: str | Path = "results", out: str | Path = "paper_repro.md") -> Path:
+    """Render and write the report atomically."""
     return atomic_write_text(out, render_report(results, out))

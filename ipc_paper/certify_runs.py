@@ -44,8 +44,8 @@ def _ball_surface(u: np.ndarray) -> np.ndarray:
 def _physical(
     P: np.ndarray, level: float, box, n_box: int, seed: int, coords: str = "flat"
 ) -> dict[str, Any]:
-    from roa.certify.search import sector
-    from roa.systems.ipc.certified import coords_map
+    from ipc_paper.certified import coords_map
+    from roa.proof.search import sector
 
     c2y = coords_map(coords)
 
@@ -63,20 +63,27 @@ def _physical(
 
 
 def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
-    from roa.certify.validate import validate_level
+    """Certify ``below`` x the sampled optimum and refute ``above`` x it (roa.certify)."""
+    from roa.certification import certify
+    from roa.options import IntervalOptions
 
-    below = validate_level(system, V, params["below"] * opt, max_boxes=params["max_boxes"])
-    above = validate_level(system, V, params["above"] * opt, max_boxes=params["max_boxes"])
-    return {"sampled_optimum": opt, "below": below.to_json(), "above": above.to_json()}
+    opts = IntervalOptions(max_boxes=int(params["max_boxes"]), sampled_safety=params["below"])
+    cert = certify(system, V, candidate=opt, interval=opts, check_above=params["above"])
+    assert cert.validation is not None and cert.above is not None
+    return {
+        "sampled_optimum": opt,
+        "below": cert.validation.to_json(),
+        "above": cert.above.to_json(),
+    }
 
 
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
-    from roa.certify.search import optimise_quadratic
-    from roa.certify.sos import sos_level
+    from ipc_paper.certified import coords_map
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
+    from roa.proof.search import optimise_quadratic
+    from roa.proof.sos import sos_level
     from roa.systems.ipc import REFERENCE_BOX, transformed
-    from roa.systems.ipc.certified import coords_map
     from roa.systems.ipc.lyapunov import paper_lyapunov
     from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
@@ -101,7 +108,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     # Van der Pol
     vdp = vanderpol()
     Vv = QuadraticLyapunov.for_system(vdp, P_BENCHMARK, "benchmark")
-    opt_v = float(level_search(vdp, Vv, P_BENCHMARK, shape="level", method="both")["value"])
+    opt_v = float(level_search(vdp, Vv, shape="level", method="both").level)
     ev["vanderpol"] = {
         "sos": sos_level(vdp, Vv).to_json(),
         **_certify_pair(vdp, Vv, opt_v, p),
@@ -110,7 +117,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     # IPC, paper's V
     ipc = transformed()
     Vp = paper_lyapunov()
-    opt_p = float(level_search(ipc, Vp, Vp.P, shape="level", method="both")["value"])
+    opt_p = float(level_search(ipc, Vp, shape="level", method="both").level)
     sos_p = {"enclosure": sos_level(ipc, Vp, recast_mode="enclosure").to_json()}
     if p["sos_exact"]:
         opts = {"time_limit": p["sos_time_limit"]}
@@ -126,7 +133,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     )
     ev["ipc_paper"] = ipc_p
     # IPC, optimised V: searches (cached candidates, see search_cache.py), then certified afresh
-    from roa.certify.search_cache import SearchCache
+    from roa.proof.search_cache import SearchCache
     from roa.systems.ipc.hybrid import hybrid
 
     search = {
@@ -158,7 +165,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
         ckey = {"case": key, "system": system.name, "objective": objective, "P0": P0, **search}
         res, hit = cache.get(ckey, compute)
         Vo = QuadraticLyapunov(np.asarray(res["P"]), np.zeros(4), f"optimised ({key})")
-        opt_o = float(level_search(system, Vo, Vo.P, shape="level", method="both")["value"])
+        opt_o = float(level_search(system, Vo, shape="level", method="both").level)
         blk = {"search": {**res, "cached": hit}, **_certify_pair(system, Vo, opt_o, p)}
         blk["physical"] = _physical(
             Vo.P, blk["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"], coords
@@ -215,7 +222,7 @@ def _ball_containment(blocks: dict[str, tuple[Any, dict[str, Any]]]) -> dict[str
     """Is the paper's ball ||T xi||^2 <= 4.89 inside a certified sublevel set (flat V only)?"""
     from fractions import Fraction
 
-    from roa.certify.containment import ellipsoid_contains
+    from roa.proof.containment import ellipsoid_contains
     from roa.systems.ipc.lyapunov import T
 
     out: dict[str, Any] = {"ball": "||T xi||^2 <= 489/100 (exact)", "candidates": {}}
@@ -374,10 +381,11 @@ def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
 
 
 def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
-    """``fraction`` x sampled optimum, returned only if the interval validation certifies it."""
-    from roa.certify.validate import validate_level
+    """``fraction`` x the CasADi optimum, returned only if the interval validation certifies it."""
+    from roa.certification import certify
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
+    from roa.options import IntervalOptions
 
     if case == "ipc-paper":
         from roa.systems.ipc import transformed
@@ -391,11 +399,11 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
         V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
     else:
         raise ValueError(f"case {case!r}: allowed ipc-paper, vanderpol")
-    opt = float(level_search(system, V, V.P, shape="level", method="casadi")["value"])
-    verdict = validate_level(system, V, fraction * opt)
-    if verdict.status != "certified":
-        raise ValueError(f"{case}: level {fraction * opt} is {verdict.status}, not certified")
-    return verdict.level
+    search = level_search(system, V, shape="level", method="casadi")
+    cert = certify(system, V, candidate=search, interval=IntervalOptions(sampled_safety=fraction))
+    if not cert.certified or cert.level is None:
+        raise RuntimeError(f"{case}: level {cert.level} is {cert.status.value}, not certified")
+    return cert.level
 
 
 #: ``[params]`` keys this runner accepts (checked by roa.experiment before any work starts).

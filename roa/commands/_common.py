@@ -1,0 +1,115 @@
+"""What every command shares: the ``--system`` and ``--lyapunov`` options and their parsing.
+
+Commands only parse arguments, call the public API and print: no analysis happens here.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from roa.errors import RoaInputError
+from roa.io import to_json
+
+#: The default of ``--system`` for every command: the IPC's closed loop (3.8) in flat
+#: coordinates, which carries the paper's V (3.11) and ball ||q||^2.
+DEFAULT_SYSTEM = "ipc-flat"
+
+SYSTEM_HELP = (
+    "ipc-flat (default; the IPC closed loop (3.8) with the paper's V), ipc (physical "
+    "coordinates q, q_dot, theta, theta_dot), vanderpol, a built-in with parameters "
+    "(ipc:saturation=2, vanderpol:mu=0.5), or path/file.py:NAME"
+)
+
+LYAPUNOV_HELP = (
+    "the Lyapunov candidate V = (x - x_eq)' P (x - x_eq): a .json file holding the matrix P "
+    "(a list of rows, or an object {\"P\": rows}), a .npy file, or path/file.py:NAME (a matrix or "
+    "a roa.QuadraticLyapunov); default: the system's own V (a user file's LYAPUNOV_P), else P from "
+    "A'P + PA = -I"
+)
+
+
+def add_system(p: argparse.ArgumentParser, *, lyapunov: bool = False) -> None:
+    p.add_argument("--system", default=DEFAULT_SYSTEM, help=SYSTEM_HELP)
+    if lyapunov:
+        p.add_argument("--lyapunov", default=None, metavar="FILE", help=LYAPUNOV_HELP)
+
+
+def system(args: argparse.Namespace) -> Any:
+    from roa.systems import load_system
+
+    return load_system(args.system)
+
+
+def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
+    """The ``--lyapunov`` candidate for ``sys_`` (the system's default when not given)."""
+    from roa.lyapunov import QuadraticLyapunov, default_lyapunov
+
+    spec = getattr(args, "lyapunov", None)
+    if spec is None:
+        return default_lyapunov(sys_)
+    obj = read_matrix(spec, what="--lyapunov")
+    if isinstance(obj, QuadraticLyapunov):
+        return obj
+    try:
+        return QuadraticLyapunov.for_system(sys_, obj, name=Path(spec.split(":")[0]).name)
+    except RoaInputError as exc:
+        raise RoaInputError(f"--lyapunov {spec}: {exc}") from None
+
+
+def read_matrix(spec: str, *, what: str) -> Any:
+    """A matrix (or QuadraticLyapunov) from ``.json`` / ``.npy`` / ``file.py:NAME``."""
+    if spec.endswith(".py") or ".py:" in spec:
+        from roa.systems import _user_module
+
+        path_str, _, name = spec.rpartition(":") if ".py:" in spec else (spec, ":", "LYAPUNOV_P")
+        module = _user_module(Path(path_str))
+        if not hasattr(module, name):
+            raise RoaInputError(f"{what} {spec}: {path_str} defines no {name!r}")
+        return getattr(module, name)
+    path = Path(spec)
+    if not path.is_file():
+        raise RoaInputError(f"{what} {spec!r}: no such file (expected .json, .npy or file.py:NAME)")
+    if path.suffix == ".npy":
+        return np.load(path, allow_pickle=False)
+    try:
+        data = json.loads(path.read_text())
+    except json.JSONDecodeError as exc:
+        raise RoaInputError(f"{what} {spec}: invalid JSON ({exc})") from None
+    if isinstance(data, dict):
+        if "P" not in data:
+            raise RoaInputError(f"{what} {spec}: a JSON object must have a key \"P\" (the matrix)")
+        data = data["P"]
+    try:
+        return np.asarray(data, dtype=float)
+    except (TypeError, ValueError):
+        raise RoaInputError(f"{what} {spec}: P must be a list of rows of numbers") from None
+
+
+def floats(text: str, what: str, n: int | None = None) -> list[float]:
+    try:
+        vals = [float(v) for v in text.split(",") if v.strip() != ""]
+    except ValueError as exc:
+        raise RoaInputError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
+    if n is not None and len(vals) != n:
+        raise RoaInputError(f"{what}: expected {n} comma-separated numbers, got {len(vals)}")
+    return vals
+
+
+def emit(args: argparse.Namespace, payload: dict[str, Any]) -> None:
+    """Print ``payload`` as JSON (``--json``); text output is each command's own."""
+    print(to_json(payload))
+
+
+def fmt(value: Any, spec: str = ".6g", missing: str = "none") -> str:
+    """A number formatted, or a clear word for a missing one (never ``None`` in text output)."""
+    if value is None:
+        return missing
+    try:
+        return format(float(value), spec)
+    except (TypeError, ValueError):
+        return str(value)

@@ -1,0 +1,76 @@
+"""The linearisation of a system at its equilibrium: Jacobian, classification, Lyapunov matrix."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import linalg
+
+from roa.errors import RoaInputError
+from roa.system import System
+
+#: Real parts within this (relative to the Jacobian's norm) of zero count as zero.
+DEGENERATE_RTOL = 1e-9
+
+
+def jacobian(system: System, x: np.ndarray | None = None) -> np.ndarray:
+    """Jacobian of the field at ``x`` (default the equilibrium), exact via CasADi's AD.
+
+    Examples
+    --------
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> jacobian(vanderpol()).tolist()
+    [[0.0, -1.0], [1.0, -1.0]]
+    """
+    import casadi as ca
+
+    from roa.backend import namespace
+
+    x = system.x_eq if x is None else np.asarray(x, dtype=float)
+    sym = ca.SX.sym("x", system.n)
+    f = ca.vertcat(*system.field(0.0, [sym[i] for i in range(system.n)], namespace("casadi")))
+    return np.array(ca.Function("J", [sym], [ca.jacobian(f, sym)])(x), dtype=float)
+
+
+@dataclass(frozen=True)
+class Linearisation:
+    """``A`` at the equilibrium, its eigenvalues and its kind.
+
+    ``kind`` is ``"hurwitz"`` (every eigenvalue has a negative real part), ``"unstable"`` (one has a
+    positive real part) or ``"degenerate"`` (none positive, at least one on the imaginary axis:
+    stability is decided by higher-order terms).
+    """
+
+    A: np.ndarray
+    eigenvalues: np.ndarray
+    kind: str
+
+
+def linearise(system: System) -> Linearisation:
+    """Jacobian at the equilibrium and its classification (see :class:`Linearisation`)."""
+    A = jacobian(system)
+    eig = np.linalg.eigvals(A)
+    scale = max(1.0, float(np.abs(A).max()))
+    re = eig.real
+    if np.any(re > DEGENERATE_RTOL * scale):
+        kind = "unstable"
+    elif np.all(re < -DEGENERATE_RTOL * scale):
+        kind = "hurwitz"
+    else:
+        kind = "degenerate"
+    return Linearisation(A, eig, kind)
+
+
+def lyapunov_matrix(system: System) -> np.ndarray:
+    """P solving A'P + PA = -I for the linearisation A at the equilibrium (A must be Hurwitz)."""
+    A = jacobian(system)
+    eig = np.linalg.eigvals(A)
+    if np.max(eig.real) >= 0:
+        raise RoaInputError(
+            f"linearisation of {system.name!r} is not Hurwitz (eigenvalue "
+            f"{eig[np.argmax(eig.real)]:.4g}): no quadratic Lyapunov function from A'P + PA = -I; "
+            "pass V explicitly (or give the system a lyapunov matrix)"
+        )
+    P = linalg.solve_continuous_lyapunov(A.T, -np.eye(system.n))
+    return 0.5 * (P + P.T)

@@ -1,0 +1,176 @@
+"""Monte Carlo basin of attraction: :func:`basin` integrates every initial condition of a sampler.
+
+Samplers (:mod:`roa.montecarlo.sampling`): :func:`grid_slice` (a 2-D slice), :func:`box_sample`
+(seeded uniform samples of a box), :func:`region_sample` (inside or on a level set). Every run ends
+with its own status (converged, left_domain, diverged, undecided), never merged.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from roa.errors import RoaInputError
+from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo.engine import run_basin, wilson_interval
+from roa.montecarlo.sampling import GridSlice
+from roa.options import IntegratorOptions, RunOptions
+from roa.status import BasinStatus, StopRules
+from roa.system import System
+
+
+@dataclass(frozen=True)
+class BasinResult:
+    """Statuses of every initial condition of a sampler, counted per status.
+
+    Attributes
+    ----------
+    status : BasinStatus
+        ``all_converged``, ``partly_converged`` or ``none_converged``.
+    counts : dict
+        Count per :class:`roa.status.RunStatus` value (converged, left_domain, diverged, undecided).
+    fraction_converged, ci95 : float, (float, float)
+        Share of converged runs and its 95 % Wilson interval.
+    code, t_end : ndarray
+        Per initial condition: status code (:mod:`roa.montecarlo.integrator`) and stop time.
+    """
+
+    status: BasinStatus
+    n: int
+    counts: dict[str, int]
+    fraction_converged: float
+    ci95: tuple[float, float]
+    code: np.ndarray = field(repr=False)
+    t_end: np.ndarray = field(repr=False)
+    seconds: float
+    chunks_computed: int
+    chunks_resumed: int
+    step_size_failures: int
+    system: System = field(repr=False, compare=False)
+    sampler: Any = field(repr=False, compare=False)
+    rules: StopRules = field(default_factory=StopRules)
+    integrator: IntegratorOptions = field(default_factory=IntegratorOptions)
+
+    def to_dict(self) -> dict[str, Any]:
+        """What ``roa basin --json`` prints (with the command's description of the samples)."""
+        return {
+            "system": self.system.name,
+            "status": self.status.value,
+            "n": self.n,
+            "counts": dict(self.counts),
+            "undecided_step_size_failures": self.step_size_failures,
+            "fraction_converged": self.fraction_converged,
+            "fraction_converged_ci95": list(self.ci95),
+            "ci_method": "Wilson score, 95 %",
+            "t_final": self.rules.t_final,
+            "converge_tol": self.rules.converge_tol,
+            "rtol": self.integrator.rtol,
+            "atol": self.integrator.atol,
+            "chunks_computed": self.chunks_computed,
+            "chunks_resumed": self.chunks_resumed,
+            "seconds": round(self.seconds, 3),
+        }
+
+    def plot(self, ax: Any = None, *, regions: Any = (), title: str | None = None) -> Any:
+        """The basin map of a :func:`grid_slice` run, with optional regions drawn over it."""
+        import matplotlib.pyplot as plt
+
+        from roa.plotting.basin import draw_slice
+
+        if not isinstance(self.sampler, GridSlice):
+            raise RoaInputError("plot() draws a 2-D slice: run basin() on a grid_slice sampler")
+        if ax is None:
+            _, ax = plt.subplots(figsize=(8.6, 6.0))
+        draw_slice(ax, self.system, self.sampler, self.code, regions=regions,
+                   title=f"basin of {self.system.name}" if title is None else title)  # fmt: skip
+        return ax
+
+
+def basin(
+    system: System,
+    sampler: Any,
+    *,
+    rules: StopRules | None = None,
+    integrator: IntegratorOptions | None = None,
+    run: RunOptions | None = None,
+) -> BasinResult:
+    """Integrate every initial condition of ``sampler`` and count the statuses.
+
+    Parameters
+    ----------
+    system : System
+        Autonomous system with an equilibrium.
+    sampler : GridSlice, BoxSample or RegionSample
+        The initial conditions (:func:`roa.grid_slice`, :func:`roa.box_sample`, ...).
+    rules : StopRules, optional
+        ``t_final``, ``converge_tol``, ``diverge_bound``.
+    integrator : IntegratorOptions, optional
+        Tolerances and backend of the batch Dormand-Prince integrator.
+    run : RunOptions, optional
+        Workers, chunk size, resumable directory, Dask scheduler (none changes the result).
+
+    Examples
+    --------
+    >>> import roa
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> sys_ = vanderpol()
+    >>> grid = roa.grid_slice(sys_, ("x1", "x2"), [(-3, 3), (-3, 3)], (11, 11))
+    >>> res = roa.basin(sys_, grid, run=roa.RunOptions(n_jobs=1))
+    >>> res.status, res.counts["converged"] + res.counts["diverged"] == res.n
+    (<BasinStatus.PARTLY_CONVERGED: 'partly_converged'>, True)
+    """
+    t0 = time.perf_counter()
+    rules = StopRules() if rules is None else rules
+    integrator = IntegratorOptions() if integrator is None else integrator
+    run = RunOptions() if run is None else run
+    if system.equilibrium is None or system.time_varying:
+        raise RoaInputError(
+            f"system {system.name!r}: basins need an autonomous system with an equilibrium"
+        )
+    for attr in ("n", "points", "fingerprint"):
+        if not hasattr(sampler, attr):
+            raise RoaInputError(
+                f"sampler must have n, points(start, stop) and fingerprint() (e.g. "
+                f"roa.grid_slice or roa.box_sample), got {type(sampler).__name__}"
+            )
+    res = run_basin(
+        system,
+        sampler,
+        rules=rules,
+        rtol=integrator.rtol,
+        atol=integrator.atol,
+        margin_tol=integrator.margin_tol,
+        backend=integrator.backend,
+        chunk_size=run.chunk_size,
+        n_jobs=run.n_jobs,
+        out_dir=run.out_dir,
+        scheduler=run.scheduler,
+        progress=run.progress,
+    )
+    counts = res.counts()
+    k = counts["converged"]
+    status = (
+        BasinStatus.ALL_CONVERGED
+        if k == res.n
+        else (BasinStatus.NONE_CONVERGED if k == 0 else BasinStatus.PARTLY_CONVERGED)
+    )
+    return BasinResult(
+        status,
+        res.n,
+        counts,
+        k / res.n if res.n else 0.0,
+        wilson_interval(k, res.n),
+        res.code,
+        res.t_end,
+        time.perf_counter() - t0,
+        res.chunks_computed,
+        res.chunks_resumed,
+        int(np.sum(res.code == I.STEP_FAILURE)),
+        system,
+        sampler,
+        rules,
+        integrator,
+    )

@@ -1,0 +1,289 @@
+"""Options of every method, as frozen dataclasses with their defaults in one place.
+
+Each class validates its fields on construction (:class:`roa.errors.RoaInputError` naming the field
+and the allowed range) and builds from a mapping with :meth:`Options.from_mapping`, which rejects
+unknown keys using the dataclass's own fields (experiment ``[params]`` tables map onto them)::
+
+    >>> from roa.options import SampledOptions
+    >>> SampledOptions(n_directions=2000).n_directions
+    2000
+    >>> SampledOptions.from_mapping({"n_directions": 2000, "seed": 3}).seed
+    3
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import os
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any, Self
+
+from roa.errors import RoaInputError
+
+#: Upper bounds that keep a single call within the memory of a workstation.
+MAX_DIRECTIONS = 2_000_000
+MAX_BOXES = 200_000_000
+
+
+def _int(obj: Any, name: str, lo: int, hi: int | None = None) -> None:
+    value = getattr(obj, name)
+    what = f"{type(obj).__name__}.{name}"
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise RoaInputError(f"{what} must be an integer, got {value!r}")
+    if value < lo or (hi is not None and value > hi):
+        rng = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        raise RoaInputError(f"{what} must be {rng}, got {value}")
+
+
+def _pos(obj: Any, name: str, *, upper: float = math.inf, closed_upper: bool = False) -> None:
+    value = getattr(obj, name)
+    what = f"{type(obj).__name__}.{name}"
+    ok = isinstance(value, int | float) and not isinstance(value, bool) and value > 0
+    ok = ok and (value <= upper if closed_upper else value < upper)
+    if not ok:
+        rng = "a finite number > 0" if upper == math.inf else f"in (0, {upper:g}" + (
+            "]" if closed_upper else ")"
+        )
+        raise RoaInputError(f"{what} must be {rng}, got {value!r}")
+
+
+class Options:
+    """Mixin: construction from a mapping that rejects unknown keys, and a plain-dict view."""
+
+    @classmethod
+    def from_mapping(cls, mapping: Mapping[str, Any] | None, *, where: str = "") -> Self:
+        """Build from ``mapping``; unknown keys raise :class:`RoaInputError` listing the allowed."""
+        mapping = dict(mapping or {})
+        names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+        unknown = sorted(set(mapping) - set(names))
+        if unknown:
+            prefix = f"{where}: " if where else ""
+            raise RoaInputError(
+                f"{prefix}unknown option(s) {unknown} for {cls.__name__}; allowed: "
+                f"{', '.join(names)}"
+            )
+        for key, value in list(mapping.items()):
+            if isinstance(value, list):  # TOML arrays -> tuples (frozen, hashable)
+                mapping[key] = tuple(value)
+        return cls(**mapping)
+
+    def replace(self, **changes: Any) -> Self:
+        """A copy with ``changes`` (validated like the constructor)."""
+        return dataclasses.replace(self, **changes)  # type: ignore[type-var]
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+
+@dataclass(frozen=True)
+class SampledOptions(Options):
+    """Sampled level search: rays in random directions, bisection, cap refinement.
+
+    Parameters
+    ----------
+    n_directions : int
+        Random directions on the unit sphere of the shape, in [16, 2e6].
+    r_max : float
+        Search radius in shape units (sqrt of the level); rays without violation count as infinite.
+    n_radial : int
+        Points of the geometric radial grid used for bracketing (>= 8).
+    refine_rounds, refine_directions, n_candidates : int
+        Cap refinement: rounds, directions per round, and how many best directions to refine.
+    seed : int
+        Random seed (>= 0).
+    """
+
+    n_directions: int = 20000
+    r_max: float = 100.0
+    n_radial: int = 96
+    refine_rounds: int = 20
+    refine_directions: int = 192
+    n_candidates: int = 3
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        _int(self, "n_directions", 16, MAX_DIRECTIONS)
+        _pos(self, "r_max")
+        _int(self, "n_radial", 8, 100_000)
+        _int(self, "refine_rounds", 0, 1000)
+        _int(self, "refine_directions", 1, 100_000)
+        _int(self, "n_candidates", 1, 1000)
+        _int(self, "seed", 0)
+
+    @classmethod
+    def with_accuracy(cls, accuracy: str) -> SampledOptions:
+        """Presets: ``"low"`` (2,000 directions), ``"medium"`` (the default), ``"high"`` (200,000)."""
+        presets = {"low": 2000, "medium": 20000, "high": 200000}
+        if accuracy not in presets:
+            raise RoaInputError(f"accuracy must be one of {list(presets)}, got {accuracy!r}")
+        return cls(n_directions=presets[accuracy])
+
+
+@dataclass(frozen=True)
+class CasadiOptions(Options):
+    """CasADi/IPOPT level search: min s(x) s.t. V'(x)/s(x) >= 0, multi-start.
+
+    Parameters
+    ----------
+    n_starts : int
+        IPOPT starts per problem, in [1, 10000].
+    r_start : (float, float)
+        Range ``0 < low < high`` of shape radii of the candidate starting points.
+    n_candidates : int
+        Random points drawn to find violating starting points (>= 1).
+    seed : int
+        Random seed (>= 0).
+    """
+
+    n_starts: int = 16
+    r_start: tuple[float, float] = (0.1, 30.0)
+    n_candidates: int = 8000
+    seed: int = 1
+
+    def __post_init__(self) -> None:
+        _int(self, "n_starts", 1, 10_000)
+        r = tuple(self.r_start)
+        if len(r) != 2 or not (0 < r[0] < r[1] < math.inf):
+            raise RoaInputError(f"CasadiOptions.r_start must be (low, high), 0 < low < high, got {r}")
+        object.__setattr__(self, "r_start", (float(r[0]), float(r[1])))
+        _int(self, "n_candidates", 1, MAX_DIRECTIONS)
+        _int(self, "seed", 0)
+
+
+@dataclass(frozen=True)
+class SosOptions(Options):
+    """SOS program for the largest level (cvxpy + Clarabel).
+
+    Parameters
+    ----------
+    recast : {"exact", "enclosure"}
+        How non-polynomial factors of V' are made polynomial.
+    multiplier_degree : int or None
+        Degree of the free multiplier of V' (default: the smallest that makes the degrees match).
+    symmetry : {"auto", True, False}
+        Exploit an odd field (smaller Gram blocks, same optimum).
+    aux_degree : int or None
+        Largest degree of auxiliary (recast) variables in bases and multipliers; ``None``: no cap.
+    time_limit : float or None
+        Clarabel's time limit in seconds.
+    safety_factor : float
+        The SOS optimum is a supremum: :func:`roa.certify` validates ``safety_factor * level``,
+        in (0, 1].
+    """
+
+    recast: str = "exact"
+    multiplier_degree: int | None = None
+    symmetry: str | bool = "auto"
+    aux_degree: int | None = None
+    time_limit: float | None = None
+    safety_factor: float = 1 - 1e-4
+
+    def __post_init__(self) -> None:
+        if self.recast not in ("exact", "enclosure"):
+            raise RoaInputError(f"SosOptions.recast must be 'exact' or 'enclosure', got {self.recast!r}")
+        if self.symmetry not in ("auto", True, False):
+            raise RoaInputError(f"SosOptions.symmetry must be 'auto', True or False, got {self.symmetry!r}")
+        if self.multiplier_degree is not None:
+            _int(self, "multiplier_degree", 0, 12)
+        if self.aux_degree is not None:
+            _int(self, "aux_degree", 0, 12)
+        if self.time_limit is not None:
+            _pos(self, "time_limit")
+        _pos(self, "safety_factor", upper=1.0, closed_upper=True)
+
+    def solver_options(self) -> dict[str, Any] | None:
+        return None if self.time_limit is None else {"time_limit": float(self.time_limit)}
+
+
+@dataclass(frozen=True)
+class IntervalOptions(Options):
+    """Interval branch-and-bound validation of a level.
+
+    Parameters
+    ----------
+    max_boxes : int
+        Budget of box evaluations, in [1, 2e8]; exhausted -> ``inconclusive``.
+    batch : int
+        Boxes evaluated per vectorised step, in [1, 1e7].
+    sampled_safety : float
+        A sampled optimum (an upper bound of the largest level) is validated at this fraction,
+        in (0, 1].
+    """
+
+    max_boxes: int = 3_000_000
+    batch: int = 100_000
+    sampled_safety: float = 0.999
+
+    def __post_init__(self) -> None:
+        _int(self, "max_boxes", 1, MAX_BOXES)
+        _int(self, "batch", 1, 10_000_000)
+        _pos(self, "sampled_safety", upper=1.0, closed_upper=True)
+
+
+@dataclass(frozen=True)
+class IntegratorOptions(Options):
+    """Batch Dormand-Prince 5(4) integration of many initial conditions.
+
+    Parameters
+    ----------
+    rtol, atol : float
+        Error tolerances (scipy's definitions); ``rtol`` in [2.2e-14, 1), ``atol`` > 0.
+    margin_tol : float
+        The domain is left when ``margin(x) <= margin_tol`` (>= 0).
+    backend : {"auto", "numba", "numpy"}
+        ``auto`` uses the system's numba kernel when it has one.
+    """
+
+    rtol: float = 1e-6
+    atol: float = 1e-9
+    margin_tol: float = 0.0
+    backend: str = "auto"
+
+    def __post_init__(self) -> None:
+        eps = 2.220446049250313e-16
+        if not (isinstance(self.rtol, int | float) and 100 * eps <= self.rtol < 1):
+            raise RoaInputError(f"IntegratorOptions.rtol must be in [{100 * eps:.2g}, 1), got {self.rtol!r}")
+        _pos(self, "atol")
+        if not (isinstance(self.margin_tol, int | float) and 0 <= self.margin_tol < math.inf):
+            raise RoaInputError(
+                f"IntegratorOptions.margin_tol must be a finite number >= 0, got {self.margin_tol!r}"
+            )
+        if self.backend not in ("auto", "numba", "numpy"):
+            raise RoaInputError(
+                f"IntegratorOptions.backend must be 'auto', 'numba' or 'numpy', got {self.backend!r}"
+            )
+
+
+@dataclass(frozen=True)
+class RunOptions(Options):
+    """How a basin run is executed (none of these changes the result).
+
+    Parameters
+    ----------
+    chunk_size : int
+        Initial conditions per task, in [1, 1e6].
+    n_jobs : int
+        Worker processes: -1 for all cores, else in [1, 4 x cores].
+    out_dir : str or None
+        Resumable run directory (chunks and a fingerprint).
+    scheduler : str or None
+        Address of a Dask scheduler (``tcp://host:port``).
+    progress : bool or None
+        Progress bar (default: on for runs of more than 50 chunks).
+    """
+
+    chunk_size: int = 4096
+    n_jobs: int = -1
+    out_dir: str | None = None
+    scheduler: str | None = None
+    progress: bool | None = None
+
+    def __post_init__(self) -> None:
+        _int(self, "chunk_size", 1, 1_000_000)
+        cores = os.cpu_count() or 1
+        if self.n_jobs != -1:
+            _int(self, "n_jobs", 1, 4 * cores)
+        if self.out_dir is not None:
+            object.__setattr__(self, "out_dir", os.fspath(self.out_dir))

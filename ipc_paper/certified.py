@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.regions import Region
 
 CERTIFIED_PATH = Path("results/certify/certified.json")
@@ -35,7 +36,7 @@ def coords_map(name: str) -> Callable[[np.ndarray], np.ndarray]:
         from roa.systems.ipc.hybrid import physical_to_hybrid_or_inf
 
         return physical_to_hybrid_or_inf
-    raise ValueError(f"coords {name!r}: allowed {', '.join(COORDS)}")
+    raise RoaInputError(f"coords {name!r}: allowed {', '.join(COORDS)}")
 
 
 def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
@@ -47,7 +48,7 @@ def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
     """
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
+        raise RoaInputError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
     data = json.loads(path.read_text())
     out = []
     for entry in data["regions"]:
@@ -71,11 +72,11 @@ def load_optimised_P(path: str | Path = CERTIFIED_PATH, *, which: str = "box") -
     """
     keys = {"box": "optimised_P", "sector": "sector_P"}
     if which not in keys:
-        raise ValueError(f"which {which!r}: allowed {', '.join(keys)}")
+        raise RoaInputError(f"which {which!r}: allowed {', '.join(keys)}")
     path = Path(path)
     if not path.is_file():
-        raise ValueError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
+        raise RoaInputError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
     data = json.loads(path.read_text())
     if keys[which] not in data:
-        raise ValueError(f"{path} has no {keys[which]}: rerun `roa run experiments/certify.toml`")
+        raise RoaInputError(f"{path} has no {keys[which]}: rerun `roa run experiments/certify.toml`")
     return np.asarray(data[keys[which]], dtype=float)

@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.io import atomic_write_json
 
 
@@ -398,7 +399,7 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
         system = vanderpol()
         V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
     else:
-        raise ValueError(f"case {case!r}: allowed ipc-paper, vanderpol")
+        raise RoaInputError(f"case {case!r}: allowed ipc-paper, vanderpol")
     search = level_search(system, V, shape="level", method="casadi")
     cert = certify(system, V, candidate=search, interval=IntervalOptions(sampled_safety=fraction))
     if not cert.certified or cert.level is None:

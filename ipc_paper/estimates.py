@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.levelset import inner_level, level_search
 from roa.regions import Region, symmetric_extent
 from roa.systems.ipc.lyapunov import (
@@ -176,5 +177,5 @@ def ipc_regions() -> list[Region]:
 def khalil_value(shape: str = "ball", method: str = "casadi") -> float:
     """c* of :func:`khalil` for one shape and one method (``sampled`` or ``casadi``)."""
     if method not in ("sampled", "casadi"):
-        raise ValueError(f"method {method!r}: allowed sampled, casadi")
+        raise RoaInputError(f"method {method!r}: allowed sampled, casadi")
     return float(khalil(shape, "both")["per_method"][method]["value"])

@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
+
 FUNCTIONS = ("sin", "cos", "tan", "sqrt", "arctan", "arcsinh", "arctanh", "exp", "log", "abs")
 
 
@@ -65,7 +67,7 @@ _FACTORIES = {"numpy": _numpy, "casadi": _casadi, "sympy": _sympy}
 def namespace(name: str) -> Any:
     """Return the array namespace ``name`` (one of ``numpy``, ``casadi``, ``sympy``)."""
     if name not in _FACTORIES:
-        raise ValueError(f"backend: unknown namespace {name!r}; allowed: {sorted(_FACTORIES)}")
+        raise RoaInputError(f"backend: unknown namespace {name!r}; allowed: {sorted(_FACTORIES)}")
     if name not in _CACHE:
         _CACHE[name] = _FACTORIES[name]()
     return _CACHE[name]

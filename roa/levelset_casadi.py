@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 
 from roa.backend import namespace
+from roa.errors import RoaInputError
 from roa.levelset_core import LevelSetResult, finish, locally_negative, problem, unit
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
@@ -47,9 +48,9 @@ def casadi_level(
     import casadi as ca
 
     if int(n_starts) < 1:
-        raise ValueError(f"n_starts must be >= 1, got {n_starts}")
+        raise RoaInputError(f"n_starts must be >= 1, got {n_starts}")
     if not (0 < r_start[0] < r_start[1] < np.inf):
-        raise ValueError(f"r_start must be 0 < low < high, got {r_start}")
+        raise RoaInputError(f"r_start must be 0 < low < high, got {r_start}")
     prob = problem(system, V, S, shape)
     ok, lam = locally_negative(system, V)
     if not ok:

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.levelset_core import LevelSetResult, _Problem, finish, locally_negative, problem, unit
 from roa.lyapunov import QuadraticLyapunov
 from roa.system import System
@@ -76,11 +77,11 @@ def sampled_level(
         Random seed.
     """
     if int(n_directions) < 16:
-        raise ValueError(f"n_directions must be >= 16, got {n_directions}")
+        raise RoaInputError(f"n_directions must be >= 16, got {n_directions}")
     if not (np.isfinite(r_max) and r_max > 0):
-        raise ValueError(f"r_max must be finite and > 0, got {r_max}")
+        raise RoaInputError(f"r_max must be finite and > 0, got {r_max}")
     if int(n_radial) < 8:
-        raise ValueError(f"n_radial must be >= 8, got {n_radial}")
+        raise RoaInputError(f"n_radial must be >= 8, got {n_radial}")
     prob = problem(system, V, S, shape)
     ok, lam = locally_negative(system, V)
     if not ok:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.lyapunov import check_positive_definite
 
 
@@ -71,11 +72,11 @@ class Region:
             self, "P", check_positive_definite(self.P, what=f"region {self.name!r} P")
         )
         if not (np.isfinite(self.level) and self.level > 0):
-            raise ValueError(
+            raise RoaInputError(
                 f"region {self.name!r}: level must be finite and > 0, got {self.level!r}"
             )
         if self.status not in REGION_STATUSES:
-            raise ValueError(
+            raise RoaInputError(
                 f"region {self.name!r}: status {self.status!r} not in {REGION_STATUSES}"
             )
 

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from roa.backend import NP
+from roa.errors import RoaInputError
 from roa.status import RunStatus, StopRules
 from roa.system import System
 
@@ -135,7 +136,7 @@ def _integrate(
     rules = StopRules() if rules is None else rules
     x0 = system.check_state(x0, what="initial state")
     if x0.ndim != 1:
-        raise ValueError(
+        raise RoaInputError(
             f"initial state must be one state of {system.n} components, got shape {x0.shape}"
         )
     track_convergence = system.equilibrium is not None and not system.time_varying

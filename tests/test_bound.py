@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 import pytest
-from roa.systems.ipc.bound import (
+from ipc_paper.bound import (
     KAPPA,
     check_against_phi,
     corrected_bound,

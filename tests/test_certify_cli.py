@@ -47,9 +47,13 @@ def test_sos_with_level_is_rejected(capsys):
     assert "--method sos with --level" in cap.err and "--method interval" in cap.err
 
 
-def test_ipc_physical_system_points_to_flat_coordinates(capsys):
-    code, cap = _run(capsys, ["certify", "--system", "ipc", "--level", "1"])
-    assert code == 2 and "ipc-flat" in cap.err
+def test_default_system_is_the_ipc_with_the_papers_v(capsys):
+    """Default --system ipc-flat carries V (3.11); its largest level is 2.28284 (roa check), so
+    2.3 lies above it and must be refuted with a witness."""
+    code, cap = _run(capsys, ["certify", "--level", "2.3", "--json"])
+    out = json.loads(cap.out)
+    assert code == 1 and out["system"] == "ipc_flat" and out["status"] == "refuted"
+    assert out["witness_check"]["confirmed"] is True
 
 
 def test_unbounded_level_search_is_a_clear_status(capsys, toy):
@@ -59,7 +63,7 @@ def test_unbounded_level_search_is_a_clear_status(capsys, toy):
     assert code == 1
     assert out["status"] == "inconclusive" and out["level"] is None
     assert out["level_search"]["status"] == "unbounded"
-    assert "no finite candidate level" in out["message"]
+    assert "V' < 0 may hold on every sublevel set" in out["message"]
 
 
 def test_not_locally_negative_is_a_clear_status(capsys, toy):
@@ -75,7 +79,7 @@ def test_not_locally_negative_is_a_clear_status(capsys, toy):
 def test_sos_level_validated_with_safety_factor(capsys):
     code, cap = _run(capsys, ["certify", "--system", "vanderpol", "--json"])
     out = json.loads(cap.out)
-    assert code == 0 and out["status"] == "certified" and out["method"] == "sos+interval"
+    assert code == 0 and out["status"] == "certified" and out["method"] == "interval"
     assert out["level_source"] == "sos" and out["safety_factor"] == pytest.approx(1 - 1e-4)
     assert out["level"] == pytest.approx(out["safety_factor"] * out["sos"]["level"], rel=1e-12)
     assert out["sos"]["level"] == pytest.approx(RHO_BENCHMARK, abs=1e-3)
@@ -89,8 +93,8 @@ def test_help_describes_every_option_with_its_default(capsys):
     for opt, default in (
         ("--system", "default ipc-flat"),
         ("--lyapunov", "default: the system's own"),
-        ("--level", "default: none"),
-        ("--maximise", "(default)"),
+        ("--level", "default: maximise"),
+        ("--maximise", "(default: what happens without --level)"),
         ("--method", "Default: both"),
         ("--max-boxes", "default 3000000"),
     ):

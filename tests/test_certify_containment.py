@@ -74,7 +74,7 @@ def test_search_cache_hits_recomputes_on_new_keys_and_prunes(tmp_path):
 
 
 def test_certified_regions_use_their_stored_coordinates(tmp_path):
-    from roa.systems.ipc.certified import coords_map, ipc_certified_regions
+    from ipc_paper.certified import coords_map, ipc_certified_regions
 
     P = np.diag(
         [1.0, 1.0, 1.0 / 3.0, 1.0]

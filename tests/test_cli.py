@@ -17,7 +17,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 @pytest.mark.parametrize("ic", ["0.4,0.25,0.2,2", "0,0,1.2,0.2", "1,0,-0.8,0"])
 def test_simulate_paper_points_converge(ic, capsys):
-    assert main(["simulate", "--ic", ic, "--json"]) == 0
+    assert main(["ipc-simulate", "--ic", ic, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["status"] == "converged"
     assert len(out["final_state"]) == 4
@@ -28,7 +28,7 @@ def test_simulate_tracking_reports_error(capsys):
     assert (
         main(
             [
-                "simulate",
+                "ipc-simulate",
                 "--ic",
                 "0,0,1,0",
                 "--reference",
@@ -47,10 +47,10 @@ def test_simulate_tracking_reports_error(capsys):
 
 def test_simulate_flat_coordinates_agree(capsys):
     main(
-        ["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5", "--coordinates", "flat"]
+        ["ipc-simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5", "--coordinates", "flat"]
     )
     flat = json.loads(capsys.readouterr().out)
-    main(["simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
+    main(["ipc-simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
     phys = json.loads(capsys.readouterr().out)
     assert flat["status"] == phys["status"] == "undecided"
     assert flat["final_state"] == pytest.approx(phys["final_state"], abs=1e-6)
@@ -67,13 +67,13 @@ def test_simulate_flat_coordinates_agree(capsys):
     ],
 )
 def test_simulate_bad_input(args, message, capsys):
-    assert main(["simulate", *args]) == 2
+    assert main(["ipc-simulate", *args]) == 2
     assert message in capsys.readouterr().err
 
 
 def test_unknown_arguments_raise():
     with pytest.raises(SystemExit):
-        build_parser().parse_args(["simulate", "--ic", "0,0,0,0", "--bogus", "1"])
+        build_parser().parse_args(["ipc-simulate", "--ic", "0,0,0,0", "--bogus", "1"])
     with pytest.raises(SystemExit):
         build_parser().parse_args(["nonexistent-command"])
 
@@ -88,6 +88,6 @@ def test_every_command_has_help():
 
 
 def test_basin_box_outside_the_domain_is_rejected_before_work(capsys):
-    assert main(["basin", "--slice", "q,theta", "--grid", "5x5", "--box", "theta=-2:2"]) == 2
+    assert main(["basin", "--system", "ipc", "--slice", "q,theta", "--grid", "5x5", "--box", "theta=-2:2"]) == 2
     err = capsys.readouterr().err
     assert "--box" in err and "outside the domain" in err and "theta" in err

@@ -39,4 +39,4 @@ def test_tutorial_basin_map(capsys, tmp_path):
     out = _json(capsys, argv)
     assert png.is_file()
     assert out["counts"]["converged"] + out["counts"]["diverged"] == out["n"] == 1600
-    assert out["regions"] == [{"name": "V <= 2.3 (LYAPUNOV_P)", "level": 2.3, "status": "certified"}]
+    assert out["regions"] == [{"name": "V <= 2.3 (my-vanderpol V)", "level": 2.3, "status": "certified"}]

@@ -134,5 +134,5 @@ def test_bad_parameters():
         ipc.closed_loop(delta=0.0)
     with pytest.raises(ValueError, match="saturation"):
         ipc.closed_loop(saturation=-1)
-    with pytest.raises(ValueError, match="StopRules.t_final"):
+    with pytest.raises(ValueError, match="rules.t_final"):
         StopRules(t_final=np.nan)

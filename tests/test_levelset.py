@@ -17,6 +17,8 @@ from roa.levelset import (
     sampled_level,
 )
 from roa.lyapunov import QuadraticLyapunov
+from roa.options import SampledOptions
+from roa.status import LevelStatus
 from roa.system import System
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
@@ -34,10 +36,10 @@ def _cubic() -> System:
 def test_closed_form_cubic(method):
     system = _cubic()
     V = QuadraticLyapunov.for_system(system, np.eye(2))
-    res = level_search(system, V, np.eye(2), shape="ball", method=method)
-    assert res["status"] == "found"
-    assert res["value"] == pytest.approx(1.0, rel=1e-9)
-    assert np.allclose(np.abs(res["witness"]), [1.0, 0.0], atol=1e-6)
+    res = level_search(system, V, shape="ball", method=method)
+    assert res.status is LevelStatus.FOUND
+    assert res.level == pytest.approx(1.0, rel=1e-9)
+    assert np.allclose(np.abs(res.witness), [1.0, 0.0], atol=1e-6)
 
 
 @pytest.mark.parametrize("method", ["sampled", "casadi"])
@@ -46,18 +48,20 @@ def test_vanderpol_benchmark(method):
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
     res = level_search(
-        system, V, P_BENCHMARK, shape="level", method=method, sampled={"n_directions": 4000}
+        system, V, shape="level", method=method, sampled=SampledOptions(n_directions=4000)
     )
-    assert res["value"] == pytest.approx(RHO_BENCHMARK, abs=1e-3)
-    assert abs(res["vdot_witness"]) < WITNESS_ATOL
-    assert V.value(np.asarray(res["witness"])) == pytest.approx(res["value"], rel=1e-12)
+    assert res.level == pytest.approx(RHO_BENCHMARK, abs=1e-3)
+    assert abs(res.vdot_witness) < WITNESS_ATOL
+    assert V.value(res.witness) == pytest.approx(res.level, rel=1e-12)
 
 
 @pytest.mark.parametrize("shape", ["ball", "level"])
 def test_ipc_methods_agree_and_witness_verifies(shape):
     from roa.systems.ipc import lyapunov as ly
 
-    res = ly.khalil(shape)
+    from ipc_paper.estimates import khalil
+
+    res = khalil(shape)
     assert res["status"] == "agree"
     assert res["relative_difference"] <= AGREEMENT_RTOL
     for r in res["per_method"].values():
@@ -104,8 +108,9 @@ def test_not_locally_negative():
 
     system = System("skew", field, (0.0, 0.0), ("x1", "x2"))
     V = QuadraticLyapunov.for_system(system, np.eye(2))
-    res = level_search(system, V, np.eye(2), method="both")
-    assert res["status"] == "not_locally_negative" and res["value"] == 0.0
+    res = level_search(system, V, shape="ball", method="both")
+    assert res.status is LevelStatus.NOT_LOCALLY_NEGATIVE and res.level is None
+    assert "not negative definite" in res.message
 
 
 def test_inner_level_closed_form():
@@ -119,9 +124,11 @@ def test_bad_options():
     with pytest.raises(ValueError, match="n_directions"):
         sampled_level(system, V, P_BENCHMARK, n_directions=3)
     with pytest.raises(ValueError, match="method"):
-        level_search(system, V, P_BENCHMARK, method="grid")
+        level_search(system, V, method="grid")
     with pytest.raises(ValueError, match="positive definite"):
-        level_search(system, V, -np.eye(2))
+        level_search(system, V, shape=-np.eye(2))
+    with pytest.raises(ValueError, match="SampledOptions.n_directions must be in"):
+        SampledOptions(n_directions=10**9)
 
 
 def test_both_takes_only_successful_results():
@@ -130,9 +137,13 @@ def test_both_takes_only_successful_results():
     the combined result must be the CasADi level, with status 'partial', not min(1.0, 2.3045)."""
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
-    res = level_search(system, V, P_BENCHMARK, shape="level", method="both", sampled={"r_max": 1.0})
-    assert res["per_method"]["sampled"]["status"] == "unbounded"
-    assert res["per_method"]["casadi"]["status"] == "found"
-    assert res["status"] == "partial"
-    assert res["value"] == pytest.approx(2.3045, abs=1e-3)
-    assert res["witness"] is not None
+    res = level_search(
+        system, V, shape="level", method="both", sampled=SampledOptions(r_max=1.0)
+    )
+    assert res.per_method["sampled"].status is LevelStatus.UNBOUNDED
+    assert res.per_method["sampled"].level is None
+    assert res.per_method["sampled"].lower_bound == 1.0
+    assert res.per_method["casadi"].status is LevelStatus.FOUND
+    assert res.status is LevelStatus.PARTIAL
+    assert res.level == pytest.approx(2.3045, abs=1e-3)
+    assert res.witness is not None

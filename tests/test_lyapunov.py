@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
+from ipc_paper import estimates as est
 from roa.systems.ipc import lyapunov as ly
 
 
@@ -46,13 +47,13 @@ def test_sector_of_paper_ball_in_closed_form():
         return (np.arcsinh(w) + 3 * w) ** 2 + 5 * w * w - 4.89
 
     expected = brentq(g, 1e-6, 1.5, xtol=1e-14)
-    region = next(r for r in ly.ipc_regions() if r.name.startswith("paper (3.15)"))
-    assert ly.sector_theta(region) == pytest.approx(expected, abs=1e-9)
+    region = next(r for r in est.ipc_regions() if r.name.startswith("paper (3.15)"))
+    assert est.sector_theta(region) == pytest.approx(expected, abs=1e-9)
     assert np.degrees(expected) < 30  # far from the paper's 60 deg
 
 
 def test_regions_are_consistent():
-    regions = {r.name: r for r in ly.ipc_regions()}
+    regions = {r.name: r for r in est.ipc_regions()}
     assert len(regions) == 8
     sound = next(r for n, r in regions.items() if n.startswith("ours: V <="))
     proved = next(r for n, r in regions.items() if n.startswith("corrected bound: V"))

@@ -209,8 +209,8 @@ def test_cli_basin_json(capsys):
 
     from roa.cli import main
 
-    argv = ["basin", "--slice", "theta,theta_dot", "--grid", "6x5", "--box",
-            "theta=-1.5:1.5,theta_dot=-3:3", "--saturation", "1", "--jobs", "1", "--json"]  # fmt: skip
+    argv = ["basin", "--system", "ipc:saturation=1", "--slice", "theta,theta_dot", "--grid", "6x5",
+            "--box", "theta=-1.5:1.5,theta_dot=-3:3", "--jobs", "1", "--json"]  # fmt: skip
     assert main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n"] == 30 and sum(out["counts"].values()) == 30
@@ -232,17 +232,19 @@ def test_cli_basin_json(capsys):
         (["--slice", "q,q_dot", "--grid", "3x3", "--fix", "omega=1"], "--fix: unknown state"),
         (["--slice", "q,theta", "--grid", "3x3", "--box", "theta=1:-1"], "need finite LO < HI"),
         (["--slice", "q,theta", "--grid", "3x3", "--samples", "10"], "either --slice"),
-        (["--samples", "10", "--saturation", "-1"], "--saturation must be"),
+        (["--system", "ipc:saturation=-1", "--samples", "10"], "saturation must be"),
+        (["--system", "ipc:saturation=x", "--samples", "10"], "NAME=NUMBER"),
         (["--samples", "0"], "--samples must be >= 1"),
         (["--samples", "10", "--jobs", "0"], "--jobs must be"),
-        (["--system", "vanderpol", "--samples", "10", "--regions", "paper"], "ipc system only"),
+        (["--system", "vanderpol", "--samples", "10", "--lyapunov-level", "1"], "--plot"),
         (["--samples", "10", "--plot", "x.png"], "--plot draws a slice"),
     ],
 )
 def test_cli_bad_inputs(args, message, capsys):
     from roa.cli import main
 
-    assert main(["basin", *args]) == 2
+    argv = ["basin", *args] if "--system" in args else ["basin", "--system", "ipc", *args]
+    assert main(argv) == 2
     assert message in capsys.readouterr().err
 
 
@@ -256,7 +258,7 @@ def test_cli_killed_run_resumes(tmp_path):
     import time
 
     out = tmp_path / "run"
-    argv = [sys.executable, "-m", "roa.cli", "basin", "--samples", "40000", "--box",
+    argv = [sys.executable, "-m", "roa.cli", "basin", "--system", "ipc", "--samples", "40000", "--box",
             "q=-3:3,q_dot=-1:1,theta=-1.2:1.2,theta_dot=-1:1", "--saturation", "1", "--seed", "3",
             "--chunk-size", "1000", "--jobs", "1", "--out", str(out)]  # fmt: skip
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)

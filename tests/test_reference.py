@@ -7,6 +7,7 @@ from pathlib import Path
 
 import pytest
 
+from ipc_paper.reference import REGISTRY
 from roa import reference
 from roa.cli import main
 
@@ -14,7 +15,7 @@ REF = Path(__file__).resolve().parents[1] / "results" / "reference.json"
 
 
 def test_every_registered_value_is_stored_and_reproduces():
-    rows = reference.check(path=REF)
+    rows = reference.check(REGISTRY, path=REF)
     bad = [r for r in rows if r["status"] != "ok"]
     assert not bad, bad
 
@@ -33,4 +34,11 @@ def test_check_flags_drift_and_missing(tmp_path, capsys):
 
 def test_unknown_key():
     with pytest.raises(ValueError, match="unknown reference key"):
-        reference.check(["nope"], path=REF)
+        reference.check(REGISTRY, ["nope"], path=REF)
+
+
+def test_check_outside_a_checkout_says_where_it_looked(tmp_path, monkeypatch, capsys):
+    monkeypatch.chdir(tmp_path)
+    assert main(["check", "--only", "ipc.bound.corrected.c_tilde"]) == 1
+    err = capsys.readouterr().err
+    assert "reference file" in err and str(tmp_path) in err and "does not exist" in err

@@ -3,9 +3,10 @@
 from pathlib import Path
 
 import pytest
-from roa.report import collect, experiments_dir, render_report
 
-from roa.experiment import VERDICTS, list_experiments, load_config, run_experiment
+from ipc_paper import STUDY
+from ipc_paper.report import collect, render_report
+from roa.experiment import VERDICTS, experiments_dir, list_experiments, load_config, run_experiment
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = list_experiments(ROOT / "experiments")
@@ -28,18 +29,29 @@ def test_every_claim_is_well_formed_and_its_evidence_exists():
 
 
 def test_packaged_experiments_are_the_repository_ones():
-    packaged = ROOT / "roa" / "data" / "experiments"
+    packaged = STUDY.experiments
+    assert packaged == ROOT / "ipc_paper" / "experiments"
     assert sorted(p.name for p in packaged.glob("*.toml")) == sorted(p.name for p in CONFIGS)
-    assert experiments_dir().is_dir()
+    for p in CONFIGS:
+        assert (packaged / p.name).read_text() == p.read_text(), p.name
+    assert experiments_dir(STUDY).is_dir()
 
 
 def test_bad_config_is_rejected(tmp_path):
     bad = tmp_path / "bad.toml"
-    bad.write_text('kind = "no-such-kind"\n')
-    with pytest.raises(ValueError, match="kind = 'no-such-kind'; allowed"):
+    bad.write_text('runner = "no such runner"\n')
+    with pytest.raises(ValueError, match="runner must be 'module:function'"):
         load_config(bad)
-    bad.write_text('kind = "figure1"\nparms = {}\n')
+    bad.write_text('runner = "ipc_paper.figures:run_figure1"\nparms = {}\n')
     with pytest.raises(ValueError, match="unknown keys"):
+        load_config(bad)
+
+
+def test_config_cannot_name_code_outside_a_study(tmp_path):
+    """A config is data: its runner must be a function of a registered study's package."""
+    bad = tmp_path / "evil.toml"
+    bad.write_text('runner = "os:system"\n[params]\n')
+    with pytest.raises(ValueError, match="not in a registered study's package"):
         load_config(bad)
 
 
@@ -69,7 +81,7 @@ def test_missing_dependency_is_a_clear_error(tmp_path):
 
 def test_unknown_params_are_rejected_before_work(tmp_path):
     cfg = tmp_path / "typo.toml"
-    cfg.write_text('kind = "figure1"\n[params]\nt_finall = 3.0\n[params.initial_conditions]\np1 = [0, 0, 0.1, 0]\n')
+    cfg.write_text('runner = "ipc_paper.figures:run_figure1"\n[params]\nt_finall = 3.0\n[params.initial_conditions]\np1 = [0, 0, 0.1, 0]\n')
     with pytest.raises(ValueError, match=r"unknown params \['t_finall'\]; allowed: .*t_final"):
         run_experiment(cfg, results=tmp_path / "r")
     assert not (tmp_path / "r" / "typo").exists()

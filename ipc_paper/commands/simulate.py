@@ -7,6 +7,7 @@ import argparse
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.io import to_json
 
 
@@ -14,9 +15,9 @@ def _floats(text: str, what: str, n: int | None = None) -> list[float]:
     try:
         vals = [float(v) for v in text.split(",") if v.strip() != ""]
     except ValueError as exc:
-        raise ValueError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
+        raise RoaInputError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
     if n is not None and len(vals) != n:
-        raise ValueError(f"{what}: expected {n} comma-separated numbers, got {len(vals)}")
+        raise RoaInputError(f"{what}: expected {n} comma-separated numbers, got {len(vals)}")
     return vals
 
 
@@ -61,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
 
     x0 = np.array(_floats(args.ic, "--ic", 4))
     if args.poles and args.coefficients:
-        raise ValueError("--poles and --coefficients are exclusive")
+        raise RoaInputError("--poles and --coefficients are exclusive")
     if args.poles:
         gains = Gains.from_poles([complex(p.replace("i", "j")) for p in args.poles.split(",")])
     elif args.coefficients:
@@ -69,7 +70,7 @@ def run(args: argparse.Namespace) -> int:
     else:
         gains = Gains.default()
     if not args.t_final > 0:
-        raise ValueError(f"--t-final must be > 0, got {args.t_final}")
+        raise RoaInputError(f"--t-final must be > 0, got {args.t_final}")
     ipc.coordinates.check_physical(x0)
     reference = make_reference(args.reference)
     delta = ipc.DEFAULT_DELTA if args.delta is None else args.delta

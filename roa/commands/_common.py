@@ -20,9 +20,9 @@ from roa.io import to_json
 DEFAULT_SYSTEM = "ipc-flat"
 
 SYSTEM_HELP = (
-    "ipc-flat (default; the IPC closed loop (3.8) with the paper's V), ipc (physical "
-    "coordinates q, q_dot, theta, theta_dot), vanderpol, a built-in with parameters "
-    "(ipc:saturation=2, vanderpol:mu=0.5), or path/file.py:NAME"
+    "the system: ipc-flat (the IPC closed loop (3.8), which carries the paper's V), ipc "
+    "(physical coordinates q, q_dot, theta, theta_dot), vanderpol, a built-in with parameters "
+    "(ipc:saturation=2, vanderpol:mu=0.5), or path/file.py:NAME; default ipc-flat"
 )
 
 LYAPUNOV_HELP = (

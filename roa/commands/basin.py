@@ -73,12 +73,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def parse_grid(text: str) -> tuple[int, int]:
     m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
     if not m:
-        raise ValueError(
+        raise RoaInputError(
             f"--grid: expected NxM with integers N, M >= 2 (e.g. 200x150), got {text!r}"
         )
     nx, ny = int(m.group(1)), int(m.group(2))
     if nx < 2 or ny < 2 or nx * ny > 10**8:
-        raise ValueError(f"--grid: N and M must be >= 2 and N*M <= 1e8, got {nx}x{ny}")
+        raise RoaInputError(f"--grid: N and M must be >= 2 and N*M <= 1e8, got {nx}x{ny}")
     return nx, ny
 
 
@@ -89,16 +89,16 @@ def parse_box(text: str | None, names: tuple[str, ...]) -> dict[str, tuple[float
             continue
         m = re.fullmatch(r"\s*([A-Za-z_]\w*)\s*=\s*([^:]+):(.+)", part)
         if not m:
-            raise ValueError(f"--box: expected NAME=LO:HI, got {part!r}")
+            raise RoaInputError(f"--box: expected NAME=LO:HI, got {part!r}")
         name = m.group(1)
         if name not in names:
-            raise ValueError(f"--box: unknown state {name!r}; allowed: {', '.join(names)}")
+            raise RoaInputError(f"--box: unknown state {name!r}; allowed: {', '.join(names)}")
         try:
             lo, hi = float(m.group(2)), float(m.group(3))
         except ValueError as exc:
-            raise ValueError(f"--box {name}: LO and HI must be numbers, got {part!r}") from exc
+            raise RoaInputError(f"--box {name}: LO and HI must be numbers, got {part!r}") from exc
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-            raise ValueError(f"--box {name}: need finite LO < HI, got {lo}:{hi}")
+            raise RoaInputError(f"--box {name}: need finite LO < HI, got {lo}:{hi}")
         out[name] = (lo, hi)
     return out
 
@@ -109,13 +109,13 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
         name, sep, value = item.partition("=")
         name = name.strip()
         if not sep:
-            raise ValueError(f"--fix: expected NAME=VALUE, got {item!r}")
+            raise RoaInputError(f"--fix: expected NAME=VALUE, got {item!r}")
         if name not in names:
-            raise ValueError(f"--fix: unknown state {name!r}; allowed: {', '.join(names)}")
+            raise RoaInputError(f"--fix: unknown state {name!r}; allowed: {', '.join(names)}")
         try:
             out[name] = float(value)
         except ValueError as exc:
-            raise ValueError(f"--fix {name}: value must be a number, got {value!r}") from exc
+            raise RoaInputError(f"--fix {name}: value must be a number, got {value!r}") from exc
     return out
 
 
@@ -126,7 +126,7 @@ def build(args: argparse.Namespace):
 
     system = C.system(args)
     if system.equilibrium is None or system.time_varying:
-        raise ValueError(
+        raise RoaInputError(
             f"--system {args.system}: basins need an autonomous system with an equilibrium"
         )
     for flag, value in (("--t-final", args.t_final), ("--converge-tol", args.converge_tol)):
@@ -143,19 +143,19 @@ def build(args: argparse.Namespace):
         return box.get(name, (x_eq[i] - 1.0, x_eq[i] + 1.0))
 
     if (args.slice is None) == (args.samples is None):
-        raise ValueError("give either --slice AXIS1,AXIS2 with --grid NxM, or --samples N")
+        raise RoaInputError("give either --slice AXIS1,AXIS2 with --grid NxM, or --samples N")
     if args.slice is not None:
         if args.grid is None:
-            raise ValueError("--slice needs --grid NxM")
+            raise RoaInputError("--slice needs --grid NxM")
         axes = [a.strip() for a in args.slice.split(",")]
         if len(axes) != 2:
-            raise ValueError(f"--slice: expected two state names AXIS1,AXIS2, got {args.slice!r}")
+            raise RoaInputError(f"--slice: expected two state names AXIS1,AXIS2, got {args.slice!r}")
         for a in axes:
             if a not in names:
-                raise ValueError(f"--slice: unknown state {a!r}; allowed: {', '.join(names)}")
+                raise RoaInputError(f"--slice: unknown state {a!r}; allowed: {', '.join(names)}")
         extra = set(box) - set(axes)
         if extra:
-            raise ValueError(f"--box: {sorted(extra)} are not slice axes (use --fix for them)")
+            raise RoaInputError(f"--box: {sorted(extra)} are not slice axes (use --fix for them)")
         shape = parse_grid(args.grid)
         sampler = grid_slice(system, axes, [rng(a) for a in axes], shape, fixed=fixed)
         _check_box_in_domain(
@@ -166,17 +166,17 @@ def build(args: argparse.Namespace):
                 "fixed": {n: float(sampler.base[i]) for i, n in enumerate(names) if n not in axes}}  # fmt: skip
     else:
         if args.grid is not None or fixed:
-            raise ValueError("--grid and --fix apply to --slice runs, not to --samples")
+            raise RoaInputError("--grid and --fix apply to --slice runs, not to --samples")
         if args.samples < 1:
-            raise ValueError(f"--samples must be >= 1, got {args.samples}")
+            raise RoaInputError(f"--samples must be >= 1, got {args.samples}")
         ranges = [rng(n) for n in names]
         _check_box_in_domain(system, ranges)
         sampler = box_sample(system, ranges, args.samples, seed=args.seed)  # type: ignore[assignment]
         mode = {"mode": "box", "box": dict(zip(names, ranges, strict=True)), "seed": args.seed}
     if args.chunk_size < 1:
-        raise ValueError(f"--chunk-size must be >= 1, got {args.chunk_size}")
+        raise RoaInputError(f"--chunk-size must be >= 1, got {args.chunk_size}")
     if args.jobs == 0 or args.jobs < -1:
-        raise ValueError(f"--jobs must be >= 1 or -1 (all cores), got {args.jobs}")
+        raise RoaInputError(f"--jobs must be >= 1 or -1 (all cores), got {args.jobs}")
     return system, sampler, rules, mode
 
 
@@ -193,7 +193,7 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
     bad = ~system.inside(corners)
     if bad.any():
         c = corners[np.argmax(bad)]
-        raise ValueError(
+        raise RoaInputError(
             f"--box: the corner {dict(zip(names, np.round(c, 6).tolist(), strict=True))} is outside "
             f"the domain of {system.name} ({system.domain_description}); shrink the range"
         )

@@ -29,7 +29,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--level", type=float, default=None,
                    help="validate this level > 0 by interval branch and bound; default: maximise")  # fmt: skip
     g.add_argument("--maximise", action="store_true",
-                   help="find the largest level, then validate it (what happens without --level)")  # fmt: skip
+                   help="find the largest level, then validate it (default: what happens without --level)")  # fmt: skip
     p.add_argument(
         "--method",
         choices=("sos", "interval", "both"),

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.status import RunStatus, StopRules
 from roa.system import System
 
@@ -99,11 +100,11 @@ class BatchResult:
 def check_tolerances(rtol: float, atol: float, margin_tol: float) -> None:
     """Validate integration tolerances (ValueError naming the field)."""
     if not (100 * _EPS <= rtol < 1):
-        raise ValueError(f"rtol must be in [{100 * _EPS:.2g}, 1), got {rtol!r}")
+        raise RoaInputError(f"rtol must be in [{100 * _EPS:.2g}, 1), got {rtol!r}")
     if not (0 < atol < np.inf):
-        raise ValueError(f"atol must be a finite number > 0, got {atol!r}")
+        raise RoaInputError(f"atol must be a finite number > 0, got {atol!r}")
     if not (0 <= margin_tol < np.inf):
-        raise ValueError(f"margin_tol must be a finite number >= 0, got {margin_tol!r}")
+        raise RoaInputError(f"margin_tol must be a finite number >= 0, got {margin_tol!r}")
 
 
 def integrate_batch(
@@ -136,18 +137,18 @@ def integrate_batch(
     rules = StopRules() if rules is None else rules
     check_tolerances(rtol, atol, margin_tol)
     if system.time_varying or system.equilibrium is None:
-        raise ValueError(
+        raise RoaInputError(
             f"system {system.name!r}: basin runs need an autonomous system with an equilibrium"
         )
     x0 = np.ascontiguousarray(np.asarray(x0, dtype=float))
     if x0.ndim != 2 or x0.shape[1] != system.n:
-        raise ValueError(f"x0 must have shape (m, {system.n}); got {x0.shape}")
+        raise RoaInputError(f"x0 must have shape (m, {system.n}); got {x0.shape}")
     if backend not in ("auto", "numba", "numpy"):
-        raise ValueError(f"backend must be auto, numba or numpy; got {backend!r}")
+        raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
     use_numba = backend == "numba" or (backend == "auto" and "numba" in system.meta)
     if use_numba:
         if "numba" not in system.meta:
-            raise ValueError(f"system {system.name!r} provides no numba field (meta['numba'])")
+            raise RoaInputError(f"system {system.name!r} provides no numba field (meta['numba'])")
         field, margin, params = system.meta["numba"]()
         m = x0.shape[0]
         code = np.empty(m, np.int8)

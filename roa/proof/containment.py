@@ -15,6 +15,8 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
+
 
 def _exact(x: Any) -> Fraction:
     if isinstance(x, Fraction):
@@ -23,7 +25,7 @@ def _exact(x: Any) -> Fraction:
         return Fraction(int(x))
     v = float(x)
     if not np.isfinite(v):
-        raise ValueError(f"ellipsoid data must be finite, got {x!r}")
+        raise RoaInputError(f"ellipsoid data must be finite, got {x!r}")
     return Fraction(v)
 
 
@@ -65,16 +67,16 @@ def ellipsoid_contains(P: np.ndarray, b: Any, Q: np.ndarray, a: Any) -> dict[str
     Q = np.asarray(Q)
     n = P.shape[0]
     if P.shape != (n, n) or Q.shape != (n, n):
-        raise ValueError(f"P and Q must be square of the same size, got {P.shape} and {Q.shape}")
+        raise RoaInputError(f"P and Q must be square of the same size, got {P.shape} and {Q.shape}")
     a, b = _exact(a), _exact(b)
     if a <= 0 or b <= 0:
-        raise ValueError(f"levels must be > 0, got a = {float(a)}, b = {float(b)}")
+        raise RoaInputError(f"levels must be > 0, got a = {float(a)}, b = {float(b)}")
     Pf = [[_exact(P[i, j]) for j in range(n)] for i in range(n)]
     Qf = [[_exact(Q[i, j]) for j in range(n)] for i in range(n)]
     if any(Pf[i][j] != Pf[j][i] or Qf[i][j] != Qf[j][i] for i in range(n) for j in range(n)):
-        raise ValueError("P and Q must be exactly symmetric")
+        raise RoaInputError("P and Q must be exactly symmetric")
     if not exact_positive_definite(Qf)[0]:
-        raise ValueError("Q must be positive definite (the inner set must be a bounded ellipsoid)")
+        raise RoaInputError("Q must be positive definite (the inner set must be a bounded ellipsoid)")
     A = [[b * Qf[i][j] - a * Pf[i][j] for j in range(n)] for i in range(n)]
     ok, pivots = exact_positive_definite(A)
     Pn, Qn = np.asarray(P, dtype=float), np.asarray(Q, dtype=float)

@@ -36,6 +36,7 @@ import scipy.sparse as sps
 import sympy as sp
 
 from roa.backend import namespace
+from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
 from roa.status import SosStatus
 from roa.system import System
@@ -108,7 +109,7 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     ``t = b^(k/2) in [0, 1]`` for ``k < 0`` and ``b >= 1`` (loses the relation between t and b).
     """
     if mode not in RECASTS:
-        raise ValueError(f"recast mode {mode!r}: allowed {', '.join(RECASTS)}")
+        raise RoaInputError(f"recast mode {mode!r}: allowed {', '.join(RECASTS)}")
     n = lyap.n
     d = list(sp.symbols(f"y0:{n}", real=True))
     M = np.linalg.inv(np.linalg.cholesky(lyap.P).T)
@@ -135,11 +136,11 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
             continue
         base = p.base
         if not base.is_polynomial(*d):
-            raise ValueError(f"cannot recast {p}: base is not polynomial")
+            raise RoaInputError(f"cannot recast {p}: base is not polynomial")
         k = int(e.p)
         if mode == "enclosure":
             if k > 0 or not _at_least_one(base):
-                raise ValueError(f"enclosure needs b^(k/2) with k < 0 and b >= 1, got {p}")
+                raise RoaInputError(f"enclosure needs b^(k/2) with k < 0 and b >= 1, got {p}")
             t = sp.Symbol(f"t{len(aux)}", real=True)
             aux.append(t)
             boxes.append(t)
@@ -165,7 +166,7 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     f = [fi.xreplace(subs) for fi in f]
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
     if not Vdot.is_polynomial(*d, *aux):
-        raise ValueError("V' is not polynomial after recasting half-integer powers")
+        raise RoaInputError("V' is not polynomial after recasting half-integer powers")
     return Recast(d, aux, V, Vdot, eqs, boxes, "; ".join(notes) or "polynomial (no recast)")
 
 
@@ -274,7 +275,7 @@ def sos_level(
 
     t0 = time.perf_counter()
     if system.time_varying:
-        raise ValueError(f"system {system.name!r} is time-varying: no equilibrium to certify")
+        raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     try:
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
@@ -298,10 +299,10 @@ def sos_level(
     eq_polys = [_coeffs(h, gens) for h in rc.equalities]
     nn_polys = [_coeffs(g, gens) for g in rc.nonnegative]
     if symmetry not in SYMMETRY:
-        raise ValueError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
+        raise RoaInputError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
     even = _is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
     if symmetry is True and not even:
-        raise ValueError("symmetry=True needs V' and the recast constraints even in x - x_eq")
+        raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)
 
     def cap(basis: list[tuple]) -> list[tuple]:

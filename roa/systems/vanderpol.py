@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.system import System
 
 #: Lyapunov matrix of the published benchmark.
@@ -23,7 +24,7 @@ def vanderpol(mu: float = 1.0) -> System:
     """Time-reversed Van der Pol oscillator with damping parameter ``mu`` (> 0)."""
     mu = float(mu)
     if not mu > 0:
-        raise ValueError(f"mu must be > 0, got {mu!r}")
+        raise RoaInputError(f"mu must be > 0, got {mu!r}")
 
     def field(t: Any, x: Any, xp: Any) -> tuple:
         return (-x[1], x[0] + mu * (x[0] * x[0] - 1) * x[1])

@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.system import System
 from roa.systems.ipc.controller import (
     Gains,
@@ -77,7 +78,7 @@ def control_force(
     u = force(v, zeta[2], zeta[3], check_delta(delta), xp)
     if saturation is not None:
         if getattr(xp, "name", "") != "numpy":
-            raise ValueError("saturation is only available with the numpy backend")
+            raise RoaInputError("saturation is only available with the numpy backend")
         u = np.clip(u, -saturation, saturation)
     return u
 
@@ -104,7 +105,7 @@ def closed_loop(
     """
     delta = check_delta(delta)
     if saturation is not None and not (float(saturation) > 0):
-        raise ValueError(f"saturation must be a force bound > 0, got {saturation!r}")
+        raise RoaInputError(f"saturation must be a force bound > 0, got {saturation!r}")
     gains, reference = _settings(gains, reference)
     sat = None if saturation is None else float(saturation)
 

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from roa.backend import NP
+from roa.errors import RoaInputError
 
 HALF_PI = np.pi / 2
 
@@ -24,15 +25,15 @@ def check_physical(x: np.ndarray) -> np.ndarray:
     """Validate physical states of shape ``(..., 4)``: finite and |theta| < pi/2."""
     x = np.asarray(x, dtype=float)
     if x.ndim == 0 or x.shape[-1] != 4:
-        raise ValueError(
+        raise RoaInputError(
             f"IPC state must have 4 components (q, q_dot, theta, theta_dot); got shape {x.shape}"
         )
     if not np.all(np.isfinite(x)):
-        raise ValueError("IPC state must be finite (no NaN/inf) in q, q_dot, theta, theta_dot")
+        raise RoaInputError("IPC state must be finite (no NaN/inf) in q, q_dot, theta, theta_dot")
     th = x[..., 2]
     if np.any(np.abs(th) >= HALF_PI):
         worst = float(th.flat[np.argmax(np.abs(th))])
-        raise ValueError(
+        raise RoaInputError(
             f"theta = {worst:.6g} rad is outside the domain |theta| < pi/2 = {HALF_PI:.6f} rad "
             "where the coordinates (2.2) and the controller are defined"
         )
@@ -64,11 +65,11 @@ def from_flat(xi: np.ndarray) -> np.ndarray:
     """Map flat coordinates ``(..., 4)`` (any finite values) back to physical states."""
     xi = np.asarray(xi, dtype=float)
     if xi.ndim == 0 or xi.shape[-1] != 4:
-        raise ValueError(
+        raise RoaInputError(
             f"flat state must have 4 components (z1, z2, w1, w2); got shape {xi.shape}"
         )
     if not np.all(np.isfinite(xi)):
-        raise ValueError("flat state must be finite (no NaN/inf) in z1, z2, w1, w2")
+        raise RoaInputError("flat state must be finite (no NaN/inf) in z1, z2, w1, w2")
     return np.stack(from_flat_components(*np.moveaxis(xi, -1, 0)), axis=-1)
 
 

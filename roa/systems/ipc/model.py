@@ -27,6 +27,7 @@ from __future__ import annotations
 from typing import Any
 
 from roa.backend import NP
+from roa.errors import RoaInputError
 
 #: Default mass ratio delta = M / m. The paper gives none; 1.0 (equal masses) is documented here.
 #: The closed loop in transformed coordinates does not depend on it (tests/test_ipc.py).
@@ -36,7 +37,7 @@ DEFAULT_DELTA = 1.0
 def check_delta(delta: float) -> float:
     delta = float(delta)
     if not (delta > 0 and delta < float("inf")):
-        raise ValueError(f"delta (mass ratio M/m) must be a finite number > 0, got {delta!r}")
+        raise RoaInputError(f"delta (mass ratio M/m) must be a finite number > 0, got {delta!r}")
     return delta
 
 

@@ -61,7 +61,13 @@ def render_report(results: str | Path = "results", out: str | Path = "paper_repr
     prefix = "" if rel == "." else rel.replace(os.sep, "/") + "/"
     for c in claims:
         c["evidence"] = _relink(c["evidence"], prefix)
-    lines = [HEADER]
+    quick = any(sm.get("quick") for sm in summaries)
+    header = HEADER
+    if quick:
+        header = header.replace(
+            "on a cart\n", "on a cart (QUICK run: reduced grids and budgets)\n", 1
+        ).replace("`results/*/summary.json`", f"`{Path(results).name}/*/summary.json` (quick mode)")
+    lines = [header]
     tally = {v: sum(c["verdict"] == v for c in claims) for v in VERDICTS}
     lines += [
         f"{len(claims)} claims checked: "

@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import QuadraticLyapunov, as_lyapunov
@@ -206,10 +207,11 @@ def certify(
         raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
     if system.equilibrium is None or system.time_varying:
         raise RoaInputError(f"system {system.name!r} must be autonomous with an equilibrium")
+    check_system(system, analysis=True)
     lyap = as_lyapunov(system, V)
     sos = SosOptions() if sos is None else sos
     interval = IntervalOptions() if interval is None else interval
-    keep = {"system": system, "V": lyap}
+    keep: dict[str, Any] = {"system": system, "V": lyap}
 
     def done(**kw: Any) -> Certificate:
         return Certificate(seconds=time.perf_counter() - t0, **kw, **keep)

@@ -41,8 +41,22 @@ def _default(obj: Any) -> Any:
     raise TypeError(f"cannot serialise {type(obj).__name__} to JSON")
 
 
+def _finite(obj: Any) -> Any:
+    """A copy with every non-finite float (inf, NaN) replaced by ``None`` (JSON has neither)."""
+    if isinstance(obj, float | np.floating):
+        return float(obj) if np.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, np.ndarray) and obj.dtype.kind == "f":
+        return [_finite(v) for v in obj.tolist()]
+    return obj
+
+
 def to_json(obj: Any) -> str:
-    return json.dumps(obj, indent=2, default=_default, allow_nan=False, sort_keys=False)
+    """Strict JSON: non-finite numbers become ``null`` (the result's status says why)."""
+    return json.dumps(_finite(obj), indent=2, default=_default, allow_nan=False, sort_keys=False)
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> Path:

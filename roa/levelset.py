@@ -13,12 +13,14 @@ The largest level is an *estimate* (an upper bound attained at the witness), not
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
+from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.levelset_casadi import casadi_level
 from roa.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
@@ -235,6 +237,7 @@ def level_search(
         raise RoaInputError(
             f"system {system.name!r} has no equilibrium (time-varying): no level-set search"
         )
+    notes = check_system(system, analysis=True).notes
     lyap = as_lyapunov(system, V)
     S, name = shape_matrix(system, lyap, shape)
     sampled = SampledOptions() if sampled is None else sampled
@@ -250,6 +253,8 @@ def level_search(
         opts = casadi.to_dict()
         r = casadi_level(system, lyap, S, shape=name, **opts)
         runs.append(_wrap(r, time.perf_counter() - t0, **keep))
+    if notes:
+        runs = [dataclasses.replace(r, details={**r.details, "notes": list(notes)}) for r in runs]
     if method != "both":
         return runs[0]
     return _combine(runs, keep)

@@ -102,11 +102,28 @@ def unit(Z: np.ndarray) -> np.ndarray:
 
 
 def locally_negative(system: System, V: QuadraticLyapunov) -> tuple[bool, float]:
-    """Whether V' is negative definite near the equilibrium: A'P + PA < 0. Returns (ok, max eig)."""
+    """Whether V' < 0 near the equilibrium. Returns (ok, largest eigenvalue of A'P + PA).
+
+    A'P + PA < 0 decides it. When its largest eigenvalue is zero to rounding (a degenerate
+    linearisation, e.g. a zero Jacobian), higher-order terms decide: V' is then sampled on small
+    level sets of V (levels 1e-4 to 1e-6), which is an estimate, not a proof.
+    """
     A = jacobian(system)
     Q = A.T @ V.P + V.P @ A
     lam = float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[-1])
-    return lam < 0, lam
+    scale = max(1.0, float(np.abs(Q).max()), float(np.abs(V.P).max()))
+    if abs(lam) > 1e-10 * scale:
+        return lam < 0, lam
+    rng = np.random.default_rng(0)
+    U = unit(rng.standard_normal((4000, system.n)))
+    Linv_T = np.linalg.inv(np.linalg.cholesky(V.P).T)
+    for r in (1e-2, 3e-3, 1e-3):
+        X = V.center + (r * U) @ Linv_T.T
+        with np.errstate(all="ignore"):
+            vd = V.derivative(system, X)
+        if not np.all(vd < 0):
+            return False, lam
+    return True, lam
 
 
 def inner_level(P_outer: Any, level: float, S_inner: Any) -> float:

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from roa.backend import NP
+from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
 from roa.status import RunStatus, StopRules
 from roa.system import System
@@ -54,6 +55,7 @@ class Trajectory:
             "t_end": self.t_end,
             "final_state": [float(v) for v in self.final_state],
             "seconds": round(self.seconds, 4),
+            **self.meta,
         }
         if self.problem is not None:
             out["state_names"] = list(self.problem.state_names)
@@ -117,6 +119,9 @@ def simulate(
     <RunStatus.CONVERGED: 'converged'>
     """
     t_start = time.perf_counter()
+    from roa.checks import check_system
+
+    check_system(system)
     traj = _integrate(system, x0, rules=rules, rtol=rtol, atol=atol, method=method,
                       t_eval=t_eval, max_step=max_step)  # fmt: skip
     return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
@@ -218,11 +223,25 @@ def _integrate(
         return Trajectory(
             RunStatus.COMPLETED, t, x, f"reached t_final = {rules.t_final:g}", system.name
         )
+    mask, points = settled_elsewhere(system, x[-1], rules.converge_tol)
+    if mask[0]:
+        return Trajectory(
+            RunStatus.CONVERGED_ELSEWHERE,
+            t,
+            x,
+            f"settled at another equilibrium {np.array2string(points[0], precision=6)} by "
+            f"t_final = {rules.t_final:g} (not the studied {np.array2string(x_eq, precision=6)})",
+            system.name,
+            meta={"equilibrium_reached": points[0].tolist()},
+        )
+    speed = float(np.linalg.norm(system.f(x[-1])))
     return Trajectory(
         RunStatus.UNDECIDED,
         t,
         x,
-        f"neither converged nor left the domain by t_final = {rules.t_final:g}; "
-        "try increasing t_final or converge_tol",
+        f"time horizon reached: neither converged nor left the domain by t_final = "
+        f"{rules.t_final:g}; still moving (|f(x)| = {speed:.3g} at the end): try increasing "
+        "t_final or converge_tol",
         system.name,
+        meta={"reason": "time_horizon", "final_speed": speed},
     )

@@ -37,6 +37,10 @@ class RunStatus(_Status):
     """How one trajectory ended. Never merged: each is counted on its own."""
 
     CONVERGED = "converged", "entered the ball ||x - x_eq|| <= converge_tol around the equilibrium"
+    CONVERGED_ELSEWHERE = (
+        "converged_elsewhere",
+        "settled within converge_tol of another equilibrium (the point is reported)",
+    )
     LEFT_DOMAIN = "left_domain", "crossed the boundary of the system's domain"
     DIVERGED = "diverged", "norm above diverge_bound, or a non-finite state"
     UNDECIDED = "undecided", "none of the above by t_final (or the step size collapsed)"

@@ -1,6 +1,6 @@
 """Studies: case studies that live beside the library and are driven by its CLI.
 
-A study (the IPC paper reproduction, ``ipc_paper``) is a Python package registered under the entry
+A study (such as the IPC paper reproduction beside this package) is a Python package registered under the entry
 point group ``roa.studies`` whose object is a :class:`Study`: where its experiment configs are, the
 reference values ``roa check`` recomputes, how its report is rendered, and any extra CLI commands.
 The library itself never imports a study; ``roa run``, ``roa reproduce``, ``roa report`` and
@@ -77,7 +77,7 @@ def registered() -> dict[str, Study]:
 
 
 def get(name: str | None = None) -> Study:
-    """The study called ``name`` (default: the only one, or ``ipc`` if several are installed)."""
+    """The study called ``name`` (default: the only one installed)."""
     studies = registered()
     if not studies:
         raise RoaInputError(
@@ -85,7 +85,9 @@ def get(name: str | None = None) -> Study:
             "`pip install .` from its checkout"
         )
     if name is None:
-        name = "ipc" if "ipc" in studies or len(studies) != 1 else next(iter(studies))
+        if len(studies) != 1:
+            raise RoaInputError(f"several studies are installed: choose one of {sorted(studies)}")
+        name = next(iter(studies))
     if name not in studies:
         raise RoaInputError(f"study must be one of {sorted(studies)}, got {name!r}")
     return studies[name]

@@ -58,8 +58,8 @@ class System:
     margin: Margin | None = None
     domain_description: str = "R^n"
     time_varying: bool = False
-    lyapunov: tuple[tuple[float, ...], ...] | None = None
-    norm: tuple[tuple[float, ...], ...] | None = None
+    lyapunov: Any = None  # stored as a tuple of rows
+    norm: Any = None  # stored as a tuple of rows
     meta: dict[str, Any] = dataclasses.field(default_factory=dict, compare=False, hash=False)
 
     def __post_init__(self) -> None:

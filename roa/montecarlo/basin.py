@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin, wilson_interval
@@ -130,6 +131,7 @@ def basin(
         raise RoaInputError(
             f"system {system.name!r}: basins need an autonomous system with an equilibrium"
         )
+    check_system(system)
     for attr in ("n", "points", "fingerprint"):
         if not hasattr(sampler, attr):
             raise RoaInputError(

@@ -27,84 +27,41 @@ version over ``system.f``. Measured on the IPC (2,000 states of the box q, q' in
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numba
 import numpy as np
 
+from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
-from roa.status import RunStatus, StopRules
+from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tableau)
+    _A,
+    _B,
+    _C,
+    _E,
+    _EPS,
+    _MAX_FACTOR,
+    _MIN_FACTOR,
+    _P,
+    _SAFETY,
+    CODE_STATUS,
+    CONVERGED,
+    CONVERGED_ELSEWHERE,
+    DIVERGED,
+    LEFT_DOMAIN,
+    STATUS_NAMES,
+    STEP_FAILURE,
+    UNDECIDED,
+    BatchResult,
+    check_tolerances,
+)
+from roa.montecarlo.integrator_numpy import integrate_numpy
+from roa.status import StopRules
 from roa.system import System
-
-#: Status codes stored per initial condition (int8).
-CONVERGED, LEFT_DOMAIN, DIVERGED, UNDECIDED, STEP_FAILURE = 0, 1, 2, 3, 4
-#: Code -> status; STEP_FAILURE is an undecided run whose step size underflowed.
-CODE_STATUS = {
-    CONVERGED: RunStatus.CONVERGED,
-    LEFT_DOMAIN: RunStatus.LEFT_DOMAIN,
-    DIVERGED: RunStatus.DIVERGED,
-    UNDECIDED: RunStatus.UNDECIDED,
-    STEP_FAILURE: RunStatus.UNDECIDED,
-}
-STATUS_NAMES = ("converged", "left_domain", "diverged", "undecided")
-
-# Dormand-Prince 5(4) tableau (as in scipy.integrate.RK45).
-_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1])
-_A = np.array(
-    [
-        [0, 0, 0, 0, 0],
-        [1 / 5, 0, 0, 0, 0],
-        [3 / 40, 9 / 40, 0, 0, 0],
-        [44 / 45, -56 / 15, 32 / 9, 0, 0],
-        [19372 / 6561, -25360 / 2187, 64448 / 6561, -212 / 729, 0],
-        [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
-    ]
-)
-_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
-_E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-_P = np.array(
-    [
-        [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
-        [0, 0, 0, 0],
-        [0, 131558114200 / 32700410799, -68118460800 / 10900136933, 87487479700 / 32700410799],
-        [0, -1754552775 / 470086768, 14199869525 / 1410260304, -10690763975 / 1880347072],
-        [0, 127303824393 / 49829197408, -318862633887 / 49829197408, 701980252875 / 199316789632],
-        [0, -282668133 / 205662961, 2019193451 / 616988883, -1453857185 / 822651844],
-        [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
-    ]
-)
-_SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
-_EPS = np.finfo(float).eps
 
 _ARR = numba.types.float64[::1]
 #: Signature of a compiled field ``field(t, x, params, out)`` (``numba.cfunc``).
 FIELD_SIGNATURE = numba.types.void(numba.types.float64, _ARR, _ARR, _ARR)
 #: Signature of a compiled margin ``margin(x, params) -> float`` (``numba.cfunc``).
 MARGIN_SIGNATURE = numba.types.float64(_ARR, _ARR)
-
-
-@dataclass(frozen=True)
-class BatchResult:
-    """Per-trajectory outcome: ``code`` (int8, see module constants), ``t_end``, ``x_end``, ``steps``."""
-
-    code: np.ndarray
-    t_end: np.ndarray
-    x_end: np.ndarray
-    steps: np.ndarray
-
-    @property
-    def status(self) -> list[RunStatus]:
-        return [CODE_STATUS[int(c)] for c in self.code]
-
-
-def check_tolerances(rtol: float, atol: float, margin_tol: float) -> None:
-    """Validate integration tolerances (ValueError naming the field)."""
-    if not (100 * _EPS <= rtol < 1):
-        raise RoaInputError(f"rtol must be in [{100 * _EPS:.2g}, 1), got {rtol!r}")
-    if not (0 < atol < np.inf):
-        raise RoaInputError(f"atol must be a finite number > 0, got {atol!r}")
-    if not (0 <= margin_tol < np.inf):
-        raise RoaInputError(f"margin_tol must be a finite number >= 0, got {margin_tol!r}")
 
 
 def integrate_batch(
@@ -159,10 +116,19 @@ def integrate_batch(
             field, margin, np.asarray(params, dtype=float), x0, system.x_eq, rules.converge_tol,
             rules.diverge_bound, margin_tol, rules.t_final, rtol, atol, code, t_end, x_end, steps,
         )  # fmt: skip
-        return BatchResult(code, t_end, x_end, steps)
-    from roa.montecarlo.integrator_numpy import integrate_numpy
+        res = BatchResult(code, t_end, x_end, steps)
+    else:
+        res = integrate_numpy(system, x0, rules=rules, rtol=rtol, atol=atol, margin_tol=margin_tol)
+    return _elsewhere(system, res, rules.converge_tol)
 
-    return integrate_numpy(system, x0, rules=rules, rtol=rtol, atol=atol, margin_tol=margin_tol)
+
+def _elsewhere(system: System, res: BatchResult, converge_tol: float) -> BatchResult:
+    """Undecided runs that sat at another equilibrium by t_final become CONVERGED_ELSEWHERE."""
+    undecided = np.flatnonzero(res.code == UNDECIDED)
+    if undecided.size:
+        mask, _ = settled_elsewhere(system, res.x_end[undecided], converge_tol)
+        res.code[undecided[mask]] = CONVERGED_ELSEWHERE
+    return res
 
 
 # ----------------------------------------------------------------------------- numba kernel

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo import dopri as I  # noqa: N812
 from roa.status import StopRules
 from roa.system import System
 

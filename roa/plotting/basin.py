@@ -24,6 +24,7 @@ STATUS_COLOURS = {
     I.LEFT_DOMAIN: "#f4a259",
     I.DIVERGED: "#b07cc6",
     I.UNDECIDED: "#9a9a9a",
+    4: "#3b8bd0",  # display index of CONVERGED_ELSEWHERE
 }
 REGION_COLOURS = ("#d62728", "#1f77b4", "#000000", "#17becf", "#ff7f0e", "#8c564b", "#e377c2",
                   "#2ca02c", "#7f7f7f", "#bcbd22")  # fmt: skip
@@ -88,18 +89,20 @@ def draw_slice(
     paper's claimed sector theta = +-60 deg); lines with the same label share one legend entry.
     """
     ia, ib = grid.axes
-    shown = np.where(code == I.STEP_FAILURE, I.UNDECIDED, code).reshape(grid.shape)
-    cmap = ListedColormap([STATUS_COLOURS[c] for c in range(4)])
-    norm = BoundaryNorm(np.arange(-0.5, 4.5), 4)
+    shown = np.where(code == I.STEP_FAILURE, I.UNDECIDED, code)
+    shown = np.where(code == I.CONVERGED_ELSEWHERE, 4, shown).reshape(grid.shape)
+    cmap = ListedColormap([STATUS_COLOURS[c] for c in range(5)])
+    norm = BoundaryNorm(np.arange(-0.5, 5.5), 5)
     dx = (grid.xs[-1] - grid.xs[0]) / (len(grid.xs) - 1) / 2
     dy = (grid.ys[-1] - grid.ys[0]) / (len(grid.ys) - 1) / 2
     extent = (grid.xs[0] - dx, grid.xs[-1] + dx, grid.ys[0] - dy, grid.ys[-1] + dy)
     ax.imshow(shown, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
               interpolation="nearest")  # fmt: skip
-    counts = np.bincount(shown.ravel().astype(np.int64), minlength=4)
+    counts = np.bincount(shown.ravel().astype(np.int64), minlength=5)
     handles: list[Any] = [
         Patch(color=STATUS_COLOURS[c], label=f"{I.STATUS_NAMES[c]} ({counts[c]} of {code.size})")
-        for c in range(4)
+        for c in range(5)
+        if c < 4 or counts[c]
     ]
     # region boundaries on a finer grid of the same slice
     xs = np.linspace(grid.xs[0], grid.xs[-1], contour_resolution)

@@ -1,0 +1,126 @@
+"""Checks of a system before any analysis: a malformed system gets a clear error, not a wrong answer.
+
+:func:`check_system` evaluates the field at the equilibrium (right number of finite components),
+checks that the equilibrium is one (``|f(x_eq)|`` small relative to the field's scale near it),
+that it lies inside the domain, and classifies the linearisation (Hurwitz / degenerate /
+unstable). The analyses call it: :func:`roa.level_search` and :func:`roa.certify` refuse an
+unstable linearisation; a degenerate one gets a note (higher-order terms decide).
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from roa.errors import RoaInputError, SystemDefinitionError
+from roa.linearisation import Linearisation, linearise
+from roa.system import System
+
+#: |f(x_eq)| must be below this times the field's scale near the equilibrium.
+RESIDUAL_RTOL = 1e-8
+
+
+@dataclass(frozen=True)
+class SystemCheck:
+    """What :func:`check_system` found: the residual at the equilibrium and the linearisation."""
+
+    residual: float
+    scale: float
+    linearisation: Linearisation | None
+    notes: tuple[str, ...] = ()
+
+
+def evaluate(system: System, x: np.ndarray) -> np.ndarray:
+    """The field at one state with a clear error when it is malformed (wrong size, not finite)."""
+    try:
+        out = system.field(0.0, [float(v) for v in x], _np())
+        values = np.asarray([float(np.asarray(v)) for v in out], dtype=float)
+    except (TypeError, ValueError, IndexError) as exc:
+        raise SystemDefinitionError(
+            f"system {system.name!r}: the field cannot be evaluated at {np.asarray(x).tolist()} "
+            f"({type(exc).__name__}: {exc}); it must return {system.n} numbers, one per state "
+            f"{system.state_names}"
+        ) from None
+    if values.shape != (system.n,):
+        raise SystemDefinitionError(
+            f"system {system.name!r}: the field returns {values.size} components, expected "
+            f"{system.n} (one per state {', '.join(system.state_names)})"
+        )
+    return values
+
+
+def _np():  # noqa: ANN202 - the numpy namespace
+    from roa.backend import NP
+
+    return NP
+
+
+@functools.lru_cache(maxsize=64)
+def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
+    """Check ``system`` at its equilibrium; with ``analysis`` also classify its linearisation.
+
+    Raises
+    ------
+    SystemDefinitionError
+        The field is malformed (wrong number of components, not finite at the equilibrium).
+    RoaInputError
+        The equilibrium is not one (``f(x_eq) != 0``), lies outside the domain, or (with
+        ``analysis``) its linearisation is unstable.
+
+    Examples
+    --------
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> check_system(vanderpol(), analysis=True).linearisation.kind
+    'hurwitz'
+    """
+    if system.equilibrium is None or system.time_varying:
+        return SystemCheck(0.0, 0.0, None)
+    x_eq = system.x_eq
+    if x_eq.shape != (system.n,):
+        raise SystemDefinitionError(
+            f"system {system.name!r}: equilibrium has {x_eq.size} components, expected {system.n}"
+        )
+    f_eq = evaluate(system, x_eq)
+    if not np.all(np.isfinite(f_eq)):
+        raise SystemDefinitionError(
+            f"system {system.name!r}: the field is not finite at the equilibrium {x_eq.tolist()} "
+            f"(f = {f_eq.tolist()})"
+        )
+    rng = np.random.default_rng(0)
+    r = 1e-2 * (1.0 + float(np.linalg.norm(x_eq)))
+    U = rng.standard_normal((16, system.n))
+    U /= np.linalg.norm(U, axis=1, keepdims=True)
+    with np.errstate(all="ignore"):
+        near = system.f(x_eq + r * U)
+    scale = float(np.nanmax(np.linalg.norm(near, axis=1))) if np.isfinite(near).any() else 1.0
+    residual = float(np.linalg.norm(f_eq))
+    if residual > RESIDUAL_RTOL * max(scale, 1.0):
+        raise RoaInputError(
+            f"system {system.name!r}: equilibrium {x_eq.tolist()} is not an equilibrium: "
+            f"f(x_eq) = {np.array2string(f_eq, precision=6)} (|f| = {residual:.3g}, field scale "
+            f"near it {scale:.3g}); give the point where the field vanishes"
+        )
+    if system.margin is not None and not bool(system.inside(x_eq)):
+        raise RoaInputError(
+            f"system {system.name!r}: equilibrium {x_eq.tolist()} lies outside the domain "
+            f"({system.domain_description}): margin(x_eq) must be > 0"
+        )
+    if not analysis:
+        return SystemCheck(residual, scale, None)
+    lin = linearise(system)
+    if lin.kind == "unstable":
+        k = int(np.argmax(lin.eigenvalues.real))
+        raise RoaInputError(
+            f"system {system.name!r}: the linearisation at {x_eq.tolist()} is unstable "
+            f"(eigenvalue {lin.eigenvalues[k]:.4g} with positive real part): the equilibrium is "
+            "not asymptotically stable, so it has no region of attraction to estimate"
+        )
+    notes: tuple[str, ...] = ()
+    if lin.kind == "degenerate":
+        notes = (
+            "the linearisation is degenerate (an eigenvalue on the imaginary axis): stability is "
+            "decided by higher-order terms; V' is checked near the equilibrium by sampling",
+        )
+    return SystemCheck(residual, scale, lin, notes)

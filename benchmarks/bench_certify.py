@@ -36,7 +36,7 @@ def uniform_grid(system, V, level, eps, *, max_boxes=4_000_000):
         ok = True
         for chunk in np.array_split(idx, max(1, len(idx) // 100_000)):
             lo, hi = edges[chunk], edges[chunk + 1]
-            Vi, Vd, _ = va._evaluate(system, V, fr, lo, hi)
+            Vi, Vd, _, _ = va._evaluate(system, V, fr, lo, hi)
             total += len(lo)
             if np.any(~((Vi.lo > level) | (Vi.hi < eps) | (Vd.hi < 0))):
                 ok = False

@@ -45,8 +45,16 @@ def _ball_surface(u: np.ndarray) -> np.ndarray:
 def _physical(
     P: np.ndarray, level: float, box, n_box: int, seed: int, coords: str = "flat"
 ) -> dict[str, Any]:
+    """Sector at q = q' = theta' = 0 and reference-box fraction of ``{V(coords(x)) <= level}``.
+
+    ``sector_rad`` / ``sector_deg``: a certified lower bound (interval arithmetic on the exact
+    coordinate map, :func:`roa.proof.sector.certified_sector`; degrees rounded down);
+    ``sector_float_rad`` / ``sector_float_deg``: the float grid + bisection estimate.
+    """
     from ipc_paper.certified import coords_map
     from roa.proof.search import sector
+    from roa.proof.sector import certified_sector, degrees_lower, quadratic_form
+    from roa.systems.ipc.coordinates import to_flat_components
 
     c2y = coords_map(coords)
 
@@ -55,10 +63,22 @@ def _physical(
         with np.errstate(invalid="ignore"):
             return np.nan_to_num(np.einsum("ki,ij,kj->k", Y, P, Y), nan=np.inf)
 
-    th = sector(form, level, _sector_curve, np.pi / 2 - 1e-6)
+    def coords_xp(x, xp):  # the same maps as coords_map, on components in any namespace
+        z1, z2, w1, w2 = to_flat_components(x[0], x[1], x[2], x[3], xp)
+        return (z1 if coords == "flat" else x[0], z2, w1, w2)
+
+    def curve_xp(s, xp):  # _sector_curve on components: (0, 0, s, 0)
+        return (0.0, 0.0, s, 0.0)
+
+    t_max = np.pi / 2 - 1e-6
+    th_float = sector(form, level, _sector_curve, t_max)
+    th = certified_sector(quadratic_form(P, coords_xp), level, curve_xp, t_max)
     return {
         "sector_rad": th,
-        "sector_deg": float(np.degrees(th)),
+        "sector_deg": degrees_lower(th),
+        "sector_method": "interval (certified lower bound)",
+        "sector_float_rad": th_float,
+        "sector_float_deg": float(np.degrees(th_float)),
         "box": _box_fraction(form, level, box, n_box, seed),
     }
 

@@ -3,7 +3,7 @@
 Reference: time-reversed Van der Pol with P_BENCHMARK has largest level rho = 2.3045 (Drake /
 Underactuated Robotics course notes). The toy systems below have closed-form answers: for
 x' = -x and V = |x|^2, V' = -2 |x|^2 < 0 everywhere (no finite largest level); for the saddle
-x' = (x1, -x2), A'P + PA = diag(2, -2) is not negative definite (no level > 0).
+x' = (x1, -x2), the linearisation is unstable (no region of attraction: an input error).
 """
 
 from __future__ import annotations
@@ -66,14 +66,12 @@ def test_unbounded_level_search_is_a_clear_status(capsys, toy):
     assert "V' < 0 may hold on every sublevel set" in out["message"]
 
 
-def test_not_locally_negative_is_a_clear_status(capsys, toy):
+def test_unstable_linearisation_is_a_clear_error(capsys, toy):
+    """The saddle x' = (x1, -x2) has an eigenvalue +1: no region of attraction (exit 2, one line)."""
     argv = ["certify", "--system", f"{toy}:SADDLE", "--method", "interval", "--json"]
     code, cap = _run(capsys, argv)
-    out = json.loads(cap.out)
-    assert code == 1
-    assert out["status"] == "inconclusive" and out["level"] is None
-    assert out["level_search"]["status"] == "not_locally_negative"
-    assert "not negative definite" in out["message"]
+    assert code == 2 and cap.out == ""
+    assert "is unstable (eigenvalue 1 with positive real part)" in cap.err
 
 
 def test_sos_level_validated_with_safety_factor(capsys):

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from roa.errors import ResultsError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin, wilson_interval
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
@@ -108,7 +109,8 @@ def test_status_counts_nothing_merged():
     from roa.montecarlo.engine import BasinRun
 
     run = BasinRun(np.concatenate([res.code, free.code, slow.code]), np.zeros(5, np.float32))
-    assert run.counts() == {"converged": 2, "left_domain": 1, "diverged": 1, "undecided": 1}
+    assert run.counts() == {"converged": 2, "left_domain": 1, "diverged": 1, "undecided": 1,
+                            "converged_elsewhere": 0}  # fmt: skip
 
 
 def test_determinism_across_workers_and_chunks():
@@ -138,7 +140,7 @@ def test_resume_after_interruption(tmp_path):
     assert (again.chunks_resumed, again.chunks_computed) == (4, 6)
     np.testing.assert_array_equal(again.code, full.code)
     other = box_sample(system, [(-3, 3), (-1, 1), (-1.2, 1.2), (-1, 1)], 1000, seed=5)
-    with pytest.raises(ValueError, match="different run"):
+    with pytest.raises(ResultsError, match="different run"):  # a roa error, no longer ValueError
         run_basin(system, other, rules=RULES, n_jobs=1, chunk_size=100, out_dir=tmp_path)
     replaced = run_basin(system, other, rules=RULES, n_jobs=1, chunk_size=100, out_dir=tmp_path,
                          replace_stale=True)  # fmt: skip
@@ -214,7 +216,8 @@ def test_cli_basin_json(capsys):
     assert main(argv) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n"] == 30 and sum(out["counts"].values()) == 30
-    assert set(out["counts"]) == {"converged", "left_domain", "diverged", "undecided"}
+    assert set(out["counts"]) == {"converged", "left_domain", "diverged", "undecided",
+                                  "converged_elsewhere"}  # fmt: skip
     assert out["fraction_converged"] == pytest.approx(out["counts"]["converged"] / 30)
     # the same grid through the library gives the same counts
     system = ipc.closed_loop(saturation=1.0)
@@ -258,8 +261,8 @@ def test_cli_killed_run_resumes(tmp_path):
     import time
 
     out = tmp_path / "run"
-    argv = [sys.executable, "-m", "roa.cli", "basin", "--system", "ipc", "--samples", "40000", "--box",
-            "q=-3:3,q_dot=-1:1,theta=-1.2:1.2,theta_dot=-1:1", "--saturation", "1", "--seed", "3",
+    argv = [sys.executable, "-m", "roa.cli", "basin", "--system", "ipc:saturation=1", "--samples", "40000",
+            "--box", "q=-3:3,q_dot=-1:1,theta=-1.2:1.2,theta_dot=-1:1", "--seed", "3",
             "--chunk-size", "1000", "--jobs", "1", "--out", str(out)]  # fmt: skip
     proc = subprocess.Popen(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.time() + 120

@@ -6,9 +6,19 @@ result for a given seed does not depend on the number of workers or the chunk si
 stop times are kept (1 + 4 bytes per initial condition), never trajectories.
 
 With ``out_dir``, every completed chunk is written atomically to ``out_dir/chunks/`` next to a
-``run.json`` fingerprint of the run; a run interrupted (Ctrl-C or killed) is resumed from its completed
-chunks, and a directory holding a different run is refused. ``scheduler`` runs the chunks on a Dask
-cluster through joblib's dask backend.
+``run.json`` fingerprint of the run. Each chunk file carries its own binding: the run fingerprint,
+its start index, its length and a SHA-256 of its arrays. On resume a chunk is used only if that
+binding matches this run and its contents; any other chunk (rewritten, truncated or corrupt, of
+another run, with unknown status codes) is deleted, recomputed and counted (``chunks_rejected`` in
+the run's ``meta``, and a :class:`ChunkRejectedWarning`). A directory holding a different run is
+refused (:class:`roa.errors.ResultsError`) unless ``fresh=True`` (recompute everything) or
+``replace_stale=True``. ``scheduler`` runs the chunks on a Dask cluster through joblib's dask
+backend, with bounded waits for the scheduler and its workers.
+
+Bounds, checked before any allocation: at most :data:`roa.montecarlo.sampling.MAX_SAMPLES`
+initial conditions (and at most half of the physical memory for their statuses), ``chunk_size`` in
+``[1, MAX_CHUNK]``, ``n_jobs`` -1 or in ``[1, 4 x cores]``; the workers actually started never
+exceed the number of chunks to compute. Chunk start indices are generated lazily.
 """
 
 from __future__ import annotations
@@ -16,18 +26,39 @@ from __future__ import annotations
 import hashlib
 import io
 import json
+import math
+import os
+import re
+import threading
+import warnings
+from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from roa.errors import ResultsError, RoaInputError, SolverError
 from roa.io import atomic_write_bytes, atomic_write_json, code_hash, to_json
 from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo.sampling import MAX_SAMPLES
 from roa.status import StopRules
 from roa.system import System
 
 DEFAULT_CHUNK = 4096
+#: Largest chunk (initial conditions per task).
+MAX_CHUNK = 1_000_000
+#: Version of the chunk file layout (arrays ``code``, ``t_end`` and a JSON ``binding``).
+CHUNK_FORMAT = 2
+#: Seconds to wait for a Dask scheduler to answer, and for its first worker.
+SCHEDULER_TIMEOUT = 10.0
+#: Bytes kept per initial condition (int8 status, float32 stop time).
+BYTES_PER_SAMPLE = 5
+#: Status codes a chunk may hold.
+VALID_CODES = (
+    I.CONVERGED, I.LEFT_DOMAIN, I.DIVERGED, I.UNDECIDED, I.STEP_FAILURE, I.CONVERGED_ELSEWHERE
+)  # fmt: skip
+_CHUNK_NAME = re.compile(r"chunk_(\d+)\.npz")
 #: With the default n_jobs=-1, runs with fewer initial conditions than this stay in one process.
 SMALL_RUN = 12000
 Z95 = 1.959963984540054
@@ -42,6 +73,10 @@ def wilson_interval(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     center = (p + z * z / (2 * n)) / den
     half = z * np.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
     return (max(0.0, center - half), min(1.0, center + half))
+
+
+class ChunkRejectedWarning(RuntimeWarning):
+    """Chunk files of a resumed run were not used (bad binding or contents) and are recomputed."""
 
 
 @dataclass
@@ -59,14 +94,29 @@ class BasinRun:
         return int(self.code.size)
 
     def counts(self) -> dict[str, int]:
-        """Count per status (step-size failures are undecided, also counted on their own)."""
-        b = np.bincount(self.code.astype(np.int64), minlength=5)
-        return {
+        """Count per status (step-size failures are undecided, also counted on their own).
+
+        Raises :class:`roa.errors.ResultsError` if a code is not a known status: the counts always
+        sum to ``n``.
+        """
+        code = np.asarray(self.code)
+        b = {v: int(np.count_nonzero(code == v)) for v in VALID_CODES}  # no int64 copy of code
+        if sum(b.values()) != self.n:
+            bad = np.unique(code[~np.isin(code, VALID_CODES)])
+            raise ResultsError(
+                f"{self.n - sum(b.values())} of {self.n} initial conditions have an unknown status "
+                f"code {[int(v) for v in bad[:5]]} (known: {list(VALID_CODES)}); the counts would "
+                "not sum to n"
+            )
+        counts = {
             "converged": int(b[I.CONVERGED]),
             "left_domain": int(b[I.LEFT_DOMAIN]),
             "diverged": int(b[I.DIVERGED]),
             "undecided": int(b[I.UNDECIDED] + b[I.STEP_FAILURE]),
+            "converged_elsewhere": int(b[I.CONVERGED_ELSEWHERE]),
         }
+        assert sum(counts.values()) == self.n, f"status counts {counts} do not sum to n = {self.n}"
+        return counts
 
     def summary(self) -> dict[str, Any]:
         counts = self.counts()
@@ -103,6 +153,7 @@ def _fingerprint(system: System, sampler: Any, opts: dict[str, Any], chunk: int)
                         for k, v in sampler.fingerprint().items()},
             "opts": {k: repr(v) for k, v in opts.items()},
             "chunk": chunk,
+            "chunk_format": CHUNK_FORMAT,
             "code": code_hash(),  # chunks of other code are never resumed
         }
     )  # fmt: skip
@@ -113,10 +164,325 @@ def _chunk_path(d: Path, start: int) -> Path:
     return d / f"chunk_{start:012d}.npz"
 
 
-def _save_chunk(path: Path, code: np.ndarray, t_end: np.ndarray) -> None:
+def _chunk_digest(run: str, start: int, code: np.ndarray, t_end: np.ndarray) -> str:
+    """SHA-256 binding a chunk's arrays to its run fingerprint, start index and length."""
+    h = hashlib.sha256(f"roa-chunk/{CHUNK_FORMAT}/{run}/{int(start)}/{int(code.size)}/".encode())
+    h.update(np.ascontiguousarray(code, dtype=np.int8).tobytes())
+    h.update(np.ascontiguousarray(t_end, dtype="<f4").tobytes())
+    return h.hexdigest()
+
+
+def _save_chunk(path: Path, run: str, start: int, code: np.ndarray, t_end: np.ndarray) -> None:
+    code = np.ascontiguousarray(code, dtype=np.int8)
+    t_end = np.ascontiguousarray(t_end, dtype="<f4")
+    binding = {
+        "format": CHUNK_FORMAT,
+        "run": run,
+        "start": int(start),
+        "length": int(code.size),
+        "sha256": _chunk_digest(run, start, code, t_end),
+    }
     buf = io.BytesIO()
-    np.savez(buf, code=code, t_end=t_end)
-    atomic_write_bytes(path, buf.getvalue())
+    np.savez(buf, code=code, t_end=t_end, binding=np.array(json.dumps(binding, sort_keys=True)))
+    try:
+        atomic_write_bytes(path, buf.getvalue())
+    except OSError as exc:
+        raise ResultsError(
+            f"cannot write chunk file {path}: {exc.strerror or exc}; completed chunks were kept"
+        ) from None
+
+
+@dataclass
+class _ChunkCheck:
+    """Verdict on one chunk file: ``reason`` is None when it can be used as-is."""
+
+    reason: str | None
+    code: np.ndarray | None = None
+    t_end: np.ndarray | None = None
+    run: str | None = None  # the run it is bound to, when its binding is intact
+
+
+def _read_chunk(path: Path, run: str, start: int, length: int) -> _ChunkCheck:
+    """Load and verify one chunk file; never raises for a bad file (it is reported instead)."""
+    try:
+        with np.load(path, allow_pickle=False) as z:
+            if "binding" not in z.files:
+                return _ChunkCheck("no binding (older format or written by hand)")
+            code, t_end, raw = z["code"], z["t_end"], z["binding"]
+        binding = json.loads(str(raw.item()))
+        b_run, b_start = str(binding["run"]), int(binding["start"])
+        b_length, b_sha = int(binding["length"]), str(binding["sha256"])
+        fmt = int(binding["format"])
+    except Exception:  # noqa: BLE001 - truncated zip, bad arrays or JSON: any failure means unusable
+        return _ChunkCheck("unreadable (truncated or corrupt)")
+    if fmt != CHUNK_FORMAT:
+        return _ChunkCheck(f"chunk format {fmt} (expected {CHUNK_FORMAT})")
+    if code.dtype != np.int8 or t_end.dtype != np.dtype("<f4") or code.ndim != 1:
+        return _ChunkCheck("wrong array types")
+    if code.shape != t_end.shape or code.size != b_length:
+        return _ChunkCheck("arrays do not match their recorded length")
+    if _chunk_digest(b_run, b_start, code, t_end) != b_sha:
+        return _ChunkCheck("checksum mismatch (contents changed)")
+    if b_run != run:
+        return _ChunkCheck("bound to another run", run=b_run)
+    if b_start != start or b_length != length:
+        return _ChunkCheck(f"bound to rows {b_start}..{b_start + b_length - 1}, not its place")
+    if not np.isin(code, VALID_CODES).all():
+        return _ChunkCheck("unknown status codes")
+    if not (np.isfinite(t_end).all() and (t_end >= 0).all()):
+        return _ChunkCheck("invalid stop times")
+    return _ChunkCheck(None, code, t_end, b_run)
+
+
+def _read_run_file(run_file: Path) -> str | None:
+    """The fingerprint stored in ``run.json``; None when absent or unreadable (then every chunk is
+    judged by its own binding)."""
+    try:
+        data = json.loads(run_file.read_text())
+        fp = data.get("fingerprint") if isinstance(data, dict) else None
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    return fp if isinstance(fp, str) else None
+
+
+def _write_run_file(run_file: Path, digest: str, n: int, chunk_size: int) -> None:
+    try:
+        atomic_write_json(
+            run_file,
+            {"fingerprint": digest, "n": n, "chunk_size": chunk_size, "chunk_format": CHUNK_FORMAT},
+        )
+    except OSError as exc:
+        raise ResultsError(f"cannot write {run_file}: {exc.strerror or exc}") from None
+
+
+def _unlink(paths: list[Path]) -> None:
+    for p in paths:
+        try:
+            p.unlink(missing_ok=True)
+        except OSError as exc:
+            raise ResultsError(f"cannot delete {p}: {exc.strerror or exc}") from None
+
+
+def _chunk_files(chunk_dir: Path) -> list[Path]:
+    return sorted(p for p in chunk_dir.glob("chunk_*.npz") if p.is_file())
+
+
+def _prepare_out_dir(
+    out_dir: str | Path,
+    digest: str,
+    n: int,
+    chunk_size: int,
+    code: np.ndarray,
+    t_end: np.ndarray,
+    *,
+    fresh: bool,
+    replace_stale: bool,
+) -> tuple[Path, set[int], dict[str, int]]:
+    """Check the run directory, load every verified chunk into ``code``/``t_end``.
+
+    Returns the chunk directory, the starts resumed, and the rejected chunks per reason (those
+    files are deleted; their rows are recomputed).
+    """
+    chunk_dir = Path(out_dir) / "chunks"
+    try:
+        chunk_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise RoaInputError(
+            f"out_dir: cannot create {chunk_dir}: {exc.strerror or exc}; give a writable directory"
+        ) from None
+    run_file = chunk_dir / "run.json"
+    if fresh:
+        _unlink(_chunk_files(chunk_dir) + list(chunk_dir.glob(".chunk_*.tmp")))
+        _write_run_file(run_file, digest, n, chunk_size)
+        return chunk_dir, set(), {}
+    old = _read_run_file(run_file)
+    if old is not None and old != digest:
+        if not replace_stale:
+            raise ResultsError(
+                f"{chunk_dir} holds chunks of a different run (other system, samples, tolerances, "
+                "chunk size or code); use another output directory, delete it, or recompute it "
+                "with fresh=True"
+            )
+        _unlink(_chunk_files(chunk_dir))
+        _write_run_file(run_file, digest, n, chunk_size)
+        return chunk_dir, set(), {}
+    done: set[int] = set()
+    rejected: list[tuple[Path, str]] = []
+    foreign: set[str] = set()
+    for path in _chunk_files(chunk_dir):
+        m = _CHUNK_NAME.fullmatch(path.name)
+        start = int(m.group(1)) if m else -1
+        if start < 0 or start >= n or start % chunk_size:
+            rejected.append((path, "not a chunk position of this run"))
+            continue
+        length = min(start + chunk_size, n) - start
+        check = _read_chunk(path, digest, start, length)
+        if check.reason is None:
+            code[start : start + length], t_end[start : start + length] = check.code, check.t_end
+            done.add(start)
+            continue
+        if check.run is not None and check.run != digest:
+            foreign.add(check.run)
+        rejected.append((path, check.reason))
+    if foreign and old is None and not replace_stale:
+        # no run.json of this run, and intact chunks bound to another: the folder is another run's
+        raise ResultsError(
+            f"{chunk_dir} holds chunks of another run ({len(foreign)} other fingerprint(s); its "
+            "run.json is missing or unreadable); use another output directory, delete it, or "
+            "recompute it with fresh=True"
+        )
+    _unlink([p for p, _ in rejected])
+    if old != digest:
+        _write_run_file(run_file, digest, n, chunk_size)
+    reasons: dict[str, int] = {}
+    for _, why in rejected:
+        reasons[why] = reasons.get(why, 0) + 1
+    if rejected:
+        detail = ", ".join(f"{k} {why}" for why, k in sorted(reasons.items()))
+        warnings.warn(
+            f"{chunk_dir}: {len(rejected)} chunk file(s) rejected and recomputed ({detail})",
+            ChunkRejectedWarning,
+            stacklevel=3,
+        )
+    return chunk_dir, done, reasons
+
+
+def _check_jobs(n_jobs: Any) -> int:
+    cores = os.cpu_count() or 1
+    if isinstance(n_jobs, bool) or not isinstance(n_jobs, int | np.integer):
+        raise RoaInputError(f"n_jobs must be an integer (-1 for all cores), got {n_jobs!r}")
+    n_jobs = int(n_jobs)
+    if n_jobs == 0 or n_jobs < -1:
+        raise RoaInputError(f"n_jobs must be >= 1 or -1 (all cores), got {n_jobs}")
+    if n_jobs > 4 * cores:
+        raise RoaInputError(
+            f"n_jobs must be at most 4 x the {cores} cores of this machine ({4 * cores}), got "
+            f"{n_jobs}; use a Dask scheduler for more workers"
+        )
+    return n_jobs
+
+
+def _check_size(n: int) -> None:
+    if n < 0 or n > MAX_SAMPLES:
+        raise RoaInputError(
+            f"sampler.n (the number of initial conditions) must be in [0, {MAX_SAMPLES:.0e}], "
+            f"got {n}; split the run into several"
+        )
+    try:
+        memory = os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES")
+    except (AttributeError, ValueError, OSError):
+        return
+    need = BYTES_PER_SAMPLE * n
+    if memory > 0 and need > memory // 2:
+        raise RoaInputError(
+            f"sampler.n = {n} initial conditions need {need / 2**30:.1f} GiB for their statuses, "
+            f"more than half of this machine's {memory / 2**30:.1f} GiB; split the run into several"
+        )
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Open and close one connection to ``address`` within ``timeout`` seconds (handshake included).
+
+    ``distributed.Client`` does not bound the handshake: a port that accepts and never answers would
+    hang it forever. The probe runs in its own thread and event loop, so it also works from a caller
+    that already runs an event loop.
+    """
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def probe() -> None:
+        # connect() retries refused connections until ``timeout`` but never bounds the handshake
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout + 1.0)
+        await comm.close()
+
+    box: dict[str, BaseException] = {}
+
+    def target() -> None:
+        try:
+            asyncio.run(probe())
+        except BaseException as exc:  # noqa: BLE001 - reported to the caller
+            box["error"] = exc
+
+    th = threading.Thread(target=target, name="roa-scheduler-probe", daemon=True)
+    th.start()
+    th.join(timeout + 5.0)
+    exc = box.get("error")
+    if th.is_alive() or isinstance(exc, asyncio.TimeoutError | TimeoutError):
+        raise SolverError(
+            f"scheduler {address}: no answer from a Dask scheduler within {timeout + 1:g} s (the "
+            "address accepts connections but does not speak the Dask protocol, or is overloaded); "
+            "check the address and that `dask scheduler` runs there"
+        )
+    if isinstance(exc, ValueError):
+        raise RoaInputError(
+            f"scheduler: {address!r} is not a Dask scheduler address (e.g. tcp://host:8786): {exc}"
+        )
+    if exc is not None:
+        raise SolverError(
+            f"scheduler {address}: cannot connect to a Dask scheduler within {timeout:g} s "
+            f"({type(exc).__name__}: {exc}); check the address and that `dask scheduler` runs there"
+        )
+
+
+def _connect(address: str, timeout: float) -> Any:
+    """A Dask client of ``address`` with at least one worker, or a roa error within ~2 x timeout."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise SolverError(
+            f"scheduler {address}: dask.distributed is not installed (pip install 'dask[distributed]')"
+        ) from None
+
+    _probe_scheduler(address, timeout)
+    try:
+        client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SolverError(
+            f"scheduler {address}: cannot connect to a Dask scheduler within {timeout:g} s "
+            f"({type(exc).__name__}: {exc})"
+        ) from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except BaseException as exc:
+        _close_quietly(client)
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        raise SolverError(
+            f"scheduler {address}: no worker joined within {timeout:g} s; start workers with "
+            f"`dask worker {address}` (or give another scheduler)"
+        ) from None
+    return client
+
+
+def _close_quietly(client: Any, results: Any = None) -> None:
+    """Stop pending tasks and close a Dask client without tracebacks or log noise."""
+    import logging
+
+    names = ("distributed", "tornado", "asyncio")
+    saved = {name: logging.getLogger(name).level for name in names}
+    for name in names:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    try:
+        if results is not None:
+            try:
+                with warnings.catch_warnings():  # joblib warns about the tasks it cancels
+                    warnings.simplefilter("ignore")
+                    results.close()  # joblib cancels the futures it still holds
+            except BaseException:  # noqa: BLE001, S110 - closing on the way out
+                pass
+        try:
+            client.close(timeout=5)
+        except BaseException:  # noqa: BLE001, S110
+            pass
+    finally:
+        for name, level in saved.items():
+            logging.getLogger(name).setLevel(level)
+
+
+def _pending(n: int, chunk_size: int, done: set[int]) -> Iterator[int]:
+    """Starts of the chunks still to compute, generated lazily (never a list of all of them)."""
+    return (s for s in range(0, n, chunk_size) if s not in done)
 
 
 def run_basin(
@@ -134,6 +500,8 @@ def run_basin(
     scheduler: str | None = None,
     progress: bool | None = None,
     replace_stale: bool = False,
+    fresh: bool = False,
+    scheduler_timeout: float = SCHEDULER_TIMEOUT,
     _stop_after: int | None = None,
 ) -> BasinRun:
     """Integrate every initial condition of ``sampler`` and return their statuses.
@@ -143,29 +511,47 @@ def run_basin(
     system : System
         Autonomous system with an equilibrium.
     sampler : GridSlice, BoxSample, RegionSample or any object with ``n``, ``points(a, b)``, ``fingerprint()``
-        The initial conditions.
+        The initial conditions (at most :data:`roa.montecarlo.sampling.MAX_SAMPLES`).
     rules, rtol, atol, margin_tol, backend
         Passed to :func:`roa.montecarlo.integrator.integrate_batch`.
     chunk_size : int
-        Initial conditions per task (does not change the result).
+        Initial conditions per task, in ``[1, MAX_CHUNK]`` (does not change the result).
     n_jobs : int
-        joblib workers (default -1: all cores; does not change the result).
+        joblib workers: -1 (all cores) or ``1 .. 4 x cores``; never more workers than chunks to
+        compute (does not change the result).
     out_dir : path, optional
-        Directory for resumable chunk files (``out_dir/chunks``).
+        Directory for resumable chunk files (``out_dir/chunks``). Each chunk is bound to the run
+        (fingerprint, start, length, SHA-256 of its arrays); on resume chunks whose binding or
+        contents do not match are deleted and recomputed (``meta["chunks_rejected"]``).
     scheduler : str, optional
         Address of a Dask scheduler (``tcp://host:port``); runs the chunks there.
     progress : bool, optional
         tqdm progress bar; default on for runs of more than 50 chunks.
     replace_stale : bool
         If ``out_dir`` holds chunks of a different run (other inputs or code), delete them instead
-        of raising ``ValueError``.
+        of raising :class:`roa.errors.ResultsError`.
+    fresh : bool
+        Ignore and delete every existing chunk of ``out_dir`` and recompute all of them.
+    scheduler_timeout : float
+        Seconds to wait for the scheduler to answer and again for its first worker; then a
+        :class:`roa.errors.SolverError` says what is wrong.
     """
     rules = StopRules() if rules is None else rules
     I.check_tolerances(rtol, atol, margin_tol)
-    if int(chunk_size) < 1:
-        raise ValueError(f"chunk_size must be >= 1, got {chunk_size}")
-    if n_jobs == 0 or n_jobs < -1:
-        raise ValueError(f"--jobs must be >= 1 or -1 (all cores), got {n_jobs}")
+    if isinstance(chunk_size, bool) or not isinstance(chunk_size, int | np.integer):
+        raise RoaInputError(f"chunk_size must be an integer, got {chunk_size!r}")
+    chunk_size = int(chunk_size)
+    if not 1 <= chunk_size <= MAX_CHUNK:
+        raise RoaInputError(f"chunk_size must be in [1, {MAX_CHUNK}], got {chunk_size}")
+    n_jobs = _check_jobs(n_jobs)
+    if scheduler is not None:
+        if not isinstance(scheduler, str) or not scheduler.strip():
+            raise RoaInputError(f"scheduler must be an address tcp://host:port, got {scheduler!r}")
+        ok = isinstance(scheduler_timeout, int | float) and not isinstance(scheduler_timeout, bool)
+        if not (ok and math.isfinite(scheduler_timeout) and scheduler_timeout > 0):
+            raise RoaInputError(
+                f"scheduler_timeout must be a finite number of seconds > 0, got {scheduler_timeout!r}"
+            )
     opts = {
         "rules": rules,
         "rtol": rtol,
@@ -174,90 +560,77 @@ def run_basin(
         "backend": backend,
     }
     n = int(sampler.n)
-    starts = list(range(0, n, int(chunk_size)))
+    _check_size(n)
+    n_chunks = -(-n // chunk_size)
     code = np.full(n, -1, np.int8)
     t_end = np.full(n, np.nan, np.float32)
     chunk_dir = None
-    resumed = 0
+    digest = ""
+    done: set[int] = set()
+    rejected: dict[str, int] = {}
     if out_dir is not None:
-        chunk_dir = Path(out_dir) / "chunks"
-        digest = _fingerprint(system, sampler, opts, int(chunk_size))
-        run_file = chunk_dir / "run.json"
-        if run_file.is_file():
-            old = json.loads(run_file.read_text()).get("fingerprint")
-            if old != digest and replace_stale:
-                for stale in chunk_dir.glob("chunk_*.npz"):
-                    stale.unlink()
-                atomic_write_json(
-                    run_file, {"fingerprint": digest, "n": n, "chunk_size": int(chunk_size)}
-                )
-            elif old != digest:
-                raise ValueError(
-                    f"{chunk_dir} holds chunks of a different run (other system, samples, tolerances "
-                    "or chunk size); use another --out directory or delete it"
-                )
-        else:
-            atomic_write_json(
-                run_file, {"fingerprint": digest, "n": n, "chunk_size": int(chunk_size)}
-            )
-        todo = []
-        for s in starts:
-            p = _chunk_path(chunk_dir, s)
-            if p.is_file():
-                with np.load(p) as z:
-                    c, te = z["code"], z["t_end"]
-                if c.size == min(s + chunk_size, n) - s:
-                    code[s : s + c.size], t_end[s : s + c.size] = c, te
-                    resumed += 1
-                    continue
-            todo.append(s)
-    else:
-        todo = starts
+        digest = _fingerprint(system, sampler, opts, chunk_size)
+        chunk_dir, done, rejected = _prepare_out_dir(
+            out_dir, digest, n, chunk_size, code, t_end, fresh=fresh, replace_stale=replace_stale
+        )
+    n_todo = n_chunks - len(done)
     if progress is None:
-        progress = len(todo) > 50
+        progress = n_todo > 50
     computed = 0
-    if todo:
+    jobs = 0
+    if n_todo:
         import joblib
 
         tasks = (
-            joblib.delayed(_chunk)(system, sampler, s, min(s + chunk_size, n), opts) for s in todo
+            joblib.delayed(_chunk)(system, sampler, s, min(s + chunk_size, n), opts)
+            for s in _pending(n, chunk_size, done)
         )
         if scheduler is not None:
-            from dask.distributed import Client
-
-            try:
-                client = Client(scheduler, timeout=15)
-            except (OSError, TimeoutError) as exc:
-                raise ValueError(
-                    f"--scheduler {scheduler}: cannot connect to a Dask scheduler ({exc})"
-                ) from exc
-            ctx = joblib.parallel_config(backend="dask", n_jobs=-1, wait_for_workers_timeout=60)
+            client = _connect(scheduler, float(scheduler_timeout))
+            ctx = joblib.parallel_config(backend="dask", n_jobs=-1, client=client,
+                                         wait_for_workers_timeout=float(scheduler_timeout))  # fmt: skip
+            jobs = -1
         else:
             client = None
             # small runs stay in-process (worker start-up costs seconds); results are the same
-            jobs = 1 if n_jobs == -1 and len(todo) * chunk_size < SMALL_RUN else n_jobs
+            jobs = (os.cpu_count() or 1) if n_jobs == -1 else n_jobs
+            if n_jobs == -1 and n_todo * chunk_size < SMALL_RUN:
+                jobs = 1
+            jobs = max(1, min(jobs, n_todo))  # never more workers than tasks
             ctx = joblib.parallel_config(n_jobs=jobs)
+        results = None
+        bar = None
         try:
             with ctx:
                 results = joblib.Parallel(return_as="generator_unordered")(tasks)
-                bar = None
                 if progress:
                     from tqdm import tqdm
 
-                    bar = tqdm(total=len(todo), unit="chunk", desc=f"basin {system.name}")
+                    bar = tqdm(total=n_todo, unit="chunk", desc=f"basin {system.name}")
                 for s, c, te in results:
-                    code[s : s + c.size], t_end[s : s + c.size] = c, te
+                    length = min(s + chunk_size, n) - s
+                    if c.size != length or te.size != length:
+                        raise ResultsError(
+                            f"internal error: chunk at {s} returned {c.size} statuses, not {length}"
+                        )
+                    code[s : s + length], t_end[s : s + length] = c, te
                     if chunk_dir is not None:
-                        _save_chunk(_chunk_path(chunk_dir, s), c, te)
+                        _save_chunk(_chunk_path(chunk_dir, s), digest, s, c, te)
                     computed += 1
                     if bar is not None:
                         bar.update(1)
                     if _stop_after is not None and computed >= _stop_after:
                         raise KeyboardInterrupt("stopped on request (test hook)")
-                if bar is not None:
-                    bar.close()
         finally:
+            if bar is not None:
+                bar.close()
             if client is not None:
-                client.close()
-    assert (code >= 0).all()
-    return BasinRun(code, t_end, chunks_computed=computed, chunks_resumed=resumed)
+                _close_quietly(client, results)
+    missing = int(np.count_nonzero(code < 0))
+    if missing:
+        raise ResultsError(f"internal error: {missing} of {n} initial conditions have no status")
+    # n_jobs_used: local worker processes actually started (1: in-process), -1 on a Dask cluster
+    meta = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs}
+    if rejected:
+        meta["chunks_rejected_reasons"] = dict(rejected)
+    return BasinRun(code, t_end, chunks_computed=computed, chunks_resumed=len(done), meta=meta)

@@ -14,11 +14,31 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.regions import Region
 from roa.system import System
 
 #: Rows per random block (a constant: chunk sizes never change the samples).
 BLOCK = 4096
+#: Most initial conditions of one sampler (a basin run keeps 5 bytes per initial condition, so
+#: 5 GB at this bound); larger counts are refused before anything is allocated.
+MAX_SAMPLES = 10**9
+
+
+def check_count(n: Any, what: str = "n") -> int:
+    """``n`` as an int in ``[1, MAX_SAMPLES]``, else :class:`RoaInputError` naming ``what``."""
+    if isinstance(n, bool) or not isinstance(n, int | np.integer):
+        raise RoaInputError(f"{what} must be an integer number of samples, got {n!r}")
+    if not 1 <= int(n) <= MAX_SAMPLES:
+        raise RoaInputError(f"{what} must be in [1, {MAX_SAMPLES:.0e}] (the maximum), got {n}")
+    return int(n)
+
+
+def _as_count(n: Any) -> int:
+    """Accept integral floats such as ``1e6`` for a sample count, then check the bounds."""
+    if isinstance(n, float | np.floating) and np.isfinite(n) and float(n).is_integer():
+        n = int(n)
+    return check_count(n, "samples (n)")
 
 
 def _blocks(seed: int, start: int, stop: int, dim: int, draw: Callable) -> np.ndarray:
@@ -135,8 +155,7 @@ class BoxSample:
             raise ValueError("box bounds must be finite")
         if np.any(self.low > self.high):
             raise ValueError("box: every low bound must be <= its high bound")
-        if self.n < 1:
-            raise ValueError(f"--samples must be >= 1, got {self.n}")
+        object.__setattr__(self, "n", check_count(self.n, "samples (n)"))
 
     @property
     def dim(self) -> int:
@@ -161,7 +180,7 @@ def box_sample(
             f"--box needs {system.n} ranges ({', '.join(system.state_names)}), got {len(box)}"
         )
     arr = np.asarray(box, dtype=float)
-    return BoxSample(arr[:, 0], arr[:, 1], int(n), int(seed))
+    return BoxSample(arr[:, 0], arr[:, 1], _as_count(n), int(seed))
 
 
 @dataclass(frozen=True)
@@ -182,8 +201,7 @@ class RegionSample:
     def __post_init__(self) -> None:
         if self.mode not in ("inside", "surface"):
             raise ValueError(f"region sample mode must be 'inside' or 'surface', got {self.mode!r}")
-        if self.n < 1:
-            raise ValueError(f"samples must be >= 1, got {self.n}")
+        object.__setattr__(self, "n", check_count(self.n, "samples (n)"))
         L = np.linalg.cholesky(self.P)  # P = L L'; y'Py = |L'y|^2
         object.__setattr__(self, "_Linv", np.linalg.inv(L.T))
 
@@ -222,5 +240,5 @@ def region_sample(
             "(the map from its analysis coordinates back to the system's)"
         )
     return RegionSample(
-        region.P, float(region.level), int(n), int(seed), mode, inverse, region.name
+        region.P, float(region.level), _as_count(n), int(seed), mode, inverse, region.name
     )

@@ -1,38 +1,111 @@
 """Vectorised interval arithmetic with outward rounding, an interval namespace, and Taylor jets.
 
 :class:`Interval` holds arrays ``lo <= hi`` (one interval per box, evaluated for many boxes at
-once). Every arithmetic result is rounded outward by one ulp with :func:`numpy.nextafter` (IEEE
-``+ - * / sqrt`` are correctly rounded, so one ulp outward is an enclosure); library functions that
-are not correctly rounded (exp, log, arctan, ...) are widened by :data:`LIBM_ULPS` ulps.
+once). Every arithmetic result is rounded outward (:func:`_down`, :func:`_up`: ``r -+ (|r| (u + 1)
+2^-52 + (u + 1) 2^-1022)`` for a result ``r`` within ``u`` ulps of the exact value, one rounded
+operation in round-to-nearest; ``u = 1`` covers the correctly rounded IEEE ``+ - * / sqrt``).
+Library functions that are not correctly rounded (exp, log, sin, arctan, pow, ...) are assumed
+within :data:`LIBM_ULPS` ulps of the exact value; ``tests/test_libm.py`` measures numpy's error
+against 50-digit mpmath values and fails if the assumption does not hold on this platform.
 ``x * x`` on the *same* object is evaluated as a square (tight, never negative).
 
 :data:`INTERVAL` is a namespace in the style of :mod:`roa.backend`, so ``system.field(t, x, INTERVAL)``
 encloses the field over boxes. :class:`Jet` carries value, gradient and (optionally) Hessian of an
-expression as intervals (forward-mode automatic differentiation), used for the centred form and
-for the second-order proof near the equilibrium.
+expression (forward-mode automatic differentiation), used for the centred form and for the
+second-order proof near the equilibrium. Every jet coefficient is either an :class:`Interval`
+(outward rounded) or a Python float that is *exactly* the coefficient (``0.0``, the seeds ``1.0``,
+an exactly representable constant, or an exactly representable product or sum of such floats,
+checked in rational arithmetic); constants entering a jet are enclosed, never rounded.
 """
 
 from __future__ import annotations
 
+import math
+from fractions import Fraction
 from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
+
+#: Assumed maximal error, in ulps of the exact result, of numpy's transcendental functions
+#: (sin, cos, tan, exp, log, arctan, arcsinh, arctanh, power). Checked by ``tests/test_libm.py``.
 LIBM_ULPS = 4
+#: Beyond this ``|x|`` the enclosures of sin and cos are ``[-1, 1]`` and tan the whole line: numpy's
+#: values are not used where the argument reduction is hardest (``tests/test_libm.py`` measures
+#: 14 ulps for tan at ``6381956970095103 * 2^797``, the double closest to a multiple of pi/2).
+TRIG_ARGUMENT_LIMIT = 2.0**40
 _INF = np.inf
+_EPS = 2.0**-52  # ulp(1)
+_TINY = 2.0**-1022  # smallest normal number
 
 
-def _down(x: np.ndarray, k: int = 1) -> np.ndarray:
-    for _ in range(k):
-        x = np.nextafter(x, -_INF)
-    return x
+def _widening(x: np.ndarray, ulps: float) -> np.ndarray:
+    """``|x| (ulps + 1) 2^-52 + (ulps + 1) 2^-1022`` as a fresh float array (see :func:`_down`)."""
+    d = np.abs(x, out=np.empty(np.shape(x)))
+    d *= (ulps + 1) * _EPS
+    d += (ulps + 1) * _TINY
+    return d
 
 
-def _up(x: np.ndarray, k: int = 1) -> np.ndarray:
-    for _ in range(k):
-        x = np.nextafter(x, _INF)
-    return x
+def _down(x: Any, ulps: float = 1) -> np.ndarray:
+    """A float ``<=`` every real number within ``ulps`` ulps of ``x`` (a rounded result).
+
+    ``x - (|x| (u + 1) 2^-52 + (u + 1) 2^-1022)`` computed in round-to-nearest: the ``+1`` absorbs
+    the rounding of the subtraction itself (at most half an ulp of the result), the absolute term
+    the subnormal range. ``x = +inf`` (an overflowed result) gives NaN, which :class:`Interval`
+    reads as "no lower bound": sound, if loose. Much faster than :func:`numpy.nextafter` and never
+    tighter than ``ulps`` applications of it.
+    """
+    x = np.asarray(x, dtype=float)
+    d = _widening(x, ulps)
+    with np.errstate(invalid="ignore"):
+        if d.ndim:
+            return np.subtract(x, d, out=d)
+        return np.asarray(x - d)
+
+
+def _up(x: Any, ulps: float = 1) -> np.ndarray:
+    """A float ``>=`` every real number within ``ulps`` ulps of ``x`` (mirror of :func:`_down`)."""
+    x = np.asarray(x, dtype=float)
+    d = _widening(x, ulps)
+    with np.errstate(invalid="ignore"):
+        if d.ndim:
+            return np.add(x, d, out=d)
+        return np.asarray(x + d)
+
+
+def _enclose_constant(c: Any) -> Interval:
+    """The point interval of a constant, widened when the constant is not exactly a double.
+
+    Python and numpy floats are doubles (taken exactly); integers beyond 2^53, Fractions, long
+    doubles and other numbers are enclosed by the neighbouring doubles.
+    """
+    if isinstance(c, Interval):
+        return c
+    if isinstance(c, float | np.float64 | np.float32 | np.float16):
+        return Interval(float(c))
+    if isinstance(c, bool | int | np.integer | Fraction):
+        q = Fraction(int(c)) if not isinstance(c, Fraction) else c
+        try:
+            f = float(q)
+        except OverflowError:
+            return Interval(
+                -_INF if q < 0 else np.finfo(float).max, _INF if q > 0 else -np.finfo(float).max
+            )
+        if Fraction(f) == q:
+            return Interval(f)
+        return Interval(_down(f), _up(f))  # round-to-nearest: half an ulp away at most
+    a = np.asarray(c)
+    if a.dtype == np.float64:
+        return Interval(a)
+    f = a.astype(float)
+    if (a.dtype.kind == "f" and a.dtype.itemsize <= 4) or (
+        a.dtype.kind in "biu" and np.all(np.abs(f) <= 2.0**53)
+    ):
+        return Interval(f)  # exactly representable in a double
+    return Interval(_down(f), _up(f))
 
 
 class Interval:
@@ -44,22 +117,34 @@ class Interval:
     def __init__(self, lo: Any, hi: Any = None) -> None:
         lo = np.asarray(lo, dtype=float)
         hi = lo if hi is None else np.asarray(hi, dtype=float)
-        bad = np.isnan(lo) | np.isnan(hi)
-        self.lo = np.where(bad, -_INF, lo)
-        self.hi = np.where(bad, _INF, hi)
-        inverted = self.lo > self.hi
-        if np.any(inverted):
-            k = np.flatnonzero(inverted)[0]
-            raise ValueError(
-                f"Interval: lower bound > upper bound at {np.count_nonzero(inverted)} entries "
-                f"(first: [{self.lo.flat[k]!r}, {self.hi.flat[k]!r}])"
-            )
+        if lo.shape != hi.shape:
+            lo, hi = (np.array(a) for a in np.broadcast_arrays(lo, hi))
+        if not np.all(lo <= hi):  # NaN (no information) or inverted
+            bad = np.isnan(lo) | np.isnan(hi)
+            lo = np.where(bad, -_INF, lo)
+            hi = np.where(bad, _INF, hi)
+            inverted = lo > hi
+            if np.any(inverted):
+                k = np.flatnonzero(inverted)[0]
+                raise RoaInputError(
+                    f"Interval: lower bound > upper bound at {np.count_nonzero(inverted)} entries "
+                    f"(first: [{lo.flat[k]!r}, {hi.flat[k]!r}])"
+                )
+        self.lo, self.hi = lo, hi
 
     # -- helpers ---------------------------------------------------------------------------------
     @staticmethod
     def of(x: Any) -> Interval:
-        """``x`` itself if it is an :class:`Interval`, else the point interval(s) ``[x, x]``."""
-        return x if isinstance(x, Interval) else Interval(x)
+        """``x`` itself if it is an :class:`Interval`, else an enclosure of the constant(s) ``x``.
+
+        Doubles (Python floats, float arrays) give point intervals ``[x, x]``; integers beyond
+        2^53, Fractions and other non-double numbers are enclosed by neighbouring doubles.
+        """
+        if isinstance(x, Interval):
+            return x
+        if type(x) is float:
+            return Interval(x)
+        return _enclose_constant(x)
 
     @property
     def mid(self) -> np.ndarray:
@@ -84,12 +169,16 @@ class Interval:
         return self
 
     def __add__(self, other: Any) -> Interval:
+        if type(other) is float and other == 0.0:
+            return self  # exact
         o = Interval.of(other)
         return Interval(_down(self.lo + o.lo), _up(self.hi + o.hi))
 
     __radd__ = __add__
 
     def __sub__(self, other: Any) -> Interval:
+        if type(other) is float and other == 0.0:
+            return self
         o = Interval.of(other)
         return Interval(_down(self.lo - o.hi), _up(self.hi - o.lo))
 
@@ -106,7 +195,16 @@ class Interval:
     def __mul__(self, other: Any) -> Interval:
         if other is self:
             return self.square()
+        if type(other) is float:
+            if other == 1.0:
+                return self  # exact
+            if other == 0.0:
+                return Interval(np.zeros(np.shape(self.lo)))  # x * 0 = 0 for every real x
         o = Interval.of(other)
+        if o.lo.ndim == 0 and (o.lo >= 0 or o.hi <= 0):
+            return self._scaled(o)
+        if self.lo.ndim == 0 and (self.lo >= 0 or self.hi <= 0):
+            return o._scaled(self)
         with np.errstate(invalid="ignore"):
             p = np.stack([self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi])
         p = np.where(np.isnan(p), 0.0, p)  # 0 * inf: the product's factor is exactly 0
@@ -114,10 +212,26 @@ class Interval:
 
     __rmul__ = __mul__
 
+    def _scaled(self, c: Interval) -> Interval:
+        """Product with a scalar interval ``c`` of one sign (2 or 4 products instead of 4 + stack).
+
+        ``c >= 0``: the product is smallest at ``self.lo`` and largest at ``self.hi``; mirrored for
+        ``c <= 0``. ``0 * inf`` (NaN) leaves that bound open, as :class:`Interval` reads NaN.
+        """
+        a, b = float(c.lo), float(c.hi)
+        with np.errstate(invalid="ignore"):
+            if a >= 0:
+                lo = self.lo * a if a == b else np.minimum(self.lo * a, self.lo * b)
+                hi = self.hi * a if a == b else np.maximum(self.hi * a, self.hi * b)
+            else:
+                lo = self.hi * a if a == b else np.minimum(self.hi * a, self.hi * b)
+                hi = self.lo * a if a == b else np.maximum(self.lo * a, self.lo * b)
+        return Interval(_down(lo), _up(hi))
+
     def reciprocal(self) -> Interval:
         """``1 / x``; the whole line where the interval contains 0."""
         zero = (self.lo <= 0) & (self.hi >= 0)
-        with np.errstate(divide="ignore", invalid="ignore"):
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             lo = np.where(zero, -_INF, _down(1.0 / self.hi))
             hi = np.where(zero, _INF, _up(1.0 / self.lo))
         return Interval(lo, hi)
@@ -135,27 +249,33 @@ class Interval:
                 return Interval(np.ones_like(self.lo))
             if k < 0:
                 return (self ** (-k)).reciprocal()
+            if k == 1:
+                return self
             if k % 2 == 0:
                 return self.square() ** (k // 2) if k > 2 else self.square()
             out = self
             for _ in range(k - 1):
                 out = out * self  # odd power: monotone, product bound is exact enough
-            lo, hi = self.lo**k, self.hi**k
-            return Interval(np.maximum(out.lo, _down(lo, k)), np.minimum(out.hi, _up(hi, k)))
+            with np.errstate(over="ignore"):
+                lo, hi = self.lo**k, self.hi**k
+            # intersected with the (libm pow) endpoint values; NaN bounds stay open
+            lo = np.fmax(out.lo, _down(lo, LIBM_ULPS))
+            hi = np.fmin(out.hi, _up(hi, LIBM_ULPS))
+            return Interval(lo, hi)
         p = float(p)
-        base = Interval(np.maximum(self.lo, 0.0), np.maximum(self.hi, 0.0))  # domain x >= 0
-        with np.errstate(divide="ignore", invalid="ignore"):
-            a, b = base.lo**p, base.hi**p
+        base_lo, base_hi = np.maximum(self.lo, 0.0), np.maximum(self.hi, 0.0)  # domain x >= 0
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            a, b = base_lo**p, base_hi**p
         lo, hi = (a, b) if p > 0 else (b, a)
-        out = Interval(_down(lo, LIBM_ULPS), _up(hi, LIBM_ULPS))
-        out.lo[self.lo < 0] = -_INF  # partly outside the domain: no information
-        out.hi[self.hi < 0] = _INF  # wholly outside: the whole line, as for NaN
-        return out
+        lo, hi = _down(lo, LIBM_ULPS), _up(hi, LIBM_ULPS)
+        lo = np.where(self.lo < 0, -_INF, lo)  # partly outside the domain: no information
+        hi = np.where(self.hi < 0, _INF, hi)  # wholly outside: the whole line, as for NaN
+        return Interval(lo, hi)
 
 
 def _monotone(fn: Any, x: Any, *, increasing: bool = True) -> Interval:
     x = Interval.of(x)
-    with np.errstate(divide="ignore", invalid="ignore"):
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         a, b = fn(x.lo), fn(x.hi)
     lo, hi = (a, b) if increasing else (b, a)
     return Interval(_down(lo, LIBM_ULPS), _up(hi, LIBM_ULPS))
@@ -164,9 +284,9 @@ def _monotone(fn: Any, x: Any, *, increasing: bool = True) -> Interval:
 def isqrt(x: Any) -> Interval:
     """Enclosure of ``sqrt(x)``; the lower bound is ``-inf`` where ``x`` reaches below 0."""
     x = Interval.of(x)
-    out = Interval(_down(np.sqrt(np.maximum(x.lo, 0.0))), _up(np.sqrt(np.maximum(x.hi, 0.0))))
-    out.lo[x.lo < 0] = -_INF
-    return out
+    lo = _down(np.sqrt(np.maximum(x.lo, 0.0)))
+    hi = _up(np.sqrt(np.maximum(x.hi, 0.0)))
+    return Interval(np.where(x.lo < 0, -_INF, np.maximum(lo, 0.0)), hi)
 
 
 def iabs(x: Any) -> Interval:
@@ -180,16 +300,23 @@ def iabs(x: Any) -> Interval:
 def _periodic(fn: Any, x: Any, peak: float) -> Interval:
     """sin/cos: enclose by endpoint values, 1 if ``peak + 2 k pi`` inside, -1 if ``peak + pi + 2 k pi``."""
     x = Interval.of(x)
-    a, b = fn(x.lo), fn(x.hi)
+    with np.errstate(invalid="ignore"):
+        a, b = fn(x.lo), fn(x.hi)
     lo, hi = np.minimum(a, b), np.maximum(a, b)
     two_pi = 2 * np.pi
     # (x - peak) / two_pi is off by a few ulps of its value: the tolerance grows with |x|
-    tol = 1e-12 + 1e-14 * np.maximum(np.abs(x.lo), np.abs(x.hi))
-    has_max = np.floor((x.hi - peak) / two_pi + tol) >= np.ceil((x.lo - peak) / two_pi - tol)
-    trough = peak + np.pi
-    has_min = np.floor((x.hi - trough) / two_pi + tol) >= np.ceil((x.lo - trough) / two_pi - tol)
-    hi = np.where(has_max, 1.0, np.minimum(_up(hi, LIBM_ULPS), 1.0))
-    lo = np.where(has_min, -1.0, np.maximum(_down(lo, LIBM_ULPS), -1.0))
+    size = np.maximum(np.abs(x.lo), np.abs(x.hi))
+    tol = 1e-12 + 1e-14 * size
+    far = ~(size <= TRIG_ARGUMENT_LIMIT)  # also inf: [-1, 1] without numpy's values
+    with np.errstate(invalid="ignore"):
+        has_max = np.floor((x.hi - peak) / two_pi + tol) >= np.ceil((x.lo - peak) / two_pi - tol)
+        trough = peak + np.pi
+        has_min = np.floor((x.hi - trough) / two_pi + tol) >= np.ceil(
+            (x.lo - trough) / two_pi - tol
+        )
+    has_max, has_min = has_max | far, has_min | far
+    hi = np.where(has_max, 1.0, np.fmin(_up(hi, LIBM_ULPS), 1.0))
+    lo = np.where(has_min, -1.0, np.fmax(_down(lo, LIBM_ULPS), -1.0))
     return Interval(lo, hi)
 
 
@@ -207,8 +334,9 @@ def itan(x: Any) -> Interval:
     """Enclosure of ``tan(x)``; the whole line where the box may contain a pole.
 
     A pole ``pi/2 + k pi`` may lie in ``x`` exactly when the rigorous enclosure :func:`icos` of
-    ``cos(x)`` contains 0; otherwise ``cos`` has one sign on ``x``, ``x`` lies in one branch and
-    ``tan`` is increasing there, so the (widened) endpoint values enclose it.
+    ``cos(x)`` contains 0 (so also beyond :data:`TRIG_ARGUMENT_LIMIT`, where it is ``[-1, 1]``);
+    otherwise ``cos`` has one sign on ``x``, ``x`` lies in one branch and ``tan`` is increasing
+    there, so the (widened) endpoint values enclose it.
     """
     x = Interval.of(x)
     c = icos(x)
@@ -224,9 +352,28 @@ def ilog(x: Any) -> Interval:
     """Enclosure of ``log(x)``; ``-inf`` below where ``x`` reaches 0, the whole line if ``x <= 0``."""
     x = Interval.of(x)
     out = _monotone(np.log, Interval(np.maximum(x.lo, 0.0), np.maximum(x.hi, 0.0)))
-    out.lo[x.lo <= 0] = -_INF
-    out.hi[x.hi <= 0] = _INF
-    return out
+    return Interval(np.where(x.lo <= 0, -_INF, out.lo), np.where(x.hi <= 0, _INF, out.hi))
+
+
+def iexp(x: Any) -> Interval:
+    """Enclosure of ``exp(x)`` (increasing; never negative)."""
+    out = _monotone(np.exp, x)
+    return Interval(np.fmax(out.lo, 0.0), out.hi)
+
+
+def iarctan(x: Any) -> Interval:
+    """Enclosure of ``arctan(x)`` (increasing)."""
+    return _monotone(np.arctan, x)
+
+
+def iarcsinh(x: Any) -> Interval:
+    """Enclosure of ``arcsinh(x)`` (increasing)."""
+    return _monotone(np.arcsinh, x)
+
+
+def iarctanh(x: Any) -> Interval:
+    """Enclosure of ``arctanh(x)`` (increasing on (-1, 1); NaN endpoints leave a bound open)."""
+    return _monotone(np.arctanh, x)
 
 
 INTERVAL = SimpleNamespace(
@@ -236,64 +383,129 @@ INTERVAL = SimpleNamespace(
     sin=isin,
     cos=icos,
     tan=itan,
-    exp=lambda x: _monotone(np.exp, x),
+    exp=iexp,
     log=ilog,
-    arctan=lambda x: _monotone(np.arctan, x),
-    arcsinh=lambda x: _monotone(np.arcsinh, x),
-    arctanh=lambda x: _monotone(np.arctanh, x),
+    arctan=iarctan,
+    arcsinh=iarcsinh,
+    arctanh=iarctanh,
 )
 """Interval namespace: ``system.field(t, x, INTERVAL)`` encloses the field over boxes."""
 
 
 # -- forward-mode jets over intervals ---------------------------------------------------------------
+# A coefficient is an Interval, or a Python float that is exactly the coefficient. 0.0 is an exact,
+# symbolic zero (a sparse-gradient shortcut); 1.0 and -1.0 multiply exactly.
+def _coef(c: Any) -> Any:
+    """A constant as a jet coefficient: an exact Python float when it is a double, else enclosed."""
+    if type(c) is float:
+        return c
+    if isinstance(c, Interval):
+        return c
+    if isinstance(c, np.float64 | np.float32 | np.float16):
+        return float(c)
+    iv = _enclose_constant(c)
+    if iv.lo.ndim == 0 and iv.lo == iv.hi:
+        return float(iv.lo)
+    return iv
+
+
+def _fmul(a: float, b: float) -> Any:
+    """``a * b`` of two exact float coefficients: the float if exact, else an enclosure."""
+    p = a * b
+    if math.isfinite(p) and Fraction(p) == Fraction(a) * Fraction(b):
+        return p
+    return Interval(a) * b
+
+
+def _fadd(a: float, b: float) -> Any:
+    """``a + b`` of two exact float coefficients: the float if exact (TwoSum), else an enclosure."""
+    s = a + b
+    if math.isfinite(s):
+        bb = s - a
+        if (a - (s - bb)) + (b - bb) == 0.0:
+            return s
+    return Interval(a) + b
+
+
 def _m(a: Any, b: Any) -> Any:
-    """Product that keeps exact zeros (float 0.0) symbolic: a sparse-gradient shortcut."""
-    if (isinstance(a, float) and a == 0.0) or (isinstance(b, float) and b == 0.0):
-        return 0.0
-    if isinstance(a, float) and a == 1.0:
-        return b
-    if isinstance(b, float) and b == 1.0:
-        return a
+    """Product of coefficients; exact zeros stay symbolic, +-1 multiply exactly, floats never round."""
+    if type(a) is float:
+        if a == 0.0:
+            return 0.0
+        if a == 1.0:
+            return b
+        if a == -1.0:
+            return _n(b)
+        if type(b) is float:
+            return 0.0 if b == 0.0 else _fmul(a, b)
+        return b * a
+    if type(b) is float:
+        if b == 0.0:
+            return 0.0
+        if b == 1.0:
+            return a
+        if b == -1.0:
+            return -a
     return a * b
 
 
 def _a(a: Any, b: Any) -> Any:
-    if isinstance(a, float) and a == 0.0:
-        return b
-    if isinstance(b, float) and b == 0.0:
+    """Sum of coefficients; exact zeros skipped, float + float only when exact."""
+    if type(a) is float:
+        if a == 0.0:
+            return b
+        if type(b) is float:
+            return a if b == 0.0 else _fadd(a, b)
+        return b + a
+    if type(b) is float and b == 0.0:
         return a
     return a + b
 
 
 def _n(a: Any) -> Any:
-    return 0.0 if isinstance(a, float) and a == 0.0 else -a
+    return 0.0 if type(a) is float and a == 0.0 else -a
 
 
 def _hessian(j: Jet) -> list:
     """The Hessian of a second-order jet (jets of mixed order are a programming error)."""
     if j.h is None:
-        raise ValueError("jet arithmetic mixes first- and second-order jets")
+        raise RoaInputError("jet arithmetic mixes first- and second-order jets")
     return j.h
 
 
+def _real_power(v: Interval, e: Fraction) -> Interval:
+    """Enclosure of ``v^e`` for an exact rational exponent ``e`` (``v >= 0``).
+
+    If ``e`` is a double, ``v ** float(e)``; else the hull over the two neighbouring doubles
+    (``v^e`` is monotone in ``e`` for each fixed ``v > 0``).
+    """
+    f = float(e)
+    if Fraction(f) == e:
+        return v**f
+    a, b = v ** float(_down(f)), v ** float(_up(f))
+    return Interval(np.minimum(a.lo, b.lo), np.maximum(a.hi, b.hi))
+
+
 class Jet:
-    """Value, gradient and optionally Hessian of an expression, each entry an :class:`Interval`.
+    """Value, gradient and optionally Hessian of an expression.
 
     ``Jet.variables(box_lo, box_hi)`` seeds the coordinates; arithmetic and the namespace
-    :data:`JET` propagate derivatives by the chain rule. ``h`` is ``None`` for first order.
-    Entries that are exactly zero are stored as the float ``0.0`` and skipped. Only the upper
-    triangle ``h[i][j], j >= i`` of the Hessian is computed (the lower one holds ``0.0``).
+    :data:`JET` propagate derivatives by the chain rule. ``h`` is ``None`` for first order. The
+    value is an :class:`Interval`; a gradient or Hessian entry is an :class:`Interval` or a Python
+    float that is exactly the entry (``0.0`` for an exact zero, skipped in arithmetic). Only the
+    upper triangle ``h[i][j], j >= i`` of the Hessian is computed (the lower one holds ``0.0``).
     """
 
     __slots__ = ("v", "g", "h")
     __array_priority__ = 1000
 
     def __init__(self, v: Any, g: list, h: list | None) -> None:
-        self.v, self.g, self.h = v, g, h
+        self.v, self.g, self.h = Interval.of(v), g, h
 
     @classmethod
-    def variables(cls, lo: np.ndarray, hi: np.ndarray, *, order: int = 1) -> list[Jet]:
+    def variables(cls, lo: Any, hi: Any, *, order: int = 1) -> list[Jet]:
         """Coordinate jets on the boxes ``[lo, hi]`` (shape ``(m, n)``), up to ``order`` (1 or 2)."""
+        lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
         n = lo.shape[-1]
         out = []
         for i in range(n):
@@ -307,7 +519,7 @@ class Jet:
             return c
         n = len(self.g)
         h = [[0.0] * n for _ in range(n)] if self.h is not None else None
-        return Jet(c, [0.0] * n, h)
+        return Jet(Interval.of(_coef(c)), [0.0] * n, h)
 
     def __neg__(self) -> Jet:
         h = None if self.h is None else [[_n(e) for e in row] for row in self.h]
@@ -315,7 +527,7 @@ class Jet:
 
     def __add__(self, other: Any) -> Jet:
         if not isinstance(other, Jet):
-            return Jet(self.v + other, self.g, self.h)
+            return Jet(self.v + _coef(other), self.g, self.h)
         o = other
         h = (
             None
@@ -330,14 +542,16 @@ class Jet:
     __radd__ = __add__
 
     def __sub__(self, other: Any) -> Jet:
-        return self + (-self._const(other))
+        if not isinstance(other, Jet):
+            return Jet(self.v - _coef(other), self.g, self.h)
+        return self + (-other)
 
     def __rsub__(self, other: Any) -> Jet:
-        return self._const(other) + (-self)
+        return (-self) + other
 
     def __mul__(self, other: Any) -> Jet:
         if not isinstance(other, Jet):
-            c = other
+            c = _coef(other)
             h = None if self.h is None else [[_m(e, c) for e in row] for row in self.h]
             return Jet(self.v * c, [_m(e, c) for e in self.g], h)
         o = other
@@ -382,22 +596,39 @@ class Jet:
             ]
         return Jet(f0(self.v), g, h)
 
-    def __truediv__(self, other: Any) -> Jet:
-        if not isinstance(other, Jet):
-            return self * (1.0 / Interval.of(other))
-        return self * other.apply(
+    def reciprocal(self) -> Jet:
+        """``1 / x`` by the chain rule (derivatives ``-1/x^2``, ``2/x^3``)."""
+        return self.apply(
             lambda v: v.reciprocal(), lambda v: -(v.square().reciprocal()), lambda v: 2.0 / (v**3)
         )
 
+    def __truediv__(self, other: Any) -> Jet:
+        if not isinstance(other, Jet):
+            return self * Interval.of(_coef(other)).reciprocal()
+        return self * other.reciprocal()
+
     def __rtruediv__(self, other: Any) -> Jet:
-        return self._const(other) / self
+        return self.reciprocal() * other
 
     def __pow__(self, p: Any) -> Jet:
-        p = float(p)
-        if p == 2.0:
-            return self * self
+        q = p if isinstance(p, Fraction) else Fraction(p)  # exact (p is a double or an integer)
+        if q.denominator == 1:
+            k = int(q)
+            if k == 0:
+                return self._const(1.0)
+            if k == 1:
+                return self
+            if k == 2:
+                return self * self
+            return self.apply(
+                lambda v: v**k,
+                lambda v: v ** (k - 1) * _coef(k),
+                lambda v: v ** (k - 2) * _coef(k * (k - 1)),
+            )
         return self.apply(
-            lambda v: v**p, lambda v: p * v ** (p - 1), lambda v: p * (p - 1) * v ** (p - 2)
+            lambda v: _real_power(v, q),
+            lambda v: _real_power(v, q - 1) * _coef(q),
+            lambda v: _real_power(v, q - 2) * _coef(q * (q - 1)),
         )
 
 
@@ -415,17 +646,22 @@ JET = SimpleNamespace(
     sqrt=_jet_fn(isqrt, lambda v: 0.5 / isqrt(v), lambda v: -0.25 / (v * isqrt(v))),
     sin=_jet_fn(isin, icos, lambda v: -isin(v)),
     cos=_jet_fn(icos, lambda v: -isin(v), lambda v: -icos(v)),
-    exp=_jet_fn(INTERVAL.exp, INTERVAL.exp, INTERVAL.exp),
+    exp=_jet_fn(iexp, iexp, iexp),
     log=_jet_fn(ilog, lambda v: v.reciprocal(), lambda v: -(v.square().reciprocal())),
     arctan=_jet_fn(
-        INTERVAL.arctan,
+        iarctan,
         lambda v: (1.0 + v.square()).reciprocal(),
         lambda v: -2.0 * v / (1.0 + v.square()).square(),
     ),
     arcsinh=_jet_fn(
-        INTERVAL.arcsinh,
+        iarcsinh,
         lambda v: isqrt(1.0 + v.square()).reciprocal(),
         lambda v: -v / (1.0 + v.square()) ** 1.5,
+    ),
+    arctanh=_jet_fn(
+        iarctanh,
+        lambda v: (1.0 - v.square()).reciprocal(),
+        lambda v: 2.0 * v / (1.0 - v.square()).square(),
     ),
     tan=_jet_fn(
         itan, lambda v: 1.0 + itan(v).square(), lambda v: 2.0 * itan(v) * (1.0 + itan(v).square())

@@ -56,7 +56,10 @@ def ray_level(
 def sector(
     form: Callable[[np.ndarray], np.ndarray], level: float, curve: Callable, t_max: float
 ) -> float:
-    """Largest t in [0, t_max] with ``form(curve(s)) <= level`` for all |s| <= t (grid + bisection)."""
+    """Largest t in [0, t_max] with ``form(curve(s)) <= level`` for all |s| <= t (grid + bisection).
+
+    A float estimate; :func:`roa.proof.sector.certified_sector` proves a lower bound by intervals.
+    """
     return symmetric_extent(lambda s: form(curve(s)) <= level, t_max, n_grid=2001, n_bisect=50)
 
 

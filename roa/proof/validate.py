@@ -31,6 +31,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof.interval import INTERVAL, JET, Interval, Jet, _down, _up
 from roa.status import Verdict
@@ -132,7 +133,7 @@ def recheck_domain_witness(
     import mpmath as mp
 
     if system.margin is None:
-        raise ValueError(f"system {system.name!r} has no domain margin")
+        raise RoaInputError(f"system {system.name!r} has no domain margin")
     with mp.workdps(digits):
         xs = [mp.mpf(float(v)) for v in x]
         d = [xs[i] - mp.mpf(float(lyap.center[i])) for i in range(lyap.n)]
@@ -246,7 +247,9 @@ def _frame(lyap: QuadraticLyapunov, level: float) -> _Frame:
         for i in range(n)
     )
     if lam <= 0.5:
-        raise ValueError("whitening failed: P is too ill-conditioned for the interval validation")
+        raise RoaInputError(
+            "whitening failed: P is too ill-conditioned for the interval validation"
+        )
     return _Frame(M, G, float(np.sqrt(level / lam)) * (1 + 1e-9))
 
 
@@ -266,8 +269,9 @@ def _to_x(lyap: QuadraticLyapunov, fr: _Frame, y: list) -> list:
 def box_offsets(lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> list[Interval]:
     """Intervals enclosing ``x - mid`` for ``x`` in the boxes ``[lo, hi]``, one per coordinate.
 
-    ``lo - mid`` and ``hi - mid`` are rounded outward (one ulp), so the centred and Taylor forms
-    built on them are strict enclosures even when rounding to nearest would move them inward.
+    ``lo - mid`` and ``hi - mid`` are rounded outward (at least one ulp), so the centred and
+    Taylor forms built on them are strict enclosures even when rounding to nearest would move
+    them inward. (Their coefficients, the jet gradients and Hessians, are enclosures too.)
 
     Parameters
     ----------
@@ -377,24 +381,28 @@ def validate_level(
     """
     level = float(level)
     if not (np.isfinite(level) and level > 0):
-        raise ValueError(f"level must be a finite number > 0, got {level!r}")
+        raise RoaInputError(f"level must be a finite number > 0, got {level!r}")
     if system.time_varying:
-        raise ValueError(f"system {system.name!r} is time-varying: no equilibrium to certify")
+        raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     t0 = time.perf_counter()
     if eps is None:
         eps = find_eps(system, lyap, level)
     elif not local_proof(system, lyap, eps):
         eps = None
+    local_info: dict[str, Any] = {"local_proof": "hessian"}
+    if eps is None:  # degenerate linearisation: the lowest-order homogeneous part of V' decides
+        from roa.proof.local import higher_order_eps
+
+        found = higher_order_eps(system, lyap)
+        if found is not None:
+            eps, info = min(found[0], level / 2), found[1]
+            local_info = {"local_proof": "lowest-order homogeneous part", **info}
+    no_local = eps is None
     if eps is None:
-        return Validation(
-            Verdict.INCONCLUSIVE,
-            level,
-            0,
-            time.perf_counter() - t0,
-            None,
-            message="no neighbourhood of the equilibrium with a negative-definite "
-            "interval Hessian of V' (is the linearisation stable for this V?)",
-        )
+        # no local proof: the shell is still searched for a counterexample (a refutation needs
+        # none), but the verdict can be at best inconclusive
+        eps = level * 1e-6
+        local_info = {"local_proof": "none"}
     fr = _frame(lyap, level)
     queue_lo = [np.full((1, lyap.n), -fr.radius)]
     queue_hi = [np.full((1, lyap.n), fr.radius)]
@@ -469,6 +477,18 @@ def validate_level(
             lo2[rows, k] = m
             queue_lo = [lo, lo2, *queue_lo]
             queue_hi = [hi1, hi, *queue_hi]
+    if no_local:
+        return Validation(
+            Verdict.INCONCLUSIVE,
+            level,
+            boxes,
+            time.perf_counter() - t0,
+            None,
+            message=f"V' < 0 proved on the shell {eps:.3g} <= V <= {level:g} ({proved} boxes), "
+            "but not near the equilibrium: neither the Hessian of V' (negative definite) nor "
+            "its lowest-order homogeneous part (polynomial V') proves V' < 0 there",
+            meta=local_info,
+        )
     return Validation(
         Verdict.CERTIFIED,
         level,
@@ -476,5 +496,5 @@ def validate_level(
         time.perf_counter() - t0,
         eps,
         message=f"V' < 0 proved on {proved} boxes of the shell; local proof on V <= {eps:.3g}",
-        meta={"proved_boxes": proved},
+        meta={"proved_boxes": proved, **local_info},
     )

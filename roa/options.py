@@ -272,6 +272,8 @@ class RunOptions(Options):
         Address of a Dask scheduler (``tcp://host:port``).
     progress : bool or None
         Progress bar (default: on for runs of more than 50 chunks).
+    fresh : bool
+        Recompute every chunk of ``out_dir`` instead of resuming from it.
     """
 
     chunk_size: int = 4096
@@ -279,6 +281,7 @@ class RunOptions(Options):
     out_dir: str | None = None
     scheduler: str | None = None
     progress: bool | None = None
+    fresh: bool = False
 
     def __post_init__(self) -> None:
         _int(self, "chunk_size", 1, 1_000_000)

@@ -430,3 +430,25 @@ def test_dask_without_workers_and_interrupted(capfd):
                         scheduler=cluster.scheduler_address, scheduler_timeout=5.0)  # fmt: skip
     np.testing.assert_array_equal(got.code, ref.code)
     assert got.counts() == ref.counts()
+
+
+def test_basin_out_never_overwrites_an_experiments_results(tmp_path, capsys):
+    """Issue 12 item 2: `roa basin --out results/NAME` must not replace committed results."""
+    from roa.cli import main
+
+    exp = tmp_path / "basin_theta_thetadot"
+    exp.mkdir()
+    (exp / "manifest.json").write_text('{"experiment": "basin_theta_thetadot"}')
+    (exp / "summary.json").write_text('{"experiment": "basin_theta_thetadot"}')
+    argv = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "3x3", "--jobs", "1",
+            "--out", str(exp)]  # fmt: skip
+    assert main(argv) == 2
+    assert "holds the results of an experiment" in capsys.readouterr().err
+    assert (exp / "summary.json").read_text() == '{"experiment": "basin_theta_thetadot"}'
+    other = tmp_path / "notes"
+    other.mkdir()
+    (other / "paper.txt").write_text("x")
+    assert main([*argv[:-1], str(other)]) == 2
+    fresh = tmp_path / "run"
+    assert main([*argv[:-1], str(fresh)]) == 0 and (fresh / "summary.json").is_file()
+    assert main([*argv[:-1], str(fresh), "--force"]) == 0  # a previous basin run may be reused

@@ -56,6 +56,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument(
         "--out", default=None, metavar="DIR", help="resumable run directory (chunks, summary.json)"
     )
+    p.add_argument("--force", action="store_true",
+                   help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
     p.add_argument(
         "--lyapunov-level",
@@ -217,9 +219,27 @@ def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
     return out
 
 
+def _check_out_dir(out: str | None) -> None:
+    """``--out`` must be empty, new, or a previous ``roa basin`` run: never an experiment's results."""
+    if out is None:
+        return
+    d = Path(out)
+    if (d / "manifest.json").is_file():
+        raise RoaInputError(
+            f"--out {out}: this directory holds the results of an experiment (manifest.json); "
+            "roa basin would overwrite them: choose another --out directory"
+        )
+    if d.is_dir() and any(d.iterdir()) and not (d / "chunks").is_dir():
+        raise RoaInputError(
+            f"--out {out}: the directory exists and is not a roa basin run (no chunks/): choose an "
+            "empty or new directory"
+        )
+
+
 def run(args: argparse.Namespace) -> int:
     import roa
 
+    _check_out_dir(args.out)
     system, sampler, rules, mode = build(args)
     if args.plot and mode["mode"] != "slice":
         raise RoaInputError("--plot draws a slice: use it with --slice")
@@ -232,7 +252,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         integrator = roa.IntegratorOptions(rtol=args.rtol, atol=args.atol)
         run_opts = roa.RunOptions(chunk_size=args.chunk_size, n_jobs=args.jobs, out_dir=args.out,
-                                  scheduler=args.scheduler)  # fmt: skip
+                                  scheduler=args.scheduler, fresh=args.force)  # fmt: skip
     except RoaInputError as exc:
         msg = str(exc)
         for field, flag in (("IntegratorOptions.rtol", "--rtol"), ("IntegratorOptions.atol", "--atol"),

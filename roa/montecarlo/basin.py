@@ -50,6 +50,7 @@ class BasinResult:
     chunks_computed: int
     chunks_resumed: int
     step_size_failures: int
+    chunks_rejected: int
     system: System = field(repr=False, compare=False)
     sampler: Any = field(repr=False, compare=False)
     rules: StopRules = field(default_factory=StopRules)
@@ -72,6 +73,7 @@ class BasinResult:
             "atol": self.integrator.atol,
             "chunks_computed": self.chunks_computed,
             "chunks_resumed": self.chunks_resumed,
+            "chunks_rejected": self.chunks_rejected,
             "seconds": round(self.seconds, 3),
         }
 
@@ -151,6 +153,7 @@ def basin(
         out_dir=run.out_dir,
         scheduler=run.scheduler,
         progress=run.progress,
+        fresh=run.fresh,
     )
     counts = res.counts()
     k = counts["converged"]
@@ -171,6 +174,7 @@ def basin(
         res.chunks_computed,
         res.chunks_resumed,
         int(np.sum(res.code == I.STEP_FAILURE)),
+        int(res.meta.get("chunks_rejected", 0)),
         system,
         sampler,
         rules,

@@ -7,6 +7,7 @@ import os
 from pathlib import Path
 
 from roa.experiment import VERDICTS
+from roa.errors import ResultsError
 from roa.io import atomic_write_text
 
 #: Sections in report order: (claim id prefix, heading).
@@ -31,14 +32,44 @@ def _cell(text: object) -> str:
     return str(text).replace("|", "\\|").replace("\n", " ")
 
 
+def _study_experiments() -> set[str]:
+    from ipc_paper import STUDY
+
+    return {p.stem for p in STUDY.experiments.glob("*.toml")}
+
+
 def collect(results: str | Path) -> tuple[list[dict], list[dict]]:
-    """All claims and all summaries found under ``results``, sorted by claim id."""
+    """The claims and summaries of the study's experiments under ``results``, sorted by claim id.
+
+    Only folders named after one of the study's experiment configs count (a stray copy such as
+    ``results/figure2-copy`` is ignored), a summary must name its own folder as its experiment,
+    and a claim id may appear only once: anything else raises :class:`roa.errors.ResultsError`.
+    """
+    known = _study_experiments()
     claims: list[dict] = []
     summaries: list[dict] = []
+    seen: dict[str, str] = {}
     for path in sorted(Path(results).glob("*/summary.json")):
-        summary = json.loads(path.read_text())
+        if path.parent.name not in known:
+            continue
+        try:
+            summary = json.loads(path.read_text())
+        except json.JSONDecodeError as exc:
+            raise ResultsError(f"{path}: invalid JSON ({exc}); re-run roa run for it") from None
+        if summary.get("experiment") != path.parent.name:
+            raise ResultsError(
+                f"{path}: the summary is of experiment {summary.get('experiment')!r}, not of "
+                f"{path.parent.name!r} (overwritten by another command?); re-run it with "
+                f"roa run experiments/{path.parent.name}.toml --force"
+            )
         summaries.append(summary)
-        claims.extend(summary.get("claims", []))
+        for c in summary.get("claims", []):
+            if c["id"] in seen:
+                raise ResultsError(
+                    f"claim {c['id']} appears in both {seen[c['id']]} and {path.parent.name}"
+                )
+            seen[c["id"]] = path.parent.name
+            claims.append(c)
     return sorted(
         claims,
         key=lambda c: (

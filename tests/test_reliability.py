@@ -452,3 +452,26 @@ def test_basin_out_never_overwrites_an_experiments_results(tmp_path, capsys):
     fresh = tmp_path / "run"
     assert main([*argv[:-1], str(fresh)]) == 0 and (fresh / "summary.json").is_file()
     assert main([*argv[:-1], str(fresh), "--force"]) == 0  # a previous basin run may be reused
+
+
+def test_search_cache_rejects_an_edited_entry(tmp_path):
+    """Issue 12 item 4: a replaced P in the search cache is recomputed, never used silently."""
+    import json
+
+    from roa.proof.search_cache import SearchCache
+
+    path = tmp_path / "cache.json"
+    cache = SearchCache(path)
+    key = {"system": "toy", "objective": "box"}
+    result, hit = cache.get(key, lambda: {"P": [[1.0, 0.0], [0.0, 1.0]]})
+    assert not hit
+    cache.save()
+    again = SearchCache(path)
+    assert again.get(key, lambda: 1 / 0) == ({"P": [[1.0, 0.0], [0.0, 1.0]]}, True)
+    data = json.loads(path.read_text())
+    (entry,) = data.values()
+    entry["result"]["P"] = [[9.0, 0.0], [0.0, 9.0]]  # tampered candidate
+    path.write_text(json.dumps(data))
+    edited = SearchCache(path)
+    result, hit = edited.get(key, lambda: {"P": [[2.0, 0.0], [0.0, 2.0]]})
+    assert not hit and result == {"P": [[2.0, 0.0], [0.0, 2.0]]} and edited.rejected == 1

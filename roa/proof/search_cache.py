@@ -9,7 +9,9 @@ so a change of the search recomputes. Changes elsewhere (the level search it cal
 do not: they can only make the cached candidate suboptimal, and its certificate is redone anyway.
 
 The cache is one JSON file (written atomically); :meth:`SearchCache.save` keeps only the entries
-used in the current run.
+used in the current run. Each entry carries the SHA-256 of its key and result: an entry edited by
+hand (e.g. a replaced P) no longer matches and is recomputed, never used silently
+(:attr:`SearchCache.rejected` counts them).
 """
 
 from __future__ import annotations
@@ -34,6 +36,12 @@ def _source_hash() -> str:
     return hashlib.sha256(Path(search.__file__).read_bytes()).hexdigest()
 
 
+def _checksum(digest: str, entry: dict[str, Any]) -> str:
+    blob = json.dumps({"digest": digest, "key": entry.get("key"), "result": entry.get("result")},
+                      sort_keys=True)  # fmt: skip
+    return hashlib.sha256(blob.encode()).hexdigest()
+
+
 class SearchCache:
     """``get(key, compute)``: the cached result for ``key`` or ``compute()`` (then stored).
 
@@ -56,6 +64,10 @@ class SearchCache:
                 self._old = {}
         self._used: dict[str, Any] = {}
         self._code = _source_hash()
+        self.rejected = 0
+        # a file written before entries carried checksums is accepted once (then re-saved with
+        # them); in a file with checksums, an entry without one is rejected like a wrong one
+        self._legacy = not any(isinstance(e, dict) and "checksum" in e for e in self._old.values())
 
     def digest(self, key: dict[str, Any]) -> str:
         blob = json.dumps({"key": _plain(key), "code": self._code}, sort_keys=True)
@@ -67,9 +79,14 @@ class SearchCache:
         """``(result, hit)``; ``result`` is the JSON dict ``compute()`` returned (or its cache)."""
         d = self.digest(key)
         entry = self._old.get(d)
+        legacy = entry is not None and self._legacy and "checksum" not in entry
+        if entry is not None and not legacy and entry.get("checksum") != _checksum(d, entry):
+            self.rejected += 1  # edited or corrupted: recompute rather than trust it
+            entry = None
         hit = entry is not None
         if entry is None:
             entry = {"key": _plain(key), "result": _plain(compute())}
+        entry = {**entry, "checksum": _checksum(d, entry)}
         self._used[d] = entry
         return entry["result"], hit
 

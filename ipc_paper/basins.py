@@ -7,26 +7,169 @@ experiment.
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+import roa
 from ipc_paper.estimates import paper_ball
-from roa.experiment import accepts
+from roa.errors import ResultsError, RoaInputError
+from roa.experiment import VERDICTS, accepts, check_int, check_number, check_numbers
 from roa.io import atomic_write_json
 from roa.montecarlo import integrator as I  # noqa: N812
-from roa.montecarlo.engine import run_basin, wilson_interval
+from roa.montecarlo.basin import BasinResult
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
+from roa.options import IntegratorOptions, Options, RunOptions
 from roa.regions import Region
 from roa.status import StopRules
 from roa.systems import ipc
 
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
-#: ``[params]`` keys every basin runner accepts (integration, stop rules, parallelism, claim text).
-COMMON_PARAMS = ("atol", "rtol", "t_final", "converge_tol", "diverge_bound", "jobs", "seed", "title",
-                 "claim", "claim_id", "paper", "verdict")  # fmt: skip
+#: Keys of a basin run's summary (as ``BasinRun.summary()`` wrote them), taken from ``BasinResult``.
+RUN_SUMMARY_KEYS = ("n", "counts", "undecided_step_size_failures", "fraction_converged",
+                    "fraction_converged_ci95", "ci_method", "chunks_computed", "chunks_resumed")  # fmt: skip
+
+
+def _options(params: Mapping[str, Any]) -> dict[str, Any]:
+    """The library options of a basin run (each validates its values): rules, integrator, run."""
+    rules = StopRules(t_final=params["t_final"], converge_tol=params["converge_tol"],
+                      diverge_bound=params["diverge_bound"])  # fmt: skip
+    integrator = IntegratorOptions(rtol=params["rtol"], atol=params["atol"])
+    return {"rules": rules, "integrator": integrator,
+            "run": RunOptions(n_jobs=params["jobs"], progress=False)}  # fmt: skip
+
+
+def _check_box(params: Any, name: str, n: int) -> None:
+    box = getattr(params, name)
+    if not (isinstance(box, list | tuple) and len(box) == n):
+        raise RoaInputError(f"{name} must be {n} ranges [low, high], got {box!r}")
+    for k, r in enumerate(box):
+        check_numbers({f"{name}[{k}]": r}, f"{name}[{k}]", size=2)
+        if not r[0] < r[1]:
+            raise RoaInputError(f"{name}[{k}] must be [low, high] with low < high, got {r!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class BasinParams(Options):
+    """``[params]`` shared by the basin runners: tolerances of the batch integrator
+    (:class:`roa.options.IntegratorOptions`), stop rules (:class:`roa.StopRules`) and worker
+    processes ``jobs`` (:class:`roa.options.RunOptions` ``n_jobs``), which validate the values."""
+
+    rtol: float = IntegratorOptions.rtol
+    atol: float = IntegratorOptions.atol
+    t_final: float = StopRules.t_final
+    converge_tol: float = StopRules.converge_tol
+    diverge_bound: float = 1e9
+    jobs: int = RunOptions.n_jobs
+
+    def __post_init__(self) -> None:
+        try:
+            _options(vars(self))
+        except RoaInputError as exc:  # name the key, not the option it fills
+            msg = str(exc).replace("RunOptions.n_jobs", "jobs")
+            for prefix in ("rules.", "IntegratorOptions."):
+                msg = msg.replace(prefix, "")
+            raise RoaInputError(msg) from None
+        for name in ("rtol", "atol", "t_final", "converge_tol", "diverge_bound"):
+            object.__setattr__(self, name, float(getattr(self, name)))
+
+
+@dataclass(frozen=True, kw_only=True)
+class SliceParams(BasinParams):
+    """``[params]`` of :func:`run_slice`: a ``grid`` (nx, ny) over two ``axes`` with their
+    ``ranges`` (all three required), the other states ``fixed``, an optional ``saturation`` of the
+    force, an optional ``sector_scan`` (points of the theta line scan, claim M1), and the text of an
+    optional claim ``claim_id`` (``title``, ``claim``: default from the axes)."""
+
+    axes: tuple[str, ...]
+    grid: tuple[int, ...]
+    ranges: tuple[tuple[float, float], ...]
+    fixed: dict[str, float] = field(default_factory=dict)
+    saturation: float | None = None
+    sector_scan: int | None = None
+    title: str | None = None
+    claim_id: str | None = None
+    claim: str | None = None
+    paper: str = "no basin map; estimate ||Tx||^2 <= 4.89"
+    verdict: str = "beyond the paper"
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        axes = self.axes
+        if not (
+            isinstance(axes, tuple) and len(axes) == 2 and all(isinstance(a, str) for a in axes)
+        ):
+            raise RoaInputError(f"axes must be two state names, got {axes!r}")
+        grid = self.grid
+        if not (isinstance(grid, tuple) and len(grid) == 2):
+            raise RoaInputError(f"grid must be [nx, ny], got {grid!r}")
+        for k in (0, 1):
+            check_int({f"grid[{k}]": grid[k]}, f"grid[{k}]", 2)
+        _check_box(self, "ranges", 2)
+        if not isinstance(self.fixed, dict):
+            raise RoaInputError(f"fixed must be a table state = value, got {self.fixed!r}")
+        for state, value in self.fixed.items():
+            check_number({f"fixed.{state}": value}, f"fixed.{state}")
+        if self.saturation is not None:
+            check_number(self, "saturation", positive=True)
+        if self.sector_scan is not None and self.sector_scan != 0:  # 0 or None: no scan
+            check_int(self, "sector_scan", 2)
+        for name in ("title", "claim_id", "claim", "paper"):
+            value = getattr(self, name)
+            if value is not None and not isinstance(value, str):
+                raise RoaInputError(f"{name} must be a string, got {value!r}")
+        if self.verdict not in VERDICTS:
+            raise RoaInputError(f"verdict must be one of {list(VERDICTS)}, got {self.verdict!r}")
+
+
+@dataclass(frozen=True, kw_only=True)
+class SampledParams(BasinParams):
+    """``[params]`` of the sampled basin runs: ``samples`` per set (required) and the ``seed``."""
+
+    samples: int
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_int(self, "samples", 1)
+        check_int(self, "seed", 0)
+
+
+@dataclass(frozen=True, kw_only=True)
+class BoxParams(SampledParams):
+    """``[params]`` of :func:`run_box`: the reference ``box`` (default ``ipc.REFERENCE_BOX``) and
+    an optional ``wide_box``, one ``[low, high]`` per state."""
+
+    box: tuple[tuple[float, float], ...] = ipc.REFERENCE_BOX
+    wide_box: tuple[tuple[float, float], ...] | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _check_box(self, "box", 4)
+        if self.wide_box is not None:
+            _check_box(self, "wide_box", 4)
+
+
+@dataclass(frozen=True, kw_only=True)
+class RegionParams(SampledParams):
+    """``[params]`` of :func:`run_region`: ``samples`` inside and on each region, ``seed``."""
+
+
+@dataclass(frozen=True, kw_only=True)
+class GlobalParams(SampledParams):
+    """``[params]`` of :func:`run_global`: ``half_widths`` a of the flat boxes [-a, a]^4 (required)."""
+
+    half_widths: tuple[float, ...]
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        check_numbers(self, "half_widths", positive=True)
+        if not self.half_widths:
+            raise RoaInputError("half_widths must not be empty")
 
 
 def regions(results: str | Path = "results") -> tuple[list[Region], str]:
@@ -49,25 +192,40 @@ def regions(results: str | Path = "results") -> tuple[list[Region], str]:
     return found, source
 
 
-def _opts(params: dict[str, Any]) -> dict[str, Any]:
-    rules = StopRules(t_final=float(params.get("t_final", 60.0)),
-                      converge_tol=float(params.get("converge_tol", 1e-3)),
-                      diverge_bound=float(params.get("diverge_bound", 1e9)))  # fmt: skip
-    return {"rules": rules, "rtol": float(params.get("rtol", 1e-6)),
-            "atol": float(params.get("atol", 1e-9)), "n_jobs": int(params.get("jobs", -1))}  # fmt: skip
+def _basin(
+    system: Any, sampler: Any, opts: dict[str, Any], out_dir: Path | None = None
+) -> BasinResult:
+    """:func:`roa.basin` with the run's options, resumable in ``out_dir`` when given.
+
+    ``out_dir`` belongs to this experiment: if it holds chunks of another run (other params or
+    code), the run is recomputed from scratch (``RunOptions.fresh``).
+    """
+    run = opts["run"] if out_dir is None else opts["run"].replace(out_dir=str(out_dir))
+    kw = {"rules": opts["rules"], "integrator": opts["integrator"]}
+    try:
+        return roa.basin(system, sampler, run=run, **kw)
+    except ResultsError:
+        if out_dir is None:
+            raise
+    return roa.basin(system, sampler, run=run.replace(fresh=True), **kw)
+
+
+def _run_summary(res: BasinResult) -> dict[str, Any]:
+    """The keys of a basin run in the summaries (:data:`RUN_SUMMARY_KEYS`), from ``res.to_dict()``."""
+    d = res.to_dict()
+    return {k: d[k] for k in RUN_SUMMARY_KEYS}
 
 
 def _settings(opts: dict[str, Any]) -> dict[str, Any]:
-    r = opts["rules"]
+    r, i = opts["rules"], opts["integrator"]
     return {"integrator": "batch Dormand-Prince 5(4), numba kernel (roa.montecarlo.integrator)",
-            "rtol": opts["rtol"], "atol": opts["atol"], "t_final": r.t_final,
+            "rtol": i.rtol, "atol": i.atol, "t_final": r.t_final,
             "converge_tol": r.converge_tol, "diverge_bound": r.diverge_bound}  # fmt: skip
 
 
-def _frac(run: Any) -> str:
-    s = run.summary()
-    lo, hi = s["fraction_converged_ci95"]
-    return f"{s['counts']['converged']}/{s['n']} converged ({100 * s['fraction_converged']:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
+def _frac(res: BasinResult) -> str:
+    lo, hi = res.ci95
+    return f"{res.counts['converged']}/{res.n} converged ({100 * res.fraction_converged:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
 
 
 def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any]:
@@ -76,7 +234,7 @@ def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any
     g = grid_slice(
         system, ["theta", "q"], [(-np.pi / 2 + eps, np.pi / 2 - eps), (-1e-12, 1e-12)], (n, 2)
     )
-    run = run_basin(system, g, **opts, progress=False)
+    run = _basin(system, g, opts)
     th = g.xs
     conv = (run.code.reshape(g.shape) == I.CONVERGED).all(axis=0)
     zero = n // 2
@@ -98,33 +256,36 @@ def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any
             "sector_60_converged": int(np.sum(conv & (np.abs(th) < SECTOR)))}  # fmt: skip
 
 
-@accepts(*COMMON_PARAMS, 'axes', 'grid', 'ranges', 'fixed', 'saturation', 'sector_scan')
+@accepts(SliceParams)
 def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """A 2D slice map with every region drawn, containment per region, optional sector line scan."""
     from roa.plotting.basin import plot_slice, slice_containment
 
-    sat = params.get("saturation")
+    sat = params["saturation"]
     system = ipc.closed_loop(saturation=None if sat is None else float(sat))
-    opts = _opts(params)
+    opts = _options(params)
     axes = list(params["axes"])
     g = grid_slice(system, axes, [tuple(r) for r in params["ranges"]], tuple(params["grid"]),
-                   fixed=dict(params.get("fixed", {})))  # fmt: skip
-    run = run_basin(system, g, **opts, out_dir=out, replace_stale=True)
+                   fixed=dict(params["fixed"]))  # fmt: skip
+    run = _basin(system, g, opts, out)
     regs, source = regions(out.parent)
     lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
-    title = params.get("title", f"IPC basin, slice ({axes[0]}, {axes[1]})")
+    title = params["title"]
+    if title is None:
+        title = f"IPC basin, slice ({axes[0]}, {axes[1]})"
     if sat is not None:
         title += f", saturation |u| <= {float(sat):g}"
     png = out / "basin.png"
     plot_slice(system, g, run.code, png, regions=regs, lines=lines, title=title)
     contain = [slice_containment(g, run.code, r) for r in regs]
-    summary: dict[str, Any] = {**run.summary(), "axes": axes, "grid": list(params["grid"]),
-                               "ranges": params["ranges"], "fixed": params.get("fixed", {}),
+    summary: dict[str, Any] = {**_run_summary(run), "axes": axes, "grid": list(params["grid"]),
+                               "ranges": [list(r) for r in params["ranges"]],
+                               "fixed": dict(params["fixed"]),
                                "saturation": sat, "regions_source": source,
                                "containment_on_slice": contain, **_settings(opts)}  # fmt: skip
     claims = []
     rel = f"results/{out.name}"
-    if params.get("sector_scan"):
+    if params["sector_scan"]:
         scan = sector_line_scan(system, opts, int(params["sector_scan"]))
         summary["sector_scan"] = scan
         ok = scan["sector_60_converged"] == scan["sector_60_points"]
@@ -138,11 +299,11 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
             "verdict": "reproduced" if ok else "not reproduced",
             "evidence": f"{rel}/summary.json",
             "details": ("The sector is inside the empirical basin (batch DP5(4), "
-                        f"rtol {opts['rtol']:g}, t_final {opts['rules'].t_final:g}), but it does not "
+                        f"rtol {opts['integrator'].rtol:g}, t_final {opts['rules'].t_final:g}), but it does not "
                         "follow from the paper's ball, which on the line q = q' = theta' = 0 gives "
                         f"only +-{scan['paper_ball_sector_deg']:.1f} deg."),
         })  # fmt: skip
-    cid = params.get("claim_id")
+    cid = params["claim_id"]
     if cid:
         paper_c = next(
             (c for c in contain if c["region"] == paper_ball().name or "4.89" in c["region"]), None
@@ -154,27 +315,29 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
                 f"; grid points in the 4.89 ball: {paper_c['converged']}/{paper_c['points_in_region']}"
                 " converged"
             )
-        claims.append({"id": cid, "claim": params.get("claim", f"basin on the ({axes[0]}, {axes[1]}) slice"),
-                       "paper": params.get("paper", "no basin map; estimate ||Tx||^2 <= 4.89"),
-                       "ours": ours, "verdict": params.get("verdict", "beyond the paper"),
-                       "evidence": f"{rel}/basin.png", "details": f"Counts: {run.counts()}."})  # fmt: skip
+        claim = params["claim"]
+        if claim is None:
+            claim = f"basin on the ({axes[0]}, {axes[1]}) slice"
+        claims.append({"id": cid, "claim": claim, "paper": params["paper"],
+                       "ours": ours, "verdict": params["verdict"],
+                       "evidence": f"{rel}/basin.png", "details": f"Counts: {run.counts}."})  # fmt: skip
     atomic_write_json(out / "slice.json", summary)
     return {**summary, "claims": claims, "figures": [f"{rel}/basin.png"]}
 
 
-@accepts(*COMMON_PARAMS, 'box', 'samples', 'wide_box')
+@accepts(BoxParams)
 def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Seeded samples of the shared reference 4D box of physical states (and an optional wide box)."""
     system = ipc.closed_loop()
-    opts = _opts(params)
-    boxes = {"reference": params.get("box", [list(r) for r in ipc.REFERENCE_BOX])}
-    if "wide_box" in params:
-        boxes["wide"] = params["wide_box"]
+    opts = _options(params)
+    boxes: dict[str, Any] = {"reference": [list(r) for r in params["box"]]}
+    if params["wide_box"] is not None:
+        boxes["wide"] = [list(r) for r in params["wide_box"]]
     regs, source = regions(out.parent)
     rows, texts, ok = [], [], True
     for k, (label, box) in enumerate(boxes.items()):
-        smp = box_sample(system, box, int(params["samples"]), seed=int(params.get("seed", 0)) + k)
-        run = run_basin(system, smp, **opts, out_dir=out / label, replace_stale=True)
+        smp = box_sample(system, box, int(params["samples"]), seed=int(params["seed"]) + k)
+        run = _basin(system, smp, opts, out / label)
         contain = []
         for r in regs:  # streamed again in chunks: which sampled points are inside each region
             inside = np.concatenate([r.contains(smp.points(a, min(a + 65536, smp.n)))
@@ -182,11 +345,11 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
             kk, c = int(inside.sum()), int(np.sum(run.code[inside] == I.CONVERGED))
             contain.append({"region": r.name, "status": r.status, "points_in_region": kk,
                             "converged": c, "all_converged": (c == kk) if kk else None})  # fmt: skip
-        lo, _ = wilson_interval(run.counts()["converged"], run.n)
+        lo, _ = run.ci95
         ok = ok and lo > 0.99
-        rows.append({"box_name": label, "box": box, **run.summary(), "containment": contain})
+        rows.append({"box_name": label, "box": box, **_run_summary(run), "containment": contain})
         texts.append(f"{label} box {np.round(box, 4).tolist()}: {_frac(run)}")
-    summary = {"boxes": rows, "seed": int(params.get("seed", 0)), "regions_source": source,
+    summary = {"boxes": rows, "seed": int(params["seed"]), "regions_source": source,
                **_settings(opts)}  # fmt: skip
     atomic_write_json(out / "box.json", summary)
     rel = f"results/{out.name}"
@@ -203,11 +366,11 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
     return {**summary, "claims": [claim], "figures": []}
 
 
-@accepts(*COMMON_PARAMS, 'samples')
+@accepts(RegionParams)
 def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Samples inside and on each region (flat coordinates, mapped back with from_flat)."""
     system = ipc.closed_loop()
-    opts = _opts(params)
+    opts = _options(params)
     regs, source = regions(out.parent)
     n = int(params["samples"])
     rows = []
@@ -216,12 +379,10 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
         row: dict[str, Any] = {"region": r.name, "status": r.status, "level": r.level}
         for mode in ("inside", "surface"):
             smp = region_sample(
-                r, n, seed=int(params.get("seed", 0)) + k, mode=mode, inverse=ipc.from_flat
+                r, n, seed=int(params["seed"]) + k, mode=mode, inverse=ipc.from_flat
             )
-            run = run_basin(
-                system, smp, **opts, out_dir=out / f"region{k}_{mode}", replace_stale=True
-            )
-            c = run.counts()
+            run = _basin(system, smp, opts, out / f"region{k}_{mode}")
+            c = dict(run.counts)
             row[mode] = {"n": run.n, "counts": c, "all_converged": c["converged"] == run.n,
                          "max_t_end": float(run.t_end.max())}  # fmt: skip
         rows.append(row)
@@ -245,18 +406,18 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     return {**summary, "claims": claims, "figures": []}
 
 
-@accepts(*COMMON_PARAMS, 'samples', 'half_widths')
+@accepts(GlobalParams)
 def run_global(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Remark 3.1: the closed loop (3.8) in flat coordinates over growing boxes [-a, a]^4."""
     system = ipc.transformed()
-    opts = _opts(params)
+    opts = _options(params)
     n = int(params["samples"])
     rows = []
     for k, a in enumerate(params["half_widths"]):
-        smp = box_sample(system, [(-a, a)] * 4, n, seed=int(params.get("seed", 0)) + k)
-        run = run_basin(system, smp, **opts, out_dir=out / f"box{k}", replace_stale=True)
-        lo, hi = wilson_interval(run.counts()["converged"], run.n)
-        rows.append({"half_width": a, "n": run.n, "counts": run.counts(), "ci95": [lo, hi],
+        smp = box_sample(system, [(-a, a)] * 4, n, seed=int(params["seed"]) + k)
+        run = _basin(system, smp, opts, out / f"box{k}")
+        lo, hi = run.ci95
+        rows.append({"half_width": a, "n": run.n, "counts": dict(run.counts), "ci95": [lo, hi],
                      "max_t_end": float(run.t_end.max())})  # fmt: skip
     summary = {"system": "closed loop (3.8), flat coordinates (z1, z2, w1, w2)", "boxes": rows,
                **_settings(opts)}  # fmt: skip

@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.experiment import accepts
 from roa.io import atomic_write_json
+from roa.options import IntervalOptions, Options
 
 
 def _box_fraction(form, level: float, box, n: int, seed: int) -> dict[str, Any]:
@@ -98,6 +101,42 @@ def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
     }
 
 
+@dataclass(frozen=True)
+class CertifyParams(Options):
+    """``[params]`` of the certify experiment.
+
+    ``below`` / ``above`` bracket each sampled optimum (certify below, refute above);
+    ``max_boxes`` is the interval budget; ``n_box`` the samples of the reference-box fraction;
+    ``search_*`` and ``min_decay`` drive the quadratic-V search; ``sos_*`` the exact SOS programs
+    (``sos_aux_degree < 0`` means no cap).
+    """
+
+    below: float = 0.999
+    above: float = 1.001
+    max_boxes: int = 3_000_000
+    n_box: int = 200_000
+    seed: int = 0
+    search_iter: int = 400
+    search_rounds: int = 6
+    min_decay: float = 0.02
+    search_cache: bool = True
+    sos_exact: bool = True
+    sos_time_limit: float = 150.0
+    sos_aux_degree: int | None = 2
+
+    def __post_init__(self) -> None:
+        if not (0 < self.below < 1 < self.above):
+            raise RoaInputError(
+                f"CertifyParams: need 0 < below < 1 < above, got below={self.below}, "
+                f"above={self.above}"
+            )
+        IntervalOptions(max_boxes=self.max_boxes)  # validates the budget
+        for name in ("n_box", "search_iter", "search_rounds"):
+            if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
+                raise RoaInputError(f"CertifyParams.{name} must be an integer >= 1")
+
+
+@accepts(CertifyParams)
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     from ipc_paper.certified import coords_map
     from roa.levelset import level_search
@@ -108,21 +147,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     from roa.systems.ipc.lyapunov import paper_lyapunov
     from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
-    p = {
-        "below": 0.999,
-        "above": 1.001,
-        "max_boxes": 3_000_000,
-        "n_box": 200_000,
-        "seed": 0,
-        "search_iter": 400,
-        "sos_exact": True,
-        "sos_time_limit": 150.0,
-        "sos_aux_degree": 2,
-        "search_rounds": 6,
-        "min_decay": 0.02,
-        "search_cache": True,
-        **params,
-    }
+    p = params  # every key of CertifyParams, defaults filled in
     aux = p["sos_aux_degree"]
     aux = None if aux is None or int(aux) < 0 else int(aux)
     ev: dict[str, Any] = {}
@@ -425,22 +450,3 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
     if not cert.certified or cert.level is None:
         raise RuntimeError(f"{case}: level {cert.level} is {cert.status.value}, not certified")
     return cert.level
-
-
-#: ``[params]`` keys this runner accepts (checked by roa.experiment before any work starts).
-run.params = frozenset(  # type: ignore[attr-defined]
-    {
-        "below",
-        "above",
-        "max_boxes",
-        "n_box",
-        "seed",
-        "search_iter",
-        "search_rounds",
-        "min_decay",
-        "search_cache",
-        "sos_exact",
-        "sos_time_limit",
-        "sos_aux_degree",
-    }
-)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -10,6 +11,7 @@ import sympy as sp
 from ipc_paper import symbolic as S
 from roa.experiment import accepts
 from roa.io import atomic_write_json
+from roa.options import Options
 
 
 def analyse() -> dict[str, Any]:
@@ -54,7 +56,12 @@ def analyse() -> dict[str, Any]:
     }
 
 
-@accepts()
+@dataclass(frozen=True, kw_only=True)
+class ErrataParams(Options):
+    """``[params]`` of :func:`run_experiment`: none (the symbolic checks have no settings)."""
+
+
+@accepts(ErrataParams)
 def run_experiment(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     res = analyse()
     atomic_write_json(out / "errata.json", res)

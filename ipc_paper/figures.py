@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -9,8 +10,10 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from roa.experiment import accepts
+from roa.errors import RoaInputError
+from roa.experiment import accepts, check_int, check_number, check_numbers
 from roa.io import atomic_savefig, atomic_write_json
+from roa.options import Options
 from roa.plotting.trajectories import plot_runs
 from roa.simulation import simulate
 from roa.status import StopRules
@@ -31,23 +34,58 @@ def _run(system, x0, t_final: float, n_points: int, **kw):
     )
 
 
-@accepts(
-    "initial_conditions", "t_final", "delta", "poles", "n_points", "status_t_final", "extra_theta0"
-)
+def _check_common(params: Any) -> None:
+    """Checks shared by the figure params: horizon, delta, poles (through Gains), n_points."""
+    check_number(params, "t_final", positive=True)
+    check_number(params, "delta", positive=True)
+    Gains.from_poles(params.poles)
+    check_int(params, "n_points", 2)
+
+
+@dataclass(frozen=True, kw_only=True)
+class Figure1Params(Options):
+    """``[params]`` of :func:`run_figure1`.
+
+    ``initial_conditions`` (required): a table ``name = [q, q', theta, theta']``, one run each;
+    ``status_t_final``: horizon of the separate run that gives each status; ``extra_theta0``:
+    further runs from ``(0, 0, theta0, 0)`` (claim F2).
+    """
+
+    initial_conditions: dict[str, Any]
+    t_final: float = 20.0
+    delta: float = ipc.DEFAULT_DELTA
+    poles: tuple[float, ...] = (-1, -1, -1, -1)
+    n_points: int = 801
+    status_t_final: float = 60.0
+    extra_theta0: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        ics = self.initial_conditions
+        if not isinstance(ics, dict) or not ics:
+            raise RoaInputError(
+                f"initial_conditions must be a table name = [q, q', theta, theta'], got {ics!r}"
+            )
+        for k, v in ics.items():
+            key = f"initial_conditions.{k}"
+            check_numbers({key: v}, key, size=4)
+        _check_common(self)
+        check_number(self, "status_t_final", positive=True)
+        check_numbers(self, "extra_theta0")
+
+
+@accepts(Figure1Params)
 def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Figure 1: regulation from p1, p2, p3 of (3.5) with p(s) = (s + 1)^4."""
     ics = {k: np.array(v, dtype=float) for k, v in params["initial_conditions"].items()}
-    t_final = float(params.get("t_final", 20.0))
-    delta = float(params.get("delta", ipc.DEFAULT_DELTA))
-    gains = Gains.from_poles(params.get("poles", [-1, -1, -1, -1]))
+    t_final = float(params["t_final"])
+    delta = float(params["delta"])
+    gains = Gains.from_poles(params["poles"])
     system = ipc.closed_loop(delta=delta, gains=gains)
     runs, table = [], {}
     for name, x0 in ics.items():
-        tr = _run(system, x0, t_final, int(params.get("n_points", 801)))
+        tr = _run(system, x0, t_final, int(params["n_points"]))
         u = ipc.control_force(tr.t, tr.x.T, delta=delta, gains=gains)
-        status = simulate(
-            system, x0, rules=StopRules(t_final=float(params.get("status_t_final", 60.0)))
-        )
+        status = simulate(system, x0, rules=StopRules(t_final=float(params["status_t_final"])))
         runs.append((f"{name} = {x0.tolist()}", tr.t, tr.x, u))
         table[name] = {
             "x0": x0.tolist(),
@@ -58,7 +96,7 @@ def run_figure1(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
             "max_abs_q": float(np.max(np.abs(tr.x[:, 0]))),
         }
     extra = {}
-    for th0 in params.get("extra_theta0", []):
+    for th0 in params["extra_theta0"]:
         st = simulate(system, [0.0, 0.0, th0, 0.0], rules=StopRules(t_final=60.0))
         extra[f"{th0:+g}"] = {"status": st.status.value, "t_end": st.t_end}
     fig_path = out / "figure1.png"
@@ -133,16 +171,34 @@ def linear_error_prediction(gains: Gains, reference, t: np.ndarray) -> np.ndarra
     return sol.y[0]
 
 
-@accepts("initial_condition", "t_final", "delta", "poles", "reference", "n_points")
+@dataclass(frozen=True, kw_only=True)
+class Figure2Params(Options):
+    """``[params]`` of :func:`run_figure2`; ``reference`` is parsed by
+    :func:`roa.systems.ipc.controller.make_reference` (``None`` or ``"0"``: regulation)."""
+
+    initial_condition: tuple[float, ...] = (0.0, 0.0, 1.0, 0.0)
+    t_final: float = 60.0
+    delta: float = ipc.DEFAULT_DELTA
+    poles: tuple[float, ...] = (-1, -1, -1, -1)
+    reference: str | None = "2*sin(t/2)"
+    n_points: int = 3001
+
+    def __post_init__(self) -> None:
+        check_numbers(self, "initial_condition", size=4)
+        _check_common(self)
+        make_reference(self.reference)
+
+
+@accepts(Figure2Params)
 def run_figure2(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Figure 2: tracking F*(t) = 2 sin(t/2) from theta(0) = 1 rad."""
-    x0 = np.array(params.get("initial_condition", [0.0, 0.0, 1.0, 0.0]), dtype=float)
-    t_final = float(params.get("t_final", 60.0))
-    delta = float(params.get("delta", ipc.DEFAULT_DELTA))
-    gains = Gains.from_poles(params.get("poles", [-1, -1, -1, -1]))
-    reference = make_reference(params.get("reference", "2*sin(t/2)"))
+    x0 = np.array(params["initial_condition"], dtype=float)
+    t_final = float(params["t_final"])
+    delta = float(params["delta"])
+    gains = Gains.from_poles(params["poles"])
+    reference = make_reference(params["reference"])
     system = ipc.closed_loop(delta=delta, gains=gains, reference=reference)
-    tr = _run(system, x0, t_final, int(params.get("n_points", 3001)))
+    tr = _run(system, x0, t_final, int(params["n_points"]))
     t, x = tr.t, tr.x
     u = ipc.control_force(t, x.T, delta=delta, gains=gains, reference=reference)
     err = ipc.to_flat(x)[:, 0] - reference.derivatives(t)[0]

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -9,10 +11,10 @@ import numpy as np
 
 from ipc_paper import estimates as est
 from ipc_paper.bound import check_against_phi, corrected_bound, kappa_numeric, paper_bound
-from roa.experiment import accepts
+from roa.experiment import accepts, check_int
 from roa.io import atomic_savefig, atomic_write_json
 from roa.levelset import inner_level, level_search
-from roa.options import CasadiOptions, SampledOptions
+from roa.options import CasadiOptions, Options, SampledOptions
 from roa.systems.ipc import from_flat
 from roa.systems.ipc import lyapunov as ly
 
@@ -28,12 +30,24 @@ _DERIVATION = (
 )
 
 
-@accepts("n_points", "seed")
+@dataclass(frozen=True, kw_only=True)
+class BoundParams(Options):
+    """``[params]`` of :func:`run_bound`: random points of ``||q||^2 <= 2.25`` checking (3.14)."""
+
+    n_points: int = 200000
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        check_int(self, "n_points", 1)
+        check_int(self, "seed", 0)
+
+
+@accepts(BoundParams)
 def run_bound(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """The analytic bound, printed vs corrected, and what each certifies."""
     paper, corr = paper_bound(), corrected_bound()
     kap = kappa_numeric()
-    chk = check_against_phi(int(params.get("n_points", 200000)), int(params.get("seed", 0)))
+    chk = check_against_phi(int(params["n_points"]), int(params["seed"]))
     ball = est.khalil("ball")
     level = est.khalil("level")
     paper_ball_ok = bool(ball["value"] >= paper["c_tilde"])
@@ -195,15 +209,32 @@ def _figure(results: dict[str, Any], path: Path) -> None:
     plt.close(fig)
 
 
-@accepts("n_directions", "n_starts", "seed")
+def _khalil_options(params: Mapping[str, Any]) -> tuple[SampledOptions, CasadiOptions]:
+    """The level-search options of :func:`run_khalil` (CasADi's seed is ``seed + 1``)."""
+    sampled = SampledOptions(n_directions=params["n_directions"], seed=params["seed"])
+    return sampled, CasadiOptions(n_starts=params["n_starts"], seed=sampled.seed + 1)
+
+
+@dataclass(frozen=True, kw_only=True)
+class KhalilParams(Options):
+    """``[params]`` of :func:`run_khalil`: sampled directions, IPOPT starts, seed.
+
+    Defaults are those of :class:`roa.options.SampledOptions` / :class:`roa.options.CasadiOptions`,
+    which validate the values.
+    """
+
+    n_directions: int = SampledOptions.n_directions
+    n_starts: int = CasadiOptions.n_starts
+    seed: int = SampledOptions.seed
+
+    def __post_init__(self) -> None:
+        _khalil_options(vars(self))
+
+
+@accepts(KhalilParams)
 def run_khalil(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """Khalil's search (3.15), both shapes and both methods; the 60 deg sector."""
-    sampled = SampledOptions(
-        n_directions=int(params.get("n_directions", 20000)), seed=int(params.get("seed", 0))
-    )
-    casadi = CasadiOptions(
-        n_starts=int(params.get("n_starts", 16)), seed=int(params.get("seed", 0)) + 1
-    )
+    sampled, casadi = _khalil_options(params)
     system, V = ly.flat_system(), ly.paper_lyapunov()
     results: dict[str, Any] = {}
     for shape in ly.SHAPES:

@@ -3,8 +3,11 @@
 A config names its ``runner`` as ``"module:function"`` inside a registered study's package
 (:mod:`roa.studies`; a config is data and cannot name any other code), an optional ``title`` and a
 ``[params]`` table, and optionally ``[quick]`` overrides used by ``--quick``. A runner has the signature
-``run(params: dict, out: Path, *, quick: bool) -> dict`` and returns a JSON-able summary with, where
-it has something to say about the paper, a list ``claims`` of rows for ``paper_repro.md``::
+``run(params: dict, out: Path, *, quick: bool) -> dict`` and declares its ``[params]`` with
+``@accepts(ParamsClass)``, a frozen :class:`roa.options.Options` dataclass holding the defaults: the
+config's params are built into it before any work starts (unknown keys and bad values are rejected)
+and the runner gets its ``to_dict()``. A runner returns a JSON-able summary with, where it has
+something to say about the paper, a list ``claims`` of rows for ``paper_repro.md``::
 
     {"id": "F1", "claim": "...", "paper": "...", "ours": "...",
      "verdict": "reproduced" | "not reproduced" | "erratum" | "beyond the paper",
@@ -15,44 +18,143 @@ and a list ``figures`` of PNG paths relative to the repository root.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import importlib
 import json
+import math
 import re
 import time
 import tomllib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
 from roa import studies
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, code_hash, git_revision, package_versions
+from roa.options import Options
 
 Runner = Callable[..., dict[str, Any]]
 
 VERDICTS = ("reproduced", "not reproduced", "erratum", "beyond the paper")
 
 
-def accepts(*names: str) -> Callable[[Runner], Runner]:
-    """Declare the ``[params]`` keys a runner accepts; others are rejected before any work starts."""
+def accepts(params_class: type[Options]) -> Callable[[Runner], Runner]:
+    """Declare the ``[params]`` of a runner as a frozen :class:`roa.options.Options` dataclass.
+
+    :func:`run_experiment` builds ``params_class`` from the config's ``[params]`` (with ``[quick]``
+    overrides) before any work starts -- unknown keys, missing required keys and invalid values are
+    rejected by the dataclass -- and passes the runner ``instance.to_dict()``: every key, with its
+    default filled in (TOML arrays as tuples)::
+
+        @dataclass(frozen=True, kw_only=True)
+        class Figure1Params(Options):
+            t_final: float = 20.0
+
+        @accepts(Figure1Params)
+        def run_figure1(params: dict, out: Path, *, quick: bool) -> dict: ...
+    """
+    if not (
+        isinstance(params_class, type)
+        and issubclass(params_class, Options)
+        and dataclasses.is_dataclass(params_class)
+        and params_class.__dataclass_params__.frozen  # type: ignore[attr-defined]
+    ):
+        raise TypeError(
+            "@accepts takes a frozen dataclass subclass of roa.options.Options, "
+            f"got {params_class!r}"
+        )
 
     def mark(func: Runner) -> Runner:
-        func.params = frozenset(names)  # type: ignore[attr-defined]
+        func.params = params_class  # type: ignore[attr-defined]
         return func
 
     return mark
 
 
-def check_params(name: str, runner: Runner, params: dict[str, Any]) -> None:
-    allowed = getattr(runner, "params", None)
-    if allowed is None:
-        raise RoaInputError(f"{name}: runner {runner.__name__} does not declare its params (@accepts)")
-    unknown = set(params) - allowed
-    if unknown:
+def _value(params: Any, name: str) -> Any:
+    return params[name] if isinstance(params, Mapping) else getattr(params, name)
+
+
+def check_int(params: Any, name: str, lo: int = 0) -> None:
+    """For a params class's ``__post_init__``: field ``name`` must be an integer ``>= lo``.
+
+    ``params`` is the params instance or a mapping (e.g. ``{"grid[0]": value}``); the same holds
+    for :func:`check_number` and :func:`check_numbers`.
+    """
+    value = _value(params, name)
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
+        raise RoaInputError(f"{name} must be an integer >= {lo}, got {value!r}")
+
+
+def _finite(v: Any, positive: bool) -> bool:
+    ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+    return ok and (v > 0 or not positive)
+
+
+def check_number(params: Any, name: str, *, positive: bool = False) -> None:
+    """For a params class's ``__post_init__``: field ``name`` must be a finite number (``> 0``)."""
+    value = _value(params, name)
+    if not _finite(value, positive):
         raise RoaInputError(
-            f"{name}: unknown params {sorted(unknown)}; allowed: {', '.join(sorted(allowed))}"
+            f"{name} must be a finite number{' > 0' if positive else ''}, got {value!r}"
         )
+
+
+def check_numbers(
+    params: Any, name: str, *, size: int | None = None, positive: bool = False
+) -> None:
+    """For a params class's ``__post_init__``: field ``name`` must be a list of finite numbers
+    (``> 0``), of length ``size`` if given."""
+    value = _value(params, name)
+    ok = isinstance(value, list | tuple) and (size is None or len(value) == size)
+    if not (ok and all(_finite(v, positive) for v in value)):
+        what = "a list of" + ("" if size is None else f" {size}") + " finite numbers"
+        raise RoaInputError(f"{name} must be {what}{' > 0' if positive else ''}, got {value!r}")
+
+
+def build_params(name: str, params_class: type[Options], params: dict[str, Any]) -> Options:
+    """``params_class`` built from ``params``; every problem is a :class:`RoaInputError` naming ``name``."""
+    where = f"{name}: [params]"
+    fields = dataclasses.fields(params_class)  # type: ignore[arg-type]
+    allowed = ", ".join(f.name for f in fields)
+    required = [
+        f.name
+        for f in fields
+        if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING
+    ]
+    missing = [k for k in required if k not in params]
+    unknown = sorted(set(params) - {f.name for f in fields})
+    if unknown and not fields:
+        raise RoaInputError(
+            f"{where}: unknown option(s) {unknown} for {params_class.__name__}; it takes no params"
+        )
+    if missing and not unknown:
+        raise RoaInputError(
+            f"{where}: missing required option(s) {missing} for {params_class.__name__}; "
+            f"allowed: {allowed}"
+        )
+    try:
+        return params_class.from_mapping(params, where=where)
+    except ValueError as exc:  # RoaInputError, or e.g. float("x") in a params class's checks
+        if isinstance(exc, RoaInputError) and str(exc).startswith(where):
+            raise
+        raise RoaInputError(f"{where}: {exc}") from exc
+
+
+def check_params(name: str, runner: Runner, params: dict[str, Any]) -> dict[str, Any]:
+    """Validate ``params`` against the runner's declared params; return what the runner gets.
+
+    With ``@accepts(ParamsClass)``: ``ParamsClass.from_mapping(params).to_dict()`` (defaults filled
+    in), so unknown keys are rejected by the dataclass before any work starts.
+    """
+    declared = getattr(runner, "params", None)
+    if isinstance(declared, type) and issubclass(declared, Options):
+        return build_params(name, declared, params).to_dict()
+    raise RoaInputError(
+        f"{name}: runner {runner.__name__} does not declare its params (@accepts(ParamsClass))"
+    )
 
 
 def load_config(path: str | Path) -> dict[str, Any]:
@@ -94,7 +196,9 @@ def config_hash(cfg: dict[str, Any], quick: bool, results: Path) -> str:
     inputs = {}
     for dep in cfg.get("depends", []):
         summary = results / dep / "summary.json"
-        inputs[dep] = hashlib.sha256(summary.read_bytes()).hexdigest() if summary.is_file() else None
+        inputs[dep] = (
+            hashlib.sha256(summary.read_bytes()).hexdigest() if summary.is_file() else None
+        )
     blob = json.dumps(
         {
             "cfg": cfg,
@@ -143,7 +247,7 @@ def run_experiment(
     runner = getattr(importlib.import_module(module), func, None)
     if runner is None:
         raise RoaInputError(f"experiment {cfg['name']}: {module} has no runner {func!r}")
-    check_params(cfg["name"], runner, params)
+    params = check_params(cfg["name"], runner, params)
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
     summary = runner(params, out, quick=quick)

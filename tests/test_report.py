@@ -1,12 +1,23 @@
 """paper_repro.md is generated from results/ and never drifts; experiment configs all run."""
 
+import dataclasses
+import importlib
 from pathlib import Path
 
 import pytest
 
 from ipc_paper import STUDY
 from ipc_paper.report import collect, render_report
-from roa.experiment import VERDICTS, experiments_dir, list_experiments, load_config, run_experiment
+from roa.errors import RoaInputError
+from roa.experiment import (
+    VERDICTS,
+    check_params,
+    experiments_dir,
+    list_experiments,
+    load_config,
+    run_experiment,
+)
+from roa.options import Options
 
 ROOT = Path(__file__).resolve().parents[1]
 CONFIGS = list_experiments(ROOT / "experiments")
@@ -81,10 +92,67 @@ def test_missing_dependency_is_a_clear_error(tmp_path):
 
 def test_unknown_params_are_rejected_before_work(tmp_path):
     cfg = tmp_path / "typo.toml"
-    cfg.write_text('runner = "ipc_paper.figures:run_figure1"\n[params]\nt_finall = 3.0\n[params.initial_conditions]\np1 = [0, 0, 0.1, 0]\n')
-    with pytest.raises(ValueError, match=r"unknown params \['t_finall'\]; allowed: .*t_final"):
+    cfg.write_text(
+        'runner = "ipc_paper.figures:run_figure1"\n[params]\nt_finall = 3.0\n[params.initial_conditions]\np1 = [0, 0, 0.1, 0]\n'
+    )
+    with pytest.raises(
+        RoaInputError,
+        match=r"^typo: \[params\]: unknown option\(s\) \['t_finall'\] for Figure1Params; "
+        r"allowed: initial_conditions, t_final, .*extra_theta0$",
+    ):
         run_experiment(cfg, results=tmp_path / "r")
     assert not (tmp_path / "r" / "typo").exists()
+
+
+def test_params_are_checked_by_the_runner_dataclass(tmp_path):
+    """Missing required keys and bad values are rejected, naming the experiment, before any work."""
+    cfg = tmp_path / "noics.toml"
+    cfg.write_text('runner = "ipc_paper.figures:run_figure1"\n[params]\nt_final = 3.0\n')
+    with pytest.raises(
+        RoaInputError, match=r"^noics: \[params\]: missing .*\['initial_conditions'\]"
+    ):
+        run_experiment(cfg, results=tmp_path / "r")
+    cfg = tmp_path / "badtol.toml"
+    cfg.write_text('runner = "ipc_paper.basins:run_global"\n[params]\nsamples = 10\n'
+                   'half_widths = [1.0]\nrtol = -1.0\n')  # fmt: skip
+    with pytest.raises(RoaInputError, match=r"^badtol: \[params\]: rtol must be in"):
+        run_experiment(cfg, results=tmp_path / "r")
+    assert not (tmp_path / "r").exists()
+
+
+def _runner(cfg):
+    module, func = cfg["runner"].split(":")
+    return getattr(importlib.import_module(module), func)
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=[p.stem for p in CONFIGS])
+def test_runner_params_class_accepts_the_config_keys(config):
+    """Each runner declares a frozen Options dataclass with every key its configs use; the
+    config's [params], with and without [quick], build into it and fill in every default."""
+    cfg = load_config(config)
+    runner = _runner(cfg)
+    declared = runner.params
+    cfg_params, cfg_quick = cfg.get("params", {}), cfg.get("quick", {})
+    assert isinstance(declared, type) and issubclass(declared, Options)
+    assert dataclasses.is_dataclass(declared) and declared.__dataclass_params__.frozen
+    fields = {f.name for f in dataclasses.fields(declared)}
+    assert set(cfg_params) <= fields, f"keys not accepted: {set(cfg_params) - fields}"
+    assert set(cfg_quick) <= fields, f"keys not accepted: {set(cfg_quick) - fields}"
+    for quick in (False, True):
+        params = {**cfg_params, **(cfg_quick if quick else {})}
+        built = check_params(cfg["name"], runner, params)
+        assert set(built) == fields
+        for key, value in params.items():
+            expected = tuple(value) if isinstance(value, list) else value
+            assert built[key] == expected, key
+
+
+def test_every_runner_declares_a_params_class():
+    """All runners of the committed configs use @accepts(Class)."""
+    for config in CONFIGS:
+        cfg = load_config(config)
+        declared = _runner(cfg).params
+        assert isinstance(declared, type) and issubclass(declared, Options), cfg["runner"]
 
 
 def test_quick_reproduce_leaves_the_committed_results_alone(tmp_path, monkeypatch):

@@ -262,23 +262,40 @@ def run_figure2(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, 
     atomic_write_json(out / "figure2.json", res)
     ev = f"results/{out.name}/figure2.json"
     bounded = tr.status.value == "completed" and res["q_max_abs_last_half"] < 10
+    # verdicts hold only for the paper's setup: theta(0) = 1 rad from rest, F* = 2 sin(t/2), p(s) =
+    # (s + 1)^4, and a horizon long enough to see the periodic motion (several periods of 4 pi)
+    paper_setup = (
+        np.allclose(x0, [0.0, 0.0, 1.0, 0.0])
+        and reference.description == make_reference("2*sin(t/2)").description
+        and np.allclose(gains.h, Gains.default().h)
+        and t_final >= 40.0
+    )
+    setup_note = (
+        ""
+        if paper_setup
+        else f"not checked: this run (x0 = {x0.tolist()}, F* = {reference.description}, "
+        f"t_final = {t_final:g}) is not the paper's setup; "
+    )
+    err_max, pred_max = res["tracking_error_max_last_half"], res["linear_prediction_max_last_half"]
+    # F4: the error stays away from zero and the linear error model explains it (within 25 %)
+    explained = err_max > 1e-3 and abs(err_max - pred_max) <= 0.25 * pred_max
     claims = [
         {
             "id": "F3",
             "claim": "Figure 2: from theta(0) = 1 rad the flat output tracks F* = 2 sin(t/2) with a stable periodic motion, cart bounded",
             "paper": "stable periodic motion, tracking error shown in 2(c)",
-            "ours": f"stays in the domain, |q| <= {res['q_max_abs_last_half']:.2f}, |theta| <= "
+            "ours": f"{setup_note}stays in the domain, |q| <= {res['q_max_abs_last_half']:.2f}, |theta| <= "
             f"{res['theta_max_abs_last_half']:.2f} rad over the last half; max|u| = {res['max_abs_u']:.2f}",
-            "verdict": "reproduced" if bounded else "not reproduced",
+            "verdict": "reproduced" if bounded and paper_setup else "not reproduced",
             "evidence": ev,
         },
         {
             "id": "F4",
             "claim": "Figure 2(c): the tracking error z1 - F*",
             "paper": "plotted, no value stated; (3.3) is called approximate tracking",
-            "ours": f"does not go to zero: max|z1 - F*| over the last half = {res['tracking_error_max_last_half']:.4f} "
-            f"(linear error model predicts {res['linear_prediction_max_last_half']:.4f})",
-            "verdict": "reproduced",
+            "ours": f"{setup_note}does not go to zero: max|z1 - F*| over the last half = {err_max:.4f} "
+            f"(linear error model predicts {pred_max:.4f})",
+            "verdict": "reproduced" if explained and paper_setup else "not reproduced",
             "evidence": ev,
             "details": "The law (3.3) treats w1 as F'' although z2' = w1 + phi0(w1) w2^2 (2.6). The error "
             "e = zeta - (F*, F*', F*'', F*''') obeys e' = A e + b phi0(w1) w2^2 with A Hurwitz, so it converges to a "

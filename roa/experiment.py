@@ -231,15 +231,26 @@ def run_experiment(
             )
     digest = config_hash(cfg, quick, Path(results))
     manifest_path = out / "manifest.json"
-    if not force and manifest_path.is_file():
+    old: dict[str, Any] = {}
+    if manifest_path.is_file():
         try:
             old = json.loads(manifest_path.read_text())
         except json.JSONDecodeError:
             old = {}
-        if old.get("hash") == digest and (out / "summary.json").is_file():
-            summary = json.loads((out / "summary.json").read_text())
-            summary["cached"] = True
-            return summary
+    source = str(Path(path).resolve())
+    if old and not force and old.get("config_path") not in (None, source):
+        same = {k: v for k, v in old.get("config", {}).items() if k != "name"} == {
+            k: v for k, v in cfg.items() if k != "name"
+        }
+        if not same:
+            raise RoaInputError(
+                f"{out} holds the results of another config ({old['config_path']}); this one is "
+                f"{source}: use another results directory, or force=True (--force) to replace them"
+            )
+    if not force and old.get("hash") == digest and not verify_outputs(out, old):
+        summary = json.loads((out / "summary.json").read_text())
+        summary["cached"] = True
+        return summary
     params = dict(cfg.get("params", {}))
     if quick:
         params.update(cfg.get("quick", {}))
@@ -266,6 +277,8 @@ def run_experiment(
             "config": cfg,
             "quick": quick,
             "hash": digest,
+            "config_path": source,
+            "outputs": output_hashes(out),
             "git_revision": git_revision(),
             "versions": package_versions(),
             "elapsed_s": round(elapsed, 3),
@@ -274,6 +287,41 @@ def run_experiment(
     )
     summary["cached"] = False
     return summary
+
+
+def output_hashes(out: Path) -> dict[str, str]:
+    """SHA-256 of every file an experiment wrote (but its manifest and resumable chunks)."""
+    hashes = {}
+    for f in sorted(out.rglob("*")):
+        rel = f.relative_to(out).as_posix()
+        if f.is_file() and rel != "manifest.json" and not rel.startswith("chunks/"):
+            hashes[rel] = hashlib.sha256(f.read_bytes()).hexdigest()
+    return hashes
+
+
+def verify_outputs(out: Path, manifest: dict[str, Any] | None = None) -> list[str]:
+    """Problems with the outputs of ``out`` against its manifest (empty when they are intact).
+
+    A file changed, missing or unrecorded since the run is named; a manifest without recorded
+    hashes (written before they existed) is one problem: its outputs cannot be verified.
+    """
+    if manifest is None:
+        try:
+            manifest = json.loads((out / "manifest.json").read_text())
+        except (OSError, json.JSONDecodeError):
+            return [f"{out}/manifest.json is missing or unreadable"]
+    recorded = manifest.get("outputs")
+    if not isinstance(recorded, dict):
+        return [f"{out}/manifest.json records no output hashes: re-run the experiment"]
+    if "summary.json" not in recorded:
+        return [f"{out}: no summary.json recorded"]
+    now = output_hashes(out)
+    problems = [
+        f"{out}/{name} was modified after its run" for name in recorded if now.get(name) not in
+        (None, recorded[name])
+    ]
+    problems += [f"{out}/{name} is missing" for name in recorded if name not in now]
+    return problems
 
 
 def list_experiments(directory: str | Path = "experiments") -> list[Path]:

@@ -166,3 +166,52 @@ def test_quick_reproduce_leaves_the_committed_results_alone(tmp_path, monkeypatc
     assert (tmp_path / "results-quick" / "figure1" / "summary.json").is_file()
     assert (tmp_path / "results-quick" / "paper_repro.md").is_file()
     assert not (tmp_path / "results").exists() and not (tmp_path / "paper_repro.md").exists()
+
+
+def test_figure2_verdicts_follow_what_was_run(tmp_path):
+    """Issue 12 item 5: a copy of figure2 with another setup must not report 'reproduced'."""
+    cfg = tmp_path / "configs" / "figure2.toml"
+    cfg.parent.mkdir()
+    cfg.write_text(
+        'runner = "ipc_paper.figures:run_figure2"\n[params]\nt_final = 2.0\n'
+        "initial_condition = [0.0, 0.0, 0.05, 0.0]\nn_points = 201\n"
+    )
+    summary = run_experiment(cfg, results=tmp_path / "r", quick=True)
+    verdicts = {c["id"]: c["verdict"] for c in summary["claims"]}
+    assert verdicts == {"F3": "not reproduced", "F4": "not reproduced"}
+    assert all("not the paper's setup" in c["ours"] for c in summary["claims"])
+
+
+def test_tampered_outputs_are_never_served(tmp_path, monkeypatch, capsys):
+    """Issue 12 item 4: a flipped verdict in a summary is detected: the cache reruns the experiment
+    and `roa report` refuses to render it."""
+    import json
+
+    from roa.cli import main
+    from roa.experiment import verify_outputs
+
+    results = tmp_path / "r"
+    cfg = ROOT / "experiments" / "bound.toml"
+    run_experiment(cfg, results=results, quick=True)
+    assert verify_outputs(results / "bound") == []
+    path = results / "bound" / "summary.json"
+    data = json.loads(path.read_text())
+    original = data["claims"][0]["verdict"]
+    data["claims"][0]["verdict"] = "reproduced" if original != "reproduced" else "erratum"
+    path.write_text(json.dumps(data))
+    assert verify_outputs(results / "bound") == [f"{results / 'bound'}/summary.json was modified after its run"]
+    assert main(["report", "--results", str(results), "--out", str(tmp_path / "rep.md")]) == 1
+    assert "modified after its run" in capsys.readouterr().err
+    again = run_experiment(cfg, results=results, quick=True)  # not served from the cache
+    assert again["cached"] is False and again["claims"][0]["verdict"] == original
+
+
+def test_a_foreign_config_cannot_overwrite_results(tmp_path):
+    """Issue 12 item 2: a different config with the same name refuses to replace the results."""
+    results = tmp_path / "r"
+    run_experiment(ROOT / "experiments" / "bound.toml", results=results, quick=True)
+    other = tmp_path / "elsewhere" / "bound.toml"
+    other.parent.mkdir()
+    other.write_text((ROOT / "experiments" / "bound.toml").read_text().replace("seed = 0", "seed = 1"))
+    with pytest.raises(ValueError, match="holds the results of another config"):
+        run_experiment(other, results=results, quick=True)

@@ -32,6 +32,21 @@ def run(args: argparse.Namespace) -> int:
             f"no experiment summaries in {Path(args.results).resolve()} (expected "
             "RESULTS/NAME/summary.json): run roa reproduce first, or pass --results"
         )
+    from roa.experiment import verify_outputs
+
+    problems = [
+        problem
+        for summary in sorted(Path(args.results).glob("*/summary.json"))
+        if (study.experiments / f"{summary.parent.name}.toml").is_file()
+        for problem in verify_outputs(summary.parent)
+    ]
+    if problems:
+        raise ResultsError(
+            "results that no run produced: "
+            + "; ".join(problems[:8])
+            + ("" if len(problems) <= 8 else f" (and {len(problems) - 8} more)")
+            + "; re-run those experiments (roa run CONFIG --force)"
+        )
     if args.check:
         text = study.render_report(args.results, out)
         current = Path(out).read_text() if Path(out).is_file() else ""

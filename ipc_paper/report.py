@@ -6,8 +6,8 @@ import json
 import os
 from pathlib import Path
 
-from roa.experiment import VERDICTS
 from roa.errors import ResultsError
+from roa.experiment import VERDICTS
 from roa.io import atomic_write_text
 
 #: Sections in report order: (claim id prefix, heading).

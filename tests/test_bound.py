@@ -6,6 +6,7 @@ import json
 
 import numpy as np
 import pytest
+
 from ipc_paper.bound import (
     KAPPA,
     check_against_phi,
@@ -14,7 +15,6 @@ from ipc_paper.bound import (
     paper_bound,
     rhs_314,
 )
-
 from roa.cli import main
 
 

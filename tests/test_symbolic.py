@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 import sympy as sp
-from ipc_paper.errata import analyse
 
-from roa.systems.ipc import model
 from ipc_paper import symbolic as S
+from ipc_paper.errata import analyse
+from roa.systems.ipc import model
 
 
 @pytest.fixture(scope="module")

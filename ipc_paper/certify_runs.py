@@ -12,6 +12,7 @@ from roa.errors import RoaInputError
 from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import IntervalOptions, Options
+from roa.progress import step
 
 
 def _box_fraction(form, level: float, box, n: int, seed: int) -> dict[str, Any]:
@@ -86,6 +87,13 @@ def _physical(
     }
 
 
+def _level(res: Any) -> float:
+    """The level of a level search, or a clear error (the study needs one)."""
+    if res.level is None:
+        raise RuntimeError(f"level search ended {res.status.value}: {res.message}")
+    return float(res.level)
+
+
 def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
     """Certify ``below`` x the sampled optimum and refute ``above`` x it (roa.certify)."""
     from roa.certification import certify
@@ -151,32 +159,32 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     aux = p["sos_aux_degree"]
     aux = None if aux is None or int(aux) < 0 else int(aux)
     ev: dict[str, Any] = {}
-    # Van der Pol
-    vdp = vanderpol()
-    Vv = QuadraticLyapunov.for_system(vdp, P_BENCHMARK, "benchmark")
-    opt_v = float(level_search(vdp, Vv, shape="level", method="both").level)
-    ev["vanderpol"] = {
-        "sos": sos_level(vdp, Vv).to_json(),
-        **_certify_pair(vdp, Vv, opt_v, p),
-        "published": RHO_BENCHMARK,
-    }
-    # IPC, paper's V
+    with step("certify: Van der Pol benchmark (SOS, interval)"):
+        vdp = vanderpol()
+        Vv = QuadraticLyapunov.for_system(vdp, P_BENCHMARK, "benchmark")
+        opt_v = _level(level_search(vdp, Vv, shape="level", method="both"))
+        ev["vanderpol"] = {
+            "sos": sos_level(vdp, Vv).to_json(),
+            **_certify_pair(vdp, Vv, opt_v, p),
+            "published": RHO_BENCHMARK,
+        }
     ipc = transformed()
     Vp = paper_lyapunov()
-    opt_p = float(level_search(ipc, Vp, shape="level", method="both").level)
-    sos_p = {"enclosure": sos_level(ipc, Vp, recast_mode="enclosure").to_json()}
-    if p["sos_exact"]:
-        opts = {"time_limit": p["sos_time_limit"]}
-        sos_p["exact"] = sos_level(
-            ipc, Vp, recast_mode="exact", solver_options=opts, aux_degree=aux
-        ).to_json()
-        sos_p["exact_no_symmetry"] = sos_level(
-            ipc, Vp, recast_mode="exact", solver_options=opts, symmetry=False
-        ).to_json()
-    ipc_p = {"sos": sos_p, **_certify_pair(ipc, Vp, opt_p, p)}
-    ipc_p["physical"] = _physical(
-        Vp.P, ipc_p["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"]
-    )
+    with step("certify: IPC, the paper's V (SOS programs, interval validation)"):
+        opt_p = _level(level_search(ipc, Vp, shape="level", method="both"))
+        sos_p = {"enclosure": sos_level(ipc, Vp, recast_mode="enclosure").to_json()}
+        if p["sos_exact"]:
+            opts = {"time_limit": p["sos_time_limit"]}
+            sos_p["exact"] = sos_level(
+                ipc, Vp, recast_mode="exact", solver_options=opts, aux_degree=aux
+            ).to_json()
+            sos_p["exact_no_symmetry"] = sos_level(
+                ipc, Vp, recast_mode="exact", solver_options=opts, symmetry=False
+            ).to_json()
+        ipc_p = {"sos": sos_p, **_certify_pair(ipc, Vp, opt_p, p)}
+        ipc_p["physical"] = _physical(
+            Vp.P, ipc_p["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"]
+        )
     ev["ipc_paper"] = ipc_p
     # IPC, optimised V: searches (cached candidates, see search_cache.py), then certified afresh
     from roa.proof.search_cache import SearchCache
@@ -209,13 +217,14 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
             ).to_json()
 
         ckey = {"case": key, "system": system.name, "objective": objective, "P0": P0, **search}
-        res, hit = cache.get(ckey, compute)
-        Vo = QuadraticLyapunov(np.asarray(res["P"]), np.zeros(4), f"optimised ({key})")
-        opt_o = float(level_search(system, Vo, shape="level", method="both").level)
-        blk = {"search": {**res, "cached": hit}, **_certify_pair(system, Vo, opt_o, p)}
-        blk["physical"] = _physical(
-            Vo.P, blk["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"], coords
-        )
+        with step(f"certify: {key} (search or cache, then interval validation)"):
+            res, hit = cache.get(ckey, compute)
+            Vo = QuadraticLyapunov(np.asarray(res["P"]), np.zeros(4), f"optimised ({key})")
+            opt_o = _level(level_search(system, Vo, shape="level", method="both"))
+            blk = {"search": {**res, "cached": hit}, **_certify_pair(system, Vo, opt_o, p)}
+            blk["physical"] = _physical(
+                Vo.P, blk["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"], coords
+            )
         blk["coords"] = coords
         ev[key] = blk
         blocks[key] = (Vo, blk)
@@ -261,6 +270,9 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
         out / "certified.json",
         {"regions": regions, "optimised_P": Vo.P.tolist(), "sector_P": Vs.P.tolist()},
     )
+    # the optimised V of ipc-flat as files for `roa certify --lyapunov FILE`
+    atomic_write_json(out / "V_optimised_box.json", {"system": "ipc_flat", "P": Vo.P.tolist()})
+    atomic_write_json(out / "V_optimised_sector.json", {"system": "ipc_flat", "P": Vs.P.tolist()})
     return {"claims": _claims(ev), "evidence": "results/certify/evidence.json"}
 
 

@@ -230,7 +230,7 @@ def _integrate(
             t,
             x,
             f"settled at another equilibrium {np.array2string(points[0], precision=6)} by "
-            f"t_final = {rules.t_final:g} (not the studied {np.array2string(x_eq, precision=6)})",
+            f"t_final = {rules.t_final:g} (not the studied {np.array2string(system.x_eq, precision=6)})",
             system.name,
             meta={"equilibrium_reached": points[0].tolist()},
         )

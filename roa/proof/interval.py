@@ -100,12 +100,12 @@ def _enclose_constant(c: Any) -> Interval:
     a = np.asarray(c)
     if a.dtype == np.float64:
         return Interval(a)
-    f = a.astype(float)
+    fa = a.astype(float)
     if (a.dtype.kind == "f" and a.dtype.itemsize <= 4) or (
-        a.dtype.kind in "biu" and np.all(np.abs(f) <= 2.0**53)
+        a.dtype.kind in "biu" and np.all(np.abs(fa) <= 2.0**53)
     ):
-        return Interval(f)  # exactly representable in a double
-    return Interval(_down(f), _up(f))
+        return Interval(fa)  # exactly representable in a double
+    return Interval(_down(fa), _up(fa))
 
 
 class Interval:

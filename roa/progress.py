@@ -1,0 +1,46 @@
+"""Feedback on long work: one line per step with its time, and tqdm bars only on a terminal.
+
+On a terminal a step shows ``label ...`` while it runs; everywhere it ends with one line
+``label: 12.3 s``, so logs of non-interactive runs get a line per step and never a flood of bars.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any, TextIO
+
+
+def interactive(stream: TextIO | None = None) -> bool:
+    """Whether ``stream`` (default stderr) is a terminal."""
+    stream = sys.stderr if stream is None else stream
+    return bool(getattr(stream, "isatty", lambda: False)())
+
+
+@contextmanager
+def step(label: str, *, stream: TextIO | None = None, min_seconds: float = 0.0) -> Iterator[None]:
+    """Report ``label`` while it runs (terminal only) and its time when it ends.
+
+    Steps shorter than ``min_seconds`` print nothing at their end.
+    """
+    stream = sys.stderr if stream is None else stream
+    t0 = time.perf_counter()
+    if interactive(stream):
+        print(f"  {label} ...", end="\r", file=stream, flush=True)
+    try:
+        yield
+    finally:
+        dt = time.perf_counter() - t0
+        if dt >= min_seconds:
+            print(f"  {label}: {dt:.1f} s", file=stream, flush=True)
+
+
+def bar(total: int, desc: str, **kw: Any) -> Any:
+    """A tqdm bar on a terminal, ``None`` elsewhere (callers skip ``update`` when ``None``)."""
+    if not interactive():
+        return None
+    from tqdm import tqdm
+
+    return tqdm(total=total, desc=desc, **kw)

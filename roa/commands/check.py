@@ -34,6 +34,19 @@ def run(args: argparse.Namespace) -> int:
         )
         return 0
     rows = reference.check(registry, args.only, path=args.reference)
+    if not args.only:  # the outputs of the study's experiments next to the reference file
+        from pathlib import Path
+
+        from roa.experiment import verify_outputs
+
+        study = studies.get(args.study)
+        for summary in sorted(Path(args.reference).parent.glob("*/summary.json")):
+            if (study.experiments / f"{summary.parent.name}.toml").is_file():
+                problems = verify_outputs(summary.parent)
+                rows.append(
+                    {"key": f"outputs of {summary.parent.name}",
+                     "status": "modified" if problems else "ok", "error": "; ".join(problems)}
+                )  # fmt: skip
     bad = [r for r in rows if r["status"] != "ok"]
     if args.json:
         print(to_json({"rows": rows, "failed": [r["key"] for r in bad]}))

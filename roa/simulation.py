@@ -122,23 +122,17 @@ def simulate(
     from roa.checks import check_system
 
     check_system(system)
-    traj = _integrate(system, x0, rules=rules, rtol=rtol, atol=atol, method=method,
-                      t_eval=t_eval, max_step=max_step)  # fmt: skip
+    traj = _integrate(system, x0, rules, dict(rtol=rtol, atol=atol, method=method,
+                                              t_eval=t_eval, max_step=max_step))  # fmt: skip
     return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
 
 
 def _integrate(
-    system: System,
-    x0: Any,
-    *,
-    rules: StopRules | None = None,
-    rtol: float = 1e-9,
-    atol: float = 1e-11,
-    method: str = "DOP853",
-    t_eval: np.ndarray | None = None,
-    max_step: float = np.inf,
+    system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any]
 ) -> Trajectory:
+    """The run of :func:`simulate` (``ivp``: its solve_ivp options), without the timing."""
     rules = StopRules() if rules is None else rules
+    t_eval = ivp["t_eval"]
     x0 = system.check_state(x0, what="initial state")
     if x0.ndim != 1:
         raise RoaInputError(
@@ -190,13 +184,9 @@ def _integrate(
             rhs,
             (0.0, rules.t_final),
             x0,
-            method=method,
-            rtol=rtol,
-            atol=atol,
             events=events,
-            t_eval=t_eval,
-            max_step=max_step,
             dense_output=False,
+            **ivp,
         )
     t, x = sol.t, sol.y.T
     finite = np.all(np.isfinite(x), axis=1)

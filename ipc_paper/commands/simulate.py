@@ -7,18 +7,9 @@ import argparse
 
 import numpy as np
 
+from roa.commands._common import floats
 from roa.errors import RoaInputError
 from roa.io import to_json
-
-
-def _floats(text: str, what: str, n: int | None = None) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip() != ""]
-    except ValueError as exc:
-        raise RoaInputError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
-    if n is not None and len(vals) != n:
-        raise RoaInputError(f"{what}: expected {n} comma-separated numbers, got {len(vals)}")
-    return vals
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -60,13 +51,13 @@ def run(args: argparse.Namespace) -> int:
     from roa.systems import ipc
     from roa.systems.ipc.controller import Gains, make_reference
 
-    x0 = np.array(_floats(args.ic, "--ic", 4))
+    x0 = np.array(floats(args.ic, "--ic", 4))
     if args.poles and args.coefficients:
         raise RoaInputError("--poles and --coefficients are exclusive")
     if args.poles:
         gains = Gains.from_poles([complex(p.replace("i", "j")) for p in args.poles.split(",")])
     elif args.coefficients:
-        gains = Gains.from_coefficients(_floats(args.coefficients, "--coefficients", 4))
+        gains = Gains.from_coefficients(floats(args.coefficients, "--coefficients", 4))
     else:
         gains = Gains.default()
     if not args.t_final > 0:

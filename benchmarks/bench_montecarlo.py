@@ -1,19 +1,53 @@
-"""Benchmark: the Monte Carlo engine against a joblib loop over scipy's solve_ivp, side by side.
+"""Benchmark: the Monte Carlo engine, plain and with a certified terminal set, against a joblib loop
+over scipy's solve_ivp, side by side.
 
-The same 2,000 initial conditions of the IPC closed loop (physical coordinates, uniform in
-q, q' in [-3, 3], theta in [-1.5, 1.5], theta' in [-3, 3], seed 0), rtol 1e-6, atol 1e-9,
-T = 30, same stop rules, on the same number of cores. Checks that the statuses agree and prints the
-throughput of each and their ratio (target: engine >= 300x and >= 20,000 trajectories/s on 2 cores).
+The same initial conditions of the IPC closed loop (physical coordinates, uniform in q, q' in
+[-3, 3], theta in [-1.5, 1.5], theta' in [-3, 3], seed 0), rtol 1e-6, atol 1e-9, T = 30, same stop
+rules, on the same number of cores. The engine runs --n-engine states in each mode (plain; with the
+certified flat-coordinate V of results/certify/certified.json as terminal set, roa/montecarlo/
+terminal.py); the baseline runs their first --n. Prints trajectories/s, the ratio to the baseline
+and checks that the statuses of both modes agree with the baseline's. Targets (issue 14): plain
+>= 20,000/s on 2 cores; with the terminal set >= 100,000/s and >= 3,000x the baseline.
 
-    python benchmarks/bench_montecarlo.py [--jobs 2] [--n 2000]
+    python benchmarks/bench_montecarlo.py [--jobs 2] [--n 2000] [--n-engine 100000]
     python benchmarks/bench_montecarlo.py --memory [--n-memory 1000000]   # peak RSS, 10^6 streamed
+
+Profile of the physical numba kernel (one core of the 2-core machine, 20,000 states of the box;
+micro-benchmarks of 5e6 calls in a compiled loop; issue 14, item 2). Per RHS evaluation:
+
+* the whole kernel: ~85 ns per RHS evaluation, all costs included (~515 ns per accepted step of
+  6 evaluations; 112 steps per run, 17,000 runs/s per core); with the terminal set ~105 ns
+  (~640 ns per step, but 33.5 steps per run: 46,000 runs/s per core);
+* the physical field itself: ~36 ns when inlined, ~57 ns through the cfunc pointer of the meta
+  protocol: the call with array arguments (array structs, reference counts) costs ~15-20 ns, a
+  third of the field; a pointer-only signature (voidptr + numba.carray) measured ~42 ns. Not
+  changed: it would change the public meta protocol (FIELD_SIGNATURE) used by user systems; it is
+  the largest remaining item (~15 % of the kernel);
+* trig and pow in the field: sin + cos ~18 ns, log ~9 ns (arsinh(tan) written with the same sin,
+  cos and one log); the controller's coordinate map (2.2) is folded into the field (no tan,
+  arsinh or sqrt);
+* step-size control per step (not per RHS): en ** -0.2 ~14 ns, nextafter ~7 ns, the error norm
+  one sqrt: kept as they are (identical to scipy's RK45, so statuses agree bit for bit);
+* stop tests per step: margin through its pointer ~5 ns, two norms (two sqrt); the terminal-set
+  test ~75 ns (physical -> flat map with one sin, cos, log, then V: 16 multiply-adds), ~12 % of a
+  step: it ends runs ~3.3x sooner;
+* memory layout: states are rows of a C-contiguous (m, n) array, each run works in its own small
+  scratch arrays (7 x n stages): allocation is per run, not per step (< 1 %);
+* chunk size and work balance: with the engine's chunking (here n / (2 x jobs) per chunk, 2 per
+  worker) both processes finish within a few % of each other; joblib's process start-up and
+  dispatch cost ~0.1-0.3 s per run, hence runs of < 12,000 states stay in one process (engine
+  SMALL_RUN) and the throughputs here are for 10^5 states;
+* thread vs process pool: the kernel holds the GIL (no nogil), so the threading backend runs one
+  core; processes (loky, reused between runs) are used.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import threading
 import time
+from pathlib import Path
 
 import numpy as np
 import psutil
@@ -22,6 +56,7 @@ from joblib import Parallel, delayed
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample
+from roa.montecarlo.terminal import TerminalSet
 from roa.simulation import simulate
 from roa.status import StopRules
 from roa.systems import ipc
@@ -29,6 +64,7 @@ from roa.systems import ipc
 BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
 RULES = StopRules(t_final=30.0)
 RTOL, ATOL = 1e-6, 1e-9
+CERTIFIED = Path(__file__).resolve().parents[1] / "results/certify/certified.json"
 
 
 def _baseline_one(x: np.ndarray) -> str:
@@ -69,40 +105,69 @@ class PeakRSS:
         self._thread.join()
 
 
-def speed(n: int, jobs: int) -> None:
-    system = ipc.closed_loop()
-    smp = box_sample(system, BOX, n, seed=0)
-    X = smp.points(0, n)
-    # warm both sides (worker start-up, numba cache load) on a few other states
-    run_basin(system, box_sample(system, BOX, 64, seed=99), rules=RULES, n_jobs=jobs, chunk_size=32)
-    Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X[:8], jobs))
+def certified_set(which: str) -> TerminalSet:
+    """The IPC's certified flat-coordinate V from results/certify/certified.json (ipc_paper/certified.py).
 
-    times = []
-    for _ in range(3):  # the engine is cheap to repeat: median of 3 against load noise
+    ``which``: ``paper`` (V (3.11)) or ``optimised`` (the quadratic V maximising the box fraction).
+    """
+    prefix = {"paper": "paper V", "optimised": "optimised quadratic V (box fraction)"}[which]
+    data = json.loads(CERTIFIED.read_text())
+    for e in data["regions"]:
+        if e["name"].startswith(prefix) and e["status"] == "certified":
+            coords = e.get("coords", "flat")
+            return TerminalSet(e["P"], np.zeros(4), e["level"], coords=coords, name=e["name"])
+    raise SystemExit(f"{CERTIFIED}: no certified entry {prefix!r}")
+
+
+def _engine(system, smp, jobs, terminal=None, repeat=3):
+    chunk = max(1, -(-smp.n // (2 * jobs)))
+    times, run = [], None
+    for _ in range(repeat):  # the engine is cheap to repeat: median against load noise
         t0 = time.perf_counter()
         run = run_basin(system, smp, rules=RULES, rtol=RTOL, atol=ATOL, n_jobs=jobs,
-                        chunk_size=max(1, -(-n // (2 * jobs))), progress=False)  # fmt: skip
+                        chunk_size=chunk, progress=False, terminal=terminal)  # fmt: skip
         times.append(time.perf_counter() - t0)
-    t_engine = float(np.median(times))
+    return run, float(np.median(times)), min(times)
+
+
+def speed(n: int, n_engine: int, jobs: int, which: str) -> None:
+    system = ipc.closed_loop()
+    terminal = certified_set(which)
+    smp = box_sample(system, BOX, n_engine, seed=0)
+    X = smp.points(0, n)  # the baseline runs the first n of the engine's samples
+    # warm both sides (worker start-up, numba cache load) on a few other states
+    warm = box_sample(system, BOX, 64, seed=99)
+    for term in (None, terminal):
+        run_basin(system, warm, rules=RULES, n_jobs=jobs, chunk_size=32, terminal=term)
+    Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X[:8], jobs))
+
+    rows = [("plain", *_engine(system, smp, jobs)),
+            ("terminal", *_engine(system, smp, jobs, terminal))]  # fmt: skip
     t0 = time.perf_counter()
     parts = Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X, 8 * jobs))
     t_base = time.perf_counter() - t0
     base = [s for part in parts for s in part]
-    mine = [I.CODE_STATUS[int(c)].value for c in run.code]
-    agree = sum(a == b for a, b in zip(base, mine, strict=True))
-    print(
-        f"IPC, {n} initial conditions, rtol {RTOL:g}, atol {ATOL:g}, T = {RULES.t_final:g}, {jobs} cores"
-    )
-    print(f"  statuses (engine): {run.counts()}")
-    print(f"  statuses agree with solve_ivp(RK45): {agree}/{n}")
-    print(f"  engine  : {t_engine:8.3f} s  {n / t_engine:10.1f} trajectories/s (median of 3; best "
-          f"{n / min(times):.1f}/s)")  # fmt: skip
-    print(
-        f"  baseline: {t_base:8.3f} s  {n / t_base:10.1f} trajectories/s  (joblib loop over solve_ivp)"
-    )
-    print(f"  ratio engine / baseline: {t_base / t_engine:.1f}x")
-    if agree != n:
-        raise SystemExit("statuses disagree")
+    rate_base = n / t_base
+    print(f"IPC (physical coordinates), box {BOX}, rtol {RTOL:g}, atol {ATOL:g}, "
+          f"T = {RULES.t_final:g}, {jobs} cores")  # fmt: skip
+    print(f"terminal set: {terminal.name} (flat coordinates, V <= level (1 - 1e-9))")
+    print(f"  baseline (joblib loop over solve_ivp RK45): {n} states in {t_base:.2f} s = "
+          f"{rate_base:.1f} trajectories/s")  # fmt: skip
+    print(f"  {'mode':9s} {'states':>8s} {'seconds':>8s} {'traj/s':>10s} {'best/s':>10s} "
+          f"{'x baseline':>10s} {'agree':>11s}  entered")  # fmt: skip
+    bad = False
+    for mode, run, t_med, t_best in rows:
+        mine = [I.CODE_STATUS[int(c)].value for c in run.code[:n]]
+        agree = sum(a == b for a, b in zip(base, mine, strict=True))
+        bad |= agree != n
+        rate = n_engine / t_med
+        print(f"  {mode:9s} {n_engine:8d} {t_med:8.3f} {rate:10.0f} {n_engine / t_best:10.0f} "
+              f"{rate / rate_base:9.0f}x {agree:5d}/{n:<5d}  {run.entered_certified_set}")  # fmt: skip
+    print(f"  statuses (plain): {rows[0][1].counts()}")
+    print(f"  statuses (terminal): {rows[1][1].counts()}")
+    print("  targets: plain >= 20,000/s; terminal >= 100,000/s and >= 3,000x the baseline")
+    if bad:
+        raise SystemExit("statuses disagree with solve_ivp")
 
 
 def memory(n: int, jobs: int) -> None:
@@ -122,7 +187,19 @@ def main() -> None:
     ap = argparse.ArgumentParser(
         description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter
     )
-    ap.add_argument("--n", type=int, default=2000)
+    ap.add_argument("--n", type=int, default=2000, help="states of the solve_ivp baseline")
+    ap.add_argument(
+        "--n-engine",
+        type=int,
+        default=100_000,
+        help="states of the engine runs (the baseline's n are their first rows)",
+    )
+    ap.add_argument(
+        "--terminal",
+        choices=("paper", "optimised"),
+        default="optimised",
+        help="certified V of results/certify/certified.json for the terminal set",
+    )
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument(
         "--memory", action="store_true", help="stream --n-memory states, report peak RSS"
@@ -132,7 +209,7 @@ def main() -> None:
     if args.memory:
         memory(args.n_memory, args.jobs)
     else:
-        speed(args.n, args.jobs)
+        speed(args.n, max(args.n, args.n_engine), args.jobs, args.terminal)
 
 
 if __name__ == "__main__":

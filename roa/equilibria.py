@@ -28,7 +28,12 @@ def settled_elsewhere(
     for i in np.flatnonzero(np.isfinite(speed) & (speed < converge_tol)):
         with np.errstate(all="ignore"):
             sol = optimize.root(lambda x: system.f(x), X[i], method="hybr", tol=1e-12)
-        if not sol.success or not np.all(np.isfinite(sol.x)):
+        if not np.all(np.isfinite(sol.x)):
+            continue
+        with np.errstate(all="ignore"):
+            residual = float(np.linalg.norm(system.f(sol.x)))
+        # hybr may stop "without progress" at a root it cannot improve: the residual decides
+        if not (sol.success or residual <= 1e-10 * (1.0 + float(np.linalg.norm(sol.x)))):
             continue
         near = np.linalg.norm(sol.x - X[i]) <= converge_tol
         other = np.linalg.norm(sol.x - system.x_eq) > converge_tol

@@ -68,6 +68,13 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="draw {V <= RHO} for --lyapunov (default the system's V) after validating RHO with "
         "interval arithmetic (its verdict goes in the legend); needs --plot or --out; repeatable",
     )
+    p.add_argument(
+        "--terminal-set",
+        default=None,
+        metavar="FILE",
+        help="JSON of `roa certify --json` (status certified, for this system or its analysis "
+        "coordinates, e.g. ipc-flat for ipc): runs entering {V <= level} stop as converged",
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
 
@@ -249,6 +256,14 @@ def run(args: argparse.Namespace) -> int:
     if args.lyapunov_level and not plot:
         raise RoaInputError("--lyapunov-level draws level sets on the map: give --plot FILE")
     regs = lyapunov_regions(args, system)
+    terminal = None
+    if args.terminal_set is not None:
+        from roa.montecarlo.terminal import TerminalSet
+
+        try:
+            terminal = TerminalSet.from_certificate(args.terminal_set, system)
+        except RoaInputError as exc:
+            raise RoaInputError(str(exc).replace("terminal set ", "--terminal-set ", 1)) from None
     try:
         integrator = roa.IntegratorOptions(rtol=args.rtol, atol=args.atol)
         run_opts = roa.RunOptions(chunk_size=args.chunk_size, n_jobs=args.jobs, out_dir=args.out,
@@ -259,7 +274,8 @@ def run(args: argparse.Namespace) -> int:
                             ("RunOptions.chunk_size", "--chunk-size"), ("RunOptions.n_jobs", "--jobs")):  # fmt: skip
             msg = msg.replace(field, flag)
         raise RoaInputError(msg) from None
-    result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts)
+    result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
+                       terminal=terminal)  # fmt: skip
     summary = {**result.to_dict(), **mode}
     if plot:
         from roa.plotting.basin import plot_slice
@@ -279,4 +295,6 @@ def run(args: argparse.Namespace) -> int:
         lo, hi = summary["fraction_converged_ci95"]
         print(f"n = {summary['n']}: " + ", ".join(f"{k} {v}" for k, v in c.items()))
         print(f"fraction converged {summary['fraction_converged']:.4f} (95 % CI {lo:.4f}-{hi:.4f})")
+        if terminal is not None:
+            print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
     return 0

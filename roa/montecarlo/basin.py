@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -18,6 +19,7 @@ from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin, wilson_interval
 from roa.montecarlo.sampling import GridSlice
+from roa.montecarlo.terminal import TerminalSet
 from roa.options import IntegratorOptions, RunOptions
 from roa.status import BasinStatus, StopRules
 from roa.system import System
@@ -37,6 +39,11 @@ class BasinResult:
         Share of converged runs and its 95 % Wilson interval.
     code, t_end : ndarray
         Per initial condition: status code (:mod:`roa.montecarlo.integrator`) and stop time.
+    entered_certified_set : int
+        Converged runs finished on entering the terminal set (counted in ``counts["converged"]``;
+        their stop time is the entry time).
+    terminal : TerminalSet or None
+        The certified terminal set of the run, if any.
     """
 
     status: BasinStatus
@@ -55,6 +62,8 @@ class BasinResult:
     sampler: Any = field(repr=False, compare=False)
     rules: StopRules = field(default_factory=StopRules)
     integrator: IntegratorOptions = field(default_factory=IntegratorOptions)
+    entered_certified_set: int = 0
+    terminal: TerminalSet | None = field(default=None, repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """What ``roa basin --json`` prints (with the command's description of the samples)."""
@@ -74,8 +83,13 @@ class BasinResult:
             "chunks_computed": self.chunks_computed,
             "chunks_resumed": self.chunks_resumed,
             "chunks_rejected": self.chunks_rejected,
+            "entered_certified_set": self.entered_certified_set,
+            "terminal_set": None
+            if self.terminal is None
+            else {"name": self.terminal.name, "level": self.terminal.level,
+                  "coords": self.terminal.coords, "margin": "V <= level (1 - 1e-9)"},
             "seconds": round(self.seconds, 3),
-        }
+        }  # fmt: skip
 
     def plot(self, ax: Any = None, *, regions: Any = (), title: str | None = None) -> Any:
         """The basin map of a :func:`grid_slice` run, with optional regions drawn over it."""
@@ -99,6 +113,7 @@ def basin(
     rules: StopRules | None = None,
     integrator: IntegratorOptions | None = None,
     run: RunOptions | None = None,
+    terminal: TerminalSet | str | Path | dict | None = None,
 ) -> BasinResult:
     """Integrate every initial condition of ``sampler`` and count the statuses.
 
@@ -114,6 +129,10 @@ def basin(
         Tolerances and backend of the batch Dormand-Prince integrator.
     run : RunOptions, optional
         Workers, chunk size, resumable directory, Dask scheduler (none changes the result).
+    terminal : TerminalSet, path or dict, optional
+        A certified set ``{V <= level}`` (or the JSON of ``roa certify --json``, refused unless
+        certified and for this system or its analysis coordinates): runs that enter it stop as
+        converged, counted in ``entered_certified_set`` (:mod:`roa.montecarlo.terminal`).
 
     Examples
     --------
@@ -140,6 +159,8 @@ def basin(
                 f"sampler must have n, points(start, stop) and fingerprint() (e.g. "
                 f"roa.grid_slice or roa.box_sample), got {type(sampler).__name__}"
             )
+    if terminal is not None and not isinstance(terminal, TerminalSet):
+        terminal = TerminalSet.from_certificate(terminal, system)
     res = run_basin(
         system,
         sampler,
@@ -154,6 +175,7 @@ def basin(
         scheduler=run.scheduler,
         progress=run.progress,
         fresh=run.fresh,
+        terminal=terminal,
     )
     counts = res.counts()
     k = counts["converged"]
@@ -179,4 +201,6 @@ def basin(
         sampler,
         rules,
         integrator,
+        res.entered_certified_set,
+        terminal,
     )

@@ -42,6 +42,7 @@ from roa.errors import ResultsError, RoaInputError, SolverError
 from roa.io import atomic_write_bytes, atomic_write_json, code_hash, to_json
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.sampling import MAX_SAMPLES
+from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
 from roa.system import System
 
@@ -88,6 +89,8 @@ class BasinRun:
     chunks_computed: int = 0
     chunks_resumed: int = 0
     meta: dict[str, Any] = field(default_factory=dict)
+    #: Converged runs finished by the terminal set (counted as converged in :meth:`counts`).
+    entered_certified_set: int = 0
 
     @property
     def n(self) -> int:
@@ -131,16 +134,19 @@ class BasinRun:
             "ci_method": "Wilson score, 95 %",
             "chunks_computed": self.chunks_computed,
             "chunks_resumed": self.chunks_resumed,
+            "entered_certified_set": self.entered_certified_set,
             **self.meta,
         }
 
 
 def _chunk(
     system: System, sampler: Any, start: int, stop: int, opts: dict[str, Any]
-) -> tuple[int, np.ndarray, np.ndarray]:
+) -> tuple[int, np.ndarray, np.ndarray, int]:
     x0 = sampler.points(start, stop)
     res = I.integrate_batch(system, x0, **opts)
-    return start, res.code, res.t_end.astype(np.float32)
+    entered = getattr(res, "entered", None)
+    n_in = 0 if entered is None else int(np.count_nonzero(entered))
+    return start, res.code, res.t_end.astype(np.float32), n_in
 
 
 def _fingerprint(system: System, sampler: Any, opts: dict[str, Any], chunk: int) -> str:
@@ -164,15 +170,23 @@ def _chunk_path(d: Path, start: int) -> Path:
     return d / f"chunk_{start:012d}.npz"
 
 
-def _chunk_digest(run: str, start: int, code: np.ndarray, t_end: np.ndarray) -> str:
-    """SHA-256 binding a chunk's arrays to its run fingerprint, start index and length."""
-    h = hashlib.sha256(f"roa-chunk/{CHUNK_FORMAT}/{run}/{int(start)}/{int(code.size)}/".encode())
+def _chunk_digest(
+    run: str, start: int, code: np.ndarray, t_end: np.ndarray, entered: int = 0
+) -> str:
+    """SHA-256 binding a chunk's arrays (and its count of runs that entered the terminal set) to
+    its run fingerprint, start index and length."""
+    tail = f"entered={int(entered)}/" if entered else ""
+    h = hashlib.sha256(
+        f"roa-chunk/{CHUNK_FORMAT}/{run}/{int(start)}/{int(code.size)}/{tail}".encode()
+    )
     h.update(np.ascontiguousarray(code, dtype=np.int8).tobytes())
     h.update(np.ascontiguousarray(t_end, dtype="<f4").tobytes())
     return h.hexdigest()
 
 
-def _save_chunk(path: Path, run: str, start: int, code: np.ndarray, t_end: np.ndarray) -> None:
+def _save_chunk(
+    path: Path, run: str, start: int, code: np.ndarray, t_end: np.ndarray, entered: int = 0
+) -> None:
     code = np.ascontiguousarray(code, dtype=np.int8)
     t_end = np.ascontiguousarray(t_end, dtype="<f4")
     binding = {
@@ -180,8 +194,10 @@ def _save_chunk(path: Path, run: str, start: int, code: np.ndarray, t_end: np.nd
         "run": run,
         "start": int(start),
         "length": int(code.size),
-        "sha256": _chunk_digest(run, start, code, t_end),
+        "sha256": _chunk_digest(run, start, code, t_end, entered),
     }
+    if entered:
+        binding["entered"] = int(entered)
     buf = io.BytesIO()
     np.savez(buf, code=code, t_end=t_end, binding=np.array(json.dumps(binding, sort_keys=True)))
     try:
@@ -200,6 +216,7 @@ class _ChunkCheck:
     code: np.ndarray | None = None
     t_end: np.ndarray | None = None
     run: str | None = None  # the run it is bound to, when its binding is intact
+    entered: int = 0  # runs of the chunk that entered the terminal set
 
 
 def _read_chunk(path: Path, run: str, start: int, length: int) -> _ChunkCheck:
@@ -213,6 +230,7 @@ def _read_chunk(path: Path, run: str, start: int, length: int) -> _ChunkCheck:
         b_run, b_start = str(binding["run"]), int(binding["start"])
         b_length, b_sha = int(binding["length"]), str(binding["sha256"])
         fmt = int(binding["format"])
+        b_entered = int(binding.get("entered", 0))
     except Exception:  # noqa: BLE001 - truncated zip, bad arrays or JSON: any failure means unusable
         return _ChunkCheck("unreadable (truncated or corrupt)")
     if fmt != CHUNK_FORMAT:
@@ -221,7 +239,7 @@ def _read_chunk(path: Path, run: str, start: int, length: int) -> _ChunkCheck:
         return _ChunkCheck("wrong array types")
     if code.shape != t_end.shape or code.size != b_length:
         return _ChunkCheck("arrays do not match their recorded length")
-    if _chunk_digest(b_run, b_start, code, t_end) != b_sha:
+    if _chunk_digest(b_run, b_start, code, t_end, b_entered) != b_sha:
         return _ChunkCheck("checksum mismatch (contents changed)")
     if b_run != run:
         return _ChunkCheck("bound to another run", run=b_run)
@@ -231,7 +249,9 @@ def _read_chunk(path: Path, run: str, start: int, length: int) -> _ChunkCheck:
         return _ChunkCheck("unknown status codes")
     if not (np.isfinite(t_end).all() and (t_end >= 0).all()):
         return _ChunkCheck("invalid stop times")
-    return _ChunkCheck(None, code, t_end, b_run)
+    if not 0 <= b_entered <= np.count_nonzero(code == I.CONVERGED):
+        return _ChunkCheck("invalid count of runs that entered the certified set")
+    return _ChunkCheck(None, code, t_end, b_run, b_entered)
 
 
 def _read_run_file(run_file: Path) -> str | None:
@@ -277,11 +297,13 @@ def _prepare_out_dir(
     *,
     fresh: bool,
     replace_stale: bool,
+    entered: list[int] | None = None,
 ) -> tuple[Path, set[int], dict[str, int]]:
     """Check the run directory, load every verified chunk into ``code``/``t_end``.
 
     Returns the chunk directory, the starts resumed, and the rejected chunks per reason (those
-    files are deleted; their rows are recomputed).
+    files are deleted; their rows are recomputed). ``entered`` (a one-element list) accumulates
+    the resumed runs that entered the terminal set.
     """
     chunk_dir = Path(out_dir) / "chunks"
     try:
@@ -320,6 +342,8 @@ def _prepare_out_dir(
         if check.reason is None:
             code[start : start + length], t_end[start : start + length] = check.code, check.t_end
             done.add(start)
+            if entered is not None:
+                entered[0] += check.entered
             continue
         if check.run is not None and check.run != digest:
             foreign.add(check.run)
@@ -502,6 +526,7 @@ def run_basin(
     replace_stale: bool = False,
     fresh: bool = False,
     scheduler_timeout: float = SCHEDULER_TIMEOUT,
+    terminal: TerminalSet | None = None,
     _stop_after: int | None = None,
 ) -> BasinRun:
     """Integrate every initial condition of ``sampler`` and return their statuses.
@@ -535,6 +560,9 @@ def run_basin(
     scheduler_timeout : float
         Seconds to wait for the scheduler to answer and again for its first worker; then a
         :class:`roa.errors.SolverError` says what is wrong.
+    terminal : TerminalSet, optional
+        A certified set of the closed loop: runs entering it stop as converged (counted in
+        ``entered_certified_set``; :mod:`roa.montecarlo.terminal`). Part of the run fingerprint.
     """
     rules = StopRules() if rules is None else rules
     I.check_tolerances(rtol, atol, margin_tol)
@@ -559,6 +587,11 @@ def run_basin(
         "margin_tol": margin_tol,
         "backend": backend,
     }
+    if terminal is not None:
+        if not isinstance(terminal, TerminalSet):
+            raise RoaInputError(f"terminal must be a TerminalSet, got {type(terminal).__name__}")
+        terminal.bind(system)  # checked before any work
+        opts["terminal"] = terminal  # its repr is exact: part of the fingerprint
     n = int(sampler.n)
     _check_size(n)
     n_chunks = -(-n // chunk_size)
@@ -568,11 +601,13 @@ def run_basin(
     digest = ""
     done: set[int] = set()
     rejected: dict[str, int] = {}
+    entered = [0]
     if out_dir is not None:
         digest = _fingerprint(system, sampler, opts, chunk_size)
         chunk_dir, done, rejected = _prepare_out_dir(
-            out_dir, digest, n, chunk_size, code, t_end, fresh=fresh, replace_stale=replace_stale
-        )
+            out_dir, digest, n, chunk_size, code, t_end, fresh=fresh, replace_stale=replace_stale,
+            entered=entered,
+        )  # fmt: skip
     n_todo = n_chunks - len(done)
     if progress is None:
         progress = n_todo > 50
@@ -607,7 +642,7 @@ def run_basin(
                     from tqdm import tqdm
 
                     bar = tqdm(total=n_todo, unit="chunk", desc=f"basin {system.name}")
-                for s, c, te in results:
+                for s, c, te, k in results:
                     length = min(s + chunk_size, n) - s
                     if c.size != length or te.size != length:
                         raise ResultsError(
@@ -615,7 +650,8 @@ def run_basin(
                         )
                     code[s : s + length], t_end[s : s + length] = c, te
                     if chunk_dir is not None:
-                        _save_chunk(_chunk_path(chunk_dir, s), digest, s, c, te)
+                        _save_chunk(_chunk_path(chunk_dir, s), digest, s, c, te, k)
+                    entered[0] += k
                     computed += 1
                     if bar is not None:
                         bar.update(1)
@@ -630,7 +666,8 @@ def run_basin(
     if missing:
         raise ResultsError(f"internal error: {missing} of {n} initial conditions have no status")
     # n_jobs_used: local worker processes actually started (1: in-process), -1 on a Dask cluster
-    meta = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs}
+    meta: dict[str, Any] = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs}
     if rejected:
         meta["chunks_rejected_reasons"] = dict(rejected)
-    return BasinRun(code, t_end, chunks_computed=computed, chunks_resumed=len(done), meta=meta)
+    return BasinRun(code, t_end, chunks_computed=computed, chunks_resumed=len(done), meta=meta,
+                    entered_certified_set=entered[0])  # fmt: skip

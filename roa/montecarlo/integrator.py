@@ -27,11 +27,14 @@ version over ``system.f``. Measured on the IPC (2,000 states of the box q, q' in
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numba
 import numpy as np
 
 from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
+from roa.montecarlo import dopri as _base
 from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tableau)
     _A,
     _B,
@@ -50,10 +53,10 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     STATUS_NAMES,
     STEP_FAILURE,
     UNDECIDED,
-    BatchResult,
     check_tolerances,
 )
 from roa.montecarlo.integrator_numpy import integrate_numpy
+from roa.montecarlo.terminal import ENTERED, REASON, TerminalSet
 from roa.status import StopRules
 from roa.system import System
 
@@ -62,6 +65,9 @@ _ARR = numba.types.float64[::1]
 FIELD_SIGNATURE = numba.types.void(numba.types.float64, _ARR, _ARR, _ARR)
 #: Signature of a compiled margin ``margin(x, params) -> float`` (``numba.cfunc``).
 MARGIN_SIGNATURE = numba.types.float64(_ARR, _ARR)
+#: Signature of a compiled coordinate map ``coords(x, params, out)`` (simulated -> analysis
+#: coordinates of a terminal set; inf outside the map's domain).
+COORDS_SIGNATURE = numba.types.void(_ARR, _ARR, _ARR)
 
 
 def integrate_batch(
@@ -73,6 +79,7 @@ def integrate_batch(
     atol: float = 1e-9,
     margin_tol: float = 0.0,
     backend: str = "auto",
+    terminal: TerminalSet | None = None,
 ) -> BatchResult:
     """Integrate ``system`` from every row of ``x0`` (shape ``(m, n)``) until its own event.
 
@@ -90,6 +97,9 @@ def integrate_batch(
         The domain is left when ``margin(x) <= margin_tol`` (default 0: the boundary itself).
     backend : {"auto", "numba", "numpy"}
         ``auto`` uses the numba kernel when ``system.meta["numba"]`` exists.
+    terminal : TerminalSet, optional
+        A certified set: runs entering it stop as ``converged`` (``entered`` marks them; see
+        :mod:`roa.montecarlo.terminal`).
     """
     rules = StopRules() if rules is None else rules
     check_tolerances(rtol, atol, margin_tol)
@@ -103,10 +113,27 @@ def integrate_batch(
     if backend not in ("auto", "numba", "numpy"):
         raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
     use_numba = backend == "numba" or (backend == "auto" and "numba" in system.meta)
+    bound = None if terminal is None else terminal.bind(system)
     if use_numba:
         if "numba" not in system.meta:
             raise RoaInputError(f"system {system.name!r} provides no numba field (meta['numba'])")
-        field, margin, params = system.meta["numba"]()
+        factory = system.meta["numba"]
+        if terminal is None or terminal.coords is None:
+            field, margin, params = factory()
+            coords = identity_coords
+        else:
+            try:
+                field, margin, params, coords = factory(coords=terminal.coords)
+            except (TypeError, ValueError, KeyError):
+                raise RoaInputError(
+                    f"system {system.name!r}: its numba kernels have no compiled map to the "
+                    f"coordinates {terminal.coords!r} of the terminal set (use backend='numpy')"
+                ) from None
+        n = system.n
+        if terminal is None:
+            tP, tc, thr = np.zeros((n, n)), np.zeros(n), -np.inf
+        else:
+            tP, tc, thr = np.array(terminal.P), np.array(terminal.center), terminal.threshold
         m = x0.shape[0]
         code = np.empty(m, np.int8)
         t_end = np.empty(m)
@@ -114,12 +141,32 @@ def integrate_batch(
         steps = np.empty(m, np.int64)
         _kernel(
             field, margin, np.asarray(params, dtype=float), x0, system.x_eq, rules.converge_tol,
-            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol, code, t_end, x_end, steps,
+            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol,
+            terminal is not None, coords, tP, tc, thr, code, t_end, x_end, steps,
         )  # fmt: skip
-        res = BatchResult(code, t_end, x_end, steps)
+        res = _base.BatchResult(code, t_end, x_end, steps)
     else:
-        res = integrate_numpy(system, x0, rules=rules, rtol=rtol, atol=atol, margin_tol=margin_tol)
+        res = integrate_numpy(system, x0, rules=rules, rtol=rtol, atol=atol, margin_tol=margin_tol,
+                              terminal=bound)  # fmt: skip
+    entered = res.code == ENTERED
+    res.code[entered] = CONVERGED
+    res = BatchResult(res.code, res.t_end, res.x_end, res.steps, entered)
     return _elsewhere(system, res, rules.converge_tol)
+
+
+@dataclass(frozen=True)
+class BatchResult(_base.BatchResult):
+    """:class:`roa.montecarlo.dopri.BatchResult` plus ``entered``: the converged runs that entered
+    the terminal set (their ``t_end`` is the entry time, their reason :data:`REASON`)."""
+
+    entered: np.ndarray | None = None
+
+    def reasons(self) -> list[str]:
+        """Per run: :data:`REASON` for runs finished by the terminal set, else the status name."""
+        ent = np.zeros(self.code.size, bool) if self.entered is None else self.entered
+        return [
+            REASON if e else CODE_STATUS[int(c)].value for c, e in zip(self.code, ent, strict=True)
+        ]
 
 
 def _elsewhere(system: System, res: BatchResult, converge_tol: float) -> BatchResult:
@@ -174,7 +221,24 @@ def _dense(y, h, Q, s, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _one(field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, x_out):
+def _inside(y, coords, params, tP, tc, thr, w):
+    # V(coords(y)) <= thr; NaN compares False (outside)
+    coords(y, params, w)
+    n = w.shape[0]
+    v = 0.0
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += tP[i, j] * (w[j] - tc[j])
+        v += (w[i] - tc[i]) * acc
+    return v <= thr
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _one(
+    field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
+    term, coords, tP, tc, thr, x_out,
+):  # fmt: skip
     n = y0.shape[0]
     A, B, C, E, P = _A, _B, _C, _E, _P
     K = np.empty((7, n))
@@ -199,6 +263,10 @@ def _one(field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol,
     if g_old[2] <= 0.0:
         x_out[:] = y
         return DIVERGED, 0.0, 0
+    w = np.empty(n)
+    if term and _inside(y, coords, params, tP, tc, thr, w):
+        x_out[:] = y
+        return ENTERED, 0.0, 0
     t = 0.0
     f = K[0]
     field(t, y, params, f)
@@ -314,6 +382,9 @@ def _one(field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol,
                     _dense(y, h, Q, hi, x_out)
         if first >= 0:
             return first, t_first, steps  # codes 0, 1, 2 match the event order
+        if term and _inside(y_new, coords, params, tP, tc, thr, w):
+            x_out[:] = y_new
+            return ENTERED, t_new, steps
         t = t_new
         for i in range(n):
             y[i] = y_new[i]
@@ -335,6 +406,11 @@ def _kernel(
     t_final,
     rtol,
     atol,
+    term,
+    coords,
+    tP,
+    tc,
+    thr,
     code,
     t_end,
     x_end,
@@ -353,6 +429,11 @@ def _kernel(
             t_final,
             rtol,
             atol,
+            term,
+            coords,
+            tP,
+            tc,
+            thr,
             x_end[k],
         )
         code[k] = c
@@ -364,3 +445,10 @@ def _kernel(
 def no_margin(x: np.ndarray, params: np.ndarray) -> float:
     """Margin of a system whose domain is the whole space (for numba fields)."""
     return np.inf
+
+
+@numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
+def identity_coords(x: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
+    """The identity coordinate map (a terminal set in the simulated coordinates)."""
+    for i in range(x.shape[0]):
+        out[i] = x[i]

@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 
 from roa.montecarlo import dopri as I  # noqa: N812
+from roa.montecarlo.terminal import ENTERED, BoundTerminal
 from roa.status import StopRules
 from roa.system import System
 
@@ -37,9 +38,19 @@ def _np():
 
 
 def integrate_numpy(
-    system: System, x0: np.ndarray, *, rules: StopRules, rtol: float, atol: float, margin_tol: float
+    system: System,
+    x0: np.ndarray,
+    *,
+    rules: StopRules,
+    rtol: float,
+    atol: float,
+    margin_tol: float,
+    terminal: BoundTerminal | None = None,
 ) -> I.BatchResult:
-    """See :func:`roa.montecarlo.integrator.integrate_batch` (``backend="numpy"``)."""
+    """See :func:`roa.montecarlo.integrator.integrate_batch` (``backend="numpy"``).
+
+    Runs that enter ``terminal`` get the internal code :data:`roa.montecarlo.terminal.ENTERED`.
+    """
     m, n = x0.shape
     code = np.full(m, -1, np.int8)
     t_end = np.zeros(m)
@@ -50,6 +61,9 @@ def integrate_numpy(
     code[~finite] = I.DIVERGED
     for e, c in ((0, I.CONVERGED), (1, I.LEFT_DOMAIN), (2, I.DIVERGED)):
         code[(code < 0) & (g0[:, e] <= 0)] = c
+    if terminal is not None:
+        free = np.flatnonzero(code < 0)
+        code[free[terminal.inside(x0[free])]] = ENTERED
     idx = np.flatnonzero(code < 0)
     if idx.size == 0:
         return I.BatchResult(code, t_end, x_end, steps)
@@ -153,6 +167,14 @@ def integrate_numpy(
         y = np.where(adv[:, None], y_new, y)
         K0 = np.where(adv[:, None], K[6], K0)
         g_old = np.where(adv[:, None], g_new, g_old)
+        if terminal is not None:
+            cand = np.flatnonzero(adv)
+            ent = np.zeros(idx.size, bool)
+            ent[cand[terminal.inside(y[cand])]] = True
+            if ent.any():
+                finish(ent, ENTERED, t[ent], y[ent])
+                done |= ent
+                adv &= ~ent
         end = adv & (t >= rules.t_final)
         if end.any():
             finish(end, I.UNDECIDED, t[end], y[end])

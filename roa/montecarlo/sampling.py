@@ -62,7 +62,7 @@ def _gauss_radius(rng: np.random.Generator, shape: tuple[int, int]) -> np.ndarra
 def axis_index(system: System, name: str) -> int:
     """Index of the state called ``name``; ValueError listing the allowed names."""
     if name not in system.state_names:
-        raise ValueError(
+        raise RoaInputError(
             f"unknown state axis {name!r} for system {system.name!r}; "
             f"allowed: {', '.join(system.state_names)}"
         )
@@ -119,22 +119,22 @@ def grid_slice(
     slice values outside the domain are simply ``left_domain`` at t = 0.
     """
     if len(axes) != 2 or axes[0] == axes[1]:
-        raise ValueError(f"--slice needs two different state axes, got {list(axes)}")
+        raise RoaInputError(f"axes: need two different state axes, got {list(axes)}")
     ia, ib = (axis_index(system, a) for a in axes)
     nx, ny = shape
     if nx < 2 or ny < 2:
-        raise ValueError(f"--grid must be at least 2x2, got {nx}x{ny}")
+        raise RoaInputError(f"shape: the grid must be at least 2x2, got {nx}x{ny}")
     base = system.x_eq.copy()
     for name, value in (fixed or {}).items():
         i = axis_index(system, name)
         if i in (ia, ib):
-            raise ValueError(f"--fix {name}: {name} is a slice axis, it cannot also be fixed")
+            raise RoaInputError(f"fixed: {name} is a slice axis, it cannot also be fixed")
         base[i] = float(value)
     shown = ", ".join(f"{n} = {float(v):g}" for n, v in zip(system.state_names, base, strict=True))
     system.check_state(base, what=f"fixed state ({shown})")
     for name, (lo, hi) in zip(axes, ranges, strict=True):
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
-            raise ValueError(f"range of {name}: need finite low < high, got ({lo}, {hi})")
+            raise RoaInputError(f"range of {name}: need finite low < high, got ({lo}, {hi})")
     xs = np.linspace(*ranges[0], nx)
     ys = np.linspace(*ranges[1], ny)
     return GridSlice((ia, ib), xs, ys, base)
@@ -152,9 +152,9 @@ class BoxSample:
 
     def __post_init__(self) -> None:
         if not (np.all(np.isfinite(self.low)) and np.all(np.isfinite(self.high))):
-            raise ValueError("box bounds must be finite")
+            raise RoaInputError("box bounds must be finite")
         if np.any(self.low > self.high):
-            raise ValueError("box: every low bound must be <= its high bound")
+            raise RoaInputError("box: every low bound must be <= its high bound")
         object.__setattr__(self, "n", check_count(self.n, "samples (n)"))
 
     @property
@@ -176,8 +176,8 @@ def box_sample(
 ) -> BoxSample:
     """Seeded uniform samples in a box of the system's states (one (low, high) per state)."""
     if len(box) != system.n:
-        raise ValueError(
-            f"--box needs {system.n} ranges ({', '.join(system.state_names)}), got {len(box)}"
+        raise RoaInputError(
+            f"box: needs {system.n} ranges ({', '.join(system.state_names)}), got {len(box)}"
         )
     arr = np.asarray(box, dtype=float)
     return BoxSample(arr[:, 0], arr[:, 1], _as_count(n), int(seed))
@@ -200,7 +200,7 @@ class RegionSample:
 
     def __post_init__(self) -> None:
         if self.mode not in ("inside", "surface"):
-            raise ValueError(f"region sample mode must be 'inside' or 'surface', got {self.mode!r}")
+            raise RoaInputError(f"region sample mode must be 'inside' or 'surface', got {self.mode!r}")
         object.__setattr__(self, "n", check_count(self.n, "samples (n)"))
         L = np.linalg.cholesky(self.P)  # P = L L'; y'Py = |L'y|^2
         object.__setattr__(self, "_Linv", np.linalg.inv(L.T))
@@ -235,7 +235,7 @@ def region_sample(
 ) -> RegionSample:
     """Sample a Region's set; ``inverse`` maps analysis coordinates back (e.g. ipc.from_flat)."""
     if region.coords is not None and inverse is None:
-        raise ValueError(
+        raise RoaInputError(
             f"region {region.name!r} lives in other coordinates than the system: pass inverse= "
             "(the map from its analysis coordinates back to the system's)"
         )

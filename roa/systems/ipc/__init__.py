@@ -182,12 +182,20 @@ def transformed(*, gains: Gains | None = None, reference: Reference | str | None
 
 
 def _numba_meta(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
-    """``{"numba": factory}`` for the batch integrator (zero reference only; see ipc/fast.py)."""
+    """``{"numba": factory}`` for the batch integrator (zero reference only; see ipc/fast.py), and
+    for the physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
+    coordinates, roa/montecarlo/terminal.py)."""
     if not reference.is_zero:
         return {}
     from roa.systems.ipc import fast
 
-    return {"numba": fast.PhysicalKernels(**kw) if which == "physical" else fast.FlatKernels(**kw)}
+    if which != "physical":
+        return {"numba": fast.FlatKernels(**kw)}
+    meta: dict[str, Any] = {"numba": fast.PhysicalKernels(**kw)}
+    if kw.get("saturation") is None:  # terminal sets in flat/hybrid coordinates (terminal.py)
+        default = np.allclose(kw["h"], Gains.default().h)
+        meta["analysis_coords"] = fast.AnalysisCoords(default_gains=bool(default))
+    return meta
 
 
 #: The reference 4D box of physical initial states (q, q', theta, theta') shared by the Monte Carlo

@@ -8,7 +8,7 @@ experiment.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -256,10 +256,113 @@ def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any
             "sector_60_converged": int(np.sum(conv & (np.abs(th) < SECTOR)))}  # fmt: skip
 
 
+#: Names of the physical states in titles (fixed states) and the axis labels of Figures 1-2.
+STATE_WORDS = ("q", "q'", "theta", "theta'")
+#: Most regions on one panel of a basin map (its legend has at most this many entries).
+MAX_PER_PANEL = 6
+
+
+def _source(r: Region) -> str:
+    return str(r.meta.get("source", ""))
+
+
+def _pick(regs: list[Region], test: Any) -> list[Region]:
+    return [r for r in regs if test(r)][:1]
+
+
+def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list[Region]]]:
+    """The panels of a basin map and their regions (at most :data:`MAX_PER_PANEL` each).
+
+    Every estimate here is of the closed loop without saturation: the saturated loop gets one panel
+    with only the paper's ball, drawn as a reference (no certificate exists for that loop).
+    Otherwise (a) the paper's estimates against ours (sampled and certified), (b) the best
+    certified regions (largest box share, widest sector, per coordinates, the one around the
+    paper's ball) against the empirical basin, plus any refuted or inconclusive level.
+    """
+    ball_name = paper_ball().name
+    if saturated:
+        ref = [
+            replace(r, meta={**r.meta, "label": "paper's ball ||T x||^2 <= 4.89 "
+                                         "(claimed for the loop without saturation)"})
+            for r in regs if r.name == ball_name
+        ]  # fmt: skip
+        return [("empirical basin of the saturated loop", ref)]
+    paper = (
+        _pick(regs, lambda r: r.name == ball_name)
+        + _pick(regs, lambda r: r.status == "claimed" and _source(r) == "paper c~ = 2.25")
+        + _pick(regs, lambda r: _source(r) == "Khalil search, ball shape")
+        + _pick(regs, lambda r: _source(r) == "Khalil search, V-level shape")
+        + _pick(regs, lambda r: r.status == "certified" and r.name.startswith("paper V (3.11)"))
+        + _pick(regs, lambda r: _source(r).startswith("corrected analytic bound"))
+    )
+    optimised = [r for r in regs if r.status == "certified" and "box_fraction" in r.meta
+                 and not r.name.startswith("paper V (3.11)")]  # fmt: skip
+    best: list[Region] = []
+
+    def add(rs: list[Region]) -> None:
+        for r in rs:
+            if r not in best:
+                best.append(r)
+
+    if optimised:
+        add([max(optimised, key=lambda r: float(r.meta.get("box_fraction") or 0.0))])
+        add([max(optimised, key=lambda r: float(r.meta.get("sector_deg") or 0.0))])
+        for coords in sorted({str(r.meta.get("coords", "flat")) for r in optimised}):
+            same = [r for r in optimised if str(r.meta.get("coords", "flat")) == coords]
+            add([max(same, key=lambda r: float(r.meta.get("sector_deg") or 0.0))])
+        add([r for r in optimised if "paper's ball" in r.name][:1])
+    doubtful = [r for r in regs if r.status in ("refuted", "inconclusive")]
+    best = (best + doubtful)[:MAX_PER_PANEL]
+    panels = [("(a) the paper's estimates against ours", paper[:MAX_PER_PANEL])]
+    if best:
+        panels.append(("(b) best certified regions against the empirical basin", best))
+    return panels
+
+
+def _basin_title(title: str, code: np.ndarray, sat: float | None) -> str:
+    n, k = code.size, int(np.sum(code == I.CONVERGED))
+    if k == n:
+        where = f"the basin is the whole slice: all {n} grid points converge"
+    else:
+        where = f"basin edge inside the slice: {k} of {n} grid points converge"
+    if sat is not None:
+        where += "; no certificate exists for the saturated loop"
+    return f"{title}\n{where}"
+
+
+def slice_map(
+    system: Any,
+    grid: Any,
+    run: BasinResult,
+    regs: list[Region],
+    *,
+    title: str,
+    saturation: float | None,
+    converge_tol: float,
+) -> Any:
+    """The basin map of a slice run as a matplotlib Figure (unsaved): panels of
+    :func:`slice_panels`, converged points by time to converge, failures by status."""
+    from matplotlib.patches import Patch
+
+    from ipc_paper.figures import IPC_LABELS
+    from roa.plotting.basin import TIME_CMAP, slice_figure
+
+    panels = slice_panels(regs, saturated=saturation is not None)
+    lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
+    empirical = Patch(color=TIME_CMAP(0.45), label="empirical basin: converged grid points")
+    return slice_figure(
+        system, grid, run.code, t_end=run.t_end, panels=panels, lines=lines,
+        title=_basin_title(title, run.code, saturation), axis_labels=IPC_LABELS,
+        state_names=STATE_WORDS, extra_handles=[empirical],
+        time_label=f"time to converge t [-] (normalised; until |x| < {converge_tol:g})",
+        zoom=[0] if len(panels) > 1 else [],
+    )  # fmt: skip
+
+
 @accepts(SliceParams)
 def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """A 2D slice map with every region drawn, containment per region, optional sector line scan."""
-    from roa.plotting.basin import plot_slice, slice_containment
+    from roa.plotting.basin import save_figure, slice_containment
 
     sat = params["saturation"]
     system = ipc.closed_loop(saturation=None if sat is None else float(sat))
@@ -269,14 +372,16 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
                    fixed=dict(params["fixed"]))  # fmt: skip
     run = _basin(system, g, opts, out)
     regs, source = regions(out.parent)
-    lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
     title = params["title"]
     if title is None:
-        title = f"IPC basin, slice ({axes[0]}, {axes[1]})"
+        words = dict(zip(ipc.PHYSICAL_NAMES, STATE_WORDS, strict=True))
+        title = f"IPC basin, slice ({words.get(axes[0], axes[0])}, {words.get(axes[1], axes[1])})"
     if sat is not None:
-        title += f", saturation |u| <= {float(sat):g}"
+        title += f", saturated force |u| <= {float(sat):g}"
     png = out / "basin.png"
-    plot_slice(system, g, run.code, png, regions=regs, lines=lines, title=title)
+    fig = slice_map(system, g, run, regs, title=title, saturation=sat,
+                    converge_tol=opts["rules"].converge_tol)  # fmt: skip
+    save_figure(fig, png)
     contain = [slice_containment(g, run.code, r) for r in regs]
     summary: dict[str, Any] = {**_run_summary(run), "axes": axes, "grid": list(params["grid"]),
                                "ranges": [list(r) for r in params["ranges"]],

@@ -39,6 +39,30 @@ def coords_map(name: str) -> Callable[[np.ndarray], np.ndarray]:
     raise RoaInputError(f"coords {name!r}: allowed {', '.join(COORDS)}")
 
 
+#: Plain legend words per certified entry, by the start of its name (written by certify_runs).
+_PLAIN = (
+    ("paper V (3.11)", "level set of the paper's V"),
+    ("optimised quadratic V (box fraction)", "optimised V, largest box share"),
+    ("optimised quadratic V (sector)", "optimised V, widest sector"),
+    ("optimised quadratic V (paper's ball)", "optimised V around the paper's ball"),
+    ("quadratic V in hybrid coordinates (sector)", "V in (q, z2, w1, w2), widest sector"),
+    (
+        "quadratic V in hybrid coordinates (box fraction)",
+        "V in (q, z2, w1, w2), largest box share",
+    ),
+)
+
+
+def plain_label(name: str, status: str, level: float) -> str:
+    """Legend text of a certified entry in plain words, e.g. "our certified level set of the
+    paper's V: V <= 2.281" (the status word once; other verdicts say "candidate")."""
+    what = next((w for start, w in _PLAIN if name.startswith(start)), None)
+    if what is None:
+        what = name.split(":")[0]
+    word = "certified" if status == "certified" else "candidate"
+    return f"our {word} {what}: V <= {level:.4g}"
+
+
 def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
     """The IPC's certified sublevel sets ``{V(coords(x)) <= level}``.
 
@@ -59,7 +83,10 @@ def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
                 float(entry["level"]),
                 entry["status"],
                 coords_map(entry.get("coords", "flat")),
-                {k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")},
+                {
+                    **{k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")},
+                    "label": plain_label(entry["name"], entry["status"], float(entry["level"])),
+                },
             )
         )
     return out
@@ -78,5 +105,7 @@ def load_optimised_P(path: str | Path = CERTIFIED_PATH, *, which: str = "box") -
         raise RoaInputError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
     data = json.loads(path.read_text())
     if keys[which] not in data:
-        raise RoaInputError(f"{path} has no {keys[which]}: rerun `roa run experiments/certify.toml`")
+        raise RoaInputError(
+            f"{path} has no {keys[which]}: rerun `roa run experiments/certify.toml`"
+        )
     return np.asarray(data[keys[which]], dtype=float)

@@ -86,7 +86,11 @@ def _regions() -> tuple[Region, ...]:
             float(np.sqrt(PAPER_C_STAR_SQ)),
             "claimed",
             coords,
-            {"source": "paper (3.16) as printed", "invariant": False},
+            {
+                "source": "paper (3.16) as printed",
+                "invariant": False,
+                "label": "paper's (3.16) as printed: ||T x||^2 <= 2.211",
+            },
         ),
         Region(
             f"ours: ||Tx||^2 <= c*^2 = {c_ball:.4f} (Phi <= 0)",
@@ -98,6 +102,7 @@ def _regions() -> tuple[Region, ...]:
                 "source": "Khalil search, ball shape",
                 "invariant": False,
                 "note": "V' < 0 on this ball, but a ball is not invariant: not an ROA estimate",
+                "label": f"our sampled largest ball with V' <= 0: ||T x||^2 <= {c_ball:.3f}",
             },
         ),
         Region(
@@ -106,7 +111,11 @@ def _regions() -> tuple[Region, ...]:
             c_level,
             "sampled",
             coords,
-            {"source": "Khalil search, V-level shape", "invariant": True},
+            {
+                "source": "Khalil search, V-level shape",
+                "invariant": True,
+                "label": f"our sampled level set of the paper's V: V <= {c_level:.4f}",
+            },
         ),
         Region(
             f"ours: ball inside V <= {c_level:.4f}: ||Tx||^2 <= "
@@ -115,7 +124,12 @@ def _regions() -> tuple[Region, ...]:
             inner_level(S_level, c_level, S_ball),
             "sampled",
             coords,
-            {"source": "largest ball inside the sound V-level set", "invariant": False},
+            {
+                "source": "largest ball inside the sound V-level set",
+                "invariant": False,
+                "label": "our sampled ball inside that level set: ||T x||^2 <= "
+                f"{inner_level(S_level, c_level, S_ball):.3f}",
+            },
         ),
         Region(
             "paper bound (3.14): ||Tx||^2 <= 2.25",
@@ -123,7 +137,11 @@ def _regions() -> tuple[Region, ...]:
             paper["c_tilde"],
             "claimed",
             coords,
-            {"source": "paper c~ = 2.25", "invariant": False},
+            {
+                "source": "paper c~ = 2.25",
+                "invariant": False,
+                "label": "paper's bound (3.14): ||T x||^2 <= 2.25",
+            },
         ),
         Region(
             f"corrected bound: V < {corr['V_level_in_slab']:.5f}",
@@ -135,6 +153,7 @@ def _regions() -> tuple[Region, ...]:
                 "source": "corrected analytic bound (3.14), proof by hand, re-checked by interval "
                 f"validation: {verdict.message}",
                 "invariant": True,
+                "label": f"corrected bound (3.14), by hand: V <= {corr['V_level_in_slab']:.4f}",
             },
         ),
         Region(
@@ -146,6 +165,7 @@ def _regions() -> tuple[Region, ...]:
             {
                 "source": "ball inside the corrected-bound V-level set (lambda_max(P_q) bound)",
                 "invariant": False,
+                "label": f"ball inside the corrected bound: ||T x||^2 <= {corr['ball_in_V_level']:.4f}",
             },
         ),
     )
@@ -161,7 +181,11 @@ def paper_ball() -> Region:
         PAPER_C_STAR_SQ,
         "claimed",
         physical_to_flat_or_inf,
-        {"source": "paper c*^2 = 4.89", "invariant": False},
+        {
+            "source": "paper c*^2 = 4.89",
+            "invariant": False,
+            "label": "paper's ball ||T x||^2 <= 4.89",
+        },
     )
 
 

@@ -1,39 +1,107 @@
-"""Basin maps: statuses over a 2D slice, with every region estimate drawn as a contour."""
+"""Basin maps: statuses over a 2D slice, with region estimates drawn as contours.
+
+Converged points are coloured by their time to converge (a colormap with a colorbar) when the stop
+times ``t_end`` are given, failures by status (solid colours). Region estimates are drawn with one
+line style per kind (:data:`KIND_STYLES`: claimed dashed, sampled dotted, certified solid, refuted
+and inconclusive thin grey dash-dot) and one colour family per kind, so a reader can tell a claim
+from a proof in every figure. :func:`slice_figure` returns the matplotlib Figure (several panels,
+legends below the axes, a shared strip) before :func:`save_figure` writes it.
+"""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.colors import BoundaryNorm, ListedColormap
+from matplotlib.colors import BoundaryNorm, LinearSegmentedColormap, ListedColormap, Normalize
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from roa.io import atomic_savefig
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo import dopri as I  # noqa: N812  (status codes, without numba)
 from roa.montecarlo.sampling import GridSlice
 from roa.regions import Region
 from roa.system import System
 
-#: Colour per status code (step-size failures are drawn as undecided).
+#: Colour per status display index (step-size failures are drawn as undecided); converged points
+#: are drawn with :data:`TIME_CMAP` instead when stop times are given.
 STATUS_COLOURS = {
     I.CONVERGED: "#9fd89b",
-    I.LEFT_DOMAIN: "#f4a259",
-    I.DIVERGED: "#b07cc6",
-    I.UNDECIDED: "#9a9a9a",
-    4: "#3b8bd0",  # display index of CONVERGED_ELSEWHERE
+    I.LEFT_DOMAIN: "#f08a24",
+    I.DIVERGED: "#9e5fc0",
+    I.UNDECIDED: "#8a8a8a",
+    4: "#a6761d",  # display index of CONVERGED_ELSEWHERE
 }
-REGION_COLOURS = ("#d62728", "#1f77b4", "#000000", "#17becf", "#ff7f0e", "#8c564b", "#e377c2",
-                  "#2ca02c", "#7f7f7f", "#bcbd22")  # fmt: skip
-REGION_STYLES = ("-", "--", "-.", ":")
+#: Plain words per status display index, for legends.
+STATUS_WORDS = ("converged", "left the domain", "diverged", "undecided at t_final",
+                "converged to another equilibrium")  # fmt: skip
+#: Converged points by time to converge: light (fast) to dark green (slow), light enough that the
+#: region lines stay visible.
+TIME_CMAP = LinearSegmentedColormap.from_list(
+    "time_to_converge", plt.get_cmap("YlGn")(np.linspace(0.06, 0.62, 256))
+)
+TIME_LABEL = "time to converge t [-] (normalised)"
+
+#: Line style, width and colour family per region status (the kind of an estimate).
+KIND_STYLES: dict[str, dict[str, Any]] = {
+    "claimed": {"ls": (0, (6, 3)), "lw": 1.9, "colours": ("#d62728", "#ff7f0e", "#8c1a11", "#f781bf")},
+    "sampled": {"ls": (0, (1.2, 1.6)), "lw": 2.3, "colours": ("#1f5fb4", "#17becf", "#08306b", "#6baed6")},
+    "certified": {"ls": "-", "lw": 1.7, "colours": ("#000000", "#c51b7d", "#6a3d9a", "#b35806", "#01665e",
+                                                   "#4d4d4d", "#8e0152")},
+    "refuted": {"ls": (0, (5, 2, 1, 2)), "lw": 1.0, "colours": ("#7f7f7f",)},
+    "inconclusive": {"ls": (0, (5, 2, 1, 2)), "lw": 1.0, "colours": ("#7f7f7f",)},
+}  # fmt: skip
+#: Words a legend uses for the kinds.
+KIND_WORDS = {"claimed": "claimed (paper)", "sampled": "sampled (no proof)",
+              "certified": "certified (proof)", "refuted": "refuted", "inconclusive": "inconclusive"}  # fmt: skip
+#: Marker lines (e.g. the paper's claimed sector): claimed, so dashed, in a claimed colour.
+LINE_STYLE: dict[str, Any] = {"color": "#8c1a11", "ls": (0, (3, 2)), "lw": 1.1}
+MAX_LEGEND = 6
+_UNITLESS = {"1", ""}
+
+
+def unit_text(unit: str) -> str:
+    """A unit for an axis label: dimensionless (``"1"``, ``"-"``) is written ``-``."""
+    return "-" if unit in _UNITLESS else unit
 
 
 def _label(system: System, i: int) -> str:
     unit = system.state_units[i] if i < len(system.state_units) else ""
-    return f"{system.state_names[i]} [{unit}]" if unit else system.state_names[i]
+    return f"{system.state_names[i]} [{unit_text(unit)}]"
+
+
+def region_label(region: Region) -> str:
+    """The legend text of a region: its plain label (``meta["label"]``, else its name), and the
+    status when the line style alone does not say it (refuted, inconclusive)."""
+    label = str(region.meta.get("label") or region.name)
+    if region.status in ("refuted", "inconclusive") and region.status not in label:
+        label += f" [{region.status}]"
+    return label
+
+
+def region_colours(regions: Sequence[Region]) -> dict[str, str]:
+    """A colour per region name, from its kind's family in the order given: pass the whole list
+    once so that a region keeps its colour in every panel and figure."""
+    out: dict[str, str] = {}
+    rank: dict[str, int] = {}
+    for r in regions:
+        if r.name in out:
+            continue
+        fam = KIND_STYLES.get(r.status, KIND_STYLES["inconclusive"])["colours"]
+        k = rank.get(r.status, 0)
+        out[r.name] = fam[k % len(fam)]
+        rank[r.status] = k + 1
+    return out
+
+
+def region_style(region: Region, colours: Mapping[str, str] | None = None) -> dict[str, Any]:
+    """``color``, ``ls``, ``lw`` of a region's line (see :data:`KIND_STYLES`)."""
+    kind = KIND_STYLES.get(region.status, KIND_STYLES["inconclusive"])
+    colour = (colours or {}).get(region.name) or kind["colours"][0]
+    return {"color": colour, "ls": kind["ls"], "lw": kind["lw"]}
 
 
 def slice_containment(grid: GridSlice, code: np.ndarray, region: Region) -> dict[str, Any]:
@@ -50,26 +118,140 @@ def slice_containment(grid: GridSlice, code: np.ndarray, region: Region) -> dict
     }
 
 
-def plot_slice(
-    system: System,
+def _display(code: np.ndarray) -> np.ndarray:
+    shown = np.where(code == I.STEP_FAILURE, I.UNDECIDED, code)
+    return np.where(code == I.CONVERGED_ELSEWHERE, 4, shown)
+
+
+def _extent(grid: GridSlice) -> tuple[float, float, float, float]:
+    dx = (grid.xs[-1] - grid.xs[0]) / (len(grid.xs) - 1) / 2
+    dy = (grid.ys[-1] - grid.ys[0]) / (len(grid.ys) - 1) / 2
+    return (grid.xs[0] - dx, grid.xs[-1] + dx, grid.ys[0] - dy, grid.ys[-1] + dy)
+
+
+def draw_statuses(
+    ax: Any,
     grid: GridSlice,
     code: np.ndarray,
-    path: str | Path,
+    t_end: np.ndarray | None = None,
     *,
-    regions: Sequence[Region] = (),
-    lines: Sequence[tuple[str, float, str]] = (),
-    title: str = "",
+    t_max: float | None = None,
+) -> tuple[Any, list[Any]]:
+    """The slice's statuses as an image: converged points by time to converge (``t_end`` given)
+    or in one colour, failures by status. Returns the time image (None without ``t_end``) and the
+    legend handles of the statuses present (failures only when the time image is drawn)."""
+    shown = _display(np.asarray(code)).reshape(grid.shape)
+    extent = _extent(grid)
+    counts = np.bincount(shown.ravel().astype(np.int64), minlength=5)
+    n = shown.size
+    cmap = ListedColormap([STATUS_COLOURS[c] for c in range(5)])
+    norm = BoundaryNorm(np.arange(-0.5, 5.5), 5)
+    if t_end is None:
+        ax.imshow(shown, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
+                  interpolation="nearest")  # fmt: skip
+        handles = [Patch(color=STATUS_COLOURS[c], label=f"{STATUS_WORDS[c]} ({counts[c]} of {n})")
+                   for c in range(5) if c == 0 or counts[c]]  # fmt: skip
+        return None, handles
+    conv = shown == I.CONVERGED
+    fail = np.ma.masked_where(conv, shown)
+    ax.imshow(fail, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
+              interpolation="nearest")  # fmt: skip
+    times = np.ma.masked_where(~conv, np.asarray(t_end, dtype=float).reshape(grid.shape))
+    # the colours span the times present (from a whole number below the fastest run)
+    top = t_max if t_max is not None else (float(times.max()) if conv.any() else 1.0)
+    low = float(np.floor(times.min())) if conv.any() else 0.0
+    low = low if low < top else 0.0
+    image = ax.imshow(times, origin="lower", extent=extent, aspect="auto", cmap=TIME_CMAP,
+                      norm=Normalize(low, max(top, low + 1e-9)), interpolation="nearest")  # fmt: skip
+    handles = [Patch(color=STATUS_COLOURS[c], label=f"{STATUS_WORDS[c]} ({counts[c]} of {n})")
+               for c in range(1, 5) if counts[c]]  # fmt: skip
+    return image, handles
+
+
+def _slice_points(grid: GridSlice, resolution: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    ia, ib = grid.axes
+    xs = np.linspace(grid.xs[0], grid.xs[-1], resolution)
+    ys = np.linspace(grid.ys[0], grid.ys[-1], resolution)
+    XX, YY = np.meshgrid(xs, ys)
+    pts = np.repeat(grid.base[None, :], XX.size, axis=0)
+    pts[:, ia], pts[:, ib] = XX.ravel(), YY.ravel()
+    return XX, YY, pts
+
+
+def draw_regions(
+    ax: Any,
+    grid: GridSlice,
+    regions: Sequence[Region],
+    *,
+    colours: Mapping[str, str] | None = None,
     contour_resolution: int = 401,
-) -> Path:
-    """Heatmap of statuses over ``grid`` with region boundaries ``form(x) = level`` and marker lines,
-    saved to ``path`` (see :func:`draw_slice`)."""
-    fig, ax = plt.subplots(figsize=(8.6, 6.0))
-    draw_slice(ax, system, grid, code, regions=regions, lines=lines, title=title,
-               contour_resolution=contour_resolution)  # fmt: skip
-    fig.tight_layout()
-    out = atomic_savefig(fig, path)
-    plt.close(fig)
-    return out
+) -> list[Any]:
+    """Each region's boundary ``form(x) = level`` on the slice (finer grid); returns the legend
+    handles (a region that does not meet the slice says so)."""
+    if not regions:
+        return []
+    colours = dict(region_colours(regions), **(colours or {}))
+    XX, YY, pts = _slice_points(grid, contour_resolution)
+    handles = []
+    for region in regions:
+        style = region_style(region, colours)
+        with np.errstate(all="ignore"):
+            form = region.form(pts).reshape(XX.shape)
+        form = np.where(np.isfinite(form), form, 10 * region.level + 1)
+        meets = bool((form <= region.level).any())
+        if meets:
+            ax.contour(XX, YY, form, levels=[region.level], colors=[style["color"]],
+                       linestyles=[style["ls"]], linewidths=style["lw"])  # fmt: skip
+        note = "" if meets else " (not on this slice)"
+        handles.append(Line2D([], [], **style, label=region_label(region) + note))
+    return handles
+
+
+def regions_extent(
+    grid: GridSlice, regions: Sequence[Region], *, resolution: int = 201, margin: float = 0.2
+) -> tuple[float, float, float, float] | None:
+    """``(x0, x1, y0, y1)``: the part of the slice the regions cover, widened by ``margin`` of
+    its size on each side and clipped to the slice (None when no region meets the slice)."""
+    XX, YY, pts = _slice_points(grid, resolution)
+    inside = np.zeros(XX.shape, dtype=bool)
+    for region in regions:
+        with np.errstate(all="ignore"):
+            inside |= (region.form(pts) <= region.level).reshape(XX.shape)
+    if not inside.any():
+        return None
+    x0, x1 = float(XX[inside].min()), float(XX[inside].max())
+    y0, y1 = float(YY[inside].min()), float(YY[inside].max())
+    dx = margin * max(x1 - x0, (grid.xs[-1] - grid.xs[0]) / 50)
+    dy = margin * max(y1 - y0, (grid.ys[-1] - grid.ys[0]) / 50)
+    return (max(x0 - dx, grid.xs[0]), min(x1 + dx, grid.xs[-1]),
+            max(y0 - dy, grid.ys[0]), min(y1 + dy, grid.ys[-1]))  # fmt: skip
+
+
+def draw_lines(
+    ax: Any, system: System, grid: GridSlice, lines: Sequence[tuple[str, float, str]]
+) -> list[Any]:
+    """Marker lines ``(state name, value, label)`` at a value of a slice axis; lines with the same
+    label share one legend handle. Lines outside the slice are left out."""
+    ia, ib = grid.axes
+    handles, seen = [], set()
+    for name, value, label in lines:
+        i = system.state_names.index(name)
+        if i not in (ia, ib):
+            continue
+        values = grid.xs if i == ia else grid.ys
+        if not values[0] <= value <= values[-1]:
+            continue
+        (ax.axvline if i == ia else ax.axhline)(value, **LINE_STYLE)
+        if label not in seen:
+            handles.append(Line2D([], [], label=label, **LINE_STYLE))
+            seen.add(label)
+    return handles
+
+
+def _fixed_text(system: System, grid: GridSlice, names: Sequence[str] | None = None) -> str:
+    ia, ib = grid.axes
+    names = names or system.state_names
+    return ", ".join(f"{names[i]} = {grid.base[i]:g}" for i in range(system.n) if i not in (ia, ib))
 
 
 def draw_slice(
@@ -82,63 +264,130 @@ def draw_slice(
     lines: Sequence[tuple[str, float, str]] = (),
     title: str = "",
     contour_resolution: int = 401,
+    t_end: np.ndarray | None = None,
+    colours: Mapping[str, str] | None = None,
 ) -> Any:
-    """Draw the statuses of ``grid`` into ``ax`` with region boundaries and marker lines.
+    """Draw the statuses of ``grid`` into ``ax`` with region boundaries and marker lines, and one
+    legend below the axes (a colorbar beside it when ``t_end`` colours the converged points).
 
     ``lines`` are ``(state name, value, label)``: a line at that value of a slice axis (e.g. the
     paper's claimed sector theta = +-60 deg); lines with the same label share one legend entry.
     """
     ia, ib = grid.axes
-    shown = np.where(code == I.STEP_FAILURE, I.UNDECIDED, code)
-    shown = np.where(code == I.CONVERGED_ELSEWHERE, 4, shown).reshape(grid.shape)
-    cmap = ListedColormap([STATUS_COLOURS[c] for c in range(5)])
-    norm = BoundaryNorm(np.arange(-0.5, 5.5), 5)
-    dx = (grid.xs[-1] - grid.xs[0]) / (len(grid.xs) - 1) / 2
-    dy = (grid.ys[-1] - grid.ys[0]) / (len(grid.ys) - 1) / 2
-    extent = (grid.xs[0] - dx, grid.xs[-1] + dx, grid.ys[0] - dy, grid.ys[-1] + dy)
-    ax.imshow(shown, origin="lower", extent=extent, aspect="auto", cmap=cmap, norm=norm,
-              interpolation="nearest")  # fmt: skip
-    counts = np.bincount(shown.ravel().astype(np.int64), minlength=5)
-    handles: list[Any] = [
-        Patch(color=STATUS_COLOURS[c], label=f"{I.STATUS_NAMES[c]} ({counts[c]} of {code.size})")
-        for c in range(5)
-        if c < 4 or counts[c]
-    ]
-    # region boundaries on a finer grid of the same slice
-    xs = np.linspace(grid.xs[0], grid.xs[-1], contour_resolution)
-    ys = np.linspace(grid.ys[0], grid.ys[-1], contour_resolution)
-    XX, YY = np.meshgrid(xs, ys)
-    pts = np.repeat(grid.base[None, :], XX.size, axis=0)
-    pts[:, ia], pts[:, ib] = XX.ravel(), YY.ravel()
-    for k, region in enumerate(regions):
-        colour = REGION_COLOURS[k % len(REGION_COLOURS)]
-        style = REGION_STYLES[(k // len(REGION_COLOURS) + k) % len(REGION_STYLES)]
-        with np.errstate(all="ignore"):
-            form = region.form(pts).reshape(XX.shape)
-        form = np.where(np.isfinite(form), form, 10 * region.level + 1)
-        meets = bool((form <= region.level).any())
-        if meets:
-            ax.contour(XX, YY, form, levels=[region.level], colors=[colour], linestyles=[style],
-                       linewidths=1.8)  # fmt: skip
-        note = "" if meets else " (does not meet this slice)"
-        handles.append(Line2D([], [], color=colour, ls=style, lw=1.8,
-                              label=f"{region.name} [{region.status}]{note}"))  # fmt: skip
-    seen: set[str] = set()
-    for name, value, label in lines:
-        i = system.state_names.index(name)
-        if i not in (ia, ib):
-            continue
-        kw: dict[str, Any] = {"color": "#444444", "ls": (0, (6, 3)), "lw": 1.3}
-        (ax.axvline if i == ia else ax.axhline)(value, **kw)
-        if label not in seen:
-            handles.append(Line2D([], [], label=label, **kw))
-            seen.add(label)
+    image, handles = draw_statuses(ax, grid, code, t_end)
+    handles += draw_regions(ax, grid, regions, colours=colours,
+                            contour_resolution=contour_resolution)  # fmt: skip
+    handles += draw_lines(ax, system, grid, lines)
+    x0, x1, y0, y1 = _extent(grid)
+    ax.set_xlim(x0, x1)
+    ax.set_ylim(y0, y1)
     ax.set_xlabel(_label(system, ia))
     ax.set_ylabel(_label(system, ib))
-    fixed = ", ".join(
-        f"{system.state_names[i]} = {grid.base[i]:g}" for i in range(system.n) if i not in (ia, ib)
-    )
+    fixed = _fixed_text(system, grid)
     ax.set_title(f"{title}\n({fixed})" if fixed else title, fontsize=10)
-    ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.11), ncol=2,
-              fontsize=8, frameon=False)  # fmt: skip
+    if image is not None:
+        ax.figure.colorbar(image, ax=ax, label=TIME_LABEL, fraction=0.05, pad=0.02)
+    if handles:
+        ax.legend(handles=handles, loc="upper center", bbox_to_anchor=(0.5, -0.13),
+                  ncol=1 if len(handles) <= 4 else 2, fontsize=8, frameon=False)  # fmt: skip
     return ax
+
+
+def slice_figure(
+    system: System,
+    grid: GridSlice,
+    code: np.ndarray,
+    *,
+    panels: Sequence[tuple[str, Sequence[Region]]],
+    t_end: np.ndarray | None = None,
+    lines: Sequence[tuple[str, float, str]] = (),
+    title: str = "",
+    axis_labels: Sequence[str] | None = None,
+    state_names: Sequence[str] | None = None,
+    colours: Mapping[str, str] | None = None,
+    time_label: str = TIME_LABEL,
+    extra_handles: Sequence[Any] = (),
+    contour_resolution: int = 301,
+    panel_size: tuple[float, float] = (4.8, 3.7),
+    zoom: Sequence[int] = (),
+) -> Any:
+    """A basin map with one panel per ``(subtitle, regions)`` of ``panels``, returned unsaved.
+
+    Every panel shows the same statuses (converged points by time to converge when ``t_end`` is
+    given, with one shared colorbar) and its own regions, with its legend below the axes; the
+    failures, the marker ``lines`` and ``extra_handles`` share one strip at the bottom.
+    ``axis_labels`` are the n state axis labels (default ``name [unit]``), ``state_names`` the
+    names used in the title's fixed states. ``colours`` (see :func:`region_colours`) keep each
+    region's colour across panels and figures. Panels whose index is in ``zoom`` show only the
+    part of the slice their regions cover (:func:`regions_extent`), said in their title.
+    """
+    k = max(len(panels), 1)
+    n_leg = max((len(regs) for _, regs in panels), default=0)
+    leg_h = 0.22 * n_leg + (0.35 if n_leg else 0.0)
+    w, h = panel_size
+    fig = plt.figure(figsize=(w * k + 1.1, h + leg_h + 1.5), layout="constrained")
+    axes = fig.subplots(1, k, squeeze=False)[0]
+    labels = list(axis_labels) if axis_labels else [_label(system, i) for i in range(system.n)]
+    all_regions = [r for _, regs in panels for r in regs]
+    colours = dict(region_colours(all_regions), **(colours or {}))
+    ia, ib = grid.axes
+    image, strip = None, []
+    for j, (ax, (subtitle, regs)) in enumerate(zip(axes, panels, strict=False)):
+        image, fails = draw_statuses(ax, grid, code, t_end)
+        handles = draw_regions(ax, grid, regs, colours=colours,
+                               contour_resolution=contour_resolution)  # fmt: skip
+        marks = draw_lines(ax, system, grid, lines)
+        if j == 0:
+            strip = fails + marks + list(extra_handles)
+        x0, x1, y0, y1 = _extent(grid)
+        box = regions_extent(grid, regs) if j in zoom else None
+        if box is not None and (
+            box[1] - box[0] < 0.7 * (x1 - x0) or box[3] - box[2] < 0.7 * (y1 - y0)
+        ):
+            x0, x1, y0, y1 = box
+            subtitle += " (zoomed in)"
+        ax.set_xlim(x0, x1)
+        ax.set_ylim(y0, y1)
+        ax.set_xlabel(labels[ia])
+        ax.set_ylabel(labels[ib])
+        ax.set_title(subtitle, fontsize=10, loc="left")
+        if handles:
+            ax.legend(handles=handles, loc="upper left", bbox_to_anchor=(-0.12, -0.15), ncol=1,
+                      fontsize=8.5, frameon=False, borderaxespad=0.0, handlelength=3.2)  # fmt: skip
+    if image is not None:
+        fig.colorbar(image, ax=list(axes), label=time_label, fraction=0.04, pad=0.02, aspect=25)
+    if strip:
+        fig.legend(handles=strip, loc="outside lower center", ncol=min(len(strip), 3),
+                   fontsize=8.5, frameon=False, handlelength=3.0)  # fmt: skip
+    fixed = _fixed_text(system, grid, state_names)
+    head = f"{title}\n(fixed: {fixed})" if fixed else title
+    fig.suptitle(head, fontsize=11)
+    return fig
+
+
+def save_figure(fig: Any, path: str | Path) -> Path:
+    """Write ``fig`` atomically and close it."""
+    out = atomic_savefig(fig, path)
+    plt.close(fig)
+    return out
+
+
+def plot_slice(
+    system: System,
+    grid: GridSlice,
+    code: np.ndarray,
+    path: str | Path,
+    *,
+    regions: Sequence[Region] = (),
+    lines: Sequence[tuple[str, float, str]] = (),
+    title: str = "",
+    contour_resolution: int = 401,
+    t_end: np.ndarray | None = None,
+) -> Path:
+    """Heatmap of statuses over ``grid`` with region boundaries ``form(x) = level`` and marker lines,
+    saved to ``path`` (see :func:`draw_slice`)."""
+    fig, ax = plt.subplots(figsize=(8.6, 6.0))
+    draw_slice(ax, system, grid, code, regions=regions, lines=lines, title=title,
+               contour_resolution=contour_resolution, t_end=t_end)  # fmt: skip
+    fig.tight_layout()
+    return save_figure(fig, path)

@@ -13,9 +13,13 @@ from roa.system import System
 
 
 def state_labels(system: System) -> tuple[str, ...]:
-    """Axis labels ``name [unit]`` from a system's state names and units."""
+    """Axis labels ``name [unit]`` from a system's state names and units (dimensionless, ``"1"``
+    or none, is written ``-`` as in the basin maps)."""
     units = system.state_units or ("-",) * system.n
-    return tuple(f"{n} [{u}]" for n, u in zip(system.state_names, units, strict=True))
+    return tuple(
+        f"{n} [{u if u not in ('1', '') else '-'}]"
+        for n, u in zip(system.state_names, units, strict=True)
+    )
 
 
 def plot_runs(

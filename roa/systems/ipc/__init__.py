@@ -47,7 +47,7 @@ __all__ = [
 ]
 
 PHYSICAL_NAMES = ("q", "q_dot", "theta", "theta_dot")
-PHYSICAL_UNITS = ("1", "1/s", "rad", "rad/s")  # normalised length and time
+PHYSICAL_UNITS = ("-", "1/s", "rad", "rad/s")  # normalised length (-) and time
 FLAT_NAMES = ("z1", "z2", "w1", "w2")
 
 
@@ -169,7 +169,7 @@ def transformed(*, gains: Gains | None = None, reference: Reference | str | None
         lyapunov=T.T @ P_Q @ T if paper_v else None,
         norm=T.T @ T if paper_v else None,
         state_names=FLAT_NAMES,
-        state_units=("1", "1/s", "1", "1/s"),
+        state_units=("-", "1/s", "-", "1/s"),
         margin=None,
         domain_description="R^4 (w1 = tan(theta) covers |theta| < pi/2)",
         time_varying=not reference.is_zero,

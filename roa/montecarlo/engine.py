@@ -551,7 +551,8 @@ def run_basin(
     scheduler : str, optional
         Address of a Dask scheduler (``tcp://host:port``); runs the chunks there.
     progress : bool, optional
-        tqdm progress bar; default on for runs of more than 50 chunks.
+        tqdm progress bar on a terminal (never in logs); default on for runs of more than 50
+        chunks.
     replace_stale : bool
         If ``out_dir`` holds chunks of a different run (other inputs or code), delete them instead
         of raising :class:`roa.errors.ResultsError`.
@@ -638,10 +639,10 @@ def run_basin(
         try:
             with ctx:
                 results = joblib.Parallel(return_as="generator_unordered")(tasks)
-                if progress:
-                    from tqdm import tqdm
+                if progress:  # a bar on a terminal only: logs get no flood of bar updates
+                    from roa.progress import bar as progress_bar
 
-                    bar = tqdm(total=n_todo, unit="chunk", desc=f"basin {system.name}")
+                    bar = progress_bar(n_todo, f"basin {system.name}", unit="chunk")
                 for s, c, te, k in results:
                     length = min(s + chunk_size, n) - s
                     if c.size != length or te.size != length:

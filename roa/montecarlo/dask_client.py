@@ -1,0 +1,109 @@
+"""Connecting to a Dask scheduler with bounded waits, and closing the client quietly."""
+
+from __future__ import annotations
+
+import threading
+import warnings
+from typing import Any
+
+from roa.errors import RoaInputError, SolverError
+
+
+def _probe_scheduler(address: str, timeout: float) -> None:
+    """Open and close one connection to ``address`` within ``timeout`` seconds (handshake included).
+
+    ``distributed.Client`` does not bound the handshake: a port that accepts and never answers would
+    hang it forever. The probe runs in its own thread and event loop, so it also works from a caller
+    that already runs an event loop.
+    """
+    import asyncio
+
+    from distributed.comm import connect
+
+    async def probe() -> None:
+        # connect() retries refused connections until ``timeout`` but never bounds the handshake
+        comm = await asyncio.wait_for(connect(address, timeout=timeout), timeout + 1.0)
+        await comm.close()
+
+    box: dict[str, BaseException] = {}
+
+    def target() -> None:
+        try:
+            asyncio.run(probe())
+        except BaseException as exc:  # noqa: BLE001 - reported to the caller
+            box["error"] = exc
+
+    th = threading.Thread(target=target, name="roa-scheduler-probe", daemon=True)
+    th.start()
+    th.join(timeout + 5.0)
+    exc = box.get("error")
+    if th.is_alive() or isinstance(exc, asyncio.TimeoutError | TimeoutError):
+        raise SolverError(
+            f"scheduler {address}: no answer from a Dask scheduler within {timeout + 1:g} s (the "
+            "address accepts connections but does not speak the Dask protocol, or is overloaded); "
+            "check the address and that `dask scheduler` runs there"
+        )
+    if isinstance(exc, ValueError):
+        raise RoaInputError(
+            f"scheduler: {address!r} is not a Dask scheduler address (e.g. tcp://host:8786): {exc}"
+        )
+    if exc is not None:
+        raise SolverError(
+            f"scheduler {address}: cannot connect to a Dask scheduler within {timeout:g} s "
+            f"({type(exc).__name__}: {exc}); check the address and that `dask scheduler` runs there"
+        )
+
+
+def _connect(address: str, timeout: float) -> Any:
+    """A Dask client of ``address`` with at least one worker, or a roa error within ~2 x timeout."""
+    try:
+        from dask.distributed import Client
+    except ImportError:
+        raise SolverError(
+            f"scheduler {address}: dask.distributed is not installed (pip install 'dask[distributed]')"
+        ) from None
+
+    _probe_scheduler(address, timeout)
+    try:
+        client = Client(address, timeout=timeout, set_as_default=False)
+    except (OSError, TimeoutError, ValueError) as exc:
+        raise SolverError(
+            f"scheduler {address}: cannot connect to a Dask scheduler within {timeout:g} s "
+            f"({type(exc).__name__}: {exc})"
+        ) from None
+    try:
+        client.wait_for_workers(1, timeout=timeout)
+    except BaseException as exc:
+        _close_quietly(client)
+        if isinstance(exc, KeyboardInterrupt):
+            raise
+        raise SolverError(
+            f"scheduler {address}: no worker joined within {timeout:g} s; start workers with "
+            f"`dask worker {address}` (or give another scheduler)"
+        ) from None
+    return client
+
+
+def _close_quietly(client: Any, results: Any = None) -> None:
+    """Stop pending tasks and close a Dask client without tracebacks or log noise."""
+    import logging
+
+    names = ("distributed", "tornado", "asyncio")
+    saved = {name: logging.getLogger(name).level for name in names}
+    for name in names:
+        logging.getLogger(name).setLevel(logging.CRITICAL + 1)
+    try:
+        if results is not None:
+            try:
+                with warnings.catch_warnings():  # joblib warns about the tasks it cancels
+                    warnings.simplefilter("ignore")
+                    results.close()  # joblib cancels the futures it still holds
+            except BaseException:  # noqa: BLE001, S110 - closing on the way out
+                pass
+        try:
+            client.close(timeout=5)
+        except BaseException:  # noqa: BLE001, S110
+            pass
+    finally:
+        for name, level in saved.items():
+            logging.getLogger(name).setLevel(level)

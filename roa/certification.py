@@ -25,7 +25,7 @@ import numpy as np
 from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
-from roa.lyapunov import QuadraticLyapunov, as_lyapunov
+from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import IntervalOptions, SampledOptions, SosOptions
 from roa.proof.sos import SOSResult, sos_level
 from roa.proof.validate import Validation, validate_level
@@ -70,7 +70,7 @@ class Certificate:
     sos: SOSResult | None = None
     search: LevelSearchResult | None = None
     system: System | None = field(default=None, repr=False, compare=False)
-    V: QuadraticLyapunov | None = field(default=None, repr=False, compare=False)
+    V: Lyapunov | None = field(default=None, repr=False, compare=False)
 
     @property
     def certified(self) -> bool:
@@ -85,8 +85,10 @@ class Certificate:
         out: dict[str, Any] = {}
         if self.system is not None:
             out["system"] = self.system.name
-        if self.V is not None:
+        if isinstance(self.V, QuadraticLyapunov):
             out.update(lyapunov=self.V.name, P=self.V.P.tolist())
+        elif self.V is not None:
+            out.update(lyapunov=self.V.name, candidate_kind=self.V.describe())
         if self.sos is not None:
             out["sos"] = self.sos.to_json()
         if self.search is not None:
@@ -123,13 +125,17 @@ class Certificate:
             ax.set_title(f"no level ({self.status.value})")
             return ax
         i, j = axes
-        Pij = self.V.P[np.ix_([i, j], [i, j])]
-        t = np.linspace(0, 2 * np.pi, n)
-        L = np.linalg.cholesky(Pij)
-        pts = np.sqrt(self.level) * np.linalg.solve(L.T, np.stack([np.cos(t), np.sin(t)]))
         c = self.V.center
         style = "-" if self.certified else "--"
-        ax.plot(c[i] + pts[0], c[j] + pts[1], style, label=f"V <= {self.level:.6g} ({self.status})")
+        label = f"V <= {self.level:.6g} ({self.status})"
+        if isinstance(self.V, QuadraticLyapunov):
+            Pij = self.V.P[np.ix_([i, j], [i, j])]
+            t = np.linspace(0, 2 * np.pi, n)
+            L = np.linalg.cholesky(Pij)
+            pts = np.sqrt(self.level) * np.linalg.solve(L.T, np.stack([np.cos(t), np.sin(t)]))
+            ax.plot(c[i] + pts[0], c[j] + pts[1], style, label=label)
+        else:
+            _contour(ax, self.V, self.level, (i, j), n, style, label)
         names, units = self.system.state_names, self.system.state_units or ("-",) * self.system.n
         ax.set_xlabel(f"{names[i]} [{units[i]}]")
         ax.set_ylabel(f"{names[j]} [{units[j]}]")
@@ -137,10 +143,32 @@ class Certificate:
         return ax
 
 
+def _contour(ax: Any, V: Lyapunov, level: float, axes: tuple[int, int], n: int, style: str,
+             label: str) -> None:  # fmt: skip
+    """The curve V = level on the slice of two states through the centre (any candidate)."""
+    from roa.proof.cover import ray_box
+
+    i, j = axes
+    c = V.center
+    half = ray_box(V, level)
+    half = np.ones(V.n) if half is None else 1.2 * half
+    a = np.linspace(c[i] - half[i], c[i] + half[i], n)
+    b = np.linspace(c[j] - half[j], c[j] + half[j], n)
+    A, B = np.meshgrid(a, b)
+    X = np.broadcast_to(c, (*A.shape, V.n)).copy()
+    X[..., i], X[..., j] = A, B
+    ax.contour(A, B, V.value(X), levels=[level], colors="C0", linestyles=style)
+    ax.plot([], [], style, color="C0", label=label)
+
+
 def _validate(
-    system: System, V: QuadraticLyapunov, level: float, opts: IntervalOptions
+    system: System, V: Lyapunov, level: float, opts: IntervalOptions, bounding_box: Any = None
 ) -> Validation:
-    return validate_level(system, V, level, max_boxes=opts.max_boxes, batch=opts.batch)
+    if isinstance(V, QuadraticLyapunov):
+        return validate_level(system, V, level, max_boxes=opts.max_boxes, batch=opts.batch)
+    return validate_level(
+        system, V, level, max_boxes=opts.max_boxes, batch=opts.batch, bounding_box=bounding_box
+    )
 
 
 def certify(
@@ -154,6 +182,7 @@ def certify(
     sampled: SampledOptions | None = None,
     candidate: LevelSearchResult | float | None = None,
     check_above: float | None = None,
+    bounding_box: Any = None,
 ) -> Certificate:
     """Certify (or refute) that ``{V <= level}`` lies in the region of attraction.
 
@@ -161,8 +190,11 @@ def certify(
     ----------
     system : System
         Autonomous system with an equilibrium; its field must run on the interval namespace.
-    V : QuadraticLyapunov or n x n matrix, optional
-        The candidate (default :func:`roa.default_lyapunov`).
+    V : Lyapunov or n x n matrix, optional
+        The candidate (default :func:`roa.default_lyapunov`): any :class:`roa.lyapunov.Lyapunov`
+        (``QuadraticLyapunov``, ``PolynomialLyapunov``, ``FunctionLyapunov``) or a matrix ``P``.
+        SOS applies to a ``QuadraticLyapunov`` only: for any other ``V``, ``method="both"`` uses
+        the sampled search and the interval validation (``level_source="sampled"``).
     level : float, optional
         Validate this level (> 0) by interval branch and bound. Default: find the largest.
     method : {"both", "sos", "interval"}
@@ -177,6 +209,8 @@ def certify(
         validated at ``interval.sampled_safety`` x it, instead of searching again.
     check_above : float, optional
         Also validate ``check_above * candidate`` (> 1, e.g. 1.001); its verdict is ``.above``.
+    bounding_box : array, optional
+        Non-quadratic ``V``: a box holding the level set (see :func:`roa.validate_level`).
 
     Returns
     -------
@@ -212,6 +246,17 @@ def certify(
     sos = SosOptions() if sos is None else sos
     interval = IntervalOptions() if interval is None else interval
     keep: dict[str, Any] = {"system": system, "V": lyap}
+    quadratic = isinstance(lyap, QuadraticLyapunov)
+    if not quadratic and method == "sos" and level is None:
+        raise RoaInputError(
+            f"method='sos' needs a QuadraticLyapunov; V {lyap.name!r} is "
+            f"{type(lyap).__name__}: use method='both' or 'interval' (sampled search + interval "
+            "validation)"
+        )
+    box = bounding_box
+
+    def _check(value: float) -> Validation:
+        return _validate(system, lyap, value, interval, box)
 
     def done(**kw: Any) -> Certificate:
         return Certificate(seconds=time.perf_counter() - t0, **kw, **keep)
@@ -227,15 +272,15 @@ def certify(
                 raise RoaInputError(f"candidate must be a finite number > 0, got {value!r}")
             return done(status=Verdict.INCONCLUSIVE, level=None, method="level search",
                         level_source=None, message=msg, search=search)  # fmt: skip
-        return _validated(done, system, lyap, float(value), interval.sampled_safety, "candidate",
-                          interval, check_above, search=search)  # fmt: skip
+        return _validated(done, _check, float(value), interval.sampled_safety, "candidate",
+                          check_above, search=search)  # fmt: skip
     if level is not None:
-        v = _validate(system, lyap, float(level), interval)
-        above = _validate(system, lyap, check_above * level, interval) if check_above else None
+        v = _check(float(level))
+        above = _check(check_above * level) if check_above else None
         return done(status=v.status, level=float(level), method="interval", level_source="given",
                     message=v.message, validation=v, above=above, candidate=float(level))  # fmt: skip
     sos_res = None
-    if method in ("sos", "both"):
+    if method in ("sos", "both") and isinstance(lyap, QuadraticLyapunov):
         sos_res = sos_level(
             system,
             lyap,
@@ -258,8 +303,8 @@ def certify(
                         sos=sos_res, candidate=sos_res.level)  # fmt: skip
         if ok:
             assert sos_res.level is not None
-            return _validated(done, system, lyap, sos_res.level, sos.safety_factor, "sos",
-                              interval, check_above, sos=sos_res)  # fmt: skip
+            return _validated(done, _check, sos_res.level, sos.safety_factor, "sos",
+                              check_above, sos=sos_res)  # fmt: skip
     search = level_search(system, lyap, shape="level", method="sampled", sampled=sampled)
     if search.status is not LevelStatus.FOUND or search.level is None:
         msg = search.message or f"the level search ended {search.status.value}: no candidate"
@@ -267,23 +312,30 @@ def certify(
             msg += "; give level= to validate a level of your choice"
         return done(status=Verdict.INCONCLUSIVE, level=None, method="level search",
                     level_source=None, message=msg, sos=sos_res, search=search)  # fmt: skip
-    return _validated(done, system, lyap, search.level, interval.sampled_safety, "sampled",
-                      interval, check_above, sos=sos_res, search=search)  # fmt: skip
+    note = (
+        ""
+        if quadratic or method == "interval"
+        else (
+            f"SOS applies to quadratic V only ({type(lyap).__name__}): level from the sampled search, "
+            "checked by interval validation. "
+        )
+    )
+    return _validated(done, _check, search.level, interval.sampled_safety, "sampled",
+                      check_above, note=note, sos=sos_res, search=search)  # fmt: skip
 
 
 def _validated(
     done: Any,
-    system: System,
-    lyap: QuadraticLyapunov,
+    check: Any,
     candidate: float,
     factor: float,
     source: str,
-    interval: IntervalOptions,
     check_above: float | None,
+    note: str = "",
     **extra: Any,
 ) -> Certificate:
-    v = _validate(system, lyap, factor * candidate, interval)
-    above = _validate(system, lyap, check_above * candidate, interval) if check_above else None
+    v = check(factor * candidate)
+    above = check(check_above * candidate) if check_above else None
     return done(status=v.status, level=factor * candidate, method="interval",
-                level_source=source, message=v.message, candidate=candidate,
+                level_source=source, message=note + v.message, candidate=candidate,
                 safety_factor=factor, validation=v, above=above, **extra)  # fmt: skip

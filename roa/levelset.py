@@ -26,7 +26,7 @@ from roa.levelset_casadi import casadi_level
 from roa.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
 from roa.levelset_sampled import sampled_level
 from roa.linearisation import jacobian, lyapunov_matrix
-from roa.lyapunov import QuadraticLyapunov, as_lyapunov
+from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import CasadiOptions, SampledOptions
 from roa.status import LevelStatus
 from roa.system import System
@@ -88,7 +88,7 @@ class LevelSearchResult:
     per_method: dict[str, LevelSearchResult] = field(default_factory=dict)
     details: dict[str, Any] = field(default_factory=dict)
     system: System | None = field(default=None, repr=False, compare=False)
-    V: QuadraticLyapunov | None = field(default=None, repr=False, compare=False)
+    V: Lyapunov | None = field(default=None, repr=False, compare=False)
     S: np.ndarray | None = field(default=None, repr=False, compare=False)
 
     @property
@@ -117,8 +117,10 @@ class LevelSearchResult:
             out["per_method"] = {k: v.to_dict() for k, v in self.per_method.items()}
         if self.system is not None:
             out["system"] = self.system.name
-        if self.V is not None:
+        if isinstance(self.V, QuadraticLyapunov):
             out["P"] = self.V.P.tolist()
+        elif self.V is not None:
+            out["lyapunov"] = self.V.describe()
         return out
 
     def plot(self, ax: Any = None, *, n: int = 400) -> Any:
@@ -135,7 +137,11 @@ class LevelSearchResult:
         X = c + t[:, None] * (self.witness - c)
         with np.errstate(all="ignore"):
             vd = self.V.derivative(self.system, X)
-        ax.plot(self.level * t**2, vd, label="V' along the witness's ray")
+        if isinstance(self.V, QuadraticLyapunov) or self.S is not None:
+            sv = self.level * t**2
+        else:
+            sv = self.V.value(X)
+        ax.plot(sv, vd, label="V' along the witness's ray")
         ax.axhline(0.0, color="k", lw=0.6)
         ax.axvline(self.level, color="C3", ls="--", label=f"level {self.level:.6g} ({self.status})")
         ax.set_xlabel(f"shape value s(x) ({self.shape}) [-]")
@@ -144,12 +150,13 @@ class LevelSearchResult:
         return ax
 
 
-def shape_matrix(system: System, V: QuadraticLyapunov, shape: Any) -> tuple[np.ndarray, str]:
-    """The matrix S and name of a shape: ``"level"`` (V's P), ``"ball"`` (the system's norm, else
-    the identity) or an n x n positive-definite matrix (``"custom"``)."""
+def shape_matrix(system: System, V: Lyapunov, shape: Any) -> tuple[np.ndarray | None, str]:
+    """The matrix S and name of a shape: ``"level"`` (V's P; ``None`` for a non-quadratic V, whose
+    shape is V itself), ``"ball"`` (the system's norm, else the identity) or an n x n
+    positive-definite matrix (``"custom"``)."""
     if isinstance(shape, str):
         if shape == "level":
-            return V.P, "level"
+            return (V.P if isinstance(V, QuadraticLyapunov) else None), "level"
         if shape == "ball":
             return (np.eye(system.n) if system.norm is None else np.asarray(system.norm)), "ball"
         raise RoaInputError(f"shape must be one of {SHAPES} or an n x n matrix, got {shape!r}")
@@ -209,10 +216,13 @@ def level_search(
     ----------
     system : System
         An autonomous system with an equilibrium.
-    V : QuadraticLyapunov or n x n matrix, optional
-        The Lyapunov candidate (default :func:`roa.default_lyapunov`).
+    V : Lyapunov or n x n matrix, optional
+        The Lyapunov candidate (default :func:`roa.default_lyapunov`): a ``QuadraticLyapunov``,
+        ``PolynomialLyapunov``, ``FunctionLyapunov`` (any :class:`roa.lyapunov.Lyapunov`) or ``P``.
     shape : {"level", "ball"} or n x n matrix
         Sublevel sets of ``V`` itself, balls of the system's norm, or ``(x - x_eq)' S (x - x_eq)``.
+        For a non-quadratic ``V``, "level" searches the first violation along rays by the value
+        ``V(x)`` (sampled) and minimises ``V`` s.t. ``V'/V >= 0`` (CasADi).
     method : {"sampled", "casadi", "both"}
         ``both`` runs the two methods and reports whether they agree (relative gap 1e-4).
     sampled, casadi : SampledOptions, CasadiOptions, optional
@@ -271,9 +281,13 @@ def _combine(runs: list[LevelSearchResult], keep: dict[str, Any]) -> LevelSearch
         rel = abs(a - b) / max(abs(a), abs(b)) if max(abs(a), abs(b)) > 0 else 0.0
         status = LevelStatus.AGREE if rel <= AGREEMENT_RTOL else LevelStatus.DISAGREE
         best = min(found, key=lambda r: float(r.level))  # type: ignore[arg-type]
-        message = f"methods agree to {rel:.2g}" if status is LevelStatus.AGREE else (
-            f"methods differ by {rel:.2g} (> {AGREEMENT_RTOL:g}): the smaller level is reported; "
-            "try more directions or starts"
+        message = (
+            f"methods agree to {rel:.2g}"
+            if status is LevelStatus.AGREE
+            else (
+                f"methods differ by {rel:.2g} (> {AGREEMENT_RTOL:g}): the smaller level is reported; "
+                "try more directions or starts"
+            )
         )
     elif len(found) == 1:
         status, best = LevelStatus.PARTIAL, found[0]

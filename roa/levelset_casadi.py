@@ -14,13 +14,13 @@ import numpy as np
 from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.levelset_core import LevelSetResult, finish, locally_negative, problem, unit
-from roa.lyapunov import QuadraticLyapunov
+from roa.lyapunov import Lyapunov
 from roa.system import System
 
 
 def casadi_level(
     system: System,
-    V: QuadraticLyapunov,
+    V: Lyapunov,
     S: Any,
     *,
     shape: str = "custom",
@@ -30,6 +30,9 @@ def casadi_level(
     seed: int = 1,
 ) -> LevelSetResult:
     """Largest shape level with V' < 0 by IPOPT: min s(x) s.t. V'(x)/s(x) >= 0.
+
+    ``S=None`` (a non-quadratic ``V``, shape "level"): the shape is ``V`` itself, i.e.
+    min V(x) s.t. V'(x)/V(x) >= 0.
 
     The infimum of ``s`` over ``{V' >= 0, x != x0}`` is c* (V' < 0 near ``x0``). IPOPT is started
     from violating points (V' > 0), drawn by rejection from random directions at shape radii
@@ -67,8 +70,11 @@ def casadi_level(
     x = ca.SX.sym("x", n)
     comps = [x[i] for i in range(n)]
     _, vd = V.symbolic(system, comps, namespace("casadi"))
-    d = x - ca.DM(V.center)
-    s = ca.mtimes([d.T, ca.DM(prob.S), d])
+    if prob.by_value:
+        s = prob.shape_expr(comps, namespace("casadi"))
+    else:
+        d = x - ca.DM(V.center)
+        s = ca.mtimes([d.T, ca.DM(prob.S), d])
     opts: dict[str, Any] = {
         "ipopt.print_level": 0,
         "print_time": 0,

@@ -1,7 +1,9 @@
 """Shared base of the level-set search methods (:mod:`roa.levelset`): the problem and its witness.
 
-Given a system with an equilibrium ``x0``, a quadratic candidate ``V`` centred on it and a *shape*
-``s(x) = (x - x0)' S (x - x0)`` (``S`` positive definite), the largest level is::
+Given a system with an equilibrium ``x0``, a candidate ``V`` centred on it (any
+:class:`roa.lyapunov.Lyapunov`) and a *shape* ``s(x) = (x - x0)' S (x - x0)`` (``S`` positive
+definite) or, for a non-quadratic ``V`` and ``shape="level"``, ``s = V`` itself, the largest level
+is::
 
     c* = sup { c > 0 : V'(x) < 0 for all x with 0 < s(x) <= c, x inside the system's domain }
        = inf { s(x) : x != x0, V'(x) >= 0 or x outside the domain }
@@ -21,7 +23,7 @@ from scipy import linalg, optimize
 
 from roa.errors import RoaInputError
 from roa.linearisation import jacobian
-from roa.lyapunov import QuadraticLyapunov, check_positive_definite
+from roa.lyapunov import Lyapunov, QuadraticLyapunov, check_positive_definite
 from roa.system import System
 
 #: Relative agreement required between the two methods.
@@ -59,10 +61,26 @@ class LevelSetResult:
 @dataclass(frozen=True)
 class _Problem:
     system: System
-    V: QuadraticLyapunov
+    V: Lyapunov
     S: np.ndarray
     shape: str
-    Linv_T: np.ndarray  # x = x0 + Linv_T @ y with |y|^2 = s(x)
+    Linv_T: np.ndarray  # x = x0 + Linv_T @ y with |y|^2 = s(x) (for s = V: near x0)
+    by_value: bool = False  # the shape is V itself (a non-quadratic V): s(x) = V(x)
+
+    def shape_value(self, x: np.ndarray) -> np.ndarray:
+        """The shape s at states ``x`` (``(..., n)``)."""
+        if self.by_value:
+            return self.V.value(x)
+        d = np.asarray(x, dtype=float) - self.V.center
+        return np.einsum("...i,ij,...j->...", d, self.S, d)
+
+    def shape_expr(self, x: Any, xp: Any) -> Any:
+        """The shape as an expression of the components ``x`` (CasADi, sympy)."""
+        if self.by_value:
+            return self.V.expr(x, xp)
+        n = self.V.n
+        d = [x[i] - float(self.V.center[i]) for i in range(n)]
+        return sum(d[i] * float(self.S[i, j]) * d[j] for i in range(n) for j in range(n))
 
     def vdot(self, X: np.ndarray) -> np.ndarray:
         with np.errstate(all="ignore"):
@@ -81,10 +99,18 @@ class _Problem:
         return self.V.center + (r[..., None] * U) @ self.Linv_T.T
 
 
-def problem(system: System, V: QuadraticLyapunov, S: Any, shape: str) -> _Problem:
+def problem(system: System, V: Lyapunov, S: Any, shape: str) -> _Problem:
+    """The search problem; ``S=None`` (non-quadratic ``V``, shape "level") makes the shape V."""
+    by_value = S is None
+    if by_value:
+        S = 0.5 * V.hessian_at_center()
+        try:
+            check_positive_definite(S, what="V's Hessian")
+        except RoaInputError:
+            S = np.eye(V.n)  # rays in the system's coordinates; only the directions matter
     S = check_positive_definite(S, what=f"shape {shape!r} matrix")
-    if S.shape != V.P.shape:
-        raise RoaInputError(f"shape matrix must be {V.P.shape}, got {S.shape}")
+    if S.shape != (V.n, V.n):
+        raise RoaInputError(f"shape matrix must be {(V.n, V.n)}, got {S.shape}")
     if system.equilibrium is None:
         raise RoaInputError(f"system {system.name!r} has no equilibrium: no level-set search")
     if not np.allclose(system.x_eq, V.center):
@@ -93,7 +119,7 @@ def problem(system: System, V: QuadraticLyapunov, S: Any, shape: str) -> _Proble
             f"got center {V.center.tolist()}"
         )
     L = np.linalg.cholesky(S)  # S = L L'
-    return _Problem(system, V, S, shape, np.linalg.inv(L.T))
+    return _Problem(system, V, S, shape, np.linalg.inv(L.T), by_value)
 
 
 def unit(Z: np.ndarray) -> np.ndarray:
@@ -101,22 +127,25 @@ def unit(Z: np.ndarray) -> np.ndarray:
     return Z / np.linalg.norm(Z, axis=-1, keepdims=True)
 
 
-def locally_negative(system: System, V: QuadraticLyapunov) -> tuple[bool, float]:
+def locally_negative(system: System, V: Lyapunov) -> tuple[bool, float]:
     """Whether V' < 0 near the equilibrium. Returns (ok, largest eigenvalue of A'P + PA).
 
-    A'P + PA < 0 decides it. When its largest eigenvalue is zero to rounding (a degenerate
-    linearisation, e.g. a zero Jacobian), higher-order terms decide: V' is then sampled on small
-    level sets of V (levels 1e-4 to 1e-6), which is an estimate, not a proof.
+    ``P`` is ``V.P`` (half the Hessian of V at the equilibrium for a general V). A'P + PA < 0
+    decides it. When its largest eigenvalue is zero to rounding (a degenerate linearisation, e.g.
+    a zero Jacobian, or a V without a definite quadratic part), higher-order terms decide: V' is
+    then sampled on small spheres (an estimate, not a proof).
     """
     A = jacobian(system)
-    Q = A.T @ V.P + V.P @ A
+    P = V.P if isinstance(V, QuadraticLyapunov) else 0.5 * V.hessian_at_center()
+    Q = A.T @ P + P @ A
     lam = float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[-1])
-    scale = max(1.0, float(np.abs(Q).max()), float(np.abs(V.P).max()))
-    if abs(lam) > 1e-10 * scale:
+    scale = max(1.0, float(np.abs(Q).max()), float(np.abs(P).max()))
+    definite = isinstance(V, QuadraticLyapunov) or bool(np.linalg.eigvalsh(P)[0] > 1e-10 * scale)
+    if abs(lam) > 1e-10 * scale and definite:
         return lam < 0, lam
     rng = np.random.default_rng(0)
     U = unit(rng.standard_normal((4000, system.n)))
-    Linv_T = np.linalg.inv(np.linalg.cholesky(V.P).T)
+    Linv_T = V.whitening()
     for r in (1e-2, 3e-3, 1e-3):
         X = V.center + (r * U) @ Linv_T.T
         with np.errstate(all="ignore"):
@@ -150,8 +179,11 @@ def finish(prob: _Problem, x: np.ndarray, method: str, details: dict[str, Any]) 
                 x = c + t * (x - c)
                 vd = float(prob.vdot(x))
                 break
-    d = x - c
-    value = float(d @ prob.S @ d)
+    if prob.by_value:
+        value = float(prob.V.value(x[None, :])[0])
+    else:
+        d = x - c
+        value = float(d @ prob.S @ d)
     kind = (
         "vdot_zero"
         if inside and abs(vd) < WITNESS_ATOL
@@ -159,5 +191,3 @@ def finish(prob: _Problem, x: np.ndarray, method: str, details: dict[str, Any]) 
     )
     status = "found" if kind is not None else "failed"
     return LevelSetResult(value, status, method, prob.shape, x, vd, kind, details)
-
-

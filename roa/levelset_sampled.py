@@ -15,7 +15,7 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.levelset_core import LevelSetResult, _Problem, finish, locally_negative, problem, unit
-from roa.lyapunov import QuadraticLyapunov
+from roa.lyapunov import Lyapunov
 from roa.system import System
 
 
@@ -47,7 +47,7 @@ def crossings(
 
 def sampled_level(
     system: System,
-    V: QuadraticLyapunov,
+    V: Lyapunov,
     S: Any,
     *,
     shape: str = "custom",
@@ -64,7 +64,9 @@ def sampled_level(
     Parameters
     ----------
     system, V, S
-        The system, the Lyapunov candidate and the shape matrix.
+        The system, the Lyapunov candidate and the shape matrix (``None``: the shape is ``V``
+        itself, for a non-quadratic ``V``; each ray's first violation then counts with its value
+        ``V(x)``, and radii are measured near the equilibrium by V's Hessian).
     n_directions : int
         Number of random directions on the unit sphere of the shape (>= 16).
     r_max : float
@@ -99,14 +101,17 @@ def sampled_level(
     U = unit(rng.standard_normal((int(n_directions), n)))
     r_grid = r_max * np.geomspace(1e-4, 1.0, int(n_radial))
     r = crossings(prob, U, r_grid)
+    key = _keys(prob, U, r)  # the shape value at each ray's first violation (r^2 if quadratic)
     convergence = []
     m = int(n_directions)
     sizes = sorted({max(16, m // 4**k) for k in range(4)})
     for size in sizes:
-        convergence.append({"n_directions": size, "value": float(np.min(r[:size]) ** 2)})
+        value = np.min(r[:size]) ** 2 if not prob.by_value else np.min(key[:size])
+        convergence.append({"n_directions": size, "value": float(value)})
     if not np.isfinite(r).any():
+        top = float(r_max**2) if not prob.by_value else _top_value(prob, U, r_max)
         return LevelSetResult(
-            float(r_max**2),
+            top,
             "unbounded",
             "sampled",
             shape,
@@ -115,29 +120,30 @@ def sampled_level(
             details={"r_max": r_max, "convergence": convergence},
         )
     # Cap refinement around the best few (well separated) directions.
-    order = np.argsort(r)
+    order = np.argsort(key)
     cands: list[int] = []
     for i in order:
-        if not np.isfinite(r[i]):
+        if not np.isfinite(key[i]):
             break
         if all(abs(U[i] @ U[j]) < 0.95 for j in cands):
             cands.append(int(i))
         if len(cands) >= n_candidates:
             break
-    best_r, best_u = np.inf, None
+    best_r, best_u, best_k = np.inf, None, np.inf
     for i in cands:
-        u, ru = U[i], r[i]
+        u, ru, ku = U[i], r[i], key[i]
         sigma = 0.1
         for _ in range(int(refine_rounds)):
             Z = unit(u + sigma * rng.standard_normal((int(refine_directions), n)))
             grid = ru * np.linspace(1.0 / 24, 1.25, 30)
             rz = crossings(prob, Z, grid)
-            j = int(np.argmin(rz))
-            if rz[j] < ru:
-                u, ru = Z[j], rz[j]
+            kz = _keys(prob, Z, rz)
+            j = int(np.argmin(kz))
+            if kz[j] < ku:
+                u, ru, ku = Z[j], rz[j], kz[j]
             sigma *= 0.55
-        if ru < best_r:
-            best_r, best_u = ru, u
+        if ku < best_k:
+            best_r, best_u, best_k = ru, u, ku
     assert best_u is not None
     witness = prob.points(best_u, np.asarray(best_r))
     return finish(
@@ -148,9 +154,29 @@ def sampled_level(
             "n_directions": m,
             "r_max": r_max,
             "n_radial": int(n_radial),
-            "raw_value": float(np.min(r) ** 2),
+            "raw_value": float(np.min(r) ** 2) if not prob.by_value else float(np.min(key)),
             "convergence": convergence,
             "refine_rounds": int(refine_rounds),
             "seed": seed,
         },
     )
+
+
+def _keys(prob: _Problem, U: np.ndarray, r: np.ndarray) -> np.ndarray:
+    """What ranks the rays: the radius (quadratic shape), else the shape value V at the crossing."""
+    if not prob.by_value:
+        return r
+    out = np.full(len(r), np.inf)
+    ok = np.isfinite(r)
+    if ok.any():
+        with np.errstate(all="ignore"):
+            vals = prob.shape_value(prob.points(U[ok], r[ok]))
+        out[ok] = np.where(np.isfinite(vals), vals, np.inf)
+    return out
+
+
+def _top_value(prob: _Problem, U: np.ndarray, r_max: float) -> float:
+    """The smallest V at radius ``r_max`` over the directions: a lower bound of the level."""
+    with np.errstate(all="ignore"):
+        vals = prob.shape_value(prob.points(U, np.full(len(U), r_max)))
+    return float(np.nanmin(vals))

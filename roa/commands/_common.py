@@ -27,9 +27,11 @@ SYSTEM_HELP = (
 
 LYAPUNOV_HELP = (
     "the Lyapunov candidate V = (x - x_eq)' P (x - x_eq): a .json file holding the matrix P "
-    "(a list of rows, or an object {\"P\": rows}), a .npy file, or path/file.py:NAME (a matrix or "
+    '(a list of rows, or an object {"P": rows}), a .npy file, or path/file.py:NAME (a matrix or '
     "a roa.QuadraticLyapunov); default: the system's own V (a user file's LYAPUNOV_P), else P from "
-    "A'P + PA = -I"
+    'A\'P + PA = -I. Beyond quadratic: a .json object {"monomials": [[2,0],[0,2],[4,0]], '
+    '"coefficients": [1,1,0.5]} (a polynomial in x - x_eq), or file.py:NAME holding any '
+    "roa.lyapunov.Lyapunov (PolynomialLyapunov, FunctionLyapunov)"
 )
 
 
@@ -47,12 +49,25 @@ def system(args: argparse.Namespace) -> Any:
 
 def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
     """The ``--lyapunov`` candidate for ``sys_`` (the system's default when not given)."""
-    from roa.lyapunov import QuadraticLyapunov, default_lyapunov
+    from roa.lyapunov import Lyapunov, QuadraticLyapunov, default_lyapunov
 
     spec = getattr(args, "lyapunov", None)
     if spec is None:
         return default_lyapunov(sys_)
     obj = read_matrix(spec, what="--lyapunov")
+    if isinstance(obj, dict):  # polynomial coefficients from a JSON file
+        from roa.lyapunov_general import PolynomialLyapunov
+
+        try:
+            return PolynomialLyapunov(
+                obj["monomials"], obj["coefficients"], sys_.x_eq, name=Path(spec).name
+            )
+        except RoaInputError as exc:
+            raise RoaInputError(f"--lyapunov {spec}: {exc}") from None
+    if isinstance(obj, Lyapunov):
+        if obj.n != sys_.n:
+            raise RoaInputError(f"--lyapunov {spec}: V has {obj.n} states, the system {sys_.n}")
+        return obj
     if isinstance(obj, QuadraticLyapunov):
         return obj
     try:
@@ -62,7 +77,8 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
 
 
 def read_matrix(spec: str, *, what: str) -> Any:
-    """A matrix (or QuadraticLyapunov) from ``.json`` / ``.npy`` / ``file.py:NAME``."""
+    """A matrix (or a Lyapunov object) from ``.json`` / ``.npy`` / ``file.py:NAME``; a JSON object
+    with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V)."""
     if spec.endswith(".py") or ".py:" in spec:
         from roa.systems import _user_module
 
@@ -81,8 +97,18 @@ def read_matrix(spec: str, *, what: str) -> Any:
     except json.JSONDecodeError as exc:
         raise RoaInputError(f"{what} {spec}: invalid JSON ({exc})") from None
     if isinstance(data, dict):
+        if "monomials" in data or "coefficients" in data:
+            if "monomials" not in data or "coefficients" not in data:
+                raise RoaInputError(
+                    f'{what} {spec}: a polynomial V needs both "monomials" (exponent lists) '
+                    'and "coefficients"'
+                )
+            return {"monomials": data["monomials"], "coefficients": data["coefficients"]}
         if "P" not in data:
-            raise RoaInputError(f"{what} {spec}: a JSON object must have a key \"P\" (the matrix)")
+            raise RoaInputError(
+                f'{what} {spec}: a JSON object must have a key "P" (the matrix), or '
+                '"monomials" and "coefficients" (a polynomial V)'
+            )
         data = data["P"]
     try:
         return np.asarray(data, dtype=float)

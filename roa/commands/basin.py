@@ -216,6 +216,11 @@ def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
     if not args.lyapunov_level:
         return []
     V = C.lyapunov(args, system)
+    if not hasattr(V, "P"):
+        raise RoaInputError(
+            "--lyapunov-level draws level sets of a quadratic V only; this --lyapunov is "
+            f"{type(V).__name__} (certify it with roa certify instead)"
+        )
     out = []
     for rho in args.lyapunov_level:
         if not (np.isfinite(rho) and rho > 0):

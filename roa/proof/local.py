@@ -13,7 +13,9 @@ For a field whose V' is a polynomial in ``d = x - x_eq``, write ``V'(d) = h_m(d)
 
 so ``V' < 0`` for ``0 < |d| < min(rho0, mu / K)``, and ``{V <= eps}`` lies in that cube when
 ``eps <= rho^2 / max_i (P^-1)_ii`` (exact rationals). Coefficients are the exact rationals of the
-float data (sympy), so the argument is a proof, not an estimate.
+float data (sympy), so the argument is a proof, not an estimate. For a non-quadratic candidate
+(:func:`higher_order_cube`) ``V' = grad V . f`` is formed from the exact sympy gradient and the
+cube itself is returned (the validation then discards the boxes inside it).
 """
 
 from __future__ import annotations
@@ -24,12 +26,12 @@ from typing import Any
 
 import numpy as np
 
-from roa.lyapunov import QuadraticLyapunov
+from roa.lyapunov import Lyapunov, QuadraticLyapunov
 from roa.proof.interval import Interval
 from roa.system import System
 
 
-def _poly(system: System, lyap: QuadraticLyapunov) -> tuple[Any, list[Any]] | None:
+def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
     """V' as a sympy Poly in d (exact rational coefficients), or None if it is not polynomial."""
     import sympy as sp
 
@@ -41,8 +43,15 @@ def _poly(system: System, lyap: QuadraticLyapunov) -> tuple[Any, list[Any]] | No
     x = [c[i] + d[i] for i in range(n)]
     try:
         f = system.field(0.0, x, namespace("sympy"))
-        P = [[sp.Rational(float(lyap.P[i, j])) for j in range(n)] for i in range(n)]
-        vd = 2 * sum(d[i] * P[i][j] * f[j] for i in range(n) for j in range(n))
+        if isinstance(lyap, QuadraticLyapunov):
+            P = [[sp.Rational(float(lyap.P[i, j])) for j in range(n)] for i in range(n)]
+            vd = 2 * sum(d[i] * P[i][j] * f[j] for i in range(n) for j in range(n))
+        else:
+            from roa.lyapunov_general import _exact
+
+            g = lyap.gradient_expr(x, namespace("sympy"))
+            vd = sum(_exact(sp.sympify(g[i])) * f[i] for i in range(n))
+            vd = _exact(sp.sympify(vd))
         poly = sp.Poly(sp.expand(vd), *d)
     except (sp.PolynomialError, TypeError, ValueError):
         return None
@@ -93,13 +102,24 @@ def _face_max(terms: list[tuple[tuple[int, ...], Fraction]], n: int, budget: int
     return worst
 
 
-def higher_order_eps(
-    system: System, lyap: QuadraticLyapunov, *, rho0: float = 0.5, budget: int = 20000
+def higher_order_cube(
+    system: System, lyap: Lyapunov, *, rho0: float = 0.5, budget: int = 20000
 ) -> tuple[float, dict[str, Any]] | None:
-    """An ``eps > 0`` with ``V' < 0`` proved on ``{V <= eps}`` minus the equilibrium, or None.
+    """A cube radius ``rho`` (exact, rounded down) with ``V' < 0`` proved for
+    ``0 < max_i |x_i - x_eq_i| <= rho``, or None. Returns ``(rho, info)``."""
+    found = _cube(system, lyap, rho0=rho0, budget=budget)
+    if found is None:
+        return None
+    rho, info = found
+    r = float(rho)
+    if Fraction(r) > rho:
+        r = float(np.nextafter(r, 0.0))
+    return r, info
 
-    Returns ``(eps, info)``; ``info`` records the degree ``m``, ``mu``, ``K`` and the cube radius.
-    """
+
+def _cube(
+    system: System, lyap: Lyapunov, *, rho0: float, budget: int
+) -> tuple[Fraction, dict[str, Any]] | None:
     out = _poly(system, lyap)
     if out is None:
         return None
@@ -119,6 +139,20 @@ def higher_order_eps(
     r0 = Fraction(rho0)
     K = sum((abs(c) * r0 ** (sum(a) - m - 1) for a, c in high), Fraction(0))
     rho = r0 if K == 0 else min(r0, mu / (2 * K))
+    return rho, {"degree": m, "mu": float(mu), "K": float(K), "cube_radius": float(rho)}
+
+
+def higher_order_eps(
+    system: System, lyap: QuadraticLyapunov, *, rho0: float = 0.5, budget: int = 20000
+) -> tuple[float, dict[str, Any]] | None:
+    """An ``eps > 0`` with ``V' < 0`` proved on ``{V <= eps}`` minus the equilibrium, or None.
+
+    Returns ``(eps, info)``; ``info`` records the degree ``m``, ``mu``, ``K`` and the cube radius.
+    """
+    found = _cube(system, lyap, rho0=rho0, budget=budget)
+    if found is None:
+        return None
+    rho, info = found
     import sympy as sp
 
     P = sp.Matrix(lyap.n, lyap.n, lambda i, j: sp.Rational(float(lyap.P[i, j])))
@@ -128,5 +162,4 @@ def higher_order_eps(
     eps = float(eps_exact)
     if Fraction(eps) > eps_exact:  # round down
         eps = float(np.nextafter(eps, 0.0))
-    info = {"degree": m, "mu": float(mu), "K": float(K), "cube_radius": float(rho)}
     return eps, info

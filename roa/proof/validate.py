@@ -19,6 +19,11 @@ Two proofs, both independent of any optimisation solver:
 
 Verdicts are values (:class:`Validation` with a :class:`roa.status.Verdict`): ``certified`` (boxes, time), ``refuted`` (witness),
 ``inconclusive`` (box budget exhausted, or the level set leaves the domain).
+
+A candidate that is not a :class:`~roa.lyapunov.QuadraticLyapunov` (a polynomial or any function
+``V(x, xp)``) is validated by :func:`roa.proof.validate_general.validate_general`: a proved box
+cover of the level set, the same Hessian (or lowest-order) proof near the equilibrium, the same
+branch and bound with interval jets of ``V' = grad V . f``.
 """
 
 from __future__ import annotations
@@ -32,7 +37,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov import QuadraticLyapunov
+from roa.lyapunov import Lyapunov, QuadraticLyapunov
 from roa.proof.interval import INTERVAL, JET, Interval, Jet, _down, _up
 from roa.status import Verdict
 from roa.system import System
@@ -104,10 +109,15 @@ def _mp_namespace() -> Any:
 
 
 def recheck_witness(
-    system: System, lyap: QuadraticLyapunov, x: np.ndarray, level: float, *, digits: int = 50
+    system: System, lyap: Lyapunov, x: np.ndarray, level: float, *, digits: int = 50
 ) -> dict[str, Any]:
     """Evaluate ``V(x)`` and ``V'(x)`` at ``digits`` decimal digits (the float ``x`` taken exactly)."""
     import mpmath as mp
+
+    if not isinstance(lyap, QuadraticLyapunov):
+        from roa.proof.validate_general import recheck_general
+
+        return recheck_general(system, lyap, x, level, digits=digits)
 
     with mp.workdps(digits):
         xs = [mp.mpf(float(v)) for v in x]
@@ -355,12 +365,13 @@ def _try_domain_witness(system, lyap, pts, level):
 
 def validate_level(
     system: System,
-    lyap: QuadraticLyapunov,
+    lyap: Lyapunov,
     level: float,
     *,
     max_boxes: int = 3_000_000,
     batch: int = 100_000,
     eps: float | None = None,
+    bounding_box: Any = None,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -368,8 +379,9 @@ def validate_level(
     ----------
     system : System
         Autonomous system whose field runs on the interval namespace.
-    lyap : QuadraticLyapunov
-        The candidate, centred at the equilibrium.
+    lyap : Lyapunov
+        The candidate, centred at the equilibrium: a ``QuadraticLyapunov`` (whitened boxes), or
+        any other candidate (:func:`roa.proof.validate_general.validate_general`).
     level : float
         The level rho > 0 to validate.
     max_boxes : int
@@ -377,13 +389,25 @@ def validate_level(
     batch : int
         Boxes evaluated per vectorised step.
     eps : float, optional
-        Inner level covered by :func:`local_proof`; found automatically by default.
+        Inner level covered by :func:`local_proof`; found automatically by default (quadratic V).
+    bounding_box : array, optional
+        A non-quadratic V only: ``n`` half-widths around the equilibrium, or a ``(lo, hi)`` pair,
+        of a box holding the level set (``V > level`` is proved on its faces). Default: a global
+        bound from V's Gram matrix when there is one, else a box found along rays and proved.
     """
     level = float(level)
     if not (np.isfinite(level) and level > 0):
         raise RoaInputError(f"level must be a finite number > 0, got {level!r}")
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
+    if not isinstance(lyap, QuadraticLyapunov):
+        from roa.proof.validate_general import validate_general
+
+        return validate_general(
+            system, lyap, level, max_boxes=max_boxes, batch=batch, bounding_box=bounding_box
+        )
+    if bounding_box is not None:
+        raise RoaInputError("bounding_box applies to non-quadratic V only (V' box is whitened)")
     t0 = time.perf_counter()
     if eps is None:
         eps = find_eps(system, lyap, level)

@@ -1,0 +1,158 @@
+"""Proved box covers of the sublevel sets of a general Lyapunov candidate (for the validation).
+
+A box ``B`` *covers* ``{V <= level}`` in one of two ways:
+
+* **globally** (:func:`gram_cover`): a :class:`~roa.lyapunov_general.PolynomialLyapunov` built
+  from a Gram matrix ``Q`` over a basis holding the linear monomials satisfies
+  ``V(d) = m(d)' Q' m(d) >= lambda |d|^2`` with ``Q'`` the Gram matrix that reproduces the float
+  coefficients exactly and ``Q' - lambda E`` positive definite, checked in exact rationals; then
+  ``{V <= level}`` lies in the cube ``|d_i| <= sqrt(level / lambda)``;
+* **by its boundary** (:func:`prove_boundary`): ``V > level`` on every face of ``B`` (interval
+  branch and bound with the mean-value form), so the connected component of ``{V <= level}``
+  holding the equilibrium lies inside ``B``. The box is either given or found along rays
+  (:func:`ray_box`).
+"""
+
+from __future__ import annotations
+
+import itertools
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from roa.lyapunov import Lyapunov
+from roa.proof.interval import INTERVAL, Interval, _up
+
+
+def exact_positive_definite(A: list[list[Fraction]]) -> bool:
+    """Whether the symmetric rational matrix ``A`` is positive definite (Gaussian elimination)."""
+    A = [row[:] for row in A]
+    n = len(A)
+    for k in range(n):
+        if A[k][k] <= 0:
+            return False
+        for i in range(k + 1, n):
+            r = A[i][k] / A[k][k]
+            for j in range(k, n):
+                A[i][j] -= r * A[k][j]
+    return True
+
+
+def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]] | None:
+    """Half-widths of a cube around the centre that holds all of ``{V <= level}``, or None."""
+    gram = getattr(lyap, "gram", None)
+    if gram is None:
+        return None
+    basis, Q = gram
+    n = lyap.n
+    lin = {b.index(1): i for i, b in enumerate(basis) if sum(b) == 1}
+    if sorted(lin) != list(range(n)):
+        return None
+    m = len(basis)
+    Qx = [[Fraction(float(Q[i, j])) for j in range(m)] for i in range(m)]
+    pairs: dict[tuple[int, ...], list[tuple[int, int]]] = {}
+    for i, j in itertools.product(range(m), range(m)):
+        key = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
+        pairs.setdefault(key, []).append((i, j))
+    terms = getattr(lyap, "terms", {})
+    if set(terms) - set(pairs):
+        return None
+    for key, idx in pairs.items():  # make m' Qx m equal the float polynomial exactly
+        diff = Fraction(float(terms.get(key, 0.0))) - sum(Qx[i][j] for i, j in idx)
+        if diff:
+            i, j = min(idx)
+            if i == j:
+                Qx[i][i] += diff
+            else:
+                Qx[i][j] += diff / 2
+                Qx[j][i] += diff / 2
+    lam_f = float(np.linalg.eigvalsh(np.array(Qx, dtype=float))[0])
+    if not lam_f > 0:
+        return None
+    lam = Fraction(0.9 * lam_f)
+    A = [
+        [Qx[i][j] - (lam if i == j and i in lin.values() else 0) for j in range(m)]
+        for i in range(m)
+    ]
+    if not exact_positive_definite(A):
+        return None
+    half = float(_up(np.sqrt(float(Fraction(level) / lam)), 4))
+    return np.full(n, half), {"cover": "global (Gram lower bound)", "lambda": float(lam)}
+
+
+def _interval_V(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
+    """Enclosure of V on boxes: natural extension intersected with the mean-value form."""
+    n = lyap.n
+    X = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
+    nat = Interval.of(lyap.expr(X, INTERVAL))
+    mid = 0.5 * (lo + hi)
+    M = [Interval(mid[:, i]) for i in range(n)]
+    mv = Interval.of(lyap.expr(M, INTERVAL))
+    g = lyap.gradient_expr(X, INTERVAL)
+    for i in range(n):
+        gi = g[i] if isinstance(g[i], Interval) else Interval(np.full(len(lo), float(g[i])))
+        mv = mv + gi * (X[i] - M[i])
+    lo_b = np.broadcast_to(np.maximum(nat.lo, mv.lo), (len(lo),))
+    hi_b = np.broadcast_to(np.minimum(nat.hi, mv.hi), (len(lo),))
+    return Interval(lo_b, hi_b)
+
+
+def prove_boundary(
+    lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, *, budget: int = 400_000
+) -> tuple[bool, int]:
+    """Prove ``V > level`` on every face of the box ``[lo, hi]`` (returns (proved, boxes))."""
+    n = lyap.n
+    boxes = 0
+    for k, side in itertools.product(range(n), (0, 1)):
+        flo, fhi = lo.copy()[None, :], hi.copy()[None, :]
+        flo[:, k] = fhi[:, k] = (lo if side == 0 else hi)[k]
+        while len(flo):
+            boxes += len(flo)
+            if boxes > budget:
+                return False, boxes
+            V = _interval_V(lyap, flo, fhi)
+            und = ~(V.lo > level)
+            flo, fhi = flo[und], fhi[und]
+            if not len(flo):
+                break
+            if np.any(lyap.value(0.5 * (flo + fhi)) <= level):
+                return False, boxes  # the level set reaches this face
+            w = (fhi - flo) * (np.arange(n) != k)
+            j = np.argmax(w, axis=1)
+            if np.max(w) < 1e-9 * max(1.0, float(np.max(hi - lo))):
+                return False, boxes
+            rows = np.arange(len(flo))
+            mid = 0.5 * (flo[rows, j] + fhi[rows, j])
+            a_hi, b_lo = fhi.copy(), flo.copy()
+            a_hi[rows, j] = mid
+            b_lo[rows, j] = mid
+            flo, fhi = np.concatenate([flo, b_lo]), np.concatenate([a_hi, fhi])
+    return True, boxes
+
+
+def ray_box(
+    lyap: Lyapunov, level: float, *, n_dirs: int = 4000, seed: int = 0
+) -> np.ndarray | None:
+    """Half-widths of the box around the centre reached by ``{V <= level}`` along rays (an
+    estimate, proved afterwards by :func:`prove_boundary`); None if V stays below the level."""
+    n, c = lyap.n, lyap.center
+    rng = np.random.default_rng(seed)
+    U = rng.standard_normal((n_dirs, n)) @ lyap.whitening().T
+    U /= np.linalg.norm(U, axis=1, keepdims=True)
+    U = np.concatenate([U, np.eye(n), -np.eye(n)])
+    t = np.geomspace(1e-6, 1e6, 241)
+    with np.errstate(all="ignore"):
+        V = lyap.value(c + t[None, :, None] * U[:, None, :])
+    above = ~(V <= level)
+    if not np.all(above.any(axis=1)):
+        return None
+    k = np.argmax(above, axis=1)
+    hi = t[k]
+    lo = np.where(k > 0, t[np.maximum(k - 1, 0)], 0.0)
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        with np.errstate(all="ignore"):
+            b = ~(lyap.value(c + mid[:, None] * U) <= level)
+        hi, lo = np.where(b, mid, hi), np.where(b, lo, mid)
+    return np.max(np.abs(hi[:, None] * U), axis=0)

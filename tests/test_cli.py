@@ -78,13 +78,24 @@ def test_unknown_arguments_raise():
         build_parser().parse_args(["nonexistent-command"])
 
 
-def test_every_command_has_help():
+def test_every_command_has_help(capsys):
+    """Every command (and every one of its options) is documented in --help."""
     parser = build_parser()
     sub = next(a for a in parser._actions if a.dest == "command")
-    for name in sub.choices:
-        proc = run_cli(name, "--help")
-        assert proc.returncode == 0, name
-        assert "usage: roa" in proc.stdout
+    for name, subparser in sub.choices.items():
+        with pytest.raises(SystemExit) as exit_info:
+            main([name, "--help"])
+        assert exit_info.value.code == 0, name
+        text = capsys.readouterr().out
+        assert "usage: roa" in text, name
+        for action in subparser._actions:
+            if action.option_strings and action.dest != "help":
+                assert action.help, f"roa {name} {action.option_strings[0]} has no help text"
+
+
+def test_the_console_script_runs():
+    proc = run_cli("khalil", "--help")
+    assert proc.returncode == 0 and "usage: roa khalil" in proc.stdout
 
 
 def test_basin_box_outside_the_domain_is_rejected_before_work(capsys):

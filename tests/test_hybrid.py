@@ -12,7 +12,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roa.proof.interval import INTERVAL, JET, Interval, Jet
+from roa.proof.interval import INTERVAL, Interval
+from roa.proof.jet import JET, Jet
 from roa.simulation import simulate
 from roa.status import StopRules
 from roa.systems import ipc

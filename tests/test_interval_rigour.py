@@ -1,7 +1,7 @@
 """Rigour of the interval layer (issue 15): jets enclose exact values and derivatives; sectors.
 
 Random programs of jet operations with float constants are run three ways: on interval jets
-(:class:`roa.proof.interval.Jet`, second order, on a box), on exact rational jets
+(:class:`roa.proof.jet.Jet`, second order, on a box), on exact rational jets
 (:class:`fractions.Fraction`, for the rational operations) and on 50-digit mpmath jets (with the
 transcendental functions); the interval jet must contain the exact value, gradient and Hessian at
 a point of the box. The exact derivatives come from the chain rule in exact / 50-digit arithmetic,
@@ -19,7 +19,8 @@ from hypothesis import assume, example, given, settings
 from hypothesis import strategies as st
 
 from roa.errors import RoaInputError
-from roa.proof.interval import INTERVAL, JET, Interval, Jet
+from roa.proof.interval import INTERVAL, Interval
+from roa.proof.jet import JET, Jet
 
 
 # -- reference jets: exact (Fraction) or 50-digit (mpmath) ------------------------------------------

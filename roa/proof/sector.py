@@ -19,7 +19,8 @@ from typing import Any
 import numpy as np
 
 from roa.errors import require
-from roa.proof.interval import INTERVAL, Interval, _down, _fadd
+from roa.proof.interval import INTERVAL, Interval, _down
+from roa.proof.jet import _fadd
 
 #: ``180 / pi`` rounded down with margin: the exact value is within one ulp of the float.
 _DEG_PER_RAD_LOWER = float(_down(180.0 / np.pi))

@@ -38,7 +38,8 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov, QuadraticLyapunov
-from roa.proof.interval import INTERVAL, JET, Interval, Jet, _down, _up
+from roa.proof.interval import INTERVAL, Interval, _down, _up
+from roa.proof.jet import JET, Jet
 from roa.status import Verdict
 from roa.system import System
 

@@ -28,7 +28,8 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 from roa.proof.cover import _interval_V, gram_cover, prove_boundary, ray_box
-from roa.proof.interval import INTERVAL, JET, Interval, Jet
+from roa.proof.interval import INTERVAL, Interval
+from roa.proof.jet import JET, Jet
 from roa.status import Verdict
 from roa.system import System
 

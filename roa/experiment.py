@@ -37,7 +37,7 @@ from roa.options import Options
 
 Runner = Callable[..., dict[str, Any]]
 
-VERDICTS = ("reproduced", "not reproduced", "erratum", "beyond the paper")
+VERDICTS = ("reproduced", "not reproduced", "erratum", "beyond the paper", "inconclusive")
 
 
 def accepts(params_class: type[Options]) -> Callable[[Runner], Runner]:

@@ -149,60 +149,57 @@ def _counterexample(witness_q: np.ndarray, level: float) -> dict[str, Any]:
 
 
 def _figure(results: dict[str, Any], path: Path) -> None:
-    import matplotlib
-
-    matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.lines import Line2D
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4.2))
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4.4))
     ax = axes[0]
-    for shape, style in (("ball", "o-"), ("level", "s-")):
+    handles = []
+    for shape, style, what in (("ball", "o-", "ball ||q||^2"), ("level", "s-", "level set of V")):
         r = results[shape]
         conv = r["per_method"]["sampled"]["convergence"]
-        ax.semilogx(
+        (line,) = ax.semilogx(
             [c["n_directions"] for c in conv],
             [c["value"] for c in conv],
             style,
-            label=f"{shape}: sampled rays, raw minimum",
+            label=f"{what}: sampled rays (raw minimum)",
         )
-        color = ax.lines[-1].get_color()
-        ax.plot(
-            [conv[-1]["n_directions"]],
-            [r["per_method"]["sampled"]["value"]],
-            "*",
-            ms=12,
-            color=color,
-            label=f"{shape}: sampled + cap refinement",
-        )
-        ax.axhline(
-            r["per_method"]["casadi"]["value"],
-            ls="--",
-            color=color,
-            label=f"{shape}: CasADi/IPOPT {r['per_method']['casadi']['value']:.5f}",
-        )
-    ax.axhline(ly.PAPER_C_STAR_SQ, color="k", ls=":", label="paper c*^2 = 4.89")
-    ax.set_xlabel("number of sampled directions")
-    ax.set_ylabel("largest level c (||q||^2 or V), dimensionless")
+        color = line.get_color()
+        ax.plot([conv[-1]["n_directions"]], [r["per_method"]["sampled"]["value"]], "*", ms=12,
+                color=color)  # fmt: skip
+        casadi = ax.axhline(r["per_method"]["casadi"]["value"], ls="--", color=color,
+                            label=f"{what}: CasADi/IPOPT {r['per_method']['casadi']['value']:.5f}")  # fmt: skip
+        handles += [line, casadi]
+    handles.append(Line2D([], [], ls="", marker="*", ms=10, color="#555555",
+                          label="sampled + cap refinement (final estimate)"))  # fmt: skip
+    handles.append(ax.axhline(ly.PAPER_C_STAR_SQ, color="k", ls=":", label="paper's c*^2 = 4.89"))
+    ax.set_xlabel("number of sampled directions [-]")
+    ax.set_ylabel("largest level c (||q||^2 or V) [-]")
     ax.set_title("Khalil search: sampled estimate vs samples")
-    ax.legend(fontsize=7)
+    ax.legend(handles=handles, fontsize=7)
     ax = axes[1]
     wq = np.asarray(results["ball"]["witness_q"])
     u = wq / np.linalg.norm(wq)
     s = np.linspace(0, 6.0, 600)
-    ax.plot(s, ly.Phi(np.sqrt(s)[:, None] * u), label="Phi along the witness direction")
+    ax.plot(s, ly.Phi(np.sqrt(s)[:, None] * u), label="V' along the witness direction ((3.12))")
     ax.axhline(0, color="k", lw=0.6)
     ax.axvline(
         results["ball"]["value"],
         color="C1",
         ls="--",
-        label=f"ours c*^2 = {results['ball']['value']:.4f}",
+        label=f"our largest ball: c*^2 = {results['ball']['value']:.4f}",
     )
-    ax.axvline(ly.PAPER_C_STAR_SQ, color="k", ls=":", label="paper c*^2 = 4.89")
+    ax.axvline(ly.PAPER_C_STAR_SQ, color="k", ls=":", label="paper's c*^2 = 4.89")
     ce = results["counterexample"]
-    ax.plot([ce["norm_q_sq"]], [ce["Phi"]], "r^", label="counterexample (Phi > 0)")
-    ax.set_xlabel("||q||^2 along the ray, dimensionless")
-    ax.set_ylabel("Phi = dV/dt (3.12), per unit normalised time")
-    ax.set_title("Phi on the ray through the witness")
+    ax.plot(
+        [ce["norm_q_sq"]],
+        [ce["Phi"]],
+        "r^",
+        label="counterexample inside the paper's ball (V' > 0)",
+    )
+    ax.set_xlabel("||q||^2 along the ray [-]")
+    ax.set_ylabel("V' = dV/dt [1/time (normalised)]")
+    ax.set_title("V' on the ray through the witness")
     ax.legend(fontsize=7)
     fig.tight_layout()
     atomic_savefig(fig, path)

@@ -317,8 +317,9 @@ def verify_outputs(out: Path, manifest: dict[str, Any] | None = None) -> list[st
         return [f"{out}: no summary.json recorded"]
     now = output_hashes(out)
     problems = [
-        f"{out}/{name} was modified after its run" for name in recorded if now.get(name) not in
-        (None, recorded[name])
+        f"{out}/{name} was modified after its run"
+        for name in recorded
+        if now.get(name) not in (None, recorded[name])
     ]
     problems += [f"{out}/{name} is missing" for name in recorded if name not in now]
     return problems

@@ -43,8 +43,10 @@ def _pos(obj: Any, name: str, *, upper: float = math.inf, closed_upper: bool = F
     ok = isinstance(value, int | float) and not isinstance(value, bool) and value > 0
     ok = ok and (value <= upper if closed_upper else value < upper)
     if not ok:
-        rng = "a finite number > 0" if upper == math.inf else f"in (0, {upper:g}" + (
-            "]" if closed_upper else ")"
+        rng = (
+            "a finite number > 0"
+            if upper == math.inf
+            else f"in (0, {upper:g}" + ("]" if closed_upper else ")")
         )
         raise RoaInputError(f"{what} must be {rng}, got {value!r}")
 
@@ -146,7 +148,9 @@ class CasadiOptions(Options):
         _int(self, "n_starts", 1, 10_000)
         r = tuple(self.r_start)
         if len(r) != 2 or not (0 < r[0] < r[1] < math.inf):
-            raise RoaInputError(f"CasadiOptions.r_start must be (low, high), 0 < low < high, got {r}")
+            raise RoaInputError(
+                f"CasadiOptions.r_start must be (low, high), 0 < low < high, got {r}"
+            )
         object.__setattr__(self, "r_start", (float(r[0]), float(r[1])))
         _int(self, "n_candidates", 1, MAX_DIRECTIONS)
         _int(self, "seed", 0)
@@ -182,9 +186,13 @@ class SosOptions(Options):
 
     def __post_init__(self) -> None:
         if self.recast not in ("exact", "enclosure"):
-            raise RoaInputError(f"SosOptions.recast must be 'exact' or 'enclosure', got {self.recast!r}")
+            raise RoaInputError(
+                f"SosOptions.recast must be 'exact' or 'enclosure', got {self.recast!r}"
+            )
         if self.symmetry not in ("auto", True, False):
-            raise RoaInputError(f"SosOptions.symmetry must be 'auto', True or False, got {self.symmetry!r}")
+            raise RoaInputError(
+                f"SosOptions.symmetry must be 'auto', True or False, got {self.symmetry!r}"
+            )
         if self.multiplier_degree is not None:
             _int(self, "multiplier_degree", 0, 12)
         if self.aux_degree is not None:
@@ -244,7 +252,9 @@ class IntegratorOptions(Options):
     def __post_init__(self) -> None:
         eps = 2.220446049250313e-16
         if not (isinstance(self.rtol, int | float) and 100 * eps <= self.rtol < 1):
-            raise RoaInputError(f"IntegratorOptions.rtol must be in [{100 * eps:.2g}, 1), got {self.rtol!r}")
+            raise RoaInputError(
+                f"IntegratorOptions.rtol must be in [{100 * eps:.2g}, 1), got {self.rtol!r}"
+            )
         _pos(self, "atol")
         if not (isinstance(self.margin_tol, int | float) and 0 <= self.margin_tol < math.inf):
             raise RoaInputError(

@@ -109,7 +109,9 @@ def check(
     return rows
 
 
-def update(registry: Registry, keys: list[str] | None = None, *, path: str | Path) -> dict[str, Any]:
+def update(
+    registry: Registry, keys: list[str] | None = None, *, path: str | Path
+) -> dict[str, Any]:
     """Recompute ``keys`` (default all registered) and store them in ``path`` (atomic)."""
     stored = load(path)
     for key in _select(registry, keys):

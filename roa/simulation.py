@@ -67,7 +67,11 @@ class Trajectory:
 
         if ax is None:
             _, ax = plt.subplots(figsize=(7, 3.5))
-        names = self.problem.state_names if self.problem else tuple(f"x{i}" for i in range(self.x.shape[1]))
+        names = (
+            self.problem.state_names
+            if self.problem
+            else tuple(f"x{i}" for i in range(self.x.shape[1]))
+        )
         units = (self.problem.state_units if self.problem else ()) or ("-",) * len(names)
         for i, (nm, un) in enumerate(zip(names, units, strict=True)):
             ax.plot(self.t, self.x[:, i], label=f"{nm} [{un}]")
@@ -127,9 +131,7 @@ def simulate(
     return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
 
 
-def _integrate(
-    system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any]
-) -> Trajectory:
+def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any]) -> Trajectory:
     """The run of :func:`simulate` (``ivp``: its solve_ivp options), without the timing."""
     rules = StopRules() if rules is None else rules
     t_eval = ivp["t_eval"]

@@ -118,5 +118,7 @@ class System:
                 f"{what}: component {self.state_names[idx[-1]]} is not finite (NaN/inf)"
             )
         if self.margin is not None and not np.all(self.inside(arr)):
-            raise RoaInputError(f"{what} outside the domain of {self.name}: {self.domain_description}")
+            raise RoaInputError(
+                f"{what} outside the domain of {self.name}: {self.domain_description}"
+            )
         return arr

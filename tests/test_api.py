@@ -149,7 +149,11 @@ def test_library_does_not_special_case_the_ipc():
     for path in [*(ROOT / "roa" / "commands").glob("*.py"), *(ROOT / "roa").glob("*.py")]:
         assert '"ipc"' not in path.read_text(), path
     for path in (ROOT / "roa").rglob("*.py"):
-        if "systems/ipc" in path.as_posix() or path.name == "__init__.py" and path.parent.name == "systems":
+        if (
+            "systems/ipc" in path.as_posix()
+            or path.name == "__init__.py"
+            and path.parent.name == "systems"
+        ):
             continue
         text = path.read_text()
         assert "roa.systems.ipc" not in text and "ipc_paper" not in text, path

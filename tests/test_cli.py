@@ -47,7 +47,16 @@ def test_simulate_tracking_reports_error(capsys):
 
 def test_simulate_flat_coordinates_agree(capsys):
     main(
-        ["ipc-simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5", "--coordinates", "flat"]
+        [
+            "ipc-simulate",
+            "--ic",
+            "0.4,0.25,0.2,2",
+            "--json",
+            "--t-final",
+            "5",
+            "--coordinates",
+            "flat",
+        ]
     )
     flat = json.loads(capsys.readouterr().out)
     main(["ipc-simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
@@ -99,6 +108,21 @@ def test_the_console_script_runs():
 
 
 def test_basin_box_outside_the_domain_is_rejected_before_work(capsys):
-    assert main(["basin", "--system", "ipc", "--slice", "q,theta", "--grid", "5x5", "--box", "theta=-2:2"]) == 2
+    assert (
+        main(
+            [
+                "basin",
+                "--system",
+                "ipc",
+                "--slice",
+                "q,theta",
+                "--grid",
+                "5x5",
+                "--box",
+                "theta=-2:2",
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err
     assert "--box" in err and "outside the domain" in err and "theta" in err

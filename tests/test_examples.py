@@ -25,7 +25,9 @@ def test_tutorial_level(capsys):
 
 
 def test_tutorial_certificate(capsys):
-    out = _json(capsys, ["certify", "--system", SPEC, "--level", "2.30", "--method", "interval", "--json"])
+    out = _json(
+        capsys, ["certify", "--system", SPEC, "--level", "2.30", "--method", "interval", "--json"]
+    )
     assert out["status"] == "certified"
     argv = ["certify", "--system", SPEC, "--level", "2.31", "--method", "interval", "--json"]
     out = _json(capsys, argv, code=1)  # a refuted level exits 1
@@ -39,7 +41,9 @@ def test_tutorial_basin_map(capsys, tmp_path):
     out = _json(capsys, argv)
     assert png.is_file()
     assert out["counts"]["converged"] + out["counts"]["diverged"] == out["n"] == 1600
-    assert out["regions"] == [{"name": "V <= 2.3 (my-vanderpol V)", "level": 2.3, "status": "certified"}]
+    assert out["regions"] == [
+        {"name": "V <= 2.3 (my-vanderpol V)", "level": 2.3, "status": "certified"}
+    ]
 
 
 def test_tutorial_runs_on_a_system_without_lyapunov_p(capsys):
@@ -48,11 +52,16 @@ def test_tutorial_runs_on_a_system_without_lyapunov_p(capsys):
     Reference: P solves A'P + PA = -I for A = [[0, 1], [-1, -1]]; the largest level of V = x'Px
     found independently by scipy (tests/test_user_systems.py) is certified just below and
     refuted just above by the same commands."""
-    spec = str(Path(__file__).resolve().parents[1] / "examples" / "systems" / "pendulum.py") + ":SYSTEM"
+    spec = (
+        str(Path(__file__).resolve().parents[1] / "examples" / "systems" / "pendulum.py")
+        + ":SYSTEM"
+    )
     out = _json(capsys, ["khalil", "--system", spec, "--shape", "level", "--json"])
     assert out["status"] == "agree" and out["level"] > 0
     level = out["level"]
     out = _json(capsys, ["certify", "--system", spec, "--level", str(0.999 * level), "--json"])
     assert out["status"] == "certified" and out["lyapunov"] == "P from A'P + PA = -I"
-    out = _json(capsys, ["certify", "--system", spec, "--level", str(1.001 * level), "--json"], code=1)
+    out = _json(
+        capsys, ["certify", "--system", spec, "--level", str(1.001 * level), "--json"], code=1
+    )
     assert out["status"] == "refuted"

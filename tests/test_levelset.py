@@ -136,9 +136,7 @@ def test_both_takes_only_successful_results():
     the combined result must be the CasADi level, with status 'partial', not min(1.0, 2.3045)."""
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
-    res = level_search(
-        system, V, shape="level", method="both", sampled=SampledOptions(r_max=1.0)
-    )
+    res = level_search(system, V, shape="level", method="both", sampled=SampledOptions(r_max=1.0))
     assert res.per_method["sampled"].status is LevelStatus.UNBOUNDED
     assert res.per_method["sampled"].level is None
     assert res.per_method["sampled"].lower_bound == 1.0

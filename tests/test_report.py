@@ -199,7 +199,9 @@ def test_tampered_outputs_are_never_served(tmp_path, monkeypatch, capsys):
     original = data["claims"][0]["verdict"]
     data["claims"][0]["verdict"] = "reproduced" if original != "reproduced" else "erratum"
     path.write_text(json.dumps(data))
-    assert verify_outputs(results / "bound") == [f"{results / 'bound'}/summary.json was modified after its run"]
+    assert verify_outputs(results / "bound") == [
+        f"{results / 'bound'}/summary.json was modified after its run"
+    ]
     assert main(["report", "--results", str(results), "--out", str(tmp_path / "rep.md")]) == 1
     assert "modified after its run" in capsys.readouterr().err
     again = run_experiment(cfg, results=results, quick=True)  # not served from the cache
@@ -212,6 +214,8 @@ def test_a_foreign_config_cannot_overwrite_results(tmp_path):
     run_experiment(ROOT / "experiments" / "bound.toml", results=results, quick=True)
     other = tmp_path / "elsewhere" / "bound.toml"
     other.parent.mkdir()
-    other.write_text((ROOT / "experiments" / "bound.toml").read_text().replace("seed = 0", "seed = 1"))
+    other.write_text(
+        (ROOT / "experiments" / "bound.toml").read_text().replace("seed = 0", "seed = 1")
+    )
     with pytest.raises(ValueError, match="holds the results of another config"):
         run_experiment(other, results=results, quick=True)

@@ -8,7 +8,7 @@ from roa import System
 
 SYSTEM = System(
     name="degenerate",
-    field=lambda t, x, xp: (-x[0] ** 3 + x[0] ** 5, -x[1] ** 3),
+    field=lambda t, x, xp: (-(x[0] ** 3) + x[0] ** 5, -(x[1] ** 3)),
     equilibrium=(0.0, 0.0),
     state_names=("x1", "x2"),
     state_units=("1", "1"),

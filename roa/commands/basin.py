@@ -158,7 +158,9 @@ def build(args: argparse.Namespace):
             raise RoaInputError("--slice needs --grid NxM")
         axes = [a.strip() for a in args.slice.split(",")]
         if len(axes) != 2:
-            raise RoaInputError(f"--slice: expected two state names AXIS1,AXIS2, got {args.slice!r}")
+            raise RoaInputError(
+                f"--slice: expected two state names AXIS1,AXIS2, got {args.slice!r}"
+            )
         for a in axes:
             if a not in names:
                 raise RoaInputError(f"--slice: unknown state {a!r}; allowed: {', '.join(names)}")
@@ -285,9 +287,7 @@ def run(args: argparse.Namespace) -> int:
     if plot:
         from roa.plotting.basin import plot_slice
 
-        summary["regions"] = [
-            {"name": r.name, "level": r.level, "status": r.status} for r in regs
-        ]
+        summary["regions"] = [{"name": r.name, "level": r.level, "status": r.status} for r in regs]
         plot_slice(system, sampler, result.code, plot, regions=regs,
                    title=f"basin of {args.system}")  # fmt: skip
         summary["plot"] = plot

@@ -15,7 +15,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="recompute and STORE the selected keys (all if no --only) instead of checking",
     )
-    p.add_argument("--study", default=None, help="the study whose values are checked (default: ipc)")
+    p.add_argument(
+        "--study", default=None, help="the study whose values are checked (default: ipc)"
+    )
     p.add_argument("--reference", default="results/reference.json",
                    help="reference file (default results/reference.json of the checkout)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print the rows as JSON")

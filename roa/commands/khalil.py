@@ -45,7 +45,9 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
         flag = {"n_directions": "--directions", "n_starts": "--starts", "seed": "--seed"}
         msg = str(exc)
         for field, option in flag.items():
-            msg = msg.replace(f"SampledOptions.{field}", option).replace(f"CasadiOptions.{field}", option)
+            msg = msg.replace(f"SampledOptions.{field}", option).replace(
+                f"CasadiOptions.{field}", option
+            )
         raise RoaInputError(msg) from None
     system = C.system(args)
     V = C.lyapunov(args, system)

@@ -55,7 +55,9 @@ def run(args: argparse.Namespace) -> int:
 
             diff = [
                 line
-                for line in difflib.unified_diff(current.splitlines(), text.splitlines(), lineterm="", n=0)
+                for line in difflib.unified_diff(
+                    current.splitlines(), text.splitlines(), lineterm="", n=0
+                )
                 if line[:1] in "+-" and line[:3] not in ("+++", "---")
             ]
             print(f"{out} differs from the report generated from {args.results}/ "

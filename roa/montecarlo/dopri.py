@@ -57,6 +57,7 @@ _P = np.array(
 _SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
 _EPS = np.finfo(float).eps
 
+
 @dataclass(frozen=True)
 class BatchResult:
     """Per-trajectory outcome: ``code`` (int8, see module constants), ``t_end``, ``x_end``, ``steps``."""

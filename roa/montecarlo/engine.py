@@ -75,8 +75,6 @@ def wilson_interval(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     return (max(0.0, center - half), min(1.0, center + half))
 
 
-
-
 @dataclass
 class BasinRun:
     """Statuses of ``n`` initial conditions (codes of :mod:`roa.montecarlo.integrator`)."""

@@ -200,7 +200,9 @@ class RegionSample:
 
     def __post_init__(self) -> None:
         if self.mode not in ("inside", "surface"):
-            raise RoaInputError(f"region sample mode must be 'inside' or 'surface', got {self.mode!r}")
+            raise RoaInputError(
+                f"region sample mode must be 'inside' or 'surface', got {self.mode!r}"
+            )
         object.__setattr__(self, "n", check_count(self.n, "samples (n)"))
         L = np.linalg.cholesky(self.P)  # P = L L'; y'Py = |L'y|^2
         object.__setattr__(self, "_Linv", np.linalg.inv(L.T))

@@ -76,7 +76,9 @@ def ellipsoid_contains(P: np.ndarray, b: Any, Q: np.ndarray, a: Any) -> dict[str
     if any(Pf[i][j] != Pf[j][i] or Qf[i][j] != Qf[j][i] for i in range(n) for j in range(n)):
         raise RoaInputError("P and Q must be exactly symmetric")
     if not exact_positive_definite(Qf)[0]:
-        raise RoaInputError("Q must be positive definite (the inner set must be a bounded ellipsoid)")
+        raise RoaInputError(
+            "Q must be positive definite (the inner set must be a bounded ellipsoid)"
+        )
     A = [[b * Qf[i][j] - a * Pf[i][j] for j in range(n)] for i in range(n)]
     ok, pivots = exact_positive_definite(A)
     Pn, Qn = np.asarray(P, dtype=float), np.asarray(Q, dtype=float)

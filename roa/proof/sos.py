@@ -280,7 +280,12 @@ def sos_level(
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
         return SOSResult(
-            SosStatus.NOT_POLYNOMIAL, None, "not run", time.perf_counter() - t0, "", message=str(exc)
+            SosStatus.NOT_POLYNOMIAL,
+            None,
+            "not run",
+            time.perf_counter() - t0,
+            "",
+            message=str(exc),
         )
     gens = rc.d + rc.aux
     nv = len(gens)
@@ -394,5 +399,11 @@ def sos_level(
         "failed": f"solver status {prob.status}: no certificate",
     }[status]
     return SOSResult(
-        SosStatus(status), value, solver_status, time.perf_counter() - t0, rc.description, sizes, msg
+        SosStatus(status),
+        value,
+        solver_status,
+        time.perf_counter() - t0,
+        rc.description,
+        sizes,
+        msg,
     )

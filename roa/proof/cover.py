@@ -22,21 +22,13 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
+from roa.proof.containment import exact_positive_definite as _pivots_positive
 from roa.proof.interval import INTERVAL, Interval, _up
 
 
 def exact_positive_definite(A: list[list[Fraction]]) -> bool:
     """Whether the symmetric rational matrix ``A`` is positive definite (Gaussian elimination)."""
-    A = [row[:] for row in A]
-    n = len(A)
-    for k in range(n):
-        if A[k][k] <= 0:
-            return False
-        for i in range(k + 1, n):
-            r = A[i][k] / A[k][k]
-            for j in range(k, n):
-                A[i][j] -= r * A[k][j]
-    return True
+    return _pivots_positive(A)[0]
 
 
 def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]] | None:

@@ -38,6 +38,7 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov, QuadraticLyapunov
+from roa.proof.containment import exact_positive_definite
 from roa.proof.interval import INTERVAL, Interval, _down, _up
 from roa.proof.jet import JET, Jet
 from roa.status import Verdict
@@ -176,14 +177,7 @@ def _exact_negative_definite(lo: np.ndarray, hi: np.ndarray) -> bool:
     if t * t < frob2:
         return False
     A = [[-mid[i][j] - (t if i == j else 0) for j in range(n)] for i in range(n)]
-    for k in range(n):  # Gaussian elimination: all pivots > 0 <=> A positive definite
-        if A[k][k] <= 0:
-            return False
-        for i in range(k + 1, n):
-            r = A[i][k] / A[k][k]
-            for j in range(k, n):
-                A[i][j] -= r * A[k][j]
-    return True
+    return exact_positive_definite(A)[0]  # all pivots > 0 <=> A positive definite
 
 
 def exact_equilibrium(system: System, center: np.ndarray) -> bool:

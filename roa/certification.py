@@ -27,6 +27,7 @@ from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import IntervalOptions, SampledOptions, SosOptions
+from roa.progress import step
 from roa.proof.sos import SOSResult, sos_level
 from roa.proof.validate import Validation, validate_level
 from roa.status import LevelStatus, SosStatus, Verdict
@@ -164,11 +165,12 @@ def _contour(ax: Any, V: Lyapunov, level: float, axes: tuple[int, int], n: int, 
 def _validate(
     system: System, V: Lyapunov, level: float, opts: IntervalOptions, bounding_box: Any = None
 ) -> Validation:
-    if isinstance(V, QuadraticLyapunov):
-        return validate_level(system, V, level, max_boxes=opts.max_boxes, batch=opts.batch)
-    return validate_level(
-        system, V, level, max_boxes=opts.max_boxes, batch=opts.batch, bounding_box=bounding_box
-    )
+    with step(f"interval validation of level {level:.6g}"):
+        if isinstance(V, QuadraticLyapunov):
+            return validate_level(system, V, level, max_boxes=opts.max_boxes, batch=opts.batch)
+        return validate_level(
+            system, V, level, max_boxes=opts.max_boxes, batch=opts.batch, bounding_box=bounding_box
+        )
 
 
 def certify(
@@ -281,15 +283,16 @@ def certify(
                     message=v.message, validation=v, above=above, candidate=float(level))  # fmt: skip
     sos_res = None
     if method in ("sos", "both") and isinstance(lyap, QuadraticLyapunov):
-        sos_res = sos_level(
-            system,
-            lyap,
-            recast_mode=sos.recast,
-            multiplier_degree=sos.multiplier_degree,
-            solver_options=sos.solver_options(),
-            symmetry=sos.symmetry,
-            aux_degree=sos.aux_degree,
-        )
+        with step("SOS program (cvxpy + Clarabel)"):
+            sos_res = sos_level(
+                system,
+                lyap,
+                recast_mode=sos.recast,
+                multiplier_degree=sos.multiplier_degree,
+                solver_options=sos.solver_options(),
+                symmetry=sos.symmetry,
+                aux_degree=sos.aux_degree,
+            )
         ok = sos_res.status is SosStatus.SOLVED and sos_res.level is not None
         if method == "sos":
             msg = (

@@ -35,6 +35,9 @@ def main(argv: list[str] | None = None) -> int:
     matplotlib.use("Agg")  # files only, never a window
     parser = build_parser()
     args = parser.parse_args(argv)
+    from roa import progress
+
+    progress.enable(True)  # a line per long step on stderr (bars only on a terminal)
     try:
         return int(args.func(args) or 0)
     except RoaInputError as exc:

@@ -28,6 +28,7 @@ from roa.levelset_sampled import sampled_level
 from roa.linearisation import jacobian, lyapunov_matrix
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import CasadiOptions, SampledOptions
+from roa.progress import step
 from roa.status import LevelStatus
 from roa.system import System
 
@@ -256,12 +257,14 @@ def level_search(
     runs: list[LevelSearchResult] = []
     if method in ("sampled", "both"):
         t0 = time.perf_counter()
-        r = sampled_level(system, lyap, S, shape=name, **sampled.to_dict())
+        with step(f"level search: sampled rays ({sampled.n_directions} directions)"):
+            r = sampled_level(system, lyap, S, shape=name, **sampled.to_dict())
         runs.append(_wrap(r, time.perf_counter() - t0, **keep))
     if method in ("casadi", "both"):
         t0 = time.perf_counter()
         opts = casadi.to_dict()
-        r = casadi_level(system, lyap, S, shape=name, **opts)
+        with step(f"level search: CasADi/IPOPT ({casadi.n_starts} starts)"):
+            r = casadi_level(system, lyap, S, shape=name, **opts)
         runs.append(_wrap(r, time.perf_counter() - t0, **keep))
     if notes:
         runs = [dataclasses.replace(r, details={**r.details, "notes": list(notes)}) for r in runs]

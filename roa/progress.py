@@ -2,6 +2,7 @@
 
 On a terminal a step shows ``label ...`` while it runs; everywhere it ends with one line
 ``label: 12.3 s``, so logs of non-interactive runs get a line per step and never a flood of bars.
+The library stays silent unless :func:`enable` was called (the CLI does).
 """
 
 from __future__ import annotations
@@ -11,6 +12,14 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from typing import Any, TextIO
+
+_ENABLED = False
+
+
+def enable(on: bool = True) -> None:
+    """Report steps on stderr (the CLI turns this on; library calls are silent by default)."""
+    global _ENABLED
+    _ENABLED = bool(on)
 
 
 def interactive(stream: TextIO | None = None) -> bool:
@@ -26,6 +35,9 @@ def step(label: str, *, stream: TextIO | None = None, min_seconds: float = 0.0) 
     Steps shorter than ``min_seconds`` print nothing at their end.
     """
     stream = sys.stderr if stream is None else stream
+    if not _ENABLED:
+        yield
+        return
     t0 = time.perf_counter()
     if interactive(stream):
         print(f"  {label} ...", end="\r", file=stream, flush=True)

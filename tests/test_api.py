@@ -157,3 +157,15 @@ def test_library_does_not_special_case_the_ipc():
             continue
         text = path.read_text()
         assert "roa.systems.ipc" not in text and "ipc_paper" not in text, path
+
+
+def test_cli_reports_each_long_step_on_stderr_and_the_library_stays_silent(capsys):
+    """Issue 11: a line per step with its time from the CLI (no bars outside a terminal)."""
+    assert main(["certify", "--system", "vanderpol", "--level", "2.3", "--json"]) == 0
+    err = capsys.readouterr().err
+    assert "interval validation of level 2.3:" in err and " s\n" in err
+    from roa import progress
+
+    progress.enable(False)
+    roa.certify(vanderpol(), level=2.3)
+    assert capsys.readouterr().err == ""

@@ -236,6 +236,9 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
     """
     if system.equilibrium is None:
         raise RoaInputError(f"system {system.name!r} has no equilibrium: no Lyapunov candidate")
+    from roa.checks import check_system
+
+    check_system(system)  # a malformed field or a false equilibrium: a clear error first
     if system.lyapunov is not None:
         return QuadraticLyapunov.for_system(system, system.lyapunov, name=f"{system.name} V")
     from roa.linearisation import lyapunov_matrix

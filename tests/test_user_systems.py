@@ -155,3 +155,18 @@ def test_basin_statuses(name, x0, status):
     assert res.counts[status.value] == 3, res.counts  # the batch integrator agrees
     if status is roa.RunStatus.UNDECIDED:
         assert "still moving" in run.message
+
+
+def test_a_file_whose_field_has_the_wrong_size_is_one_line_at_load(tmp_path, capsys):
+    """Issue 11: the CLI names the file and the problem, no traceback."""
+    from roa.cli import main
+
+    f = tmp_path / "wrong.py"
+    f.write_text(
+        "from roa import System\n"
+        "SYS = System(name='s', field=lambda t, x, xp: (-x[0], x[1]), equilibrium=(0.0,),\n"
+        "             state_names=('x',))\n"
+    )
+    assert main(["khalil", "--system", f"{f}:SYS"]) == 2
+    err = capsys.readouterr().err
+    assert "wrong.py:SYS" in err and "must return 1 numbers" in err and "Traceback" not in err

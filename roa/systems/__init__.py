@@ -95,6 +95,14 @@ def load_system(spec: str) -> System:
             system = dataclasses.replace(system, lyapunov=P)
         except RoaInputError as exc:
             raise SystemDefinitionError(f"{path}: LYAPUNOV_P: {exc}") from None
+    from roa.checks import check_system
+
+    try:
+        check_system(system)  # the field's size, f(x_eq) = 0, x_eq in the domain
+    except RoaInputError as exc:
+        raise type(exc)(f"{path}:{name}: {exc}") from None
+    except Exception as exc:  # the user's field raised: report where, in one line
+        raise SystemDefinitionError(_where(path, exc)) from None
     return system
 
 

@@ -166,8 +166,6 @@ def _validate(
     system: System, V: Lyapunov, level: float, opts: IntervalOptions, bounding_box: Any = None
 ) -> Validation:
     with step(f"interval validation of level {level:.6g}"):
-        if isinstance(V, QuadraticLyapunov):
-            return validate_level(system, V, level, max_boxes=opts.max_boxes, batch=opts.batch)
         return validate_level(
             system, V, level, max_boxes=opts.max_boxes, batch=opts.batch, bounding_box=bounding_box
         )
@@ -269,11 +267,11 @@ def certify(
         search = candidate if isinstance(candidate, LevelSearchResult) else None
         value = candidate.level if isinstance(candidate, LevelSearchResult) else candidate
         if value is None or not (np.isfinite(value) and value > 0):
-            msg = "the candidate level search found no level" if search else "candidate must be > 0"
             if search is None:
                 raise RoaInputError(f"candidate must be a finite number > 0, got {value!r}")
             return done(status=Verdict.INCONCLUSIVE, level=None, method="level search",
-                        level_source=None, message=msg, search=search)  # fmt: skip
+                        level_source=None, message="the candidate level search found no level",
+                        search=search)  # fmt: skip
         return _validated(done, _check, float(value), interval.sampled_safety, "candidate",
                           check_above, search=search)  # fmt: skip
     if level is not None:
@@ -282,7 +280,7 @@ def certify(
         return done(status=v.status, level=float(level), method="interval", level_source="given",
                     message=v.message, validation=v, above=above, candidate=float(level))  # fmt: skip
     sos_res = None
-    if method in ("sos", "both") and isinstance(lyap, QuadraticLyapunov):
+    if method in ("sos", "both") and isinstance(lyap, QuadraticLyapunov):  # SOS: quadratic V
         with step("SOS program (cvxpy + Clarabel)"):
             sos_res = sos_level(
                 system,

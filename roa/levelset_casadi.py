@@ -12,9 +12,9 @@ from typing import Any
 import numpy as np
 
 from roa.backend import namespace
-from roa.errors import RoaInputError
-from roa.levelset_core import LevelSetResult, finish, locally_negative, problem, unit
+from roa.levelset_core import LevelSetResult, finish, start, unit
 from roa.lyapunov import Lyapunov
+from roa.options import CasadiOptions
 from roa.system import System
 
 
@@ -50,22 +50,12 @@ def casadi_level(
     """
     import casadi as ca
 
-    if int(n_starts) < 1:
-        raise RoaInputError(f"n_starts must be >= 1, got {n_starts}")
-    if not (0 < r_start[0] < r_start[1] < np.inf):
-        raise RoaInputError(f"r_start must be 0 < low < high, got {r_start}")
-    prob = problem(system, V, S, shape)
-    ok, lam = locally_negative(system, V)
-    if not ok:
-        return LevelSetResult(
-            0.0,
-            "not_locally_negative",
-            "casadi",
-            shape,
-            system.x_eq,
-            0.0,
-            details={"max_eig_AtP_PA": lam},
-        )
+    CasadiOptions(
+        n_starts=int(n_starts), r_start=r_start, n_candidates=int(n_candidates), seed=int(seed)
+    )  # validates the options; fmt: skip
+    prob, early = start(system, V, S, shape, "casadi")
+    if early is not None:
+        return early
     n = system.n
     x = ca.SX.sym("x", n)
     comps = [x[i] for i in range(n)]

@@ -122,6 +122,19 @@ def problem(system: System, V: Lyapunov, S: Any, shape: str) -> _Problem:
     return _Problem(system, V, S, shape, np.linalg.inv(L.T), by_value)
 
 
+def start(
+    system: System, V: Lyapunov, S: Any, shape: str, method: str
+) -> tuple[_Problem, LevelSetResult | None]:
+    """The problem of one method, and its result already when V' is not negative near x_eq."""
+    prob = problem(system, V, S, shape)
+    ok, lam = locally_negative(system, V)
+    if ok:
+        return prob, None
+    early = LevelSetResult(0.0, "not_locally_negative", method, shape, system.x_eq, 0.0,
+                           details={"max_eig_AtP_PA": lam})  # fmt: skip
+    return prob, early
+
+
 def unit(Z: np.ndarray) -> np.ndarray:
     """Rows of ``Z`` scaled to unit Euclidean norm."""
     return Z / np.linalg.norm(Z, axis=-1, keepdims=True)

@@ -13,9 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from roa.errors import RoaInputError
-from roa.levelset_core import LevelSetResult, _Problem, finish, locally_negative, problem, unit
+from roa.levelset_core import LevelSetResult, _Problem, finish, start, unit
 from roa.lyapunov import Lyapunov
+from roa.options import SampledOptions
 from roa.system import System
 
 
@@ -78,24 +78,18 @@ def sampled_level(
     seed : int
         Random seed.
     """
-    if int(n_directions) < 16:
-        raise RoaInputError(f"n_directions must be >= 16, got {n_directions}")
-    if not (np.isfinite(r_max) and r_max > 0):
-        raise RoaInputError(f"r_max must be finite and > 0, got {r_max}")
-    if int(n_radial) < 8:
-        raise RoaInputError(f"n_radial must be >= 8, got {n_radial}")
-    prob = problem(system, V, S, shape)
-    ok, lam = locally_negative(system, V)
-    if not ok:
-        return LevelSetResult(
-            0.0,
-            "not_locally_negative",
-            "sampled",
-            shape,
-            system.x_eq,
-            0.0,
-            details={"max_eig_AtP_PA": lam},
-        )
+    SampledOptions(
+        n_directions=int(n_directions),
+        r_max=r_max,
+        n_radial=int(n_radial),
+        refine_rounds=int(refine_rounds),
+        refine_directions=int(refine_directions),
+        n_candidates=int(n_candidates),
+        seed=int(seed),
+    )  # validates; fmt: skip
+    prob, early = start(system, V, S, shape, "sampled")
+    if early is not None:
+        return early
     rng = np.random.default_rng(seed)
     n = system.n
     U = unit(rng.standard_normal((int(n_directions), n)))

@@ -64,13 +64,13 @@ def linearise(system: System) -> Linearisation:
 
 def lyapunov_matrix(system: System) -> np.ndarray:
     """P solving A'P + PA = -I for the linearisation A at the equilibrium (A must be Hurwitz)."""
-    A = jacobian(system)
-    eig = np.linalg.eigvals(A)
-    if np.max(eig.real) >= 0:
+    lin = linearise(system)
+    if lin.kind != "hurwitz":
+        eig = lin.eigenvalues
         raise RoaInputError(
             f"linearisation of {system.name!r} is not Hurwitz (eigenvalue "
             f"{eig[np.argmax(eig.real)]:.4g}): no quadratic Lyapunov function from A'P + PA = -I; "
             "pass V explicitly (or give the system a lyapunov matrix)"
         )
-    P = linalg.solve_continuous_lyapunov(A.T, -np.eye(system.n))
+    P = linalg.solve_continuous_lyapunov(lin.A.T, -np.eye(system.n))
     return 0.5 * (P + P.T)

@@ -7,13 +7,16 @@ from __future__ import annotations
 
 import argparse
 import json
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 
 from roa.errors import RoaInputError
 from roa.io import to_json
+
+T = TypeVar("T")
 
 #: The default of ``--system`` for every command: the IPC's closed loop (3.8) in flat
 #: coordinates, which carries the paper's V (3.11) and ball ||q||^2.
@@ -114,6 +117,20 @@ def read_matrix(spec: str, *, what: str) -> Any:
         return np.asarray(data, dtype=float)
     except (TypeError, ValueError):
         raise RoaInputError(f"{what} {spec}: P must be a list of rows of numbers") from None
+
+
+def options(make: Callable[[], T], flags: dict[str, str]) -> T:
+    """``make()`` (option objects); a :class:`RoaInputError` names the CLI flag, not the field.
+
+    ``flags`` maps ``"Class.field"`` (as the option classes name them) to the flag.
+    """
+    try:
+        return make()
+    except RoaInputError as exc:
+        msg = str(exc)
+        for field, flag in flags.items():
+            msg = msg.replace(field, flag)
+        raise RoaInputError(msg) from None
 
 
 def floats(text: str, what: str, n: int | None = None) -> list[float]:

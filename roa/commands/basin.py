@@ -271,16 +271,15 @@ def run(args: argparse.Namespace) -> int:
             terminal = TerminalSet.from_certificate(args.terminal_set, system)
         except RoaInputError as exc:
             raise RoaInputError(str(exc).replace("terminal set ", "--terminal-set ", 1)) from None
-    try:
-        integrator = roa.IntegratorOptions(rtol=args.rtol, atol=args.atol)
-        run_opts = roa.RunOptions(chunk_size=args.chunk_size, n_jobs=args.jobs, out_dir=args.out,
-                                  scheduler=args.scheduler, fresh=args.force)  # fmt: skip
-    except RoaInputError as exc:
-        msg = str(exc)
-        for field, flag in (("IntegratorOptions.rtol", "--rtol"), ("IntegratorOptions.atol", "--atol"),
-                            ("RunOptions.chunk_size", "--chunk-size"), ("RunOptions.n_jobs", "--jobs")):  # fmt: skip
-            msg = msg.replace(field, flag)
-        raise RoaInputError(msg) from None
+    integrator, run_opts = C.options(
+        lambda: (
+            roa.IntegratorOptions(rtol=args.rtol, atol=args.atol),
+            roa.RunOptions(chunk_size=args.chunk_size, n_jobs=args.jobs, out_dir=args.out,
+                           scheduler=args.scheduler, fresh=args.force),
+        ),
+        {"IntegratorOptions.rtol": "--rtol", "IntegratorOptions.atol": "--atol",
+         "RunOptions.chunk_size": "--chunk-size", "RunOptions.n_jobs": "--jobs"},
+    )  # fmt: skip
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
                        terminal=terminal)  # fmt: skip
     summary = {**result.to_dict(), **mode}

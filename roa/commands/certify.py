@@ -60,10 +60,10 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
         )
     if args.level is not None and not args.level > 0:
         raise RoaInputError(f"--level must be a finite number > 0, got {args.level}")
-    try:
-        interval = roa.IntervalOptions(max_boxes=args.max_boxes)
-    except RoaInputError as exc:
-        raise RoaInputError(str(exc).replace("IntervalOptions.max_boxes", "--max-boxes")) from None
+    interval = C.options(
+        lambda: roa.IntervalOptions(max_boxes=args.max_boxes),
+        {"IntervalOptions.max_boxes": "--max-boxes"},
+    )
     system = C.system(args)
     V = C.lyapunov(args, system)
     method = args.method or ("interval" if args.level is not None else "both")

@@ -36,19 +36,16 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
     import roa
-    from roa.errors import RoaInputError
 
-    try:
-        sampled = roa.SampledOptions(n_directions=args.directions, seed=args.seed)
-        casadi = roa.CasadiOptions(n_starts=args.starts, seed=args.seed + 1)
-    except RoaInputError as exc:
-        flag = {"n_directions": "--directions", "n_starts": "--starts", "seed": "--seed"}
-        msg = str(exc)
-        for field, option in flag.items():
-            msg = msg.replace(f"SampledOptions.{field}", option).replace(
-                f"CasadiOptions.{field}", option
-            )
-        raise RoaInputError(msg) from None
+    flags = {"SampledOptions.n_directions": "--directions", "CasadiOptions.n_starts": "--starts",
+             "SampledOptions.seed": "--seed", "CasadiOptions.seed": "--seed"}  # fmt: skip
+    sampled, casadi = C.options(
+        lambda: (
+            roa.SampledOptions(n_directions=args.directions, seed=args.seed),
+            roa.CasadiOptions(n_starts=args.starts, seed=args.seed + 1),
+        ),
+        flags,
+    )
     system = C.system(args)
     V = C.lyapunov(args, system)
     return roa.level_search(system, V, shape=args.shape, method=args.method, sampled=sampled,

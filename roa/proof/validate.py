@@ -203,12 +203,20 @@ def local_proof(system: System, lyap: QuadraticLyapunov, eps: float) -> bool:
     fr = _frame(lyap, eps)
     r = np.full((1, n), fr.radius)
     vd = _vdot(system, lyap, _to_x(lyap, fr, Jet.variables(-r, r, order=2)), JET)
+    return hessian_negative_definite(vd, n)
+
+
+def hessian_negative_definite(vd: Jet, n: int) -> bool:
+    """Every matrix in the interval Hessian of the second-order jet ``vd`` (one box) is negative
+    definite (exact rationals)."""
+    h = vd.h
+    assert h is not None, "a second-order jet is needed"
 
     def bound(e: Any, side: str) -> float:
         return float(np.atleast_1d(getattr(Interval.of(e), side))[0])
 
-    H_lo = np.array([[bound(vd.h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
-    H_hi = np.array([[bound(vd.h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
+    H_lo = np.array([[bound(h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
+    H_hi = np.array([[bound(h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
     return _exact_negative_definite(H_lo, H_hi)
 
 

@@ -89,19 +89,12 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
 
 def local_box_proof(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> bool:
     """Prove ``V' < 0`` on the box ``[lo, hi]`` (holding ``x_eq``) minus the equilibrium."""
-    from roa.proof.validate import _exact_negative_definite, exact_equilibrium
+    from roa.proof.validate import exact_equilibrium, hessian_negative_definite
 
-    n = lyap.n
     if not gradient_vanishes(lyap) or not exact_equilibrium(system, lyap.center):
         return False
     vd = lyap.vdot_expr(system, Jet.variables(lo[None, :], hi[None, :], order=2), JET)
-
-    def bound(e: Any, side: str) -> float:
-        return float(np.atleast_1d(getattr(Interval.of(e), side))[0])
-
-    H_lo = np.array([[bound(vd.h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
-    H_hi = np.array([[bound(vd.h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
-    return _exact_negative_definite(H_lo, H_hi)
+    return hessian_negative_definite(vd, lyap.n)
 
 
 def _evaluate(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray):

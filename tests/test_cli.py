@@ -126,3 +126,27 @@ def test_basin_box_outside_the_domain_is_rejected_before_work(capsys):
     )
     err = capsys.readouterr().err
     assert "--box" in err and "outside the domain" in err and "theta" in err
+
+
+@pytest.mark.parametrize(
+    "args, message",
+    [
+        (["simulate", "--system", "vanderpol", "--x0", "1,2,3"], "--x0: expected 2"),
+        (["simulate", "--system", "vanderpol", "--x0", "1,2", "--converge-tol", "-1"],
+         "--converge-tol must be"),
+        (["simulate", "--system", "vanderpol:mu=x", "--x0", "1,2"], "NAME=NUMBER"),
+        (["certify", "--system", "vanderpol", "--check-above", "0.5"], "--check-above must be"),
+        (["khalil", "--system", "vanderpol", "--lyapunov", "/nonexistent.json"], "--lyapunov"),
+        (["khalil", "--system", "vanderpol", "--directions", "3"], "--directions must be in"),
+        (["basin", "--system", "vanderpol", "--samples", "5", "--terminal-set", "/no.json"],
+         "--terminal-set"),
+        (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "3x3", "--converge-tol",
+          "0"], "--converge-tol must be"),
+        (["report", "--study", "nope"], "study must be one of"),
+    ],
+)  # fmt: skip
+def test_new_options_reject_bad_input_in_one_line(args, message, capsys):
+    """Exit 2, a message naming the option, no traceback."""
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err

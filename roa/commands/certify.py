@@ -64,6 +64,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
         lambda: roa.IntervalOptions(max_boxes=args.max_boxes),
         {"IntervalOptions.max_boxes": "--max-boxes"},
     )
+    if args.check_above is not None and not args.check_above > 1:
+        raise RoaInputError(f"--check-above must be a finite number > 1, got {args.check_above}")
     system = C.system(args)
     V = C.lyapunov(args, system)
     method = args.method or ("interval" if args.level is not None else "both")

@@ -30,6 +30,7 @@ from roa.options import (
     RunOptions,
     SampledOptions,
     SosOptions,
+    VsOptions,
 )
 from roa.simulation import Trajectory, simulate
 from roa.status import (
@@ -66,6 +67,7 @@ __all__ = [
     "SampledOptions",
     "SolverError",
     "SosOptions",
+    "VsOptions",
     "SosStatus",
     "StopRules",
     "System",

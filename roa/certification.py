@@ -26,7 +26,7 @@ from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
-from roa.options import IntervalOptions, SampledOptions, SosOptions
+from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
 from roa.proof.sos import SOSResult, sos_level
 from roa.proof.validate import Validation, validate_level
@@ -70,6 +70,7 @@ class Certificate:
     above: Validation | None = None
     sos: SOSResult | None = None
     search: LevelSearchResult | None = None
+    vs: Any = None  # VsResult of a degree= search (roa.proof.vs_search)
     system: System | None = field(default=None, repr=False, compare=False)
     V: Lyapunov | None = field(default=None, repr=False, compare=False)
 
@@ -92,6 +93,8 @@ class Certificate:
             out.update(lyapunov=self.V.name, candidate_kind=self.V.describe())
         if self.sos is not None:
             out["sos"] = self.sos.to_json()
+        if self.vs is not None:
+            out["vs_search"] = self.vs.to_dict()
         if self.search is not None:
             out["level_search"] = {
                 "status": self.search.status.value,
@@ -183,6 +186,8 @@ def certify(
     candidate: LevelSearchResult | float | None = None,
     check_above: float | None = None,
     bounding_box: Any = None,
+    degree: int | None = None,
+    vs: VsOptions | None = None,
 ) -> Certificate:
     """Certify (or refute) that ``{V <= level}`` lies in the region of attraction.
 
@@ -211,6 +216,12 @@ def certify(
         Also validate ``check_above * candidate`` (> 1, e.g. 1.001); its verdict is ``.above``.
     bounding_box : array, optional
         Non-quadratic ``V``: a box holding the level set (see :func:`roa.validate_level`).
+    degree : {2, 4, 6, 8}, optional
+        Search a polynomial V of this degree by SOS V-s iteration seeded by ``V`` (quadratic),
+        then certify the best candidates (:mod:`roa.certification_vs`); ``level``,
+        ``candidate`` and ``method`` do not apply.
+    vs : VsOptions, optional
+        Options of the V-s iteration.
 
     Returns
     -------
@@ -227,6 +238,13 @@ def certify(
     <Verdict.REFUTED: 'refuted'>
     """
     t0 = time.perf_counter()
+    if degree is not None:
+        if level is not None or candidate is not None or method != "both":
+            raise RoaInputError("degree= searches V and its level: drop level, candidate, method")
+        from roa.certification_vs import certify_degree
+
+        return certify_degree(system, V, degree=degree, vs=vs, interval=interval,
+                              sampled=sampled, check_above=check_above)  # fmt: skip
     if method not in METHODS:
         raise RoaInputError(f"method must be one of {METHODS}, got {method!r}")
     if level is not None:

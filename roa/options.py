@@ -20,6 +20,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Self
 
+import numpy as np
+
 from roa.errors import RoaInputError
 
 #: Upper bounds that keep a single call within the memory of a workstation.
@@ -200,6 +202,63 @@ class SosOptions(Options):
         if self.time_limit is not None:
             _pos(self, "time_limit")
         _pos(self, "safety_factor", upper=1.0, closed_upper=True)
+
+    def solver_options(self) -> dict[str, Any] | None:
+        return None if self.time_limit is None else {"time_limit": float(self.time_limit)}
+
+
+@dataclass(frozen=True)
+class VsOptions(Options):
+    """Search of a polynomial V by SOS V-s iteration (:func:`roa.proof.vs_search.vs_search`).
+
+    Parameters
+    ----------
+    rounds : int
+        Largest number of V steps, 1..50.
+    shape : array or None
+        Matrix ``S`` of the shape function ``p = (x - x_eq)' S (x - x_eq)`` whose sublevel set is
+        enlarged (default: the seed's ``P``).
+    tol : float
+        Stop when the shape level grows by less than this (relative), in (0, 1).
+    validate : int
+        How many candidates (best shape level first) are validated until one is certified, 1..20.
+    solver : {"auto", "clarabel", "scs"}
+        SDP solver (``auto``: Clarabel for Gram blocks <= 60 monomials, else SCS).
+    multiplier_degree, aux_degree, symmetry, recast, time_limit
+        As in :class:`SosOptions`.
+    """
+
+    rounds: int = 8
+    shape: Any = None
+    tol: float = 2e-3
+    validate: int = 3
+    solver: str = "auto"
+    multiplier_degree: int | None = None
+    aux_degree: int | None = None
+    symmetry: str | bool = "auto"
+    recast: str = "exact"
+    time_limit: float | None = None
+
+    def __post_init__(self) -> None:
+        _int(self, "rounds", 1, 50)
+        _int(self, "validate", 1, 20)
+        _pos(self, "tol", upper=1.0)
+        if self.solver not in ("auto", "clarabel", "scs"):
+            raise RoaInputError(
+                f"VsOptions.solver must be 'auto', 'clarabel' or 'scs', got {self.solver!r}"
+            )
+        SosOptions(recast=self.recast, multiplier_degree=self.multiplier_degree,
+                   symmetry=self.symmetry, aux_degree=self.aux_degree,
+                   time_limit=self.time_limit)  # fmt: skip
+        if self.shape is not None:
+            S = np.asarray(self.shape, dtype=float)
+            if S.ndim != 2 or S.shape[0] != S.shape[1] or not np.all(np.isfinite(S)):
+                raise RoaInputError(
+                    f"VsOptions.shape must be a finite square matrix, got {S.shape}"
+                )
+            if not np.allclose(S, S.T) or np.linalg.eigvalsh(0.5 * (S + S.T))[0] <= 0:
+                raise RoaInputError("VsOptions.shape must be symmetric positive definite")
+            object.__setattr__(self, "shape", tuple(tuple(float(v) for v in r) for r in S))
 
     def solver_options(self) -> dict[str, Any] | None:
         return None if self.time_limit is None else {"time_limit": float(self.time_limit)}

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 
 from roa.commands import _common as C
-from roa.options import IntervalOptions, SosOptions
+from roa.options import IntervalOptions, SosOptions, VsOptions
 
 
 def register(sub: argparse._SubParsersAction) -> None:
@@ -44,6 +44,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--check-above", type=float, default=None, metavar="FACTOR",
                    help="also validate FACTOR x the candidate level (> 1, e.g. 1.001): a refutation "
                    "there shows the certified level is close to the best for this V")  # fmt: skip
+    p.add_argument("--degree", type=int, default=None, choices=(2, 4, 6, 8),
+                   help="search a polynomial V of this degree by SOS V-s iteration (seeded by the "
+                   "quadratic --lyapunov or the system's default), then certify it; its "
+                   "coefficients are in the JSON (candidate_kind)")  # fmt: skip
+    p.add_argument("--rounds", type=int, default=VsOptions().rounds,
+                   help=f"V-s rounds with --degree, 1..50 (default {VsOptions().rounds})")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object (default: text)")
     p.set_defaults(func=run)
 
@@ -68,6 +74,12 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
         raise RoaInputError(f"--check-above must be a finite number > 1, got {args.check_above}")
     system = C.system(args)
     V = C.lyapunov(args, system)
+    if args.degree is not None:
+        if args.level is not None or args.method is not None:
+            raise RoaInputError("--degree searches V and its level: drop --level and --method")
+        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds), {"VsOptions.rounds": "--rounds"})
+        return roa.certify(system, V, degree=args.degree, vs=vs, interval=interval,
+                           check_above=args.check_above)  # fmt: skip
     method = args.method or ("interval" if args.level is not None else "both")
     return roa.certify(system, V, level=args.level, method=method, interval=interval,
                        check_above=args.check_above)  # fmt: skip
@@ -84,6 +96,10 @@ def run(args: argparse.Namespace) -> int:
         s = cert.sos
         print(f"  SOS: {s.status.value} (solver {s.solver_status}), level {C.fmt(s.level)}, "
               f"{s.seconds:.3g} s")  # fmt: skip
+    if cert.vs is not None:
+        r = cert.vs
+        print(f"  V-s iteration (degree {r.degree}): {r.status.value}, {len(r.rounds)} rounds, "
+              f"{r.seconds:.3g} s; {r.message}")  # fmt: skip
     if cert.safety_factor is not None:
         print(f"  candidate from {cert.level_source}: {C.fmt(cert.candidate)} "
               f"(validating {cert.safety_factor} x it)")  # fmt: skip

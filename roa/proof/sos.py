@@ -103,27 +103,43 @@ def _at_least_one(base: sp.Expr) -> bool:
     return bool(const >= 1) and _nonneg(rest)
 
 
-def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> Recast:
-    """Symbolic ``V'`` in whitened variables ``y`` (``x = x_eq + M y``, ``V = y' (M'PM) y ~ |y|^2``),
-    made polynomial: ``exact`` with ``s = b^(-1/2)``, ``s^2 b = 1``, ``s >= 0``; ``enclosure`` with
-    ``t = b^(k/2) in [0, 1]`` for ``k < 0`` and ``b >= 1`` (loses the relation between t and b).
-    """
+@dataclass
+class RecastField:
+    """The field in variables ``y`` (``x = c + M y``) made polynomial in ``(y, aux)``."""
+
+    d: list[sp.Symbol]
+    aux: list[sp.Symbol]
+    dx: list[sp.Expr]  # x - c as linear forms in y
+    f: list[sp.Expr]  # the field f(x(y)) (x coordinates), polynomial in (y, aux)
+    equalities: list[sp.Expr]
+    nonnegative: list[sp.Expr]
+    description: str
+
+
+NONSMOOTH = (sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside)
+
+
+def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str = "exact"
+                 ) -> RecastField:  # fmt: skip
+    """``f(c + M y)`` made polynomial: ``exact`` with ``s = b^(-1/2)``, ``s^2 b = 1``, ``s >= 0``;
+    ``enclosure`` with ``t = b^(k/2) in [0, 1]`` for ``k < 0`` and ``b >= 1`` (loses the relation
+    between t and b). Raises :class:`RoaInputError` for what cannot be made polynomial (saturation
+    ``min``/``max``/``clip``/``abs``, trigonometric functions, ...)."""
     if mode not in RECASTS:
         raise RoaInputError(f"recast mode {mode!r}: allowed {', '.join(RECASTS)}")
-    n = lyap.n
+    n = len(center)
     d = list(sp.symbols(f"y0:{n}", real=True))
-    M = np.linalg.inv(np.linalg.cholesky(lyap.P).T)
     dx = [
         sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0) for i in range(n)
     ]
-    x = [
-        dx[i] + sp.Float(float(lyap.center[i]), 17) if lyap.center[i] != 0 else dx[i]
-        for i in range(n)
-    ]
-    P = [[sp.Float(float(lyap.P[i, j]), 17) for j in range(n)] for i in range(n)]
+    x = [dx[i] + sp.Float(float(center[i]), 17) if center[i] != 0 else dx[i] for i in range(n)]
     f = system.field(0.0, x, namespace("sympy"))
-    V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     f = [sp.powsimp(sp.sympify(fi)) for fi in f]
+    if any(fi.has(*NONSMOOTH) for fi in f):
+        raise RoaInputError(
+            "the field uses min/max/clip/abs (saturation): SOS needs a polynomial field; use "
+            "method='interval' (sampled search + interval validation)"
+        )
     aux: list[sp.Symbol] = []
     eqs: list[sp.Expr] = []
     boxes: list[sp.Expr] = []
@@ -163,11 +179,25 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
             boxes.append(s)
             notes.append(f"{s} = ({base})^(-1/2), {s}^2 ({base}) = 1, {s} >= 0")
         subs[p] = s ** (-k) if k < 0 else base ** ((k + 1) // 2) * s
-    f = [fi.xreplace(subs) for fi in f]
+    f = [sp.expand(fi.xreplace(subs)) for fi in f]
+    if not all(fi.is_polynomial(*d, *aux) for fi in f):
+        raise RoaInputError("the field is not polynomial after recasting half-integer powers")
+    return RecastField(d, aux, dx, f, eqs, boxes, "; ".join(notes) or "polynomial (no recast)")
+
+
+def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> Recast:
+    """Symbolic ``V'`` in whitened variables ``y`` (``x = x_eq + M y``, ``V = y' (M'PM) y ~ |y|^2``),
+    made polynomial by :func:`recast_field`."""
+    n = lyap.n
+    M = np.linalg.inv(np.linalg.cholesky(lyap.P).T)
+    rf = recast_field(system, M, lyap.center, mode=mode)
+    dx, f = rf.dx, rf.f
+    P = [[sp.Float(float(lyap.P[i, j]), 17) for j in range(n)] for i in range(n)]
+    V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
-    if not Vdot.is_polynomial(*d, *aux):
+    if not Vdot.is_polynomial(*rf.d, *rf.aux):
         raise RoaInputError("V' is not polynomial after recasting half-integer powers")
-    return Recast(d, aux, V, Vdot, eqs, boxes, "; ".join(notes) or "polynomial (no recast)")
+    return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description)
 
 
 # -- polynomial <-> coefficient vectors --------------------------------------------------------------

@@ -20,6 +20,7 @@ outward rounding:
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -30,6 +31,7 @@ from roa.lyapunov import Lyapunov
 from roa.proof.cover import _interval_V, gram_cover, prove_boundary, ray_box
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
+from roa.proof.whiten import Whitened, whitened_system, whitening_for
 from roa.status import Verdict
 from roa.system import System
 
@@ -40,9 +42,9 @@ def recheck_general(
     """``V(x)`` and ``V'(x)`` at ``digits`` digits (``x`` taken exactly) for any candidate."""
     import mpmath as mp
 
-    from roa.proof.validate import _mp_namespace
+    from roa.backend import namespace
 
-    ns = _mp_namespace()
+    ns = namespace("mpmath")  # every function of roa.backend, also minimum, maximum, clip
     with mp.workdps(digits):
         xs = [mp.mpf(float(v)) for v in x]
         V = lyap.expr(xs, ns)
@@ -164,7 +166,9 @@ def _witness(system: System, lyap: Lyapunov, pts: np.ndarray, level: float) -> n
             mid = 0.5 * (t_lo + t_hi)
             ok = lyap.value(c + mid[:, None] * (pts - c)) <= level
             t_lo, t_hi = np.where(ok, mid, t_lo), np.where(ok, t_hi, mid)
-        moved = c + t_lo[:, None] * (pts - c)
+        # just inside the level set (1 - 1e-6 of the way): a witness there is provably in the
+        # equilibrium's component with short interval pieces (connected_to_center)
+        moved = c + (t_lo * (1 - 1e-6))[:, None] * (pts - c)
         cand = np.concatenate([pts[Vp <= level], moved[t_lo > 0]])
         if not len(cand):
             return None
@@ -220,13 +224,26 @@ def validate_general(
     max_boxes: int = 3_000_000,
     batch: int = 100_000,
     bounding_box: Any = None,
+    whiten: bool = True,
 ) -> Any:
-    """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` for any candidate (see module docstring)."""
+    """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` for any candidate (see module docstring).
+
+    ``whiten``: run the branch and bound on boxes in ``y`` with ``x = x_eq + M y`` and ``M`` from
+    the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when that Hessian is
+    diagonal or not definite, or a ``bounding_box`` is given). The witness is reported in ``x``.
+    """
     from roa.proof.validate import Validation
 
     t0 = time.perf_counter()
     if not np.allclose(system.x_eq, lyap.center):
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
+    if whiten and bounding_box is None and not isinstance(lyap, Whitened):
+        M = whitening_for(lyap)
+        if M is not None:
+            W = Whitened(lyap, system, M)
+            res = validate_general(whitened_system(system, W), W, level, max_boxes=max_boxes,
+                                   batch=batch, whiten=False)  # fmt: skip
+            return _in_x(res, system, lyap, W)
 
     def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
         return Validation(status, level, boxes, time.perf_counter() - t0, message=message, **kw)
@@ -289,7 +306,13 @@ def validate_general(
                        + (f" ({outside} not provably inside the domain)" if outside else ""),
                        meta={**info, **local})  # fmt: skip
         if len(lo):
-            k = np.argmax(score * (hi - lo > 0), axis=1)
+            width = hi - lo
+            sc = np.where(np.isnan(score), np.inf, score) * (width > 0)
+            k = np.argmax(sc, axis=1)
+            unbounded = np.isinf(sc).any(axis=1)  # no finite gradient bound: split the widest side
+            k[unbounded] = np.argmax(
+                np.where(np.isinf(sc[unbounded]), width[unbounded], -1.0), axis=1
+            )
             rows = np.arange(len(lo))
             mid = 0.5 * (lo[rows, k] + hi[rows, k])
             lo2, hi1 = lo.copy(), hi.copy()
@@ -304,3 +327,15 @@ def validate_general(
     return out(Verdict.CERTIFIED, boxes,
                f"V' < 0 proved on {proved} boxes of the cover; local proof on a box around x_eq",
                meta={"proved_boxes": proved, **info, **local})  # fmt: skip
+
+
+def _in_x(res: Any, system: System, lyap: Lyapunov, W: Whitened) -> Any:
+    """A whitened validation reported in the system's coordinates (witness mapped and re-checked)."""
+    meta = {**res.meta, "coordinates": "whitened: boxes in y, x = x_eq + M y", "M": W.M.tolist()}
+    if res.witness is None:
+        return dataclasses.replace(res, meta=meta)
+    wx = W.to_x(np.asarray(res.witness, dtype=float))
+    check = recheck_general(system, lyap, wx, res.level)
+    if not check["confirmed"]:  # the exact point x_eq + M y is the witness; its float x is not
+        check = {**check, "confirmed_in_y": res.witness_check, "y": list(res.witness)}
+    return dataclasses.replace(res, witness=[float(v) for v in wx], witness_check=check, meta=meta)

@@ -1,0 +1,344 @@
+"""Search of a polynomial Lyapunov function by SOS V-s iteration (Jarvis-Wloszek, Tan-Packard).
+
+In whitened variables ``y`` (``x = x_eq + M y`` from a quadratic seed ``V0``), with the field made
+polynomial in ``(y, aux)`` by :func:`roa.proof.sos.recast_field` (equalities ``h = 0``, ``g >= 0``),
+three semidefinite programs (cvxpy + Clarabel) alternate, each linear in its unknowns:
+
+* **gamma step** (V fixed): the largest ``gamma`` with ``(y'y)^k (V - gamma) + lambda V' + mu h -
+  sigma_g g`` SOS (``V' = 0`` away from the equilibrium only where ``V >= gamma``); V is rescaled
+  to ``V / gamma`` (level 1), ``lambda`` kept;
+* **beta step** (V fixed): the largest ``beta`` with ``(y'y)^k2 (p - beta) + lambda2 (V - 1)`` SOS,
+  i.e. ``{p < beta}`` inside ``{V < 1}`` for the shape function ``p`` (a positive definite
+  quadratic: the region to enlarge); ``lambda2`` kept;
+* **V step** (``lambda``, ``lambda2`` fixed): V free with ``V - eps y'y`` SOS, both identities
+  above at level 1, maximise ``beta``. The previous V is feasible, so ``beta`` never decreases.
+
+Odd fields (``f(x_eq - d) = -f(x_eq + d)``) keep V, ``lambda``, ``lambda2`` even and split the Gram
+matrices in even/odd blocks (same optimum). Each round's V is a *candidate*: :func:`vs_search`
+returns them all, and the caller (:func:`roa.certify`) finds its level by sampling and proves it by
+interval branch and bound; the SDPs are solved in floating point and prove nothing.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from roa.errors import RoaInputError
+from roa.lyapunov import QuadraticLyapunov
+from roa.lyapunov_general import PolynomialLyapunov
+from roa.proof.polysdp import Identity, Poly, diff, is_even, monomials, mul, poly_of, scale
+from roa.proof.sos import recast_field
+from roa.status import SosStatus
+from roa.system import System
+
+SOLVERS = ("auto", "clarabel", "scs")
+
+
+@dataclass(frozen=True)
+class VsRound:
+    """One round: ``gamma`` (level of the V it started from, before rescaling), ``beta`` (the
+    shape level reached by the V step), solver seconds and status."""
+
+    index: int
+    gamma: float | None
+    beta: float | None
+    seconds: float
+    status: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"round": self.index, "gamma": self.gamma, "beta": self.beta,
+                "seconds": round(self.seconds, 3), "status": self.status}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class VsResult:
+    """Outcome of :func:`vs_search`: ``candidates`` are the V of each round (level 1 each, best
+    ``beta`` last); ``status`` is the solver's, never a certificate."""
+
+    status: SosStatus
+    degree: int
+    candidates: list[PolynomialLyapunov]
+    betas: list[float]
+    rounds: list[VsRound]
+    seconds: float
+    sizes: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def best(self) -> PolynomialLyapunov | None:
+        return self.candidates[int(np.argmax(self.betas))] if self.candidates else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status.value,
+            "degree": self.degree,
+            "betas": self.betas,
+            "rounds": [r.to_dict() for r in self.rounds],
+            "seconds": round(self.seconds, 3),
+            "sizes": self.sizes,
+            "message": self.message,
+        }
+
+
+class _Problem:
+    """The polynomial data of the three programs, in whitened variables."""
+
+    def __init__(self, system: System, V0: QuadraticLyapunov, shape: np.ndarray, degree: int,
+                 multiplier_degree: int | None, symmetry: bool | str, aux_degree: int | None,
+                 recast_mode: str) -> None:  # fmt: skip
+        self.M = np.linalg.inv(np.linalg.cholesky(V0.P).T)
+        self.Minv = np.linalg.inv(self.M)
+        self.center = V0.center
+        rf = recast_field(system, self.M, V0.center, mode=recast_mode)
+        self.rf = rf
+        self.gens = rf.d + rf.aux
+        self.nd, self.nv = len(rf.d), len(self.gens)
+        fy = [sum(float(self.Minv[i, j]) * rf.f[j] for j in range(self.nd)) for i in range(self.nd)]
+        self.fy = [poly_of(sp.expand(e), self.gens) for e in fy]
+        self.eqs = [poly_of(h, self.gens) for h in rf.equalities]
+        self.nonneg = [poly_of(g, self.gens) for g in rf.nonnegative]
+        Mt = self.M.T @ shape @ self.M  # p(y) = (My)' S (My)
+        self.p = {
+            m: c
+            for m, c in (
+                (
+                    tuple(int(i == a) + int(i == b) for i in range(self.nv)),
+                    float(Mt[a, b]) * (1 if a == b else 2),
+                )  # fmt: skip
+                for a in range(self.nd)
+                for b in range(a, self.nd)
+            )
+            if c != 0.0
+        }
+        sym = is_even([*self.fy], self.nd, odd=True) and is_even([*self.eqs, *self.nonneg], self.nd)
+        if symmetry is True and not sym:
+            raise RoaInputError("symmetry=True needs an odd field and even recast constraints")
+        self.sym = sym and symmetry in ("auto", True)
+        self.aux_degree = aux_degree
+        self.D = degree // 2
+        self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
+        self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
+        efy = max(sum(m) for p in self.fy for m in p)
+        deg_vd = degree - 1 + efy
+        if multiplier_degree is None:
+            multiplier_degree = 2 if deg_vd % 2 == 0 else 1
+        self.mlam = multiplier_degree
+        total = max(deg_vd + multiplier_degree, degree)
+        self.total = total + (total % 2)
+        self.k = (self.total - degree) // 2
+        self.k2 = self.D  # (y'y)^k2 (p - beta) + lambda2 (V - 1): lambda2 quadratic
+        self.yy = {tuple(2 * int(i == a) for i in range(self.nv)): 1.0 for a in range(self.nd)}
+        self.yyk = _power(self.yy, self.k, self.nv)
+        self.yyk2 = _power(self.yy, self.k2, self.nv)
+        # V' of each basis monomial of V: sum_i d(y^a)/dy_i f_i
+        self.dmono = [
+            _sum([mul(diff(m, i), self.fy[i]) for i in range(self.nd)]) for m in self.vbasis
+        ]
+
+    def cap(self, basis: list[tuple]) -> list[tuple]:
+        if self.aux_degree is None:
+            return basis
+        return [m for m in basis if sum(m[self.nd :]) <= self.aux_degree]
+
+    def keep(self, basis: list[tuple]) -> list[tuple]:
+        basis = self.cap(basis)
+        return [m for m in basis if sum(m[: self.nd]) % 2 == 0] if self.sym else basis
+
+    def blocks(self, basis: list[tuple]) -> list[list[tuple]]:
+        basis = self.cap(basis)
+        if not self.sym:
+            return [basis]
+        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[: self.nd]) % 2 == p])]
+
+    def y_only(self, basis: list[tuple]) -> list[tuple]:
+        return [m for m in basis if sum(m[self.nd :]) == 0]
+
+    # -- the decrease identity: (y'y)^k (V - gamma) + lambda V' + mu h - sigma g - sigma0 ----------
+    def decrease(self, ident: Identity, Vc: Any, lam: Any, gamma: Any) -> None:
+        """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
+        multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
+        cols = [mul(self.yyk, _mono(m)) for m in self.vbasis]
+        if lam is None:  # gamma step: V fixed (numbers), lambda free
+            Vpoly = _sum([scale(_mono(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)])
+            Vd = _sum([scale(p, float(c)) for p, c in zip(self.dmono, Vc, strict=True)])
+            ident.const(mul(self.yyk, Vpoly))
+            ident.free(Vd, self.keep(monomials(self.nv, self.mlam)))
+        else:  # V step: V free (variable), lambda fixed
+            ident.linear([_add(c, mul(lam, d)) for c, d in zip(cols, self.dmono, strict=True)], Vc)
+        ident.linear([scale(self.yyk, -1.0)], gamma)
+        for h in self.eqs:
+            ident.free(h, self.keep(monomials(self.nv, self.total - _deg(h))))
+        half = self.total // 2
+        for b in self.blocks(monomials(self.nv, half)):
+            ident.gram(b, None)
+        for g in self.nonneg:
+            for b in self.blocks(monomials(self.nv, (self.total - _deg(g)) // 2)):
+                ident.gram(b, g)
+
+    # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
+    def contain(self, ident: Identity, Vc: Any, lam2: Poly | None, beta: Any) -> None:
+        ident.const(mul(self.yyk2, self.p))
+        ident.linear([scale(self.yyk2, -1.0)], beta)
+        deg = 2 * self.D + 2
+        lam_basis = self.y_only(self.keep(monomials(self.nv, 2)))
+        if lam2 is None:
+            Vm1 = _add(_sum([scale(_mono(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]),
+                       {tuple([0] * self.nv): -1.0})  # fmt: skip
+            ident.free(Vm1, lam_basis)
+        else:
+            ident.linear([mul(lam2, _mono(m)) for m in self.vbasis], Vc)
+            ident.const(scale(lam2, -1.0))
+        for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
+            ident.gram(b, None)
+
+    def positive(self, ident: Identity, Vc: Any, eps: float) -> None:
+        """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
+        ident.linear([_mono(m) for m in self.vbasis], Vc)
+        ident.const(scale(self.yy, -eps))
+        basis = [m for m in self.y_only(monomials(self.nv, self.D)) if sum(m) >= 1]
+        for b in self.blocks(basis):
+            ident.gram(b, None)
+
+    def to_lyapunov(self, Vc: np.ndarray, name: str) -> PolynomialLyapunov:
+        """V(y(x)) with ``y = M^-1 (x - c)``, expanded in ``d = x - c``."""
+        d = sp.symbols(f"d0:{self.nd}", real=True)
+        y = [sum(float(self.Minv[i, j]) * d[j] for j in range(self.nd)) for i in range(self.nd)]
+        expr = 0
+        for m, c in zip(self.vbasis, Vc, strict=True):
+            if c != 0.0:
+                expr += float(c) * sp.Mul(*[y[i] ** m[i] for i in range(self.nd)])
+        poly = sp.Poly(sp.expand(expr), *d)
+        terms = [
+            (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
+        ]
+        return PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+
+
+def _mono(m: tuple) -> Poly:
+    return {m: 1.0}
+
+
+def _deg(p: Poly) -> int:
+    return max(sum(m) for m in p)
+
+
+def _add(a: Poly, b: Poly) -> Poly:
+    out = dict(a)
+    for m, c in b.items():
+        out[m] = out.get(m, 0.0) + c
+    return out
+
+
+def _sum(ps: list[Poly]) -> Poly:
+    out: Poly = {}
+    for p in ps:
+        out = _add(out, p)
+    return out
+
+
+def _power(p: Poly, k: int, nv: int) -> Poly:
+    out: Poly = {tuple([0] * nv): 1.0}
+    for _ in range(k):
+        out = mul(out, p)
+    return out
+
+
+def vs_search(
+    system: System,
+    V0: QuadraticLyapunov,
+    *,
+    degree: int = 4,
+    shape: Any = None,
+    rounds: int = 6,
+    multiplier_degree: int | None = None,
+    symmetry: bool | str = "auto",
+    aux_degree: int | None = None,
+    recast_mode: str = "exact",
+    eps: float = 1e-6,
+    tol: float = 1e-3,
+    solver_options: dict[str, Any] | None = None,
+    solver: str = "auto",
+) -> VsResult:
+    """Polynomial Lyapunov candidates of degree ``degree`` by V-s iteration (module docstring).
+
+    ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
+    shape function ``p(x) = (x - x_eq)' S (x - x_eq)`` (default ``V0.P``). Stops after ``rounds``
+    V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
+    ``clarabel`` or ``scs`` (:meth:`roa.proof.polysdp.Identity.solve`).
+    """
+    if solver not in SOLVERS:
+        raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    if degree not in (2, 4, 6, 8):
+        raise RoaInputError(f"degree must be 2, 4, 6 or 8, got {degree!r}")
+    if not (isinstance(rounds, int) and 1 <= rounds <= 50):
+        raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
+    t0 = time.perf_counter()
+    S = V0.P if shape is None else np.asarray(shape, dtype=float)
+    try:
+        pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode)
+    except (RoaInputError, sp.PolynomialError) as exc:
+        return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], time.perf_counter() - t0,
+                        message=str(exc))  # fmt: skip
+    opts = solver_options or {}
+    # the seed in y: V0 = y'y
+    Vc = np.array([1.0 if sum(m) == 2 and max(m) == 2 else 0.0 for m in pb.vbasis])
+    sizes = {"variables": [str(g) for g in pb.gens], "degree_V": degree, "degree": pb.total,
+             "V_coefficients": len(pb.vbasis), "symmetry": "even/odd blocks" if pb.sym else "none",
+             "recast": pb.rf.description}  # fmt: skip
+    cands: list[PolynomialLyapunov] = []
+    betas: list[float] = []
+    log: list[VsRound] = []
+    status, message = SosStatus.SOLVED, ""
+    for r in range(rounds + 1):
+        t1 = time.perf_counter()
+        # gamma step: the level of the current V, then V / gamma (level 1)
+        ident = Identity(pb.nv)
+        gamma = ident.scalar()
+        pb.decrease(ident, Vc, None, gamma)
+        ok, gval, lam = ident.solve(gamma, options=opts, free_index=0, solver=solver)
+        if not ok or gval is None or gval <= 0:
+            status, message = SosStatus.FAILED, f"round {r}: gamma step {ident.status}"
+            log.append(VsRound(r, None, None, time.perf_counter() - t1, ident.status))
+            break
+        Vc = Vc / gval
+        sizes.setdefault("gram_blocks_gamma_step", ident.sizes())
+        sizes.setdefault("solver", ident.solver)
+        # beta step: the shape level inside {V <= 1}
+        ident = Identity(pb.nv)
+        beta = ident.scalar()
+        pb.contain(ident, Vc, None, beta)
+        ok, bval, lam2 = ident.solve(beta, options=opts, free_index=0, solver=solver)
+        if not ok or bval is None:
+            status, message = SosStatus.FAILED, f"round {r}: beta step {ident.status}"
+            log.append(VsRound(r, gval, None, time.perf_counter() - t1, ident.status))
+            break
+        cands.append(pb.to_lyapunov(Vc, f"V-s degree {degree}, round {r}"))
+        betas.append(float(bval))
+        if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
+            log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, "final"))
+            message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
+            break
+        # V step: V free, lambda and lambda2 fixed, maximise beta
+        ident = Identity(pb.nv)
+        vvar = ident.vector(len(pb.vbasis))
+        beta = ident.scalar()
+        pb.decrease(ident, vvar, lam, 1.0)
+        ident2 = ident.fork()
+        pb.contain(ident2, vvar, lam2, beta)
+        ident3 = ident.fork()
+        pb.positive(ident3, vvar, eps)
+        ok, bnew, _ = ident.solve(beta, options=opts, also=[ident2, ident3], solver=solver)
+        log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, ident.status))
+        if not ok or bnew is None or vvar.value is None:
+            message = f"round {r}: V step {ident.status}; kept the V of round {r}"
+            break
+        Vc = np.asarray(vvar.value, dtype=float)
+    if not cands:
+        return VsResult(status, degree, [], [], log, time.perf_counter() - t0, sizes, message)
+    return VsResult(SosStatus.SOLVED, degree, cands, betas, log, time.perf_counter() - t0, sizes,
+                    message)  # fmt: skip

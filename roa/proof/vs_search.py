@@ -33,6 +33,7 @@ from roa.lyapunov import QuadraticLyapunov
 from roa.lyapunov_general import PolynomialLyapunov
 from roa.proof.polysdp import Identity, Poly, diff, is_even, monomials, mul, poly_of, scale
 from roa.proof.sos import recast_field
+from roa.progress import step
 from roa.status import SosStatus
 from roa.system import System
 
@@ -300,7 +301,8 @@ def vs_search(
         ident = Identity(pb.nv)
         gamma = ident.scalar()
         pb.decrease(ident, Vc, None, gamma)
-        ok, gval, lam = ident.solve(gamma, options=opts, free_index=0, solver=solver)
+        with step(f"V-s round {r}: gamma step"):
+            ok, gval, lam = ident.solve(gamma, options=opts, free_index=0, solver=solver)
         if not ok or gval is None or gval <= 0:
             status, message = SosStatus.FAILED, f"round {r}: gamma step {ident.status}"
             log.append(VsRound(r, None, None, time.perf_counter() - t1, ident.status))
@@ -312,7 +314,8 @@ def vs_search(
         ident = Identity(pb.nv)
         beta = ident.scalar()
         pb.contain(ident, Vc, None, beta)
-        ok, bval, lam2 = ident.solve(beta, options=opts, free_index=0, solver=solver)
+        with step(f"V-s round {r}: beta step"):
+            ok, bval, lam2 = ident.solve(beta, options=opts, free_index=0, solver=solver)
         if not ok or bval is None:
             status, message = SosStatus.FAILED, f"round {r}: beta step {ident.status}"
             log.append(VsRound(r, gval, None, time.perf_counter() - t1, ident.status))
@@ -332,7 +335,8 @@ def vs_search(
         pb.contain(ident2, vvar, lam2, beta)
         ident3 = ident.fork()
         pb.positive(ident3, vvar, eps)
-        ok, bnew, _ = ident.solve(beta, options=opts, also=[ident2, ident3], solver=solver)
+        with step(f"V-s round {r}: V step"):
+            ok, bnew, _ = ident.solve(beta, options=opts, also=[ident2, ident3], solver=solver)
         log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, ident.status))
         if not ok or bnew is None or vvar.value is None:
             message = f"round {r}: V step {ident.status}; kept the V of round {r}"

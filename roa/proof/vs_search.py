@@ -31,9 +31,9 @@ import sympy as sp
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
 from roa.lyapunov_general import PolynomialLyapunov
+from roa.progress import step
 from roa.proof.polysdp import Identity, Poly, diff, is_even, monomials, mul, poly_of, scale
 from roa.proof.sos import recast_field
-from roa.progress import step
 from roa.status import SosStatus
 from roa.system import System
 

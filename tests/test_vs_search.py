@@ -118,3 +118,34 @@ def test_degree_needs_quadratic_seed(vdp):
         roa.certify(vdp, V, degree=4)
     with pytest.raises(roa.RoaInputError, match="degree must be one of"):
         roa.certify(vdp, degree=5)
+
+
+@pytest.mark.parametrize(
+    "kw,needle",
+    [
+        ({"rounds": 0}, "VsOptions.rounds must be in [1, 50]"),
+        ({"solver": "mosek"}, "VsOptions.solver must be"),
+        (
+            {"shape": [[1.0, 2.0], [2.0, 1.0]]},
+            "VsOptions.shape must be symmetric positive definite",
+        ),
+        ({"tol": 0.0}, "VsOptions.tol must be in (0, 1)"),
+        ({"validate": 21}, "VsOptions.validate must be in [1, 20]"),
+    ],
+)
+def test_vs_options_name_the_field(kw, needle):
+    with pytest.raises(roa.RoaInputError) as err:
+        roa.VsOptions(**kw)
+    assert needle in str(err.value)
+
+
+def test_saturated_field_is_refused_by_sos():
+    """min/max/clip (saturation) cannot be recast into a polynomial: a status, not a crash."""
+    sat = roa.System(
+        "saturated",
+        lambda t, x, xp: (x[1], -x[0] - xp.clip(x[1], -1.0, 1.0)),
+        (0.0, 0.0),
+        ("a", "b"),
+    )
+    res = vs_search(sat, roa.default_lyapunov(sat), degree=2, rounds=1)
+    assert res.status is SosStatus.NOT_POLYNOMIAL and "saturation" in res.message

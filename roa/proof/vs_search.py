@@ -91,8 +91,10 @@ class _Problem:
 
     def __init__(self, system: System, V0: QuadraticLyapunov, shape: np.ndarray, degree: int,
                  multiplier_degree: int | None, symmetry: bool | str, aux_degree: int | None,
-                 recast_mode: str) -> None:  # fmt: skip
-        self.M = np.linalg.inv(np.linalg.cholesky(V0.P).T)
+                 recast_mode: str, scale: float = 1.0) -> None:  # fmt: skip
+        # y'y = V0 / scale: the seed's level set {V0 <= scale} is the unit sphere in y, so that
+        # monomials up to the program's degree stay O(1) on the region of interest
+        self.M = np.linalg.inv(np.linalg.cholesky(V0.P).T) * np.sqrt(scale)
         self.Minv = np.linalg.inv(self.M)
         self.center = V0.center
         rf = recast_field(system, self.M, V0.center, mode=recast_mode)
@@ -220,6 +222,14 @@ class _Problem:
         return PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
 
 
+def _seed_level(system: System, V0: QuadraticLyapunov) -> float:
+    """The seed's sampled largest level (scales the variables; 1 when none is found)."""
+    from roa.levelset import level_search
+
+    res = level_search(system, V0, shape="level", method="sampled")
+    return float(res.level) if res.level is not None and res.level > 0 else 1.0
+
+
 def _mono(m: tuple) -> Poly:
     return {m: 1.0}
 
@@ -280,8 +290,10 @@ def vs_search(
         raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
     t0 = time.perf_counter()
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
+    scale = _seed_level(system, V0)
     try:
-        pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode)
+        pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
+                      scale)  # fmt: skip
     except (RoaInputError, sp.PolynomialError) as exc:
         return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], time.perf_counter() - t0,
                         message=str(exc))  # fmt: skip

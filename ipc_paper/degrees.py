@@ -46,6 +46,7 @@ class DegreeParams(Options):
     n_box: int = 200_000
     seed: int = 0
     time_limit: float = 1800.0
+    max_iters: int = 8000
 
 
 def limit_cycle(vdp: Any) -> tuple[np.ndarray, float]:
@@ -120,7 +121,8 @@ def _ipc(p: dict[str, Any], results: Path) -> dict[str, Any]:
     rows = {}
     for d in p["ipc_degrees"]:
         aux = None if p["aux_degree"] < 0 else int(p["aux_degree"])
-        vs = roa.VsOptions(rounds=p["ipc_rounds"], aux_degree=aux, time_limit=p["time_limit"])
+        vs = roa.VsOptions(rounds=p["ipc_rounds"], aux_degree=aux, time_limit=p["time_limit"],
+                           max_iters=p["max_iters"])  # fmt: skip
         with step(f"degrees: IPC (flat), degree {d}"):
             cert = roa.certify(ipc, seed, degree=int(d), vs=vs, check_above=1.001,
                                interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip

@@ -68,15 +68,18 @@ def certify_degree(
                            seconds=time.perf_counter() - t0,
                            message=f"V-s iteration found no candidate: {res.message}", vs=res,
                            system=system, V=seed)  # fmt: skip
-    order = np.argsort(res.betas)[::-1][: vs.validate]
-    last = None
-    for i in order:
+    order = np.argsort(res.betas)[::-1]
+    last, tried = None, 0
+    for i in order:  # best shape level first; a candidate without a sampled level costs no proof
         cand = res.candidates[int(i)]
         with step(f"validation of {cand.name}"):
             cert = certify(system, cand, method="interval", interval=interval, sampled=sampled,
                            check_above=check_above)  # fmt: skip
+        if cert.validation is None and last is not None:
+            continue
         last = dataclasses.replace(cert, vs=res, seconds=time.perf_counter() - t0)
-        if cert.certified:
+        tried += cert.validation is not None
+        if cert.certified or tried >= vs.validate:
             return last
     assert last is not None
     return last

@@ -223,7 +223,10 @@ class VsOptions(Options):
     validate : int
         How many candidates (best shape level first) are validated until one is certified, 1..20.
     solver : {"auto", "clarabel", "scs"}
-        SDP solver (``auto``: Clarabel for Gram blocks <= 60 monomials, else SCS).
+        SDP solver (``auto``: Clarabel for Gram blocks <= 80 monomials, else SCS).
+    max_iters : int or None
+        Iteration cap of the SDP solver, 1..10^6 (SCS default 50,000): an inaccurate answer is
+        still a candidate, proved or not by the validation.
     multiplier_degree, aux_degree, symmetry, recast, time_limit
         As in :class:`SosOptions`.
     """
@@ -233,6 +236,7 @@ class VsOptions(Options):
     tol: float = 2e-3
     validate: int = 3
     solver: str = "auto"
+    max_iters: int | None = None
     multiplier_degree: int | None = None
     aux_degree: int | None = None
     symmetry: str | bool = "auto"
@@ -242,6 +246,8 @@ class VsOptions(Options):
     def __post_init__(self) -> None:
         _int(self, "rounds", 1, 50)
         _int(self, "validate", 1, 20)
+        if self.max_iters is not None:
+            _int(self, "max_iters", 1, 10**6)
         _pos(self, "tol", upper=1.0)
         if self.solver not in ("auto", "clarabel", "scs"):
             raise RoaInputError(
@@ -261,7 +267,12 @@ class VsOptions(Options):
             object.__setattr__(self, "shape", tuple(tuple(float(v) for v in r) for r in S))
 
     def solver_options(self) -> dict[str, Any] | None:
-        return None if self.time_limit is None else {"time_limit": float(self.time_limit)}
+        out: dict[str, Any] = {}
+        if self.time_limit is not None:
+            out["time_limit"] = float(self.time_limit)
+        if self.max_iters is not None:
+            out["max_iters"] = int(self.max_iters)
+        return out or None
 
 
 @dataclass(frozen=True)

@@ -171,7 +171,7 @@ class Identity:
 
         ``solver``: ``clarabel`` (interior point: accurate, but its KKT systems grow with the cube
         of the Gram blocks' triangle size), ``scs`` (first-order, to 1e-6: much faster on blocks
-        of ~100 monomials) or ``auto`` (Clarabel when the largest block is <= 60). Either answer is
+        of ~100 monomials) or ``auto`` (Clarabel when the largest block is <= 80). Either answer is
         a candidate only: certificates come from the interval validation.
         """
         import cvxpy as cp
@@ -180,7 +180,7 @@ class Identity:
         prob = cp.Problem(cp.Maximize(objective) if maximise else cp.Minimize(objective), cons)
         opts = dict(options or {})
         if solver == "auto":
-            solver = "clarabel" if max(self.sizes() or [0]) <= 60 else "scs"
+            solver = "clarabel" if max(self.sizes() or [0]) <= 80 else "scs"
         self.solver = solver
         try:
             if solver == "scs":
@@ -189,6 +189,8 @@ class Identity:
                 opts = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iters": 50_000, **opts}
                 prob.solve(solver=cp.SCS, **opts)
             else:
+                if "max_iters" in opts:
+                    opts["max_iter"] = opts.pop("max_iters")
                 prob.solve(solver=cp.CLARABEL, **opts)
         except cp.error.SolverError as exc:
             self.status = f"solver error: {exc}"

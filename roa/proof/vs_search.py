@@ -207,6 +207,36 @@ class _Problem:
         for b in self.blocks(basis):
             ident.gram(b, None)
 
+    def linear_decrease(self, ident: Identity, Vc: Any, margin: float) -> None:
+        """Local decrease kept strict: ``-(A'Pv + Pv A) >= margin * mu0 I`` for the quadratic part
+        ``Pv`` of V (``A`` the field's Jacobian at the equilibrium, ``mu0`` the seed's value),
+        an LMI linear in V's coefficients. Without it the V step may drift to a V whose
+        linearisation only marginally decreases (the sampled search then finds no level)."""
+        import cvxpy as cp
+
+        n = self.nd
+        A = np.zeros((n, n))
+        for i, p in enumerate(self.fy):
+            for m, c in p.items():
+                if sum(m) == 1 and sum(m[:n]) == 1:
+                    A[i, m.index(1)] += c
+        mu0 = float(np.linalg.eigvalsh(-(A + A.T))[0])
+        if mu0 <= 0:
+            return
+        rows = []
+        for i in range(n):
+            row = []
+            for j in range(n):
+                e = [0] * self.nv
+                e[i] += 1
+                e[j] += 1
+                k = self.vbasis.index(tuple(e))
+                row.append(Vc[k] if i == j else 0.5 * Vc[k])
+            rows.append(cp.hstack(row))
+        Pv = cp.vstack(rows)
+        L = -(A.T @ Pv + Pv @ A)
+        ident.psd.append(0.5 * (L + L.T) - margin * mu0 * np.eye(n) >> 0)
+
     def to_lyapunov(self, Vc: np.ndarray, name: str) -> PolynomialLyapunov:
         """V(y(x)) with ``y = M^-1 (x - c)``, expanded in ``d = x - c``."""
         d = sp.symbols(f"d0:{self.nd}", real=True)
@@ -347,6 +377,7 @@ def vs_search(
         pb.contain(ident2, vvar, lam2, beta)
         ident3 = ident.fork()
         pb.positive(ident3, vvar, eps)
+        pb.linear_decrease(ident, vvar, 0.01)
         with step(f"V-s round {r}: V step"):
             ok, bnew, _ = ident.solve(beta, options=opts, also=[ident2, ident3], solver=solver)
         log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, ident.status))

@@ -16,7 +16,7 @@ def _certified(rows: dict[str, Any]) -> dict[str, Any]:
 
 
 def _times(r: dict[str, Any]) -> str:
-    return f"search {r.get('solver_s', 0):.0f} s, validation {r.get('validation_s', 0):.0f} s"
+    return f"search {r.get('solver_s', 0):.1f} s, validation {r.get('validation_s', 0):.1f} s"
 
 
 def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
@@ -54,9 +54,15 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
     for d, r in irows.items():
         if r.get("status") == "certified":
             b = r["box"]
+            vs = r.get("vs") or {}
+            sizes = vs.get("sizes", {})
+            statuses = sorted({x["status"] for x in vs.get("rounds", [])})
             txt.append(f"degree {d}: sector {r['sector_deg']:.2f} deg (certified lower bound), "
                        f"box share {b['fraction']:.3f} (95% CI {b['ci95'][0]:.3f}-{b['ci95'][1]:.3f}), "
-                       f"level {r['level']:.4g}, refuted x1.001: {r['above']}; {_times(r)}")  # fmt: skip
+                       f"level {r['level']:.4g}, refuted x1.001: {r['above']}; {_times(r)}; "
+                       f"certified V: {(r.get('V') or {}).get('lyapunov')}; SDP Gram blocks "
+                       f"{sizes.get('gram_blocks_gamma_step')} ({sizes.get('solver')}: "
+                       f"{', '.join(statuses)})")  # fmt: skip
         else:
             msg = (r.get("vs") or {}).get("message", "")
             txt.append(f"degree {d}: {r.get('status')} ({msg})")

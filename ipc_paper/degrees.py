@@ -40,7 +40,7 @@ class DegreeParams(Options):
     vdp_degrees: tuple[int, ...] = (2, 4, 6, 8)
     ipc_degrees: tuple[int, ...] = (2, 4)
     rounds: int = 10
-    ipc_rounds: int = 4
+    ipc_rounds: int = 2
     aux_degree: int = 2
     max_boxes: int = 6_000_000
     n_box: int = 200_000

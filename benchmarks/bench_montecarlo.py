@@ -12,38 +12,58 @@ and checks that the statuses of both modes agree with the baseline's. Targets (i
     python benchmarks/bench_montecarlo.py [--jobs 2] [--n 2000] [--n-engine 100000]
     python benchmarks/bench_montecarlo.py --memory [--n-memory 1000000]   # peak RSS, 10^6 streamed
 
-Profile of the physical numba kernel (one core of the 2-core machine, 20,000 states of the box;
-micro-benchmarks of 5e6 calls in a compiled loop; issue 14, item 2). Per RHS evaluation:
+The engine takes the IPC's fast path (System.meta["numba_fast"]: njit functions compiled into a
+kernel of their own, roa/montecarlo/integrator.py compile_kernel); --public adds both modes with the
+public cfunc protocol of user systems (meta["numba"]), same statuses bit for bit.
 
-* the whole kernel: ~85 ns per RHS evaluation, all costs included (~515 ns per accepted step of
-  6 evaluations; 112 steps per run, 17,000 runs/s per core); with the terminal set ~105 ns
-  (~640 ns per step, but 33.5 steps per run: 46,000 runs/s per core);
-* the physical field itself: ~36 ns when inlined, ~57 ns through the cfunc pointer of the meta
-  protocol: the call with array arguments (array structs, reference counts) costs ~15-20 ns, a
-  third of the field; a pointer-only signature (voidptr + numba.carray) measured ~42 ns. Not
-  changed: it would change the public meta protocol (FIELD_SIGNATURE) used by user systems; it is
-  the largest remaining item (~15 % of the kernel);
-* trig and pow in the field: sin + cos ~18 ns, log ~9 ns (arsinh(tan) written with the same sin,
-  cos and one log); the controller's coordinate map (2.2) is folded into the field (no tan,
-  arsinh or sqrt);
-* step-size control per step (not per RHS): en ** -0.2 ~14 ns, nextafter ~7 ns, the error norm
-  one sqrt: kept as they are (identical to scipy's RK45, so statuses agree bit for bit);
-* stop tests per step: margin through its pointer ~5 ns, two norms (two sqrt); the terminal-set
-  test ~75 ns (physical -> flat map with one sin, cos, log, then V: 16 multiply-adds), ~12 % of a
-  step: it ends runs ~3.3x sooner;
+Profile of the physical numba kernel (issue 14, item 2): one core of the 2-core machine, 20,000
+states of the box, thread CPU time, best of 9 (whole kernel), micro-benchmarks of 2e6 calls in a
+compiled loop, `perf record` for the libm share. Per RHS evaluation (6 per accepted step; 111.6
+accepted steps per run plain, 33.2 with the terminal set):
+
+    item                                     public cfuncs          fast path (inlined)
+    whole kernel, plain                      ~94-97 ns (565-580     ~79-88 ns (473-525
+                                             ns/step, 15-16 k       ns/step, 17-19 k
+                                             runs/s per core)       runs/s per core)
+    whole kernel, with the terminal set      ~115-117 ns (690-700   ~88-91 ns (525-547
+                                             ns/step, 43 k runs/s)  ns/step, 55-57 k runs/s)
+    the physical field                       ~50 ns (call through   ~37 ns (inlined)
+                                             its pointer, array
+                                             structs passed)
+    terminal-set test, per step              ~61 ns (physical ->    ~14 ns + V: the flat map
+                                             flat map with sin,     fused into the field's last
+                                             cos, log + V, 16       stage (same sin, cos, log;
+                                             multiply-adds)         bit for bit the same map)
+
+* trig and log in the field: sin and cos ~13 ns together (LLVM calls glibc's sincos), log ~5 ns
+  (arsinh(tan) written with the same sin, cos and one log); the controller's coordinate map (2.2)
+  is folded into the field (no tan, arsinh or sqrt). libm is ~40 % of the kernel's time (sincos
+  ~17 %, log ~16 %, pow ~6 %): the floor of this kernel, with scipy's step sequence;
+* step-size control per step (not per RHS): en ** -0.2 (pow) ~14 ns, nextafter ~7 ns, the error
+  norm one sqrt: kept as they are (identical to scipy's RK45, so statuses agree bit for bit);
+* stop tests per step: margin ~5 ns (inlined on the fast path), two norms (two sqrt); the terminal
+  set ends runs ~3.4x sooner (33.2 instead of 111.6 steps);
 * memory layout: states are rows of a C-contiguous (m, n) array, each run works in its own small
-  scratch arrays (7 x n stages): allocation is per run, not per step (< 1 %);
-* chunk size and work balance: with the engine's chunking (here n / (2 x jobs) per chunk, 2 per
-  worker) both processes finish within a few % of each other; joblib's process start-up and
-  dispatch cost ~0.1-0.3 s per run, hence runs of < 12,000 states stay in one process (engine
-  SMALL_RUN) and the throughputs here are for 10^5 states;
+  scratch arrays (7 x n stages): allocation is per run, not per step (scratch allocated once per
+  chunk measured no faster);
+* unrolled Runge-Kutta stages (constant coefficients) and a compile-time n = 4 measured no faster
+  (the step is latency-bound: each stage waits for the previous field);
+* chunk size and work balance: the benchmark runs 4 chunks per worker (CHUNKS_PER_JOB; 1 to 12
+  per worker measure the same within noise on an idle machine, and on a shared one a worker that
+  is slowed down leaves less idle time at the end); joblib's process start-up and dispatch cost
+  ~0.1-0.3 s per run, hence runs of < 12,000 states stay in one process (engine SMALL_RUN) and the
+  throughputs here are for 10^5 states;
 * thread vs process pool: the kernel holds the GIL (no nogil), so the threading backend runs one
   core; processes (loky, reused between runs) are used.
+
+Measured (2 cores, idle machine): plain PLAIN_RATE trajectories/s, with the terminal set TERM_RATE/s
+(TERM_X x the baseline's BASE_RATE/s), statuses 2000/2000 identical to solve_ivp in both modes.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import threading
 import time
@@ -65,6 +85,8 @@ BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
 RULES = StopRules(t_final=30.0)
 RTOL, ATOL = 1e-6, 1e-9
 CERTIFIED = Path(__file__).resolve().parents[1] / "results/certify/certified.json"
+#: Chunks per worker process (work balance: a worker slowed down leaves less idle time at the end).
+CHUNKS_PER_JOB = 4
 
 
 def _baseline_one(x: np.ndarray) -> str:
@@ -119,8 +141,15 @@ def certified_set(which: str) -> TerminalSet:
     raise SystemExit(f"{CERTIFIED}: no certified entry {prefix!r}")
 
 
+def _public(system):
+    """The system without its fast path: the kernel takes the public cfuncs (meta["numba"])."""
+    return dataclasses.replace(
+        system, meta={k: v for k, v in system.meta.items() if k != "numba_fast"}
+    )
+
+
 def _engine(system, smp, jobs, terminal=None, repeat=3):
-    chunk = max(1, -(-smp.n // (2 * jobs)))
+    chunk = max(1, -(-smp.n // (CHUNKS_PER_JOB * jobs)))
     times, run = [], None
     for _ in range(repeat):  # the engine is cheap to repeat: median against load noise
         t0 = time.perf_counter()
@@ -130,19 +159,21 @@ def _engine(system, smp, jobs, terminal=None, repeat=3):
     return run, float(np.median(times)), min(times)
 
 
-def speed(n: int, n_engine: int, jobs: int, which: str) -> None:
+def speed(n: int, n_engine: int, jobs: int, which: str, public: bool) -> None:
     system = ipc.closed_loop()
     terminal = certified_set(which)
     smp = box_sample(system, BOX, n_engine, seed=0)
     X = smp.points(0, n)  # the baseline runs the first n of the engine's samples
+    modes = [("plain", system, None), ("terminal", system, terminal)]
+    if public:  # the same with the public cfuncs (the protocol of user systems)
+        modes += [("plain-pub", _public(system), None), ("term-pub", _public(system), terminal)]
     # warm both sides (worker start-up, numba cache load) on a few other states
     warm = box_sample(system, BOX, 64, seed=99)
-    for term in (None, terminal):
-        run_basin(system, warm, rules=RULES, n_jobs=jobs, chunk_size=32, terminal=term)
+    for _, sys_, term in modes:  # 8 chunks: every worker loads the kernels
+        run_basin(sys_, warm, rules=RULES, n_jobs=jobs, chunk_size=8, terminal=term)
     Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X[:8], jobs))
 
-    rows = [("plain", *_engine(system, smp, jobs)),
-            ("terminal", *_engine(system, smp, jobs, terminal))]  # fmt: skip
+    rows = [(mode, *_engine(sys_, smp, jobs, term)) for mode, sys_, term in modes]
     t0 = time.perf_counter()
     parts = Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X, 8 * jobs))
     t_base = time.perf_counter() - t0
@@ -163,8 +194,8 @@ def speed(n: int, n_engine: int, jobs: int, which: str) -> None:
         rate = n_engine / t_med
         print(f"  {mode:9s} {n_engine:8d} {t_med:8.3f} {rate:10.0f} {n_engine / t_best:10.0f} "
               f"{rate / rate_base:9.0f}x {agree:5d}/{n:<5d}  {run.entered_certified_set}")  # fmt: skip
-    print(f"  statuses (plain): {rows[0][1].counts()}")
-    print(f"  statuses (terminal): {rows[1][1].counts()}")
+    for mode, run, *_ in rows:
+        print(f"  statuses ({mode}): {run.counts()}")
     print("  targets: plain >= 20,000/s; terminal >= 100,000/s and >= 3,000x the baseline")
     if bad:
         raise SystemExit("statuses disagree with solve_ivp")
@@ -202,6 +233,11 @@ def main() -> None:
     )
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument(
+        "--public",
+        action="store_true",
+        help="also run the public cfunc protocol (no fast path) in both modes",
+    )
+    ap.add_argument(
         "--memory", action="store_true", help="stream --n-memory states, report peak RSS"
     )
     ap.add_argument("--n-memory", type=int, default=1_000_000)
@@ -209,7 +245,7 @@ def main() -> None:
     if args.memory:
         memory(args.n_memory, args.jobs)
     else:
-        speed(args.n, max(args.n, args.n_engine), args.jobs, args.terminal)
+        speed(args.n, max(args.n, args.n_engine), args.jobs, args.terminal, args.public)
 
 
 if __name__ == "__main__":

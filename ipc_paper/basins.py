@@ -3,10 +3,21 @@
 Runners for ``roa run experiments/basin_*.toml``. Regions drawn and tested are those of
 :func:`regions`: every estimate of ``ipc_regions()`` and every certified set of the certify
 experiment.
+
+Certified early exit (issue 14): the slice and box runs of the loop without saturation stop a
+trajectory when it enters the certified set of ``results/certify/certified.json`` with the largest
+reference-box share (:func:`terminal_set`; ``terminal_set = false`` in ``[params]`` switches it
+off). Such a run is ``converged`` (the set is invariant and inside the region of attraction, an
+interval-validated proof), its stop time is the entry time, and it is counted in
+``entered_certified_set``; the statuses are those of the full integration. The saturated loop has
+no certificate, and the region runs keep it off: they test the estimates themselves, certified sets
+included, and a certified set as stopping rule would make that test circular.
 """
 
 from __future__ import annotations
 
+import hashlib
+import json
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
 from pathlib import Path
@@ -22,6 +33,7 @@ from roa.io import atomic_write_json
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.basin import BasinResult
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
+from roa.montecarlo.terminal import REL_MARGIN, TerminalSet, coords_map
 from roa.options import IntegratorOptions, Options, RunOptions
 from roa.regions import Region
 from roa.status import StopRules
@@ -31,7 +43,8 @@ SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
 #: Keys of a basin run's summary (as ``BasinRun.summary()`` wrote them), taken from ``BasinResult``.
 RUN_SUMMARY_KEYS = ("n", "counts", "undecided_step_size_failures", "fraction_converged",
-                    "fraction_converged_ci95", "ci_method", "chunks_computed", "chunks_resumed")  # fmt: skip
+                    "fraction_converged_ci95", "ci_method", "chunks_computed", "chunks_resumed",
+                    "entered_certified_set")  # fmt: skip
 
 
 def _options(params: Mapping[str, Any]) -> dict[str, Any]:
@@ -41,6 +54,11 @@ def _options(params: Mapping[str, Any]) -> dict[str, Any]:
     integrator = IntegratorOptions(rtol=params["rtol"], atol=params["atol"])
     return {"rules": rules, "integrator": integrator,
             "run": RunOptions(n_jobs=params["jobs"], progress=False)}  # fmt: skip
+
+
+def _check_flag(params: Any, name: str) -> None:
+    if not isinstance(getattr(params, name), bool):
+        raise RoaInputError(f"{name} must be true or false, got {getattr(params, name)!r}")
 
 
 def _check_box(params: Any, name: str, n: int) -> None:
@@ -96,6 +114,8 @@ class SliceParams(BasinParams):
     claim: str | None = None
     paper: str = "no basin map; estimate ||Tx||^2 <= 4.89"
     verdict: str = "beyond the paper"
+    #: Stop runs on entering the certified set (:func:`terminal_set`); never for the saturated loop.
+    terminal_set: bool = True
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -124,6 +144,7 @@ class SliceParams(BasinParams):
                 raise RoaInputError(f"{name} must be a string, got {value!r}")
         if self.verdict not in VERDICTS:
             raise RoaInputError(f"verdict must be one of {list(VERDICTS)}, got {self.verdict!r}")
+        _check_flag(self, "terminal_set")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -146,17 +167,27 @@ class BoxParams(SampledParams):
 
     box: tuple[tuple[float, float], ...] = ipc.REFERENCE_BOX
     wide_box: tuple[tuple[float, float], ...] | None = None
+    #: Stop runs on entering the certified set (:func:`terminal_set`).
+    terminal_set: bool = True
 
     def __post_init__(self) -> None:
         super().__post_init__()
         _check_box(self, "box", 4)
         if self.wide_box is not None:
             _check_box(self, "wide_box", 4)
+        _check_flag(self, "terminal_set")
 
 
 @dataclass(frozen=True, kw_only=True)
 class RegionParams(SampledParams):
-    """``[params]`` of :func:`run_region`: ``samples`` inside and on each region, ``seed``."""
+    """``[params]`` of :func:`run_region`: ``samples`` inside and on each region, ``seed``, and
+    ``terminal_set`` (default off: these runs test the estimates, certified sets included)."""
+
+    terminal_set: bool = False
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        _check_flag(self, "terminal_set")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -192,16 +223,69 @@ def regions(results: str | Path = "results") -> tuple[list[Region], str]:
     return found, source
 
 
-def _basin(
-    system: Any, sampler: Any, opts: dict[str, Any], out_dir: Path | None = None
-) -> BasinResult:
-    """:func:`roa.basin` with the run's options, resumable in ``out_dir`` when given.
+def terminal_set(
+    system: Any, results: str | Path, enabled: bool
+) -> tuple[TerminalSet | None, dict[str, Any]]:
+    """The certified set the runs of ``system`` stop in, and its description for the summaries.
 
-    ``out_dir`` belongs to this experiment: if it holds chunks of another run (other params or
-    code), the run is recomputed from scratch (``RunOptions.fresh``).
+    The ``certified`` entry of ``RESULTS/certify/certified.json`` with the largest reference-box
+    share (a sublevel set of a quadratic V in flat or hybrid coordinates, validated by interval
+    branch and bound; the certify experiment is a declared dependency of the basin configs, so a
+    new certificate re-runs them). None, with the reason, when ``enabled`` is false, for the
+    saturated loop (no certificate) or a loop with other gains, or when no certificate exists.
+    """
+    off: dict[str, Any] = {"used": False}
+    if not enabled:
+        return None, {**off, "reason": "switched off (terminal_set = false)"}
+    if system.meta.get("saturation") is not None:
+        return None, {**off, "reason": "the saturated loop: the sets of certified.json's "
+                      "regions are of the loop without saturation"}  # fmt: skip
+    declared = getattr(system.meta.get("analysis_coords"), "systems", {}) or {}
+    if "ipc_flat" not in declared:
+        return None, {**off, "reason": "the certificates are for the loop with the paper's gains"}
+    path = Path(results) / "certify" / "certified.json"
+    if not path.is_file():
+        return None, {**off, "reason": f"{path} missing: run experiments/certify.toml first"}
+    raw = path.read_bytes()
+    entries = [e for e in json.loads(raw)["regions"] if e.get("status") == "certified"]
+    if not entries:
+        return None, {**off, "reason": f"{path} holds no certified set"}
+    best = max(entries, key=lambda e: float(e.get("box_fraction") or 0.0))
+    coords = str(best.get("coords", "flat"))
+    center = coords_map(system, coords)(system.x_eq[None, :])[0]
+    terminal = TerminalSet(best["P"], center, best["level"], coords=coords, name=best["name"])
+    from ipc_paper.certified import plain_label
+
+    return terminal, {
+        "used": True,
+        "name": best["name"],
+        "label": plain_label(best["name"], "certified", float(best["level"])),
+        "level": float(best["level"]),
+        "coords": coords,
+        "box_fraction": best.get("box_fraction"),
+        "membership": f"V <= level (1 - {REL_MARGIN:g})",
+        "source": f"results/certify/{path.name}",
+        "source_sha256": hashlib.sha256(raw).hexdigest(),
+        "meaning": "a run that enters the set stops as converged (the set is invariant and inside "
+        "the region of attraction); its stop time is the entry time",
+    }
+
+
+def _basin(
+    system: Any,
+    sampler: Any,
+    opts: dict[str, Any],
+    out_dir: Path | None = None,
+    terminal: TerminalSet | None = None,
+) -> BasinResult:
+    """:func:`roa.basin` with the run's options, resumable in ``out_dir`` when given, stopping
+    runs that enter ``terminal`` (:func:`terminal_set`).
+
+    ``out_dir`` belongs to this experiment: if it holds chunks of another run (other params,
+    terminal set or code), the run is recomputed from scratch (``RunOptions.fresh``).
     """
     run = opts["run"] if out_dir is None else opts["run"].replace(out_dir=str(out_dir))
-    kw = {"rules": opts["rules"], "integrator": opts["integrator"]}
+    kw = {"rules": opts["rules"], "integrator": opts["integrator"], "terminal": terminal}
     try:
         return roa.basin(system, sampler, run=run, **kw)
     except ResultsError:
@@ -228,13 +312,15 @@ def _frac(res: BasinResult) -> str:
     return f"{res.counts['converged']}/{res.n} converged ({100 * res.fraction_converged:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
 
 
-def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any]:
+def sector_line_scan(
+    system: Any, opts: dict[str, Any], n: int, terminal: TerminalSet | None = None
+) -> dict[str, Any]:
     """theta(0) on a fine line in (-pi/2, pi/2) with q = q' = theta' = 0: the converged interval."""
     eps = 1e-6
     g = grid_slice(
         system, ["theta", "q"], [(-np.pi / 2 + eps, np.pi / 2 - eps), (-1e-12, 1e-12)], (n, 2)
     )
-    run = _basin(system, g, opts)
+    run = _basin(system, g, opts, terminal=terminal)
     th = g.xs
     conv = (run.code.reshape(g.shape) == I.CONVERGED).all(axis=0)
     zero = n // 2
@@ -253,7 +339,8 @@ def sector_line_scan(system: Any, opts: dict[str, Any], n: int) -> dict[str, Any
             "theta_converged_to_deg": float(np.degrees(th[hi])),
             "paper_ball_sector_deg": float(np.degrees(np.abs(th[in_ball]).max())),
             "sector_60_points": int(np.sum(np.abs(th) < SECTOR)),
-            "sector_60_converged": int(np.sum(conv & (np.abs(th) < SECTOR)))}  # fmt: skip
+            "sector_60_converged": int(np.sum(conv & (np.abs(th) < SECTOR))),
+            "entered_certified_set": run.entered_certified_set}  # fmt: skip
 
 
 #: Names of the physical states in titles (fixed states) and the axis labels of Figures 1-2.
@@ -274,7 +361,8 @@ def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list
     """The panels of a basin map and their regions (at most :data:`MAX_PER_PANEL` each).
 
     Every estimate here is of the closed loop without saturation: the saturated loop gets one panel
-    with only the paper's ball, drawn as a reference (no certificate exists for that loop).
+    with the paper's ball, drawn as a reference, and the certified sets of the saturated loop
+    itself (regions with a ``saturation`` in their meta, claim C11 of the certify experiment).
     Otherwise (a) the paper's estimates against ours (sampled and certified), (b) the best
     certified regions (largest box share, widest sector, per coordinates, the one around the
     paper's ball) against the empirical basin, plus any refuted or inconclusive level.
@@ -286,7 +374,9 @@ def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list
                                          "(claimed for the loop without saturation)"})
             for r in regs if r.name == ball_name
         ]  # fmt: skip
-        return [("empirical basin of the saturated loop", ref)]
+        own = [r for r in regs if r.meta.get("saturation") is not None]
+        words = "empirical basin of the saturated loop" + (" and its certified set" if own else "")
+        return [(words, (ref + own)[:MAX_PER_PANEL])]
     paper = (
         _pick(regs, lambda r: r.name == ball_name)
         + _pick(regs, lambda r: r.status == "claimed" and _source(r) == "paper c~ = 2.25")
@@ -319,14 +409,33 @@ def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list
     return panels
 
 
-def _basin_title(title: str, code: np.ndarray, sat: float | None) -> str:
+def _basin_title(
+    title: str,
+    code: np.ndarray,
+    sat: float | None,
+    grid: Any = None,
+    regs: list[Region] | None = None,
+) -> str:
     n, k = code.size, int(np.sum(code == I.CONVERGED))
     if k == n:
         where = f"the basin is the whole slice: all {n} grid points converge"
     else:
         where = f"basin edge inside the slice: {k} of {n} grid points converge"
     if sat is not None:
-        where += "; no certificate exists for the saturated loop"
+        own = [
+            r
+            for r in regs or []
+            if r.meta.get("saturation") is not None and r.status == "certified"
+        ]
+        if own and grid is not None:
+            inside = own[0].contains(grid.points(0, grid.n))
+            c = int(np.sum(inside & (code == I.CONVERGED)))
+            where += (f";\nthe certified set V <= {own[0].level:.4g} of the saturated loop holds "
+                      f"{c} of them ({100 * c / max(k, 1):.1f} %)")  # fmt: skip
+            if c < int(inside.sum()):
+                where += f", and {int(inside.sum()) - c} grid points that do not converge (!)"
+        else:
+            where += "; no certificate of the saturated loop (run experiments/certify.toml)"
     return f"{title}\n{where}"
 
 
@@ -339,9 +448,13 @@ def slice_map(
     title: str,
     saturation: float | None,
     converge_tol: float,
+    terminal: dict[str, Any] | None = None,
 ) -> Any:
     """The basin map of a slice run as a matplotlib Figure (unsaved): panels of
-    :func:`slice_panels`, converged points by time to converge, failures by status."""
+    :func:`slice_panels`, converged points by time to converge (with a terminal set, described by
+    ``terminal`` of :func:`terminal_set`: by the time to converge or to enter that set, said on the
+    colorbar and in the legend), failures by status."""
+    from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     from ipc_paper.figures import IPC_LABELS
@@ -350,11 +463,19 @@ def slice_map(
     panels = slice_panels(regs, saturated=saturation is not None)
     lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
     empirical = Patch(color=TIME_CMAP(0.45), label="empirical basin: converged grid points")
+    handles: list[Any] = [empirical]
+    time_label = f"time to converge t [-] (normalised; until |x| < {converge_tol:g})"
+    if terminal and terminal.get("used"):
+        time_label = (f"time to converge or enter the certified set t [-]\n(normalised; until "
+                      f"|x| < {converge_tol:g} or V <= {terminal['level']:.4g})")  # fmt: skip
+        handles.append(Line2D([], [], linestyle="none", label=(
+            "runs stop on entering the certified set (time: entry time)\n"
+            + terminal["label"].removeprefix("our ")
+        )))  # fmt: skip
     return slice_figure(
         system, grid, run.code, t_end=run.t_end, panels=panels, lines=lines,
-        title=_basin_title(title, run.code, saturation), axis_labels=IPC_LABELS,
-        state_names=STATE_WORDS, extra_handles=[empirical],
-        time_label=f"time to converge t [-] (normalised; until |x| < {converge_tol:g})",
+        title=_basin_title(title, run.code, saturation, grid, regs), axis_labels=IPC_LABELS,
+        state_names=STATE_WORDS, extra_handles=handles, time_label=time_label,
         zoom=[0] if len(panels) > 1 else [],
     )  # fmt: skip
 
@@ -370,8 +491,13 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
     axes = list(params["axes"])
     g = grid_slice(system, axes, [tuple(r) for r in params["ranges"]], tuple(params["grid"]),
                    fixed=dict(params["fixed"]))  # fmt: skip
-    run = _basin(system, g, opts, out)
+    terminal, term_info = terminal_set(system, out.parent, params["terminal_set"])
+    run = _basin(system, g, opts, out, terminal)
     regs, source = regions(out.parent)
+    if sat is not None:  # the certified sets of the saturated loop itself (claim C11)
+        from ipc_paper.certified import ipc_saturated_regions
+
+        regs += ipc_saturated_regions(out.parent / "certify" / "certified.json", saturation=sat)
     title = params["title"]
     if title is None:
         words = dict(zip(ipc.PHYSICAL_NAMES, STATE_WORDS, strict=True))
@@ -380,18 +506,19 @@ def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, An
         title += f", saturated force |u| <= {float(sat):g}"
     png = out / "basin.png"
     fig = slice_map(system, g, run, regs, title=title, saturation=sat,
-                    converge_tol=opts["rules"].converge_tol)  # fmt: skip
+                    converge_tol=opts["rules"].converge_tol, terminal=term_info)  # fmt: skip
     save_figure(fig, png)
     contain = [slice_containment(g, run.code, r) for r in regs]
     summary: dict[str, Any] = {**_run_summary(run), "axes": axes, "grid": list(params["grid"]),
                                "ranges": [list(r) for r in params["ranges"]],
                                "fixed": dict(params["fixed"]),
                                "saturation": sat, "regions_source": source,
+                               "terminal_set": term_info,
                                "containment_on_slice": contain, **_settings(opts)}  # fmt: skip
     claims = []
     rel = f"results/{out.name}"
     if params["sector_scan"]:
-        scan = sector_line_scan(system, opts, int(params["sector_scan"]))
+        scan = sector_line_scan(system, opts, int(params["sector_scan"]), terminal)
         summary["sector_scan"] = scan
         ok = scan["sector_60_converged"] == scan["sector_60_points"]
         claims.append({
@@ -439,10 +566,11 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
     if params["wide_box"] is not None:
         boxes["wide"] = [list(r) for r in params["wide_box"]]
     regs, source = regions(out.parent)
+    terminal, term_info = terminal_set(system, out.parent, params["terminal_set"])
     rows, texts, ok = [], [], True
     for k, (label, box) in enumerate(boxes.items()):
         smp = box_sample(system, box, int(params["samples"]), seed=int(params["seed"]) + k)
-        run = _basin(system, smp, opts, out / label)
+        run = _basin(system, smp, opts, out / label, terminal)
         contain = []
         for r in regs:  # streamed again in chunks: which sampled points are inside each region
             inside = np.concatenate([r.contains(smp.points(a, min(a + 65536, smp.n)))
@@ -455,7 +583,7 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
         rows.append({"box_name": label, "box": box, **_run_summary(run), "containment": contain})
         texts.append(f"{label} box {np.round(box, 4).tolist()}: {_frac(run)}")
     summary = {"boxes": rows, "seed": int(params["seed"]), "regions_source": source,
-               **_settings(opts)}  # fmt: skip
+               "terminal_set": term_info, **_settings(opts)}  # fmt: skip
     atomic_write_json(out / "box.json", summary)
     rel = f"results/{out.name}"
     in_ball = [next((c["points_in_region"] for c in r["containment"] if "4.89" in c["region"]), 0)
@@ -477,6 +605,10 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
     system = ipc.closed_loop()
     opts = _options(params)
     regs, source = regions(out.parent)
+    terminal, term_info = terminal_set(system, out.parent, params["terminal_set"])
+    if not params["terminal_set"]:
+        term_info["reason"] = ("off by default here: these runs test the estimates, certified "
+                               "sets included, which a certified stopping set would make circular")  # fmt: skip
     n = int(params["samples"])
     rows = []
     paper_row = None
@@ -486,14 +618,16 @@ def run_region(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, A
             smp = region_sample(
                 r, n, seed=int(params["seed"]) + k, mode=mode, inverse=ipc.from_flat
             )
-            run = _basin(system, smp, opts, out / f"region{k}_{mode}")
+            run = _basin(system, smp, opts, out / f"region{k}_{mode}", terminal)
             c = dict(run.counts)
             row[mode] = {"n": run.n, "counts": c, "all_converged": c["converged"] == run.n,
-                         "max_t_end": float(run.t_end.max())}  # fmt: skip
+                         "max_t_end": float(run.t_end.max()),
+                         "entered_certified_set": run.entered_certified_set}  # fmt: skip
         rows.append(row)
         if "4.89" in r.name and paper_row is None:
             paper_row = row
-    summary = {"regions_source": source, "samples_per_set": n, "regions": rows, **_settings(opts)}
+    summary = {"regions_source": source, "samples_per_set": n, "regions": rows,
+               "terminal_set": term_info, **_settings(opts)}  # fmt: skip
     atomic_write_json(out / "regions.json", summary)
     rel = f"results/{out.name}"
     claims = []

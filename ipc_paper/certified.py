@@ -50,6 +50,7 @@ _PLAIN = (
         "quadratic V in hybrid coordinates (box fraction)",
         "V in (q, z2, w1, w2), largest box share",
     ),
+    ("saturated loop", "level set of V for the saturated loop"),
 )
 
 
@@ -89,6 +90,28 @@ def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
                 },
             )
         )
+    return out
+
+
+def ipc_saturated_regions(
+    path: str | Path = CERTIFIED_PATH, *, saturation: float | None = None
+) -> list[Region]:
+    """Certified sets of the *saturated* loop (``saturated`` of certified.json; claim C11), for
+    the limit ``saturation`` (all limits if None). They are not in :func:`ipc_certified_regions`:
+    a set certified for one loop says nothing about the other. Empty if the file or key is missing.
+    """
+    path = Path(path)
+    if not path.is_file():
+        return []
+    out = []
+    for entry in json.loads(path.read_text()).get("saturated", []):
+        if saturation is not None and float(entry["saturation"]) != float(saturation):
+            continue
+        meta = {k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")}
+        label = plain_label(entry["name"], entry["status"], float(entry["level"]))
+        out.append(Region(entry["name"], np.asarray(entry["P"], dtype=float), float(entry["level"]),
+                          entry["status"], coords_map(entry.get("coords", "flat")),
+                          {**meta, "label": label}))  # fmt: skip
     return out
 
 

@@ -16,21 +16,34 @@ to machine precision) and the earliest wins, as in ``solve_ivp``. Step-size cont
 and the error norm follow scipy's ``RK45`` exactly, so classifications agree with it.
 
 Two back ends with identical semantics: a numba kernel (one trajectory at a time, compiled scalar
-code) used when ``system.meta["numba"]`` is a zero-argument callable returning
-``(field, margin, params)`` -- ``field(t, x, params, out)`` and ``margin(x, params) -> float``, both
-``numba.cfunc`` compiled with :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers
-keep the kernel cacheable on disk; see roa/systems/ipc/fast.py); otherwise a vectorised numpy
-version over ``system.f``. Measured on the IPC (2,000 states of the box q, q' in [-3, 3], theta in
-[-1.5, 1.5], theta' in [-3, 3], rtol 1e-6, T = 30, one core of a shared machine): numba about
-15,000-17,000 trajectories/s, numpy about 600-800/s (benchmarks/bench_montecarlo.py for 2 cores).
+code) used when ``system.meta["numba"]`` is a callable returning ``(field, margin, params)`` --
+``field(t, x, params, out)`` and ``margin(x, params) -> float``, both ``numba.cfunc`` compiled with
+:data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
+disk for every system; see roa/systems/ipc/fast.py); otherwise a vectorised numpy version over
+``system.f``. Built-in systems add a fast path, ``system.meta["numba_fast"]``: the same functions
+as ``numba.njit`` functions, compiled into a kernel of their own (:func:`compile_kernel`: no call
+through a pointer, the field fused with the map to a terminal set's coordinates), bit for bit the
+same trajectories. Measured on the IPC (20,000 states of the box q, q' in [-3, 3], theta in
+[-1.5, 1.5], theta' in [-3, 3], rtol 1e-6, T = 30, one core of a shared machine): fast path about
+18,000-19,000 trajectories/s (public cfuncs 16,000-17,000), with the certified terminal set of
+benchmarks/bench_montecarlo.py about 55,000-57,000/s (public cfuncs 41,000-48,000); numpy about
+600-800/s (benchmarks/bench_montecarlo.py for 2 cores).
 """
 
 from __future__ import annotations
 
+import functools
+import hashlib
+import importlib
+from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numba
 import numpy as np
+from numba.core.imputils import lower_constant
+from numba.extending import models, register_model, typeof_impl
 
 from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
@@ -117,18 +130,7 @@ def integrate_batch(
     if use_numba:
         if "numba" not in system.meta:
             raise RoaInputError(f"system {system.name!r} provides no numba field (meta['numba'])")
-        factory = system.meta["numba"]
-        if terminal is None or terminal.coords is None:
-            field, margin, params = factory()
-            coords = identity_coords
-        else:
-            try:
-                field, margin, params, coords = factory(coords=terminal.coords)
-            except (TypeError, ValueError, KeyError):
-                raise RoaInputError(
-                    f"system {system.name!r}: its numba kernels have no compiled map to the "
-                    f"coordinates {terminal.coords!r} of the terminal set (use backend='numpy')"
-                ) from None
+        run, params = _numba_kernel(system, terminal)
         n = system.n
         if terminal is None:
             tP, tc, thr = np.zeros((n, n)), np.zeros(n), -np.inf
@@ -139,10 +141,10 @@ def integrate_batch(
         t_end = np.empty(m)
         x_end = np.empty_like(x0)
         steps = np.empty(m, np.int64)
-        _kernel(
-            field, margin, np.asarray(params, dtype=float), x0, system.x_eq, rules.converge_tol,
-            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol,
-            terminal is not None, coords, tP, tc, thr, code, t_end, x_end, steps,
+        run(
+            np.ascontiguousarray(params, dtype=float), x0, system.x_eq, rules.converge_tol,
+            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol, terminal is not None,
+            tP, tc, thr, code, t_end, x_end, steps,
         )  # fmt: skip
         res = _base.BatchResult(code, t_end, x_end, steps)
     else:
@@ -152,6 +154,51 @@ def integrate_batch(
     res.code[entered] = CONVERGED
     res = BatchResult(res.code, res.t_end, res.x_end, res.steps, entered)
     return _elsewhere(system, res, rules.converge_tol)
+
+
+def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callable[..., None], Any]:
+    """The numba kernel for ``system`` (and ``terminal``) and the parameters it takes.
+
+    It is called ``run(params, X0, x_eq, converge_tol, diverge_bound, margin_tol, t_final, rtol,
+    atol, term, P, center, threshold, code, t_end, x_end, steps)``. The fast path
+    ``system.meta["numba_fast"]`` (njit functions compiled into a kernel of their own,
+    :func:`compile_kernel`) is used when the system provides it, with a terminal set in other
+    coordinates when it has a map to them; else the public ``system.meta["numba"]`` (cfuncs of
+    ``FIELD_SIGNATURE``, ...) with the shared kernel. Both give the same trajectories bit for bit
+    (tests/test_terminal_fastpath.py).
+    """
+    fast = system.meta.get("numba_fast")
+    name = None if terminal is None else terminal.coords
+    if fast is not None:
+        try:
+            # (field, margin, params), with coordinates (..., coords, field_coords)
+            fns = fast() if name is None else fast(coords=name)
+        except (TypeError, ValueError, KeyError):
+            fns = None  # no map to these coordinates on the fast path: the public one
+        if fns is not None:
+            field, margin, params, *more = fns
+            coords, field_coords = more if more else (None, None)
+            return compile_kernel(field, margin, coords, field_coords), params
+    factory = system.meta["numba"]
+    if name is None:
+        field, margin, params = factory()
+        coords = identity_coords
+    else:
+        try:
+            field, margin, params, coords = factory(coords=name)
+        except (TypeError, ValueError, KeyError):
+            raise RoaInputError(
+                f"system {system.name!r}: its numba kernels have no compiled map to the "
+                f"coordinates {name!r} of the terminal set (use backend='numpy')"
+            ) from None
+
+    def run(params: Any, X0: Any, x_eq: Any, tol: float, bound: float, margin_tol: float,
+            t_final: float, rtol: float, atol: float, term: bool, tP: Any, tc: Any, thr: float,
+            code: Any, t_end: Any, x_end: Any, steps: Any) -> None:  # fmt: skip
+        _kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
+                term, coords, tP, tc, thr, code, t_end, x_end, steps, None)  # fmt: skip
+
+    return run, params
 
 
 @dataclass(frozen=True)
@@ -179,6 +226,55 @@ def _elsewhere(system: System, res: BatchResult, converge_tol: float) -> BatchRe
 
 
 # ----------------------------------------------------------------------------- numba kernel
+# One kernel, two ways to take the system's functions. The public protocol passes cfuncs as
+# first-class function values: one compiled kernel, cached on disk, serves every system, and
+# each call goes through a pointer. The fast path (compile_kernel) passes njit functions as
+# compile-time constants (Inlined): the kernel is compiled for them, LLVM inlines them, and the
+# result is cached on disk too, keyed by the source of the functions' modules.
+
+
+class Inlined:
+    """A ``numba.njit`` function handed to the kernel as a compile-time constant (see
+    :func:`compile_kernel`): the kernel calls it directly (LLVM inlines it), where a cfunc is
+    called through its pointer. It pickles by name with the SHA-256 of its module's source, so a
+    kernel cached on disk is recompiled when that source changes."""
+
+    def __init__(self, fn: Any) -> None:
+        self.fn = fn
+        py = fn.py_func
+        self.key = (py.__module__, py.__qualname__, _source_digest(py.__code__.co_filename))
+
+    def __reduce__(self) -> tuple[Any, tuple[str, str, str]]:
+        return (_inlined_by_name, self.key)
+
+
+@functools.cache
+def _source_digest(filename: str) -> str:
+    return hashlib.sha256(Path(filename).read_bytes()).hexdigest()
+
+
+def _inlined_by_name(module: str, qualname: str, digest: str) -> Inlined:
+    obj: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        obj = getattr(obj, part)
+    return Inlined(obj)
+
+
+class _InlinedType(numba.types.Dispatcher):
+    """The numba type of an :class:`Inlined`: called as its njit function, lowered as no value."""
+
+
+@typeof_impl.register(Inlined)
+def _typeof_inlined(val: Inlined, c: Any) -> _InlinedType:
+    return _InlinedType(val.fn)
+
+
+register_model(_InlinedType)(models.OpaqueModel)
+
+
+@lower_constant(_InlinedType)
+def _lower_inlined(context: Any, builder: Any, ty: Any, pyval: Any) -> Any:
+    return context.get_dummy_value()  # a type, no value: no address baked into the code
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -221,8 +317,21 @@ def _dense(y, h, Q, s, out):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _v_le(w, tP, tc, thr):
+    # V(w) <= thr; NaN compares False (outside)
+    n = w.shape[0]
+    v = 0.0
+    for i in range(n):
+        acc = 0.0
+        for j in range(n):
+            acc += tP[i, j] * (w[j] - tc[j])
+        v += (w[i] - tc[i]) * acc
+    return v <= thr
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _inside(y, coords, params, tP, tc, thr, w):
-    # V(coords(y)) <= thr; NaN compares False (outside)
+    # V(coords(y)) <= thr (the loop of _v_le, written out: one call less per step)
     coords(y, params, w)
     n = w.shape[0]
     v = 0.0
@@ -237,7 +346,7 @@ def _inside(y, coords, params, tP, tc, thr, w):
 @numba.njit(cache=True, error_model="numpy")
 def _one(
     field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-    term, coords, tP, tc, thr, x_out,
+    term, coords, tP, tc, thr, x_out, field_coords,
 ):  # fmt: skip
     n = y0.shape[0]
     A, B, C, E, P = _A, _B, _C, _E, _P
@@ -324,7 +433,10 @@ def _one(
                 for j in range(6):
                     acc += B[j] * K[j, i]
                 y_new[i] = y[i] + h * acc
-            field(t + h, y_new, params, K[6])
+            if field_coords is None:  # pruned at compile time
+                field(t + h, y_new, params, K[6])
+            else:  # the field and coords(y_new) in one call (w: for the set test below)
+                field_coords(t + h, y_new, params, K[6], w)
             for i in range(n):
                 acc = 0.0
                 for j in range(7):
@@ -382,7 +494,14 @@ def _one(
                     _dense(y, h, Q, hi, x_out)
         if first >= 0:
             return first, t_first, steps  # codes 0, 1, 2 match the event order
-        if term and _inside(y_new, coords, params, tP, tc, thr, w):
+        if term:
+            if field_coords is None:
+                inside = _inside(y_new, coords, params, tP, tc, thr, w)
+            else:  # w holds coords(y_new) from the last stage
+                inside = _v_le(w, tP, tc, thr)
+        else:
+            inside = False
+        if inside:
             x_out[:] = y_new
             return ENTERED, t_new, steps
         t = t_new
@@ -415,6 +534,7 @@ def _kernel(
     t_end,
     x_end,
     steps,
+    field_coords,
 ):
     for k in range(X0.shape[0]):
         c, te, ns = _one(
@@ -435,6 +555,7 @@ def _kernel(
             tc,
             thr,
             x_end[k],
+            field_coords,
         )
         code[k] = c
         t_end[k] = te
@@ -452,3 +573,56 @@ def identity_coords(x: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
     """The identity coordinate map (a terminal set in the simulated coordinates)."""
     for i in range(x.shape[0]):
         out[i] = x[i]
+
+
+# ----------------------------------------------------------------------------- fast path
+# njit functions for the fast path (system.meta["numba_fast"]): the same arguments as the
+# public signatures, compiled into the kernel by compile_kernel.
+
+
+@numba.njit(cache=True, error_model="numpy")
+def no_margin_njit(x: np.ndarray, params: np.ndarray) -> float:
+    """:func:`no_margin` for the fast path."""
+    return np.inf
+
+
+@numba.njit(cache=True, error_model="numpy")
+def identity_coords_njit(x: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
+    """:func:`identity_coords` for the fast path."""
+    for i in range(x.shape[0]):
+        out[i] = x[i]
+
+
+_COMPILED: dict[tuple[Any, ...], Any] = {}
+
+
+def compile_kernel(
+    field: Any, margin: Any, coords: Any = None, field_coords: Any = None
+) -> Callable[..., None]:
+    """The batch kernel compiled for these ``numba.njit`` functions (the fast path).
+
+    ``field(t, x, params, out)``, ``margin(x, params) -> float`` and ``coords(x, params, out)``
+    take the arguments of the public signatures (``FIELD_SIGNATURE``, ...); ``field_coords(t, x,
+    params, out, w)`` (optional) writes ``field`` to ``out`` and ``coords(x)`` to ``w``, bit for
+    bit what the two give, for the terminal-set test after the last stage of a step (the field's
+    sin, cos and log are not computed twice). The kernel calls them directly: LLVM inlines them
+    (no call through a pointer). Compiled once per process and cached on disk (the functions
+    enter the cache key with the SHA-256 of their modules' source). Returns ``run(params, X0,
+    x_eq, converge_tol, diverge_bound, margin_tol, t_final, rtol, atol, term, P, center,
+    threshold, code, t_end, x_end, steps)``.
+    """
+    key = (field, margin, coords, field_coords)
+    if key in _COMPILED:
+        return _COMPILED[key]
+    f, m = Inlined(field), Inlined(margin)
+    c = Inlined(identity_coords_njit if coords is None else coords)
+    fc = None if field_coords is None else Inlined(field_coords)
+
+    @numba.njit(cache=True, error_model="numpy")
+    def run(params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, term, tP, tc, thr,
+            code, t_end, x_end, steps):  # fmt: skip
+        _kernel(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, term, c, tP,
+                tc, thr, code, t_end, x_end, steps, fc)  # fmt: skip
+
+    _COMPILED[key] = run
+    return run

@@ -7,8 +7,9 @@ coordinates* ``y = coords(x)`` other than the simulated ones (the IPC is simulat
 coordinates, its certified V lives in flat coordinates ``xi = to_flat(x)``): the system then
 declares them in ``system.meta["analysis_coords"]`` (a callable ``name -> numpy map`` with a
 ``systems`` dict ``certified system name -> coordinates name``), and its numba factory
-``system.meta["numba"](coords=name)`` returns the compiled map as a fourth element (see
-roa/systems/ipc/fast.py).
+``system.meta["numba"](coords=name)`` returns the compiled map as a fourth element (the fast path
+``system.meta["numba_fast"](coords=name)`` the map and the field fused with it, so the test after
+each step costs only V; see roa/systems/ipc/fast.py).
 
 Membership uses ``V(y) <= level (1 - REL_MARGIN)``: float error cannot let a point outside count.
 Runs that enter are finished with status ``converged`` at the time of the accepted step that enters

@@ -291,6 +291,23 @@ def iabs(x: Any) -> Interval:
     return Interval(lo, np.maximum(a, b))
 
 
+def iminimum(a: Any, b: Any) -> Interval:
+    """Enclosure of ``min(a, b)`` (exact: min is increasing in each argument, nothing is rounded)."""
+    a, b = Interval.of(a), Interval.of(b)
+    return Interval(np.minimum(a.lo, b.lo), np.minimum(a.hi, b.hi))
+
+
+def imaximum(a: Any, b: Any) -> Interval:
+    """Enclosure of ``max(a, b)`` (exact, as :func:`iminimum`)."""
+    a, b = Interval.of(a), Interval.of(b)
+    return Interval(np.maximum(a.lo, b.lo), np.maximum(a.hi, b.hi))
+
+
+def iclip(x: Any, lo: Any, hi: Any) -> Interval:
+    """Enclosure of ``clip(x, lo, hi) = min(max(x, lo), hi)`` (a saturation; exact)."""
+    return iminimum(imaximum(x, lo), hi)
+
+
 def _periodic(fn: Any, x: Any, peak: float) -> Interval:
     """sin/cos: enclose by endpoint values, 1 if ``peak + 2 k pi`` inside, -1 if ``peak + pi + 2 k pi``."""
     x = Interval.of(x)
@@ -382,5 +399,8 @@ INTERVAL = SimpleNamespace(
     arctan=iarctan,
     arcsinh=iarcsinh,
     arctanh=iarctanh,
+    minimum=iminimum,
+    maximum=imaximum,
+    clip=iclip,
 )
 """Interval namespace: ``system.field(t, x, INTERVAL)`` encloses the field over boxes."""

@@ -30,7 +30,15 @@ from roa.systems.ipc.coordinates import (
     to_flat,
     to_flat_components,
 )
-from roa.systems.ipc.model import DEFAULT_DELTA, accelerations, check_delta, phi0
+from roa.systems.ipc.model import (
+    DEFAULT_DELTA,
+    accelerations,
+    check_delta,
+    phi0,
+    phi1,
+    phi2,
+    phi3,
+)
 
 __all__ = [
     "closed_loop",
@@ -51,6 +59,15 @@ PHYSICAL_UNITS = ("-", "1/s", "rad", "rad/s")  # normalised length (-) and time
 FLAT_NAMES = ("z1", "z2", "w1", "w2")
 
 
+def _saturation(saturation: float | None) -> float | None:
+    """The actuator limit as a float (> 0), or None."""
+    if saturation is None:
+        return None
+    if not (float(saturation) > 0 and np.isfinite(float(saturation))):
+        raise RoaInputError(f"saturation must be a force bound > 0, got {saturation!r}")
+    return float(saturation)
+
+
 def _settings(gains: Gains | None, reference: Reference | str | None) -> tuple[Gains, Reference]:
     gains = Gains.default() if gains is None else gains
     if not isinstance(reference, Reference):
@@ -68,7 +85,12 @@ def control_force(
     saturation: float | None = None,
     xp: Any = None,
 ) -> Any:
-    """The force u(t, x) of the closed loop, in physical coordinates (components of ``x``)."""
+    """The normalised force u = F / (m g) of the closed loop at (t, x), in physical coordinates.
+
+    ``saturation``: the actuator limit, ``u`` clipped to ``[-saturation, saturation]`` by
+    ``xp.clip`` (so the saturated loop runs in every namespace: numpy, CasADi, sympy, intervals
+    and jets, where the validation encloses the kink).
+    """
     from roa.backend import NP
 
     xp = NP if xp is None else xp
@@ -77,10 +99,15 @@ def control_force(
     v = virtual_input(t, zeta, gains, reference)
     u = force(v, zeta[2], zeta[3], check_delta(delta), xp)
     if saturation is not None:
-        if getattr(xp, "name", "") != "numpy":
-            raise RoaInputError("saturation is only available with the numpy backend")
-        u = np.clip(u, -saturation, saturation)
+        u = _saturate(u, float(saturation), xp)
     return u
+
+
+def _saturate(u: Any, limit: float, xp: Any) -> Any:
+    """``xp.clip(u, -limit, limit)``; Python's min/max for a namespace of scalars without ``clip``
+    (e.g. the mpmath namespace of roa.proof.validate's 50-digit re-checks)."""
+    clip = getattr(xp, "clip", None)
+    return clip(u, -limit, limit) if clip is not None else min(max(u, -limit), limit)
 
 
 def closed_loop(
@@ -101,13 +128,13 @@ def closed_loop(
     reference : Reference or str, optional
         F*(t); default zero (regulation to the upright equilibrium).
     saturation : float, optional
-        Actuator limit |u| <= saturation (> 0); default none.
+        Actuator limit ``|u| <= saturation`` (> 0) on the normalised force ``u = F / (m g)``
+        (:mod:`roa.systems.ipc.model`); default none. ``saturation=1`` is the issue's
+        ``|u| <= 1``, the saturated basin map's loop (``experiments/basin_q_theta_saturated.toml``).
     """
     delta = check_delta(delta)
-    if saturation is not None and not (float(saturation) > 0):
-        raise RoaInputError(f"saturation must be a force bound > 0, got {saturation!r}")
+    sat = _saturation(saturation)
     gains, reference = _settings(gains, reference)
-    sat = None if saturation is None else float(saturation)
 
     def field(t: Any, x: Any, xp: Any) -> tuple:
         q, qd, th, thd = x[0], x[1], x[2], x[3]
@@ -145,24 +172,45 @@ def closed_loop(
     )
 
 
-def transformed(*, gains: Gains | None = None, reference: Reference | str | None = None) -> System:
+def transformed(
+    *,
+    gains: Gains | None = None,
+    reference: Reference | str | None = None,
+    saturation: float | None = None,
+    delta: float = DEFAULT_DELTA,
+) -> System:
     """The closed loop (3.8) in flat coordinates ``(z1, z2, w1, w2)``; independent of delta.
 
     With the paper's gains and no reference, the system carries the paper's V (3.11),
     ``P = T' P_q T``, as its ``lyapunov`` and the paper's ball ``||T xi||^2`` as its ``norm``.
+
+    ``saturation``: the saturated loop of :func:`closed_loop` (``|u| <= saturation``, mass ratio
+    ``delta``) in the same coordinates, named ``ipc_flat_saturated``. The force enters only
+    ``w2'``: with ``a = phi2(w1) + w2^2 phi3(w1)`` the law is ``u = (a - v) / phi1(w1)`` (2.5), and
+    the model gives ``w2' = a - phi1(w1) u`` for any applied force ``u`` (``z2' = w1 + phi0 w2^2``
+    does not depend on it), so ``w2' = a - phi1(w1) clip(u, -saturation, saturation)``: ``v`` where
+    the force is not saturated. ``tests/test_saturation.py`` checks it against the physical loop
+    pushed through (2.2).
     """
     gains, reference = _settings(gains, reference)
+    sat = _saturation(saturation)
+    delta = check_delta(delta)
 
     def field(t: Any, x: Any, xp: Any) -> tuple:
         z1, z2, w1, w2 = x[0], x[1], x[2], x[3]
         v = virtual_input(t, (z1, z2, w1, w2), gains, reference)
-        return (z2, w1 + phi0(w1, xp) * w2 * w2, w2, v)
+        if sat is None:
+            return (z2, w1 + phi0(w1, xp) * w2 * w2, w2, v)
+        a = phi2(w1, delta, xp) + w2 * w2 * phi3(w1, delta, xp)
+        p1 = phi1(w1, delta, xp)
+        u = _saturate((a - v) / p1, sat, xp)
+        return (z2, w1 + phi0(w1, xp) * w2 * w2, w2, a - p1 * u)
 
     paper_v = reference.is_zero and np.allclose(gains.h, Gains.default().h)
     from roa.systems.ipc.lyapunov import P_Q, T
 
     return System(
-        name="ipc_flat",
+        name="ipc_flat" if sat is None else "ipc_flat_saturated",
         field=field,
         equilibrium=None if not reference.is_zero else (0.0, 0.0, 0.0, 0.0),
         # the paper's V (3.11) and ball ||q||^2 = ||T xi||^2 are for its gains, p(s) = (s + 1)^4
@@ -176,22 +224,28 @@ def transformed(*, gains: Gains | None = None, reference: Reference | str | None
         meta={
             "gains": gains.h,
             "reference": reference.description,
-            **_numba_meta("flat", reference, h=gains.h),
+            # the batch kernels of fast.py are of the unsaturated flat loop (3.8)
+            **(_numba_meta("flat", reference, h=gains.h) if sat is None else {}),
+            **({} if sat is None else {"saturation": sat, "delta": delta}),
         },
     )
 
 
 def _numba_meta(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
-    """``{"numba": factory}`` for the batch integrator (zero reference only; see ipc/fast.py), and
-    for the physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
+    """``{"numba": factory, "numba_fast": factory}`` for the batch integrator (zero reference only;
+    the public array signatures and the pointer-only fast path, see ipc/fast.py), and for the
+    physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
     coordinates, roa/montecarlo/terminal.py)."""
     if not reference.is_zero:
         return {}
     from roa.systems.ipc import fast
 
     if which != "physical":
-        return {"numba": fast.FlatKernels(**kw)}
-    meta: dict[str, Any] = {"numba": fast.PhysicalKernels(**kw)}
+        return {"numba": fast.FlatKernels(**kw), "numba_fast": fast.FlatFastKernels(**kw)}
+    meta: dict[str, Any] = {
+        "numba": fast.PhysicalKernels(**kw),
+        "numba_fast": fast.PhysicalFastKernels(**kw),
+    }
     if kw.get("saturation") is None:  # terminal sets in flat/hybrid coordinates (terminal.py)
         default = np.allclose(kw["h"], Gains.default().h)
         meta["analysis_coords"] = fast.AnalysisCoords(default_gains=bool(default))

@@ -4,6 +4,15 @@ The same formulas as :func:`roa.systems.ipc.closed_loop` (physical coordinates, 
 optional saturation) and :func:`roa.systems.ipc.transformed` ((3.8), flat coordinates), written as
 scalar code. ``tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
 Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
+
+Each function exists twice, from one body: as a ``numba.cfunc`` of the public signatures of
+roa/montecarlo/integrator.py (``System.meta["numba"]``, the protocol user systems follow) and as
+a ``numba.njit`` function for the fast path (``System.meta["numba_fast"]``, preferred by the
+engine: the kernel is compiled for these functions and calls them directly, no call through a
+pointer; :func:`roa.montecarlo.integrator.compile_kernel`). The fast path also fuses the field
+with the map to the coordinates of a terminal set, so the set test after each step reuses the
+field's sin, cos and log. ``tests/test_terminal_fastpath.py`` checks that both paths give the
+same trajectories bit for bit.
 """
 
 from __future__ import annotations
@@ -18,22 +27,26 @@ from roa.montecarlo.integrator import (
     FIELD_SIGNATURE,
     MARGIN_SIGNATURE,
     no_margin,
+    no_margin_njit,
 )
 
 HALF_PI = np.pi / 2
 
 
-@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
-def physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """Closed loop in physical coordinates (q, q', theta, theta'), zero reference."""
-    qd, th, thd = x[1], x[2], x[3]
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _physical(x, p, out, w, mode):
+    """The closed loop in physical coordinates (q, q', theta, theta'), zero reference, into
+    ``out``; with ``mode`` 1 (2) also the flat (hybrid) coordinates of ``x`` into ``w``, bit for
+    bit what :func:`_to_flat` (and :func:`physical_to_hybrid`) give, from the same sin, cos and
+    log."""
+    q, qd, th, thd = x[0], x[1], x[2], x[3]
     delta = p[0]
     s, c = np.sin(th), np.cos(th)
     sec = 1.0 / c
     w1 = s * sec
     # (2.2) with arsinh(tan th) = sign(sin th cos th) log((1 + |sin th|) / |cos th|)
     a = np.log((1.0 + abs(s)) * abs(sec))
-    z1 = x[0] + (a if s * c >= 0.0 else -a)
+    z1 = q + (a if s * c >= 0.0 else -a)
     z2 = qd + thd * sec
     w2 = thd * sec * sec
     v = -(p[1] * z1 + p[2] * z2 + p[3] * w1 + p[4] * w2)
@@ -54,17 +67,70 @@ def physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> N
     out[1] = (u + thd * thd * s - s * c) * inv_den
     out[2] = thd
     out[3] = (-u * c - thd * thd * s * c + (1.0 + delta) * s) * inv_den
+    if mode == 0:
+        return
+    if not (abs(th) < HALF_PI) or not (abs(q) < np.inf and abs(qd) < np.inf and abs(thd) < np.inf):
+        for i in range(4):
+            w[i] = np.inf
+        return
+    # the expressions of _to_flat, on the same s, c, sec, a
+    f0 = q + (a if s >= 0.0 else -a)
+    if mode == 1:
+        w[0] = f0
+    else:  # hybrid: q where the flat z1 is finite (as physical_to_hybrid)
+        w[0] = q if f0 < np.inf else np.inf
+    w[1] = qd + thd * sec
+    w[2] = w1
+    w[3] = thd * sec * sec
+
+
+@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
+def physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """Closed loop in physical coordinates (q, q', theta, theta'), zero reference."""
+    _physical(x, p, out, out, 0)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def physical_field_njit(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """:func:`physical_field` for the fast path."""
+    _physical(x, p, out, out, 0)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def physical_field_flat_njit(
+    t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray, w: np.ndarray
+) -> None:
+    """:func:`physical_field` and :func:`physical_to_flat` of ``x`` in one call (fast path)."""
+    _physical(x, p, out, w, 1)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def physical_field_hybrid_njit(
+    t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray, w: np.ndarray
+) -> None:
+    """:func:`physical_field` and :func:`physical_to_hybrid` of ``x`` in one call (fast path)."""
+    _physical(x, p, out, w, 2)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _margin(x, p):
+    return HALF_PI - abs(x[2])
 
 
 @numba.cfunc(MARGIN_SIGNATURE, cache=True, error_model="numpy")
 def physical_margin(x: np.ndarray, p: np.ndarray) -> float:
     """pi/2 - |theta|."""
-    return HALF_PI - abs(x[2])
+    return _margin(x, p)
 
 
-@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
-def flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """The closed loop (3.8) in flat coordinates (z1, z2, w1, w2)."""
+@numba.njit(cache=True, error_model="numpy")
+def physical_margin_njit(x: np.ndarray, p: np.ndarray) -> float:
+    """:func:`physical_margin` for the fast path."""
+    return _margin(x, p)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _flat(x, p, out):
     w1, w2 = x[2], x[3]
     r = 1.0 + w1 * w1
     out[0] = x[1]
@@ -73,8 +139,20 @@ def flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     out[3] = -(p[1] * x[0] + p[2] * x[1] + p[3] * w1 + p[4] * w2)
 
 
+@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
+def flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """The closed loop (3.8) in flat coordinates (z1, z2, w1, w2)."""
+    _flat(x, p, out)
+
+
 @numba.njit(cache=True, error_model="numpy")
-def _to_flat(x: np.ndarray, out: np.ndarray) -> None:
+def flat_field_njit(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """:func:`flat_field` for the fast path."""
+    _flat(x, p, out)
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _to_flat(x, out):
     th = x[2]
     if not (abs(th) < HALF_PI) or not (abs(x[0]) < np.inf and abs(x[1]) < np.inf
                                         and abs(x[3]) < np.inf):  # fmt: skip
@@ -92,6 +170,13 @@ def _to_flat(x: np.ndarray, out: np.ndarray) -> None:
     out[3] = x[3] * sec * sec
 
 
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _to_hybrid(x, out):
+    _to_flat(x, out)
+    if out[0] < np.inf:
+        out[0] = x[0]
+
+
 @numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
 def physical_to_flat(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """(2.2): physical -> flat ``(z1, z2, w1, w2)``; inf outside |theta| < pi/2 or if not finite."""
@@ -101,13 +186,28 @@ def physical_to_flat(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
 @numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
 def physical_to_hybrid(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """Physical -> hybrid ``(q, z2, w1, w2)`` (roa/systems/ipc/hybrid.py); inf as above."""
+    _to_hybrid(x, out)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def physical_to_flat_njit(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """:func:`physical_to_flat` for the fast path."""
     _to_flat(x, out)
-    if out[0] < np.inf:
-        out[0] = x[0]
+
+
+@numba.njit(cache=True, error_model="numpy")
+def physical_to_hybrid_njit(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+    """:func:`physical_to_hybrid` for the fast path."""
+    _to_hybrid(x, out)
 
 
 #: Compiled analysis-coordinate maps of the physical closed loop (terminal sets).
 COMPILED_COORDS = {"flat": physical_to_flat, "hybrid": physical_to_hybrid}
+#: The same for the fast path: (map, field fused with the map).
+FAST_COORDS = {
+    "flat": (physical_to_flat_njit, physical_field_flat_njit),
+    "hybrid": (physical_to_hybrid_njit, physical_field_hybrid_njit),
+}
 
 
 class PhysicalKernels:
@@ -126,6 +226,19 @@ class PhysicalKernels:
         if coords is None:
             return physical_field, physical_margin, self.params
         return physical_field, physical_margin, self.params, COMPILED_COORDS[coords]
+
+
+class PhysicalFastKernels(PhysicalKernels):
+    """Picklable factory for ``System.meta["numba_fast"]`` (physical coordinates): the functions of
+    :class:`PhysicalKernels` as ``numba.njit`` functions, for
+    :func:`roa.montecarlo.integrator.compile_kernel`. ``kernels()`` returns ``(field, margin,
+    params)``; ``kernels(coords=name)`` adds the map to ``name`` and the field fused with it."""
+
+    def __call__(self, coords: str | None = None):
+        if coords is None:
+            return physical_field_njit, physical_margin_njit, self.params
+        cmap, fused = FAST_COORDS[coords]
+        return physical_field_njit, physical_margin_njit, self.params, cmap, fused
 
 
 class AnalysisCoords:
@@ -163,3 +276,10 @@ class FlatKernels:
 
     def __call__(self):
         return flat_field, no_margin, self.params
+
+
+class FlatFastKernels(FlatKernels):
+    """Picklable factory for ``System.meta["numba_fast"]`` (flat coordinates, njit functions)."""
+
+    def __call__(self):
+        return flat_field_njit, no_margin_njit, self.params

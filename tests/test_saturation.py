@@ -366,11 +366,6 @@ def test_saturated_toy_certified_at_0999_and_refuted_just_above():
     assert np.max(np.abs(-2 * X[:, 0] - 2 * X[:, 1])) > 1.2  # the certified set saturates
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="roa.proof.validate._mp_namespace (50-digit witness re-check of the quadratic fast "
-    "path) lacks minimum/maximum/clip; roa.backend.namespace('mpmath') has them",
-)
 def test_quadratic_fast_path_rechecks_a_clip_field_witness():
     from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import QuadraticLyapunov

@@ -31,7 +31,6 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from fractions import Fraction
-from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -93,21 +92,10 @@ def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
 
 
 def _mp_namespace() -> Any:
-    import mpmath as mp
+    """The mpmath namespace of :mod:`roa.backend` (every function, saturation included)."""
+    from roa.backend import namespace
 
-    return SimpleNamespace(
-        name="mpmath",
-        sin=mp.sin,
-        cos=mp.cos,
-        tan=mp.tan,
-        sqrt=mp.sqrt,
-        arctan=mp.atan,
-        arcsinh=mp.asinh,
-        arctanh=mp.atanh,
-        exp=mp.exp,
-        log=mp.log,
-        abs=mp.fabs,
-    )
+    return namespace("mpmath")
 
 
 def recheck_witness(

@@ -149,6 +149,7 @@ class CertifyParams(Options):
     sat_limit: float = 1.0
     sat_slice: tuple[tuple[float, float], ...] = ((-5.0, 5.0), (-0.7, 0.7))
     sat_grid: tuple[int, int] = (150, 120)
+    sat_search: bool = True
 
     def __post_init__(self) -> None:
         if not (0 < self.below < 1 < self.above):
@@ -349,7 +350,10 @@ def _saturated(
     key = {"case": "ipc_saturated", "system": system.name, "saturation": sat, "objective": "box",
            "box": slice_box, "P0": P0, **search}  # fmt: skip
     with step(f"certify: saturated loop |u| <= {sat:g} (search or cache, interval validation)"):
-        res, hit = cache.get(key, compute)
+        if p["sat_search"]:
+            res, hit = cache.get(key, compute)
+        else:  # quick mode: the seed itself, no search (the search takes minutes)
+            res, hit = {"P": np.asarray(P0, dtype=float).tolist(), "note": "not searched"}, False
         V = QuadraticLyapunov(np.asarray(res["P"]), np.zeros(4), "optimised (ipc_saturated)")
         opt = _level(level_search(system, V, shape="level", method="both"))
         blk = {"saturation": sat, "system": system.name, "search": {**res, "cached": hit},

@@ -18,6 +18,7 @@ SECTIONS = (
     ("K", "Khalil level-set search (3.15) and the 60 deg sector"),
     ("M", "Monte Carlo basins and Remark 3.1"),
     ("C", "Certified regions and beyond the paper"),
+    ("D", "Polynomial Lyapunov functions by degree (SOS V-s iteration + interval validation)"),
 )
 
 HEADER = """# Reproduction report: a flatness-based controller for the inverted pendulum on a cart

@@ -3,89 +3,19 @@
 from __future__ import annotations
 
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+# re-exported: ipc_paper.degrees and tests use these helpers of the cases
+from ipc_paper.certify_cases import _box_fraction, _level, _physical, _sector_curve  # noqa: F401
 from roa.errors import RoaInputError
 from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import IntervalOptions, Options
-from roa.progress import step
-
-
-def _box_fraction(form, level: float, box, n: int, seed: int) -> dict[str, Any]:
-    rng = np.random.default_rng(seed)
-    b = np.asarray(box, dtype=float)
-    X = b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((n, b.shape[0]))
-    p = float(np.mean(form(X) <= level))
-    half = 1.96 * np.sqrt(max(p * (1 - p), 1.0 / n) / n)
-    return {
-        "fraction": p,
-        "ci95": [max(0.0, p - half), min(1.0, p + half)],
-        "samples": n,
-        "seed": seed,
-    }
-
-
-def _sector_curve(t: np.ndarray) -> np.ndarray:
-    """Physical states (q, q', theta, theta') = (0, 0, t, 0): the paper's sector."""
-    z = np.zeros_like(t)
-    return np.stack([z, z, t, z], axis=-1)
-
-
-def _ball_surface(u: np.ndarray) -> np.ndarray:
-    """Unit-cube samples -> points of the paper's sphere ||T xi||^2 = 4.89 (flat coordinates)."""
-    from scipy.special import ndtri
-
-    from roa.systems.ipc.lyapunov import PAPER_C_STAR_SQ, T
-
-    g = ndtri(np.clip(u, 1e-12, 1 - 1e-12))  # Gaussian: uniform directions
-    g /= np.linalg.norm(g, axis=-1, keepdims=True)
-    return np.sqrt(PAPER_C_STAR_SQ) * g @ np.linalg.inv(T).T
-
-
-def _physical(
-    P: np.ndarray, level: float, box, n_box: int, seed: int, coords: str = "flat"
-) -> dict[str, Any]:
-    """Sector at q = q' = theta' = 0 and reference-box fraction of ``{V(coords(x)) <= level}``.
-
-    ``sector_rad`` / ``sector_deg``: a certified lower bound (interval arithmetic on the exact
-    coordinate map, :func:`roa.proof.sector.certified_sector`; degrees rounded down);
-    ``sector_float_rad`` / ``sector_float_deg``: the float grid + bisection estimate.
-    """
-    from ipc_paper.certified import coords_map
-    from roa.proof.search import sector
-    from roa.proof.sector import certified_sector, degrees_lower, quadratic_form
-    from roa.systems.ipc.coordinates import to_flat_components
-
-    c2y = coords_map(coords)
-
-    def form(X: np.ndarray) -> np.ndarray:
-        Y = c2y(X)
-        with np.errstate(invalid="ignore"):
-            return np.nan_to_num(np.einsum("ki,ij,kj->k", Y, P, Y), nan=np.inf)
-
-    def coords_xp(x, xp):  # the same maps as coords_map, on components in any namespace
-        z1, z2, w1, w2 = to_flat_components(x[0], x[1], x[2], x[3], xp)
-        return (z1 if coords == "flat" else x[0], z2, w1, w2)
-
-    def curve_xp(s, xp):  # _sector_curve on components: (0, 0, s, 0)
-        return (0.0, 0.0, s, 0.0)
-
-    t_max = np.pi / 2 - 1e-6
-    th_float = sector(form, level, _sector_curve, t_max)
-    th = certified_sector(quadratic_form(P, coords_xp), level, curve_xp, t_max)
-    return {
-        "sector_rad": th,
-        "sector_deg": degrees_lower(th),
-        "sector_method": "interval (certified lower bound)",
-        "sector_float_rad": th_float,
-        "sector_float_deg": float(np.degrees(th_float)),
-        "box": _box_fraction(form, level, box, n_box, seed),
-    }
 
 
 def _sos_text(res: dict[str, Any]) -> str:
@@ -100,28 +30,6 @@ def _sos_text(res: dict[str, Any]) -> str:
 def _floor2(deg: float) -> str:
     """A certified lower bound in degrees, printed with 2 decimals rounded down (never up)."""
     return f"{math.floor(deg * 100) / 100:.2f}"
-
-
-def _level(res: Any) -> float:
-    """The level of a level search, or a clear error (the study needs one)."""
-    if res.level is None:
-        raise RuntimeError(f"level search ended {res.status.value}: {res.message}")
-    return float(res.level)
-
-
-def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
-    """Certify ``below`` x the sampled optimum and refute ``above`` x it (roa.certify)."""
-    from roa.certification import certify
-    from roa.options import IntervalOptions
-
-    opts = IntervalOptions(max_boxes=int(params["max_boxes"]), sampled_safety=params["below"])
-    cert = certify(system, V, candidate=opt, interval=opts, check_above=params["above"])
-    assert cert.validation is not None and cert.above is not None
-    return {
-        "sampled_optimum": opt,
-        "below": cert.validation.to_json(),
-        "above": cert.above.to_json(),
-    }
 
 
 @dataclass(frozen=True)
@@ -150,6 +58,7 @@ class CertifyParams(Options):
     sat_slice: tuple[tuple[float, float], ...] = ((-5.0, 5.0), (-0.7, 0.7))
     sat_grid: tuple[int, int] = (150, 120)
     sat_search: bool = True
+    n_jobs: int = 0
 
     def __post_init__(self) -> None:
         if not (0 < self.below < 1 < self.above):
@@ -158,6 +67,10 @@ class CertifyParams(Options):
                 f"above={self.above}"
             )
         IntervalOptions(max_boxes=self.max_boxes)  # validates the budget
+        if not (isinstance(self.n_jobs, int) and self.n_jobs >= 0):
+            raise RoaInputError(
+                f"CertifyParams.n_jobs must be an integer >= 0 (0: all cores), got {self.n_jobs!r}"
+            )
         for name in ("n_box", "search_iter", "search_rounds"):
             if not (isinstance(getattr(self, name), int) and getattr(self, name) >= 1):
                 raise RoaInputError(f"CertifyParams.{name} must be an integer >= 1")
@@ -181,50 +94,18 @@ class CertifyParams(Options):
 
 @accepts(CertifyParams)
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
-    from ipc_paper.certified import coords_map
-    from roa.levelset import level_search
+    """The certify experiment: independent cases run in parallel worker processes (``n_jobs``,
+    :mod:`ipc_paper.certify_cases`); searches are cached (:mod:`roa.proof.search_cache`), every
+    level is certified afresh."""
+    from ipc_paper import certify_cases as K
+    from roa import progress
     from roa.lyapunov import QuadraticLyapunov
-    from roa.proof.search import optimise_quadratic
-    from roa.proof.sos import sos_level
-    from roa.systems.ipc import REFERENCE_BOX, transformed
+    from roa.proof.search_cache import SearchCache
     from roa.systems.ipc.lyapunov import paper_lyapunov
-    from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
     p = params  # every key of CertifyParams, defaults filled in
-    aux = p["sos_aux_degree"]
-    aux = None if aux is None or int(aux) < 0 else int(aux)
-    ev: dict[str, Any] = {}
-    with step("certify: Van der Pol benchmark (SOS, interval)"):
-        vdp = vanderpol()
-        Vv = QuadraticLyapunov.for_system(vdp, P_BENCHMARK, "benchmark")
-        opt_v = _level(level_search(vdp, Vv, shape="level", method="both"))
-        ev["vanderpol"] = {
-            "sos": sos_level(vdp, Vv).to_json(),
-            **_certify_pair(vdp, Vv, opt_v, p),
-            "published": RHO_BENCHMARK,
-        }
-    ipc = transformed()
-    Vp = paper_lyapunov()
-    with step("certify: IPC, the paper's V (SOS programs, interval validation)"):
-        opt_p = _level(level_search(ipc, Vp, shape="level", method="both"))
-        sos_p = {"enclosure": sos_level(ipc, Vp, recast_mode="enclosure").to_json()}
-        if p["sos_exact"]:
-            opts = {"time_limit": p["sos_time_limit"]}
-            sos_p["exact"] = sos_level(
-                ipc, Vp, recast_mode="exact", solver_options=opts, aux_degree=aux
-            ).to_json()
-            sos_p["exact_no_symmetry"] = sos_level(
-                ipc, Vp, recast_mode="exact", solver_options=opts, symmetry=False
-            ).to_json()
-        ipc_p = {"sos": sos_p, **_certify_pair(ipc, Vp, opt_p, p)}
-        ipc_p["physical"] = _physical(
-            Vp.P, ipc_p["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"]
-        )
-    ev["ipc_paper"] = ipc_p
-    # IPC, optimised V: searches (cached candidates, see search_cache.py), then certified afresh
-    from roa.proof.search_cache import SearchCache
-    from roa.systems.ipc.hybrid import hybrid
-
+    show = progress.enabled()
+    jobs = int(p["n_jobs"]) if p["n_jobs"] > 0 else (os.cpu_count() or 1)
     search = {
         "maxiter": p["search_iter"],
         "rounds": p["search_rounds"],
@@ -232,48 +113,62 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
         "seed": p["seed"],
     }
     cache = SearchCache(out / "search_cache.json", enabled=bool(p["search_cache"]))
-    hyb = hybrid()
+    ev: dict[str, Any] = {}
+    P_paper = paper_lyapunov().P
     # hybrid y = (q, z2, w1, w2), q = z1 - arsinh(w1): dy/dxi at the equilibrium maps P accordingly
     J = np.eye(4)
     J[0, 2] = 1.0  # z1 = q + arsinh(w1) = q + w1 + O(w1^3)
-    blocks: dict[str, tuple[QuadraticLyapunov, dict[str, Any]]] = {}
+    cases = {  # key: (coords, objective, ball); P0 of the first two: the paper's V
+        "ipc_optimised": ("flat", "box", False),
+        "ipc_sector": ("flat", "sector", False),
+        "ipc_hybrid_sector": ("hybrid", "sector", False),
+        "ipc_hybrid_box": ("hybrid", "box", False),
+        "ipc_ball": ("flat", "box", True),
+    }
+    keys: dict[str, dict[str, Any]] = {}
 
-    def optimised(key, system, coords, objective, P0, to_analysis=None, box=REFERENCE_BOX):
-        def compute() -> dict[str, Any]:
-            return optimise_quadratic(
-                system,
-                P0,
-                to_analysis or coords_map(coords),
-                objective=objective,
-                box=box,
-                curve=_sector_curve,
-                t_max=np.pi / 2 - 1e-3,
-                **search,
-            ).to_json()
+    def task(key: str, P0: np.ndarray) -> tuple[Any, ...]:
+        coords, objective, ball = cases[key]
+        keys[key] = {"case": key, "system": _system_name(coords), "objective": objective,
+                     "P0": P0, **search}  # fmt: skip
+        cached = cache.lookup(keys[key])
+        return (K.case_optimised, key, coords, objective, P0, ball, search, cached, p, show)
 
-        ckey = {"case": key, "system": system.name, "objective": objective, "P0": P0, **search}
-        with step(f"certify: {key} (search or cache, then interval validation)"):
-            res, hit = cache.get(ckey, compute)
-            Vo = QuadraticLyapunov(np.asarray(res["P"]), np.zeros(4), f"optimised ({key})")
-            opt_o = _level(level_search(system, Vo, shape="level", method="both"))
-            blk = {"search": {**res, "cached": hit}, **_certify_pair(system, Vo, opt_o, p)}
-            blk["physical"] = _physical(
-                Vo.P, blk["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"], coords
-            )
-        blk["coords"] = coords
+    def collect(key: str, result: tuple[dict[str, Any], dict[str, Any]]) -> None:
+        res, blk = result
+        if not blk["search"]["cached"]:
+            cache.store(keys[key], res)
         ev[key] = blk
-        blocks[key] = (Vo, blk)
-        return Vo
 
-    Vo = optimised("ipc_optimised", ipc, "flat", "box", Vp.P)
-    Vs = optimised("ipc_sector", ipc, "flat", "sector", Vp.P)
-    start = J.T @ Vo.P @ J
-    optimised("ipc_hybrid_sector", hyb, "hybrid", "sector", start)
-    optimised("ipc_hybrid_box", hyb, "hybrid", "box", start)
-    unit = ((0.0, 1.0),) * 4  # the ball objective: fraction of the paper's sphere inside the set
-    optimised("ipc_ball", ipc, "flat", "box", Vo.P, to_analysis=_ball_surface, box=unit)
-    Vsat, ev["ipc_saturated"] = _saturated(p, Vo.P, cache, search)
+    # the box-optimised V seeds the hybrid, ball and saturated cases: it runs first (with the
+    # sector case); then the rest, longest first
+    first = K.run_cases([task("ipc_optimised", P_paper), task("ipc_sector", P_paper)], jobs)
+    for key, result in zip(("ipc_optimised", "ipc_sector"), first, strict=True):
+        collect(key, result)
+    P_opt = QuadraticLyapunov(np.asarray(ev["ipc_optimised"]["search"]["P"]), np.zeros(4)).P
+    start = J.T @ P_opt @ J
+    sat_key = K.saturated_key(p, P_opt, search)
+    rest = [
+        (K.case_saturated, p, P_opt, search, cache.lookup(sat_key) if p["sat_search"] else None,
+         show),
+        task("ipc_hybrid_sector", start),
+        task("ipc_hybrid_box", start),
+        task("ipc_ball", P_opt),
+        (K.case_paper, p, show),
+        (K.case_vanderpol, p, show),
+    ]  # fmt: skip
+    (sat_store, ev["ipc_saturated"], P_sat), *mid, ev["ipc_paper"], ev["vanderpol"] = K.run_cases(
+        rest, jobs
+    )
+    if sat_store is not None:
+        cache.store(sat_key, sat_store)
+    for key, result in zip(("ipc_hybrid_sector", "ipc_hybrid_box", "ipc_ball"), mid, strict=True):
+        collect(key, result)
+    progress.enable(show)
     cache.save()
+    ev = {k: ev[k] for k in ("vanderpol", "ipc_paper", *cases, "ipc_saturated")}  # stable order
+    blocks = {k: (QuadraticLyapunov(np.asarray(ev[k]["search"]["P"]), np.zeros(4), k), ev[k])
+              for k in cases}  # fmt: skip
     ev["paper_ball"] = _ball_containment(blocks)
     atomic_write_json(out / "evidence.json", ev)
     regions = []
@@ -284,15 +179,15 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
         "ipc_hybrid_box": "quadratic V in hybrid coordinates (box fraction)",
         "ipc_ball": "optimised quadratic V (paper's ball)",
     }
-    for name, V, block in [
-        ("paper V (3.11)", Vp, {**ipc_p, "coords": "flat"}),
-        *((names[k], *blocks[k]) for k in names),
+    for name, P, block in [
+        ("paper V (3.11)", P_paper, {**ev["ipc_paper"], "coords": "flat"}),
+        *((names[k], blocks[k][0].P, blocks[k][1]) for k in names),
     ]:
         b = block["below"]
         regions.append(
             {
                 "name": f"{name}: V <= {b['level']:.5g} ({b['status']}, interval B&B)",
-                "P": V.P.tolist(),
+                "P": np.asarray(P).tolist(),
                 "level": b["level"],
                 "status": b["status"],
                 "coords": block["coords"],
@@ -302,130 +197,32 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
                 "box_fraction": block["physical"]["box"]["fraction"],
             }
         )
+    P_sec = blocks["ipc_sector"][0].P
     atomic_write_json(
         out / "certified.json",
-        {"regions": regions, "optimised_P": Vo.P.tolist(), "sector_P": Vs.P.tolist(),
+        {"regions": regions, "optimised_P": P_opt.tolist(), "sector_P": P_sec.tolist(),
          # another closed loop: kept apart from "regions" (sets of the loop without saturation)
-         "saturated": [_saturated_region(Vsat, ev["ipc_saturated"])]},
+         "saturated": [_saturated_region(P_sat, ev["ipc_saturated"])]},
     )  # fmt: skip
     # the optimised V of ipc-flat as files for `roa certify --lyapunov FILE`
-    atomic_write_json(out / "V_optimised_box.json", {"system": "ipc_flat", "P": Vo.P.tolist()})
-    atomic_write_json(out / "V_optimised_sector.json", {"system": "ipc_flat", "P": Vs.P.tolist()})
+    atomic_write_json(out / "V_optimised_box.json", {"system": "ipc_flat", "P": P_opt.tolist()})
+    atomic_write_json(out / "V_optimised_sector.json", {"system": "ipc_flat", "P": P_sec.tolist()})
     return {"claims": _claims(ev), "evidence": "results/certify/evidence.json"}
 
 
-def _saturated(
-    p: dict[str, Any], P0: np.ndarray, cache: Any, search: dict[str, Any]
-) -> tuple[Any, dict[str, Any]]:
-    """The saturated loop |u| <= sat_limit (claim C11): a quadratic V in flat coordinates searched
-    for the largest share of the saturated map's (q, theta) slice, its level certified (and refuted
-    just above) for the saturated field, its sector and its share of the slice's basin.
+def _system_name(coords: str) -> str:
+    from roa.systems.ipc import transformed
+    from roa.systems.ipc.hybrid import hybrid
 
-    The system is :func:`roa.systems.ipc.transformed` with ``saturation``: the physical saturated
-    loop in the coordinates (2.2), so ``{V <= c}`` in flat coordinates is ``{V(xi(x)) <= c}`` of
-    physical states, and ``V' = grad V . f`` is the same number in both. The field carries
-    ``xp.clip``: the interval validation encloses it and its generalised derivative
-    (:mod:`roa.proof.jet`), so the control may saturate inside the certified set.
-    """
-    from ipc_paper.certified import coords_map
-    from roa.levelset import level_search
-    from roa.lyapunov import QuadraticLyapunov
-    from roa.proof.search import optimise_quadratic
-    from roa.systems.ipc import REFERENCE_BOX, transformed
-
-    sat = float(p["sat_limit"])
-    system = transformed(saturation=sat)
-    (q_lo, q_hi), (t_lo, t_hi) = p["sat_slice"]
-    slice_box = (
-        (q_lo, q_hi),
-        (0.0, 0.0),
-        (t_lo, t_hi),
-        (0.0, 0.0),
-    )  # (q, theta) at q' = theta' = 0
-
-    def compute() -> dict[str, Any]:
-        return optimise_quadratic(system, P0, coords_map("flat"), objective="box", box=slice_box,
-                                  curve=_sector_curve, t_max=np.pi / 2 - 1e-3, **search).to_json()  # fmt: skip
-
-    key = {"case": "ipc_saturated", "system": system.name, "saturation": sat, "objective": "box",
-           "box": slice_box, "P0": P0, **search}  # fmt: skip
-    with step(f"certify: saturated loop |u| <= {sat:g} (search or cache, interval validation)"):
-        if p["sat_search"]:
-            res, hit = cache.get(key, compute)
-        else:  # quick mode: the seed itself, no search (the search takes minutes)
-            res, hit = {"P": np.asarray(P0, dtype=float).tolist(), "note": "not searched"}, False
-        V = QuadraticLyapunov(np.asarray(res["P"]), np.zeros(4), "optimised (ipc_saturated)")
-        opt = _level(level_search(system, V, shape="level", method="both"))
-        blk = {"saturation": sat, "system": system.name, "search": {**res, "cached": hit},
-               **_certify_pair(system, V, opt, p)}  # fmt: skip
-        blk["physical"] = _physical(
-            V.P, blk["below"]["level"], REFERENCE_BOX, p["n_box"], p["seed"], "flat"
-        )
-    with step("certify: saturated loop, basin of its map's slice (coverage of the certified set)"):
-        blk["slice"] = _slice_coverage(sat, V.P, blk["below"]["level"], p)
-    blk["coords"] = "flat"
-    return V, blk
+    return (hybrid() if coords == "hybrid" else transformed()).name
 
 
-def _slice_coverage(sat: float, P: np.ndarray, level: float, p: dict[str, Any]) -> dict[str, Any]:
-    """Monte Carlo map of the saturated physical loop on the slice ``sat_slice`` (q' = theta' = 0)
-    and on the line q = q' = theta' = 0: which converged points the set ``{V(xi(x)) <= level}``
-    holds (every point inside must converge: a check of the certificate, not a proof)."""
-    import roa
-    from ipc_paper.certified import coords_map
-    from roa.montecarlo import integrator as I  # noqa: N812
-    from roa.montecarlo.sampling import grid_slice
-    from roa.options import IntegratorOptions, RunOptions
-    from roa.status import StopRules
-    from roa.systems.ipc import closed_loop
-
-    system = closed_loop(saturation=sat)
-    rules = StopRules(t_final=60.0, diverge_bound=1e9)  # as the saturated basin map
-    kw: dict[str, Any] = {
-        "rules": rules,
-        "integrator": IntegratorOptions(),
-        "run": RunOptions(progress=False),
-    }
-    to_flat = coords_map("flat")
-
-    def inside(X: np.ndarray) -> np.ndarray:
-        Y = to_flat(X)
-        with np.errstate(invalid="ignore"):
-            return np.nan_to_num(np.einsum("ki,ij,kj->k", Y, P, Y), nan=np.inf) <= level
-
-    (q_lo, q_hi), (t_lo, t_hi) = p["sat_slice"]
-    nq, nt = p["sat_grid"]
-    g = grid_slice(system, ["q", "theta"], [(q_lo, q_hi), (t_lo, t_hi)], (nq, nt),
-                   fixed={"q_dot": 0.0, "theta_dot": 0.0})  # fmt: skip
-    conv = roa.basin(system, g, **kw).code == I.CONVERGED
-    ins = inside(g.points(0, g.n))
-    eps = 1e-6  # the line q = q' = theta' = 0: where the empirical basin ends
-    line = grid_slice(system, ["theta", "q"], [(-np.pi / 2 + eps, np.pi / 2 - eps), (-1e-12, 1e-12)],
-                      (2001, 2))  # fmt: skip
-    lconv = (roa.basin(system, line, **kw).code.reshape(line.shape) == I.CONVERGED).all(axis=0)
-    th, zero = line.xs, len(line.xs) // 2
-    k = zero
-    while k + 1 < len(th) and lconv[k + 1] and lconv[2 * zero - k - 1]:
-        k += 1
-    return {
-        "grid": [nq, nt],
-        "ranges": [[q_lo, q_hi], [t_lo, t_hi]],
-        "points": int(g.n),
-        "converged": int(conv.sum()),
-        "in_set": int(ins.sum()),
-        "in_set_converged": int((ins & conv).sum()),
-        "coverage": float((ins & conv).sum() / max(int(conv.sum()), 1)),
-        "line_converged_deg": float(np.degrees(th[k])),
-        "settings": f"batch DP5(4), rtol {IntegratorOptions().rtol:g}, t_final 60",
-    }
-
-
-def _saturated_region(V: Any, blk: dict[str, Any]) -> dict[str, Any]:
+def _saturated_region(P: np.ndarray, blk: dict[str, Any]) -> dict[str, Any]:
     b = blk["below"]
     return {
         "name": f"saturated loop |u| <= {blk['saturation']:g}, optimised quadratic V: "
         f"V <= {b['level']:.5g} ({b['status']}, interval B&B)",
-        "P": V.P.tolist(),
+        "P": np.asarray(P).tolist(),
         "level": b["level"],
         "status": b["status"],
         "coords": "flat",

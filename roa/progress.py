@@ -22,6 +22,11 @@ def enable(on: bool = True) -> None:
     _ENABLED = bool(on)
 
 
+def enabled() -> bool:
+    """Whether steps are reported (see :func:`enable`)."""
+    return _ENABLED
+
+
 def interactive(stream: TextIO | None = None) -> bool:
     """Whether ``stream`` (default stderr) is a terminal."""
     stream = sys.stderr if stream is None else stream

@@ -401,6 +401,7 @@ def _assert_saturated_ipc(V, cert):
     assert np.max(np.abs(u)) > 1.1  # the certified set reaches into saturation
 
 
+@pytest.mark.slow  # the default suite runs C11 in the quick certify experiment (test_report.py)
 def test_saturated_ipc_certified_below_and_refuted_just_above():
     """The IPC with |u| <= 1 and the paper's V: 0.9 of the sampled level certified (cheap), 1.001
     refuted by a saturated 50-digit witness."""

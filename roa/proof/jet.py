@@ -382,8 +382,14 @@ def _hull(a: Any, b: Any) -> Any:
 
 _WHOLE_LINE = Interval(-np.inf, np.inf)
 #: ``on``: :meth:`Jet.variables` carries midpoint values by default. Set by the first nonsmooth
-#: function evaluated on a jet (a field with kinks); never reset (only speed depends on it).
+#: function evaluated on a jet (a field with kinks); only speed and box counts depend on it, so a
+#: runner that wants the same counts whatever ran before in its process calls reset_centring().
 _CENTRE = {"on": False}
+
+
+def reset_centring() -> None:
+    """Back to the initial state: jets not centred until a nonsmooth function is seen."""
+    _CENTRE["on"] = False
 
 
 def _zero(e: Any) -> bool:

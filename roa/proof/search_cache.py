@@ -73,22 +73,35 @@ class SearchCache:
         blob = json.dumps({"key": _plain(key), "code": self._code}, sort_keys=True)
         return hashlib.sha256(blob.encode()).hexdigest()
 
-    def get(
-        self, key: dict[str, Any], compute: Callable[[], dict[str, Any]]
-    ) -> tuple[dict[str, Any], bool]:
-        """``(result, hit)``; ``result`` is the JSON dict ``compute()`` returned (or its cache)."""
+    def lookup(self, key: dict[str, Any]) -> dict[str, Any] | None:
+        """The cached result for ``key`` (kept for :meth:`save`), or ``None``: then compute it
+        (possibly in another process) and :meth:`store` it."""
         d = self.digest(key)
         entry = self._old.get(d)
         legacy = entry is not None and self._legacy and "checksum" not in entry
         if entry is not None and not legacy and entry.get("checksum") != _checksum(d, entry):
             self.rejected += 1  # edited or corrupted: recompute rather than trust it
             entry = None
-        hit = entry is not None
         if entry is None:
-            entry = {"key": _plain(key), "result": _plain(compute())}
-        entry = {**entry, "checksum": _checksum(d, entry)}
-        self._used[d] = entry
-        return entry["result"], hit
+            return None
+        self._used[d] = {**entry, "checksum": _checksum(d, entry)}
+        return self._used[d]["result"]
+
+    def store(self, key: dict[str, Any], result: dict[str, Any]) -> dict[str, Any]:
+        """Keep ``result`` for ``key`` (written by :meth:`save`); returns its JSON form."""
+        d = self.digest(key)
+        entry = {"key": _plain(key), "result": _plain(result)}
+        self._used[d] = {**entry, "checksum": _checksum(d, entry)}
+        return self._used[d]["result"]
+
+    def get(
+        self, key: dict[str, Any], compute: Callable[[], dict[str, Any]]
+    ) -> tuple[dict[str, Any], bool]:
+        """``(result, hit)``; ``result`` is the JSON dict ``compute()`` returned (or its cache)."""
+        res = self.lookup(key)
+        if res is not None:
+            return res, True
+        return self.store(key, compute()), False
 
     def save(self) -> None:
         atomic_write_json(self.path, self._used)

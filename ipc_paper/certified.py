@@ -1,7 +1,8 @@
 """Certified IPC regions as :class:`roa.regions.Region` objects, for basin maps and Monte Carlo.
 
 Read from ``results/certify/certified.json`` (written by ``roa run experiments/certify.toml``).
-A region's status is ``certified`` only when the interval validation of its level passed; other
+Entries hold a quadratic V (``P``) or a polynomial one (its monomials and coefficients, see
+:meth:`roa.regions.Region.from_json`). A region's status is ``certified`` only when the interval validation of its level passed; other
 verdicts are kept with their own status (``refuted`` / ``inconclusive``), never merged.
 """
 
@@ -75,22 +76,15 @@ def ipc_certified_regions(path: str | Path = CERTIFIED_PATH) -> list[Region]:
     if not path.is_file():
         raise RoaInputError(f"{path} does not exist: run `roa run experiments/certify.toml` first")
     data = json.loads(path.read_text())
-    out = []
-    for entry in data["regions"]:
-        out.append(
-            Region(
-                entry["name"],
-                np.asarray(entry["P"], dtype=float),
-                float(entry["level"]),
-                entry["status"],
-                coords_map(entry.get("coords", "flat")),
-                {
-                    **{k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")},
-                    "label": plain_label(entry["name"], entry["status"], float(entry["level"])),
-                },
-            )
-        )
-    return out
+    return [_region(entry) for entry in data["regions"]]
+
+
+def _region(entry: dict) -> Region:
+    """One entry of certified.json as a Region: ``P`` (quadratic) or a polynomial V (``V`` /
+    ``candidate_kind`` / ``monomials`` and ``coefficients``, centred at the equilibrium, which is
+    0 in flat and hybrid coordinates)."""
+    label = plain_label(entry["name"], entry["status"], float(entry["level"]))
+    return Region.from_json(entry, coords_map(entry.get("coords", "flat")), meta={"label": label})
 
 
 def ipc_saturated_regions(
@@ -103,16 +97,11 @@ def ipc_saturated_regions(
     path = Path(path)
     if not path.is_file():
         return []
-    out = []
-    for entry in json.loads(path.read_text()).get("saturated", []):
-        if saturation is not None and float(entry["saturation"]) != float(saturation):
-            continue
-        meta = {k: v for k, v in entry.items() if k not in ("name", "P", "level", "status")}
-        label = plain_label(entry["name"], entry["status"], float(entry["level"]))
-        out.append(Region(entry["name"], np.asarray(entry["P"], dtype=float), float(entry["level"]),
-                          entry["status"], coords_map(entry.get("coords", "flat")),
-                          {**meta, "label": label}))  # fmt: skip
-    return out
+    return [
+        _region(entry)
+        for entry in json.loads(path.read_text()).get("saturated", [])
+        if saturation is None or float(entry["saturation"]) == float(saturation)
+    ]
 
 
 def load_optimised_P(path: str | Path = CERTIFIED_PATH, *, which: str = "box") -> np.ndarray:

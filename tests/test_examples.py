@@ -41,9 +41,13 @@ def test_tutorial_basin_map(capsys, tmp_path):
     out = _json(capsys, argv)
     assert png.is_file()
     assert out["counts"]["converged"] + out["counts"]["diverged"] == out["n"] == 1600
-    assert out["regions"] == [
-        {"name": "V <= 2.3 (my-vanderpol V)", "level": 2.3, "status": "certified"}
-    ]
+    (reg,) = out["regions"]
+    assert {k: reg[k] for k in ("name", "level", "status")} == {
+        "name": "V <= 2.3 (my-vanderpol V)",
+        "level": 2.3,
+        "status": "certified",
+    }
+    assert reg["V"] == {"P": [[1.5, -0.5], [-0.5, 1.0]]} and reg["slice"]["all_converged"]
 
 
 def test_tutorial_runs_on_a_system_without_lyapunov_p(capsys):

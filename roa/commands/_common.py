@@ -33,7 +33,8 @@ LYAPUNOV_HELP = (
     '(a list of rows, or an object {"P": rows}), a .npy file, or path/file.py:NAME (a matrix or '
     "a roa.QuadraticLyapunov); default: the system's own V (a user file's LYAPUNOV_P), else P from "
     'A\'P + PA = -I. Beyond quadratic: a .json object {"monomials": [[2,0],[0,2],[4,0]], '
-    '"coefficients": [1,1,0.5]} (a polynomial in x - x_eq), or file.py:NAME holding any '
+    '"coefficients": [1,1,0.5]} (a polynomial in x - x_eq; also the JSON of `roa certify '
+    "--degree D --json`), or file.py:NAME holding any "
     "roa.lyapunov.Lyapunov (PolynomialLyapunov, FunctionLyapunov)"
 )
 
@@ -81,7 +82,8 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
 
 def read_matrix(spec: str, *, what: str) -> Any:
     """A matrix (or a Lyapunov object) from ``.json`` / ``.npy`` / ``file.py:NAME``; a JSON object
-    with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V)."""
+    with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V), also
+    when they are in its ``"candidate_kind"`` (the JSON of ``roa certify --degree D --json``)."""
     if spec.endswith(".py") or ".py:" in spec:
         from roa.systems import _user_module
 
@@ -100,6 +102,14 @@ def read_matrix(spec: str, *, what: str) -> Any:
     except json.JSONDecodeError as exc:
         raise RoaInputError(f"{what} {spec}: invalid JSON ({exc})") from None
     if isinstance(data, dict):
+        kind = data.get("candidate_kind")
+        if "P" not in data and isinstance(kind, dict):  # `roa certify --json` of a polynomial V
+            if "monomials" not in kind:
+                raise RoaInputError(
+                    f"{what} {spec}: its V is a {kind.get('kind')}, which the JSON does not hold: "
+                    "give it as file.py:NAME"
+                )
+            data = kind
         if "monomials" in data or "coefficients" in data:
             if "monomials" not in data or "coefficients" not in data:
                 raise RoaInputError(

@@ -6,6 +6,7 @@ import argparse
 import itertools
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -65,15 +66,18 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="append",
         default=[],
         metavar="RHO",
-        help="draw {V <= RHO} for --lyapunov (default the system's V) after validating RHO with "
-        "interval arithmetic (its verdict goes in the legend); needs --plot or --out; repeatable",
+        help="draw {V <= RHO} for --lyapunov (any V: a matrix, a polynomial JSON such as the "
+        "output of `roa certify --degree D --json`, or file.py:NAME; default the system's V) after "
+        "validating RHO with interval arithmetic (degree and verdict go in the legend); needs "
+        "--plot or --out; repeatable",
     )
     p.add_argument(
         "--terminal-set",
         default=None,
         metavar="FILE",
         help="JSON of `roa certify --json` (status certified, for this system or its analysis "
-        "coordinates, e.g. ipc-flat for ipc): runs entering {V <= level} stop as converged",
+        "coordinates, e.g. ipc-flat for ipc; quadratic V, or polynomial with --degree, which runs "
+        "on the numpy integrator): runs entering {V <= level} stop as converged",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
@@ -211,26 +215,37 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
 
 
 def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
-    """Regions {V <= rho} of ``--lyapunov-level``, each with the verdict of :func:`roa.certify`."""
+    """Regions {V <= rho} of ``--lyapunov-level`` for any ``--lyapunov`` (quadratic, polynomial,
+    any function), each with the verdict of :func:`roa.certify` as its status."""
     import roa
+    from roa.plotting.basin import kind_text
     from roa.regions import Region
 
     if not args.lyapunov_level:
         return []
     V = C.lyapunov(args, system)
-    if not hasattr(V, "P"):
-        raise RoaInputError(
-            "--lyapunov-level draws level sets of a quadratic V only; this --lyapunov is "
-            f"{type(V).__name__} (certify it with roa certify instead)"
-        )
     out = []
     for rho in args.lyapunov_level:
         if not (np.isfinite(rho) and rho > 0):
             raise RoaInputError(f"--lyapunov-level must be a finite number > 0, got {rho}")
         verdict = roa.certify(system, V, level=rho, method="interval")
-        shift = lambda x, c=V.center: np.asarray(x, dtype=float) - c  # noqa: E731
-        out.append(Region(f"V <= {rho:g} ({V.name})", V.P, rho, verdict.status.value, shift))
+        status = verdict.status.value
+        reg = Region.from_lyapunov(f"V <= {rho:g} ({V.name})", V, rho, status)
+        label = f"{V.name}: {kind_text(reg)} V <= {rho:g} [{status}]"
+        out.append(Region.from_lyapunov(reg.name, V, rho, status, None, {"label": label}))
     return out
+
+
+def region_entry(region: Any, grid: Any, code: np.ndarray) -> dict[str, Any]:
+    """What the JSON says of a drawn region: name, level, status, its V (``P`` or the polynomial's
+    kind, degree, monomials and coefficients) and the slice's grid points inside it."""
+    from roa.plotting.basin import slice_containment
+
+    v = region.describe_v()
+    inside = slice_containment(grid, code, region)
+    return {"name": region.name, "level": region.level, "status": region.status,
+            "label": region.meta.get("label"), "V": v,
+            "slice": {k: inside[k] for k in ("points_in_region", "converged", "all_converged")}}  # fmt: skip
 
 
 def _check_out_dir(out: str | None) -> None:
@@ -283,10 +298,17 @@ def run(args: argparse.Namespace) -> int:
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
                        terminal=terminal)  # fmt: skip
     summary = {**result.to_dict(), **mode}
+    note = None
+    if terminal is not None:
+        from roa.montecarlo.terminal_general import kernel_backend
+
+        note = kernel_backend(terminal, system, integrator.backend)[1]
+        if note:
+            summary["terminal_set_note"] = note
     if plot:
         from roa.plotting.basin import plot_slice
 
-        summary["regions"] = [{"name": r.name, "level": r.level, "status": r.status} for r in regs]
+        summary["regions"] = [region_entry(r, sampler, result.code) for r in regs]
         plot_slice(system, sampler, result.code, plot, regions=regs,
                    title=f"basin of {args.system}")  # fmt: skip
         summary["plot"] = plot
@@ -301,4 +323,6 @@ def run(args: argparse.Namespace) -> int:
         print(f"fraction converged {summary['fraction_converged']:.4f} (95 % CI {lo:.4f}-{hi:.4f})")
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
+        if note:
+            print(f"note: {note}")
     return 0

@@ -12,6 +12,13 @@ declares them in ``system.meta["analysis_coords"]`` (a callable ``name -> numpy 
 each step costs only V; see roa/systems/ipc/fast.py).
 
 Membership uses ``V(y) <= level (1 - REL_MARGIN)``: float error cannot let a point outside count.
+
+A polynomial V (``roa certify --degree D``, ``candidate_kind`` in its JSON) is accepted too: a
+degree-2 one becomes the quadratic form above; for a higher degree the set is ``{V <= level}``
+inside a box proved to lie in the bounding box of the certified component of the level set (the
+one holding the equilibrium; :mod:`roa.montecarlo.terminal_general`), and the runs use the numpy
+integrator, since the numba kernels test a quadratic V only (``kernel_backend`` there; the
+quadratic fast path is unchanged).
 Runs that enter are finished with status ``converged`` at the time of the accepted step that enters
 (the batch integrators test every accepted step after the usual events, which take precedence);
 initial conditions that start inside cost one evaluation of V.
@@ -23,12 +30,15 @@ import json
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
 from roa.system import System
+
+if TYPE_CHECKING:
+    from roa.lyapunov_general import PolynomialLyapunov
 
 #: Relative margin of the membership test V <= level (1 - REL_MARGIN).
 REL_MARGIN = 1e-9
@@ -39,14 +49,20 @@ ENTERED = 6
 REASON = "entered certified set"
 
 
-@dataclass(frozen=True, eq=False)
 class TerminalSet:
-    """A certified sublevel set ``{y : (y - center)' P (y - center) <= level}``, ``y = coords(x)``.
+    """A certified sublevel set ``{y : V(y) <= level}``, ``y = coords(x)``.
+
+    Quadratic (the fast path of the numba kernels): ``TerminalSet(P, center, level, coords, name)``
+    with ``V(y) = (y - center)' P (y - center)``. Polynomial: :meth:`polynomial` with a
+    :class:`~roa.lyapunov_general.PolynomialLyapunov` and the box (in the validation frame
+    ``z = M^-1 (y - center)``) of :func:`roa.montecarlo.terminal_general.component_box`: the set is
+    ``{V <= level}`` inside that box (the certified component); runs with it use the numpy
+    integrator (:func:`roa.montecarlo.terminal_general.kernel_backend`).
 
     Parameters
     ----------
     P : array (n, n)
-        Symmetric positive-definite matrix of V.
+        Symmetric positive-definite matrix of a quadratic V.
     center : array (n,)
         Centre of V in the analysis coordinates (the equilibrium there).
     level : float
@@ -58,14 +74,25 @@ class TerminalSet:
         A description for reports.
     """
 
-    P: np.ndarray
+    __slots__ = ("_P", "center", "level", "coords", "name", "V", "frame", "box")
+    _P: np.ndarray | None
     center: np.ndarray
     level: float
-    coords: str | None = None
-    name: str = "certified set"
+    coords: str | None
+    name: str
+    V: PolynomialLyapunov | None
+    frame: np.ndarray | None
+    box: tuple[np.ndarray, np.ndarray] | None
 
-    def __post_init__(self) -> None:
-        P = np.array(self.P, dtype=float)
+    def __init__(
+        self,
+        P: Any,
+        center: Any,
+        level: float,
+        coords: str | None = None,
+        name: str = "certified set",
+    ) -> None:
+        P = np.array(P, dtype=float)
         if P.ndim != 2 or P.shape[0] != P.shape[1] or P.shape[0] == 0:
             raise RoaInputError(f"TerminalSet.P must be a square matrix, got shape {P.shape}")
         if not np.isfinite(P).all():
@@ -77,26 +104,111 @@ class TerminalSet:
             np.linalg.cholesky(P)
         except np.linalg.LinAlgError:
             raise RoaInputError("TerminalSet.P must be positive definite") from None
-        c = np.array(self.center, dtype=float).reshape(-1)
-        if c.shape != (P.shape[0],) or not np.isfinite(c).all():
-            raise RoaInputError(f"TerminalSet.center must be {P.shape[0]} finite numbers")
-        level = float(self.level)
-        if not (np.isfinite(level) and level > 0):
-            raise RoaInputError(
-                f"TerminalSet.level must be a finite number > 0, got {self.level!r}"
-            )
-        if self.coords is not None and not isinstance(self.coords, str):
-            raise RoaInputError(f"TerminalSet.coords must be a name or None, got {self.coords!r}")
         P.setflags(write=False)
+        self._init(P, center, level, coords, name, None, None, None)
+
+    def _init(self, P: np.ndarray | None, center: Any, level: float, coords: str | None,
+              name: str, V: Any, frame: Any, box: Any) -> None:  # fmt: skip
+        n = P.shape[0] if P is not None else V.n
+        c = np.array(center, dtype=float).reshape(-1)
+        if c.shape != (n,) or not np.isfinite(c).all():
+            raise RoaInputError(f"TerminalSet.center must be {n} finite numbers")
+        lvl = float(level)
+        if not (np.isfinite(lvl) and lvl > 0):
+            raise RoaInputError(f"TerminalSet.level must be a finite number > 0, got {level!r}")
+        if coords is not None and not isinstance(coords, str):
+            raise RoaInputError(f"TerminalSet.coords must be a name or None, got {coords!r}")
         c.setflags(write=False)
-        object.__setattr__(self, "P", P)
-        object.__setattr__(self, "center", c)
-        object.__setattr__(self, "level", level)
+        for k, v in (("_P", P), ("center", c), ("level", lvl), ("coords", coords),
+                     ("name", str(name)), ("V", V), ("frame", frame), ("box", box)):  # fmt: skip
+            object.__setattr__(self, k, v)
+
+    @classmethod
+    def polynomial(
+        cls,
+        V: PolynomialLyapunov,
+        level: float,
+        coords: str | None = None,
+        name: str = "certified set",
+        *,
+        frame: Any = None,
+        box: Any = None,
+    ) -> TerminalSet:
+        """``{y : V(y) <= level(1 - REL_MARGIN), z in box}`` with ``z = frame^-1 (y - V.center)``
+        (``frame`` default identity). ``box`` ``(lo, hi)`` must lie in the bounding box of the
+        component of ``{V <= level}`` holding the centre (default: found and proved by
+        :func:`~roa.montecarlo.terminal_general.component_box`)."""
+        from roa.lyapunov_general import PolynomialLyapunov
+
+        if not isinstance(V, PolynomialLyapunov):
+            raise RoaInputError(
+                f"TerminalSet.polynomial: V must be a PolynomialLyapunov, got {type(V).__name__}"
+            )
+        n = V.n
+        M = np.eye(n) if frame is None else np.array(frame, dtype=float)
+        if M.shape != (n, n) or not np.isfinite(M).all() or abs(np.linalg.det(M)) == 0:
+            raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix")
+        if box is None:
+            from roa.montecarlo.terminal_general import component_box
+
+            box = component_box(V, float(level), M)
+        lo, hi = (np.array(b, dtype=float).reshape(-1) for b in box)
+        if (
+            lo.shape != (n,)
+            or hi.shape != (n,)
+            or not (np.isfinite(lo).all() and np.isfinite(hi).all())
+        ):
+            raise RoaInputError(f"TerminalSet.box must be two vectors of {n} finite numbers")
+        for a in (M, lo, hi):
+            a.setflags(write=False)
+        self = cls.__new__(cls)
+        self._init(None, V.center, level, coords, name, V, M, (lo, hi))
+        return self
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        raise AttributeError(f"TerminalSet is immutable: cannot set {key!r}")
+
+    def __reduce__(self) -> tuple[Any, ...]:  # immutable with slots: pickled by its fields
+        fields = (self._P, self.center, self.level, self.coords, self.name, self.V, self.frame,
+                  self.box)  # fmt: skip
+        return (_restore, fields)
+
+    @property
+    def quadratic(self) -> bool:
+        """Whether V is quadratic (the numba kernels' fast path)."""
+        return self._P is not None
+
+    @property
+    def P(self) -> np.ndarray:
+        """The matrix of a quadratic V; a non-quadratic V has none (the numba kernels need it)."""
+        if self._P is None:
+            raise RoaInputError(
+                f"terminal set {self.name!r}: V is a degree-{self.degree} polynomial and the numba "
+                "kernels test quadratic V only: use backend='numpy' (roa.basin and run_basin "
+                "switch to it by themselves)"
+            )
+        return self._P
+
+    @property
+    def n(self) -> int:
+        return int(self.center.shape[0])
+
+    @property
+    def degree(self) -> int:
+        return 2 if self.V is None else int(self.V.degree)
 
     def __repr__(self) -> str:  # exact (it enters run fingerprints)
+        if self._P is not None:
+            return (
+                f"TerminalSet(P={self._P.tolist()!r}, center={self.center.tolist()!r}, "
+                f"level={self.level!r}, coords={self.coords!r})"
+            )
+        assert self.V is not None and self.frame is not None and self.box is not None
+        terms = [[list(a), c] for a, c in self.V.terms.items()]
         return (
-            f"TerminalSet(P={self.P.tolist()!r}, center={self.center.tolist()!r}, "
-            f"level={self.level!r}, coords={self.coords!r})"
+            f"TerminalSet(V={terms!r}, center={self.center.tolist()!r}, level={self.level!r}, "
+            f"coords={self.coords!r}, frame={self.frame.tolist()!r}, "
+            f"box={[self.box[0].tolist(), self.box[1].tolist()]!r})"
         )
 
     @property
@@ -106,9 +218,27 @@ class TerminalSet:
 
     def value(self, y: np.ndarray) -> np.ndarray:
         """V at analysis-coordinate points ``y`` of shape ``(..., n)`` (inf/NaN rows give inf/NaN)."""
-        d = np.asarray(y, dtype=float) - self.center
+        if self._P is not None:
+            d = np.asarray(y, dtype=float) - self.center
+            with np.errstate(all="ignore"):
+                return np.einsum("...i,ij,...j->...", d, self._P, d)
+        assert self.V is not None
+        y = np.asarray(y, dtype=float)
+        ok = np.isfinite(y).all(axis=-1)
         with np.errstate(all="ignore"):
-            return np.einsum("...i,ij,...j->...", d, self.P, d)
+            v = self.V.value(np.where(ok[..., None], y, self.center))
+        return np.where(ok, v, np.where(np.isnan(y).any(axis=-1), np.nan, np.inf))
+
+    def contains(self, y: np.ndarray) -> np.ndarray:
+        """Analysis-coordinate points ``y`` (shape ``(m, n)``) inside the set, with the margin."""
+        y = np.asarray(y, dtype=float)
+        inside = self.value(y) <= self.threshold  # NaN compares False
+        if self._P is None:
+            assert self.frame is not None and self.box is not None
+            with np.errstate(all="ignore"):
+                z = np.linalg.solve(self.frame, (y - self.center).T).T
+            inside &= ((z >= self.box[0]) & (z <= self.box[1])).all(axis=-1)
+        return inside
 
     @classmethod
     def from_certificate(cls, source: str | Path | dict[str, Any], system: System) -> TerminalSet:
@@ -134,7 +264,9 @@ class TerminalSet:
             raise RoaInputError(
                 f"{where}: expected the JSON object written by `roa certify --json`"
             )
-        missing = [k for k in ("P", "level", "status", "system") if k not in data]
+        missing = [k for k in ("level", "status", "system") if k not in data]
+        if "P" not in data and "candidate_kind" not in data:
+            missing.insert(0, "P")
         if missing:
             raise RoaInputError(
                 f"{where}: missing {', '.join(missing)} (expected the JSON of `roa certify --json`)"
@@ -157,30 +289,41 @@ class TerminalSet:
             coords = declared[cert_system]
         if data["level"] is None:
             raise RoaInputError(f"{where}: no level")
-        try:
-            P = np.asarray(data["P"], dtype=float)
-        except (TypeError, ValueError):
-            raise RoaInputError(f"{where}: P must be a list of rows of numbers") from None
         center = coords_map(system, coords)(system.x_eq[None, :])[0]
         name = f"{data.get('lyapunov', 'V')} <= {float(data['level']):.6g} ({cert_system})"
-        return cls(P, center, data["level"], coords, name)
+        if "P" in data:
+            try:
+                P = np.asarray(data["P"], dtype=float)
+            except (TypeError, ValueError):
+                raise RoaInputError(f"{where}: P must be a list of rows of numbers") from None
+            return cls(P, center, data["level"], coords, name)
+        from roa.montecarlo.terminal_general import polynomial_terminal
+
+        return polynomial_terminal(data, center, coords, name, where)
 
     def bind(self, system: System) -> BoundTerminal:
         """Check the set against ``system`` and resolve its coordinate map."""
-        n = self.P.shape[0]
+        n = self.n
         if n != system.n:
             raise RoaInputError(
                 f"terminal set: V has {n} variables, system {system.name!r} has {system.n} states"
             )
         cmap = coords_map(system, self.coords)
         if system.equilibrium is not None:
-            v_eq = float(self.value(cmap(system.x_eq[None, :]))[0])
-            if not v_eq < self.threshold:
+            y_eq = cmap(system.x_eq[None, :])
+            v_eq = float(self.value(y_eq)[0])
+            if not (v_eq < self.threshold and self.contains(y_eq)[0]):
                 raise RoaInputError(
                     f"terminal set: the equilibrium of {system.name!r} is not inside it (V = "
                     f"{v_eq:.6g} at x_eq, level {self.level:.6g}); wrong centre or coordinates?"
                 )
         return BoundTerminal(self, cmap)
+
+
+def _restore(*fields: Any) -> TerminalSet:
+    out = TerminalSet.__new__(TerminalSet)
+    out._init(*fields)
+    return out
 
 
 def coords_map(system: System, coords: str | None) -> Callable[[np.ndarray], np.ndarray]:
@@ -209,5 +352,5 @@ class BoundTerminal:
         if x.shape[0] == 0:
             return np.zeros(0, bool)
         with np.errstate(all="ignore"):
-            v = self.terminal.value(self.cmap(x))
-        return v <= self.terminal.threshold  # NaN compares False
+            y = self.cmap(x)
+        return self.terminal.contains(y)  # NaN compares False

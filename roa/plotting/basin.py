@@ -1,5 +1,9 @@
 """Basin maps: statuses over a 2D slice, with region estimates drawn as contours.
 
+A region is the level set ``V(coords(x)) = level`` of any Lyapunov candidate
+(:class:`roa.regions.Region`: quadratic, polynomial or any function), drawn by contouring V on a
+fine grid of the slice; legends name a non-quadratic V's degree (:func:`kind_text`).
+
 Converged points are coloured by their time to converge (a colormap with a colorbar) when the stop
 times ``t_end`` are given, failures by status (solid colours). Region estimates are drawn with one
 line style per kind (:data:`KIND_STYLES`: claimed dashed, sampled dotted, certified solid, refuted
@@ -21,6 +25,7 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from roa.io import atomic_savefig
+from roa.lyapunov import QuadraticLyapunov
 from roa.montecarlo import dopri as I  # noqa: N812  (status codes, without numba)
 from roa.montecarlo.sampling import GridSlice
 from roa.regions import Region
@@ -73,10 +78,25 @@ def _label(system: System, i: int) -> str:
     return f"{system.state_names[i]} [{unit_text(unit)}]"
 
 
+def kind_text(region: Region) -> str:
+    """What V a region is a level set of, in words: ``quadratic``, ``degree-4 polynomial``, or
+    the candidate's class for any other V."""
+    degree = region.degree
+    if isinstance(region.lyapunov, QuadraticLyapunov):
+        return "quadratic"
+    if degree is not None:
+        return f"degree-{degree} polynomial"
+    return type(region.lyapunov).__name__
+
+
 def region_label(region: Region) -> str:
-    """The legend text of a region: its plain label (``meta["label"]``, else its name), and the
-    status when the line style alone does not say it (refuted, inconclusive)."""
+    """The legend text of a region: its plain label (``meta["label"]``, else its name), the
+    kind of a non-quadratic V when the label does not say it, and the status when the line style
+    alone does not say it (refuted, inconclusive)."""
     label = str(region.meta.get("label") or region.name)
+    quadratic = isinstance(region.lyapunov, QuadraticLyapunov)
+    if not quadratic and "degree" not in label and "polynomial" not in label:
+        label += f" ({kind_text(region)} V)"
     if region.status in ("refuted", "inconclusive") and region.status not in label:
         label += f" [{region.status}]"
     return label
@@ -186,8 +206,8 @@ def draw_regions(
     colours: Mapping[str, str] | None = None,
     contour_resolution: int = 401,
 ) -> list[Any]:
-    """Each region's boundary ``form(x) = level`` on the slice (finer grid); returns the legend
-    handles (a region that does not meet the slice says so)."""
+    """Each region's boundary ``V(coords(x)) = level`` (``region.form``, any V) on the slice
+    (finer grid); returns the legend handles (a region that does not meet the slice says so)."""
     if not regions:
         return []
     colours = dict(region_colours(regions), **(colours or {}))
@@ -384,8 +404,8 @@ def plot_slice(
     contour_resolution: int = 401,
     t_end: np.ndarray | None = None,
 ) -> Path:
-    """Heatmap of statuses over ``grid`` with region boundaries ``form(x) = level`` and marker lines,
-    saved to ``path`` (see :func:`draw_slice`)."""
+    """Heatmap of statuses over ``grid`` with region boundaries ``V(coords(x)) = level`` (any V)
+    and marker lines, saved to ``path`` (see :func:`draw_slice`)."""
     fig, ax = plt.subplots(figsize=(8.6, 6.0))
     draw_slice(ax, system, grid, code, regions=regions, lines=lines, title=title,
                contour_resolution=contour_resolution, t_end=t_end)  # fmt: skip

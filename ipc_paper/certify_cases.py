@@ -352,6 +352,13 @@ def run_cases(tasks: list[tuple[Any, ...]], n_jobs: int) -> list[Any]:
     (results in the order of ``tasks``; put the longest first)."""
     if n_jobs <= 1 or len(tasks) <= 1:
         return [f(*args) for f, *args in tasks]
-    from joblib import Parallel, delayed
+    import os
 
-    return list(Parallel(n_jobs=min(n_jobs, len(tasks)))(delayed(f)(*a) for f, *a in tasks))
+    from joblib import Parallel, delayed, parallel_config
+
+    # the workers' BLAS gets this process's default thread count (loky would give each worker
+    # cpu_count // n_jobs): results of floating-point solvers (Clarabel's status at the edge of
+    # its tolerance) then do not depend on n_jobs
+    with parallel_config(backend="loky", inner_max_num_threads=os.cpu_count() or 1):
+        par = Parallel(n_jobs=min(n_jobs, len(tasks)))
+        return list(par(delayed(f)(*a) for f, *a in tasks))

@@ -6,9 +6,12 @@
   level, certified area / limit-cycle area (grid count), solver and validation seconds.
 * **IPC**, flat coordinates (3.8), seeded by the box-optimised quadratic V of the certify
   experiment: certified level, the certified sector at q = q' = theta' = 0 (interval lower bound),
-  the share of the reference box, times.
+  the share of the reference box, times. Degree 2 by SOS V-s iteration (``ipc_degrees``; degree 4
+  SDPs have Gram blocks of 128 monomials), degree 4 by the sampled cutting-plane search
+  (``ipc_sampled_degrees``, :func:`roa.certification_vs.certify_sampled`: no SDP over the field,
+  the level proved by the same interval validation).
 
-Claims D1 (Van der Pol) and D2 (IPC, the paper's 60 deg) go to the report.
+Claims D1 (Van der Pol), D2 (IPC, the paper's 60 deg) and D3 (IPC, box share) go to the report.
 """
 
 from __future__ import annotations
@@ -34,7 +37,12 @@ class DegreeParams(Options):
     """``[params]``: degrees per system, V-s rounds, validation budget, box samples.
 
     ``ipc_degrees = []`` skips the IPC (its SDPs take minutes per round); ``aux_degree`` caps the
-    recast variable's degree in the IPC's Gram bases (``< 0``: no cap).
+    recast variable's degree in the IPC's Gram bases (``< 0``: no cap). ``ipc_sampled_degrees``:
+    the IPC by the sampled cutting-plane search (:func:`roa.certification_vs.certify_sampled`,
+    ``sampled_*`` its options: decrease margin, outer radius, rounds, the sector held in
+    ``{V <= 1}``); the level validated is the least one whose float estimates reach
+    ``sector_goal`` deg and the box share ``share_goal`` (else ``level_safety`` x the sampled
+    optimum), the optimum x 1.001 checked to be refuted.
     """
 
     vdp_degrees: tuple[int, ...] = (2, 4, 6, 8)
@@ -47,6 +55,14 @@ class DegreeParams(Options):
     seed: int = 0
     time_limit: float = 1800.0
     max_iters: int = 8000
+    ipc_sampled_degrees: tuple[int, ...] = (4,)
+    sampled_margin: float = 0.01
+    sampled_local_margin: float = 0.01
+    sampled_outer: float = 2.5
+    sampled_rounds: int = 40
+    sampled_hard_deg: float = 60.5
+    sector_goal: float = 61.0
+    share_goal: float = 0.96
 
 
 def limit_cycle(vdp: Any) -> tuple[np.ndarray, float]:
@@ -75,6 +91,8 @@ def _row(cert: Any) -> dict[str, Any]:
         "status": cert.status.value,
         "level": cert.level,
         "above": None if cert.above is None else cert.above.status.value,
+        "above_level": None if cert.above is None else cert.above.level,
+        "candidate": cert.candidate,
         "boxes": None if cert.validation is None else cert.validation.boxes,
         "V": cert.V.describe() if cert.V is not None else None,
         "vs": cert.vs.to_dict() if cert.vs is not None else None,
@@ -106,18 +124,12 @@ def _vanderpol(p: dict[str, Any]) -> dict[str, Any]:
 
 def _ipc(p: dict[str, Any], results: Path) -> dict[str, Any]:
     import roa
-    from ipc_paper.certified import coords_map
-    from ipc_paper.certify_runs import _box_fraction, _sector_curve
-    from roa.proof.search import sector
-    from roa.proof.sector import certified_sector, degrees_lower
-    from roa.systems.ipc import REFERENCE_BOX, transformed
-    from roa.systems.ipc.coordinates import to_flat_components
+    from roa.systems.ipc import transformed
 
     cert_path = results / "certify" / "certified.json"
     P = np.asarray(json.loads(cert_path.read_text())["optimised_P"], dtype=float)
     ipc = transformed()
     seed = roa.QuadraticLyapunov(P, np.zeros(4), "optimised quadratic V (box fraction)")
-    c2y = coords_map("flat")
     rows = {}
     for d in p["ipc_degrees"]:
         aux = None if p["aux_degree"] < 0 else int(p["aux_degree"])
@@ -126,30 +138,77 @@ def _ipc(p: dict[str, Any], results: Path) -> dict[str, Any]:
         with step(f"degrees: IPC (flat), degree {d}"):
             cert = roa.certify(ipc, seed, degree=int(d), vs=vs, check_above=1.001,
                                interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
-        row = _row(cert)
-        if cert.certified and cert.V is not None and cert.level is not None:
-            V, level = cert.V, float(cert.level)
-
-            def form(X: np.ndarray, V: Any = V) -> np.ndarray:
-                with np.errstate(invalid="ignore"):
-                    Y = c2y(X)
-                    ok = np.all(np.isfinite(Y), axis=1)
-                    out = np.full(len(X), np.inf)
-                    out[ok] = V.value(Y[ok])
-                return out
-
-            def form_xp(x: Any, xp: Any, V: Any = V) -> Any:
-                return V.expr(list(to_flat_components(x[0], x[1], x[2], x[3], xp)), xp)
-
-            t_max = np.pi / 2 - 1e-6
-            th = certified_sector(form_xp, level, lambda s, xp: (0.0, 0.0, s, 0.0), t_max)
-            row.update(
-                sector_deg=degrees_lower(th),
-                sector_float_deg=float(np.degrees(sector(form, level, _sector_curve, t_max))),
-                box=_box_fraction(form, level, REFERENCE_BOX, p["n_box"], p["seed"]),
-            )
-        rows[str(d)] = row
+        rows[str(d)] = _ipc_row(cert, p)
+    for d in p.get("ipc_sampled_degrees", ()):
+        with step(f"degrees: IPC (flat), degree {d}, sampled search"):
+            cert = _ipc_sampled(ipc, seed, int(d), p)
+        rows[f"{d} (sampled)"] = _ipc_row(cert, p)
     return {"seed": seed.name, "seed_P": P.tolist(), "degrees": rows}
+
+
+def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any]) -> Any:
+    """The sampled search with the paper's sector (to ``sampled_hard_deg``) as hard targets and
+    uniform samples of the reference box as soft ones; the level: see :class:`DegreeParams`."""
+    import roa
+    from ipc_paper.certify_runs import _sector_curve
+    from roa.certification_vs import certify_sampled
+    from roa.options import SampleSearchOptions
+    from roa.systems.ipc import REFERENCE_BOX, physical_to_flat_or_inf
+
+    rng = np.random.default_rng(p["seed"])
+    b = np.asarray(REFERENCE_BOX, dtype=float)
+    soft = physical_to_flat_or_inf(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((3000, 4)))
+    t = np.radians(np.linspace(-p["sampled_hard_deg"], p["sampled_hard_deg"], 41))
+    hard = physical_to_flat_or_inf(_sector_curve(t))
+    est = physical_to_flat_or_inf(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((p["n_box"], 4)))
+    th = np.radians(np.linspace(0.0, p["sector_goal"], 200))
+    arc = physical_to_flat_or_inf(_sector_curve(th))
+    opts = SampleSearchOptions(degree=d, margin=p["sampled_margin"], outer=p["sampled_outer"],
+                               local_margin=p["sampled_local_margin"],
+                               rounds=p["sampled_rounds"], seed=p["seed"])  # fmt: skip
+
+    def level(V: Any, opt: float) -> float:
+        need = max(float(np.max(V.value(arc))), float(np.quantile(V.value(est), p["share_goal"])))
+        cap = opts.level_safety * opt
+        return min(need * 1.0001, cap)
+
+    return certify_sampled(ipc, seed, options=opts, hard=hard, soft=soft, level=level,
+                           interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
+
+
+def _ipc_row(cert: Any, p: dict[str, Any]) -> dict[str, Any]:
+    """The row of one IPC certificate: level, times, the certified sector, the box share."""
+    from ipc_paper.certified import coords_map
+    from ipc_paper.certify_runs import _box_fraction, _sector_curve
+    from roa.proof.search import sector
+    from roa.proof.sector import certified_sector, degrees_lower
+    from roa.systems.ipc import REFERENCE_BOX
+    from roa.systems.ipc.coordinates import to_flat_components
+
+    c2y = coords_map("flat")
+    row = _row(cert)
+    if cert.certified and cert.V is not None and cert.level is not None:
+        V, level = cert.V, float(cert.level)
+
+        def form(X: np.ndarray, V: Any = V) -> np.ndarray:
+            with np.errstate(invalid="ignore"):
+                Y = c2y(X)
+                ok = np.all(np.isfinite(Y), axis=1)
+                out = np.full(len(X), np.inf)
+                out[ok] = V.value(Y[ok])
+            return out
+
+        def form_xp(x: Any, xp: Any, V: Any = V) -> Any:
+            return V.expr(list(to_flat_components(x[0], x[1], x[2], x[3], xp)), xp)
+
+        t_max = np.pi / 2 - 1e-6
+        th = certified_sector(form_xp, level, lambda s, xp: (0.0, 0.0, s, 0.0), t_max)
+        row.update(
+            sector_deg=degrees_lower(th),
+            sector_float_deg=float(np.degrees(sector(form, level, _sector_curve, t_max))),
+            box=_box_fraction(form, level, REFERENCE_BOX, p["n_box"], p["seed"]),
+        )
+    return row
 
 
 @accepts(DegreeParams)
@@ -158,7 +217,8 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
 
     t0 = time.perf_counter()
     ev: dict[str, Any] = {"vanderpol": _vanderpol(params)}
-    ev["ipc"] = _ipc(params, out.parent) if params["ipc_degrees"] else {"degrees": {}}
+    any_ipc = params["ipc_degrees"] or params["ipc_sampled_degrees"]
+    ev["ipc"] = _ipc(params, out.parent) if any_ipc else {"degrees": {}}
     ev["seconds"] = round(time.perf_counter() - t0, 1)
     atomic_write_json(out / "evidence.json", ev)
     figure(ev, out / "degrees.png")
@@ -167,8 +227,8 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
 
 def ev_summary(ev: dict[str, Any]) -> dict[str, Any]:
     """The numbers of the claims, without the polynomials (those are in evidence.json)."""
-    keep = ("status", "level", "above", "area_ratio", "sector_deg", "box", "solver_s",
-            "validation_s", "total_s")  # fmt: skip
+    keep = ("status", "level", "candidate", "above", "area_ratio", "sector_deg", "box", "solver_s",
+            "validation_s", "boxes", "total_s")  # fmt: skip
     return {
         sysname: {d: {k: r.get(k) for k in keep if k in r} for d, r in blk["degrees"].items()}
         for sysname, blk in ev.items()

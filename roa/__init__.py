@@ -29,6 +29,7 @@ from roa.options import (
     IntervalOptions,
     RunOptions,
     SampledOptions,
+    SampleSearchOptions,
     SosOptions,
     VsOptions,
 )
@@ -67,6 +68,7 @@ __all__ = [
     "SampledOptions",
     "SolverError",
     "SosOptions",
+    "SampleSearchOptions",
     "VsOptions",
     "SosStatus",
     "StopRules",

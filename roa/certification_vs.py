@@ -1,4 +1,5 @@
-"""``roa.certify(..., degree=2|4|6|8)``: search a polynomial V by SOS V-s iteration, then prove it.
+"""``roa.certify(..., degree=2|4|6|8)``: search a polynomial V by SOS V-s iteration (or by sampled
+cutting planes, ``VsOptions(method="sampled")``, :func:`certify_sampled`), then prove it.
 
 The search (:func:`roa.proof.vs_search.vs_search`, seeded by the quadratic candidate) proposes one
 V per round; they are tried best shape level first: each gets the sampled level search and the
@@ -11,13 +12,14 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov, as_lyapunov
-from roa.options import IntervalOptions, SampledOptions, VsOptions
+from roa.options import IntervalOptions, SampledOptions, SampleSearchOptions, VsOptions
 from roa.progress import step
 from roa.status import Verdict
 from roa.system import System
@@ -48,6 +50,10 @@ def certify_degree(
             f"{type(seed).__name__}: give a matrix P or a QuadraticLyapunov (or none)"
         )
     vs = VsOptions() if vs is None else vs
+    if vs.method == "sampled":
+        o = (SampleSearchOptions() if vs.sampled is None else vs.sampled).replace(degree=degree)
+        return certify_sampled(system, seed, options=o, interval=interval,
+                               check_above=check_above)  # fmt: skip
     with step(f"SOS V-s iteration, degree {degree}"):
         res = vs_search(
             system,
@@ -83,3 +89,81 @@ def certify_degree(
             return last
     assert last is not None
     return last
+
+
+def certify_sampled(
+    system: System,
+    V0: Any = None,
+    *,
+    options: SampleSearchOptions | None = None,
+    hard: Any = None,
+    soft: Any = None,
+    level: float | Callable[[Any, float], float] | None = None,
+    interval: IntervalOptions | None = None,
+    check_above: float | None = 1.001,
+) -> Any:
+    """Search a polynomial V by sampled cutting planes (:mod:`roa.proof.sample_search`), then
+    certify one of its levels with :func:`roa.certify` (interval validation).
+
+    ``V0`` is the quadratic seed (default :func:`roa.default_lyapunov`); ``hard`` / ``soft`` the
+    search's target points (system coordinates). The sampled optimum ``c*`` of the candidate is
+    found by :func:`roa.level_search`; the validated level is ``level`` if given (a number, or a
+    function ``level(V, c*)`` of the candidate, e.g. the least level holding a target), else
+    ``min(1, options.level_safety * c*)`` (1 is the search's target level). ``check_above``:
+    ``check_above * c*`` is validated too (expected: refuted, with a 50-digit witness; its cover is
+    the box reached along rays, proved by ``V > level`` on its faces, without whitening), so the
+    report shows how close the certified level is to the best this V allows. The returned
+    :class:`~roa.certification.Certificate` carries the search record in ``.vs``
+    (``SampleSearchResult``).
+    """
+    from roa.certification import Certificate, certify
+    from roa.levelset import level_search
+    from roa.proof.sample_search import sample_search
+
+    t0 = time.perf_counter()
+    o = SampleSearchOptions() if options is None else options
+    if check_above is not None and not (np.isfinite(check_above) and check_above > 1):
+        raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
+    seed = as_lyapunov(system, V0)
+    if not isinstance(seed, QuadraticLyapunov):
+        raise RoaInputError(
+            f"the sampled search starts from a quadratic seed; V0 {seed.name!r} is "
+            f"{type(seed).__name__}: give a matrix P or a QuadraticLyapunov (or none)"
+        )
+    with step(f"sampled search of V, degree {o.degree}"):
+        res = sample_search(system, seed, hard=hard, soft=soft, options=o)
+    if res.V is None:
+        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="sampled search",
+                           level_source=None, seconds=time.perf_counter() - t0,
+                           message=f"the sampled search found no candidate: {res.message}",
+                           vs=res, system=system, V=seed)  # fmt: skip
+    V = res.V
+    with step("sampled level search of the candidate"):
+        lv = level_search(system, V, shape="level", method="sampled")
+    if lv.level is None:
+        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="level search",
+                           level_source=None, seconds=time.perf_counter() - t0,
+                           message=f"no sampled level for the candidate: {lv.message}",
+                           search=lv, vs=res, system=system, V=V)  # fmt: skip
+    opt = float(lv.level)
+    if level is None:
+        value = min(1.0, o.level_safety * opt)
+    else:
+        value = level(V, opt) if callable(level) else level
+        if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+            raise RoaInputError(f"level must be a finite number > 0, got {value!r}")
+        value = float(value)
+    with step(f"validation of {V.name} at level {value:.6g}"):
+        cert = certify(system, V, level=value, method="interval", interval=interval)
+    above = None
+    if check_above is not None:  # refute just above the optimum: a box from rays as the cover
+        from roa.proof.cover import ray_box
+
+        top = check_above * opt
+        half = ray_box(V, top)
+        with step(f"refutation check of {V.name} at level {top:.6g}"):
+            above = certify(system, V, level=top, method="interval", interval=interval,
+                            bounding_box=None if half is None else 1.3 * half).validation  # fmt: skip
+    return dataclasses.replace(cert, vs=res, search=lv, candidate=opt, above=above,
+                               level_source="given" if level is not None else "sampled",
+                               seconds=time.perf_counter() - t0)  # fmt: skip

@@ -229,6 +229,10 @@ class VsOptions(Options):
         still a candidate, proved or not by the validation.
     multiplier_degree, aux_degree, symmetry, recast, time_limit
         As in :class:`SosOptions`.
+    method : {"sos", "sampled"}
+        ``sos``: the V-s iteration; ``sampled``: the sampled cutting-plane search
+        (:func:`roa.certification_vs.certify_sampled`, no SDP over the field), with ``sampled``
+        its options (:class:`SampleSearchOptions`; ``degree`` is taken from ``roa.certify``).
     """
 
     rounds: int = 8
@@ -242,9 +246,20 @@ class VsOptions(Options):
     symmetry: str | bool = "auto"
     recast: str = "exact"
     time_limit: float | None = None
+    method: str = "sos"
+    sampled: Any = None
 
     def __post_init__(self) -> None:
         _int(self, "rounds", 1, 50)
+        if self.method not in ("sos", "sampled"):
+            raise RoaInputError(f"VsOptions.method must be 'sos' or 'sampled', got {self.method!r}")
+        if isinstance(self.sampled, Mapping):
+            object.__setattr__(self, "sampled", SampleSearchOptions.from_mapping(self.sampled))
+        if self.sampled is not None and not isinstance(self.sampled, SampleSearchOptions):
+            raise RoaInputError(
+                "VsOptions.sampled must be a SampleSearchOptions (or a mapping of its fields), "
+                f"got {type(self.sampled).__name__}"
+            )
         _int(self, "validate", 1, 20)
         if self.max_iters is not None:
             _int(self, "max_iters", 1, 10**6)
@@ -273,6 +288,113 @@ class VsOptions(Options):
         if self.max_iters is not None:
             out["max_iters"] = int(self.max_iters)
         return out or None
+
+
+@dataclass(frozen=True)
+class SampleSearchOptions(Options):
+    """Sampled cutting-plane search of a polynomial V (:func:`roa.proof.sample_search.sample_search`)
+    and its certification (:func:`roa.certification_vs.certify_sampled`).
+
+    Parameters
+    ----------
+    degree : int
+        Degree of V, one of 2, 4, 6, 8.
+    rounds : int
+        Largest number of programs (cutting-plane rounds), 1..200.
+    cuts : int
+        Violators added per round (worst first), 1..100,000.
+    directions, radial : int
+        Rays through ``{V <= 1 + slack}`` searched for violators, 10..10^6, and points per ray,
+        2..1000.
+    margin : float
+        Required decrease ``V' <= -margin |y|^2`` at the cut points (whitened ``y``), in (0, 10).
+    local_margin : float or None
+        The LMI on V's quadratic part, ``-(A'P2 + P2 A) >= local_margin I``, in (0, 10) (default
+        ``margin``): a stronger local decrease lets the validation's local proof cover a larger
+        box around the equilibrium.
+    positivity : float
+        Gram blocks ``>= positivity I`` (``V >= positivity |y|^2``), in (0, 1).
+    slack : float
+        Violators are searched in ``{V <= 1 + slack}``, in [0, 1).
+    grow : float
+        Default soft targets: the seed's level set scaled by this (radius in ``y``), in (0, 100).
+    outer, outer_points : float, int
+        ``V >= 1`` at ``outer_points`` points (0..10^6) of the sphere ``|y| = outer`` (whitened
+        radius, 0 for none, else in (grow, 1000)): keeps ``{V <= 1}`` compact and small.
+    soft_points, initial_cuts : int
+        Default soft targets, 0..10^6, and the first cut points drawn in the seed's level set,
+        1..10^6.
+    symmetry : {"auto", True, False}
+        Even V and even/odd Gram blocks for odd fields (``auto``: a sampled test).
+    simulate : bool
+        Classify violators by simulation (RK4 with step ``dt`` up to ``horizon``, in (0, 10) and
+        (0, 10^4)): converging ones become decrease cuts, the others excluded points.
+    seed : int
+        Random seed (>= 0).
+    level_safety : float
+        The certified level is ``level_safety`` x the sampled optimum of V, capped at 1 (the target
+        level), in (0, 1]; the level ``1.001`` x the optimum is checked to be refuted.
+    """
+
+    degree: int = 4
+    rounds: int = 30
+    cuts: int = 400
+    directions: int = 6000
+    radial: int = 24
+    margin: float = 0.01
+    local_margin: float | None = None
+    positivity: float = 1e-3
+    slack: float = 0.02
+    grow: float = 1.5
+    soft_points: int = 3000
+    outer: float = 3.0
+    outer_points: int = 2000
+    initial_cuts: int = 2000
+    symmetry: str | bool = "auto"
+    simulate: bool = True
+    dt: float = 0.05
+    horizon: float = 40.0
+    seed: int = 0
+    level_safety: float = 0.98
+
+    def __post_init__(self) -> None:
+        if self.degree not in (2, 4, 6, 8):
+            raise RoaInputError(
+                f"SampleSearchOptions.degree must be one of 2, 4, 6, 8, got {self.degree!r}"
+            )
+        _int(self, "rounds", 1, 200)
+        _int(self, "cuts", 1, 100_000)
+        _int(self, "directions", 10, 10**6)
+        _int(self, "radial", 2, 1000)
+        _int(self, "soft_points", 0, 10**6)
+        _int(self, "initial_cuts", 1, 10**6)
+        _int(self, "outer_points", 0, 10**6)
+        if not (
+            isinstance(self.outer, int | float)
+            and (self.outer == 0 or self.grow < self.outer < 1000)
+        ):
+            raise RoaInputError(
+                f"SampleSearchOptions.outer must be 0 or in (grow, 1000), got {self.outer!r}"
+            )
+        _int(self, "seed", 0)
+        _pos(self, "margin", upper=10.0)
+        if self.local_margin is not None:
+            _pos(self, "local_margin", upper=10.0)
+        _pos(self, "positivity", upper=1.0)
+        _pos(self, "grow", upper=100.0)
+        _pos(self, "level_safety", upper=1.0, closed_upper=True)
+        _pos(self, "dt", upper=10.0)
+        _pos(self, "horizon", upper=1e4)
+        if not isinstance(self.simulate, bool):
+            raise RoaInputError(
+                f"SampleSearchOptions.simulate must be a bool, got {self.simulate!r}"
+            )
+        if not (isinstance(self.slack, int | float) and 0 <= self.slack < 1):
+            raise RoaInputError(f"SampleSearchOptions.slack must be in [0, 1), got {self.slack!r}")
+        if self.symmetry not in ("auto", True, False):
+            raise RoaInputError(
+                f"SampleSearchOptions.symmetry must be 'auto', True or False, got {self.symmetry!r}"
+            )
 
 
 @dataclass(frozen=True)

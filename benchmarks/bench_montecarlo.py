@@ -56,8 +56,16 @@ accepted steps per run plain, 33.2 with the terminal set):
 * thread vs process pool: the kernel holds the GIL (no nogil), so the threading backend runs one
   core; processes (loky, reused between runs) are used.
 
-Throughputs: not re-measured on an idle machine since the fast path (the last figures, before it:
-plain 24-35 k trajectories/s, with the terminal set 86-89 k/s); run this script for current ones.
+Throughputs measured 2026-11-29 on the idle 2-core machine (default arguments, --public; median of
+3 engine runs, best in brackets): baseline 28.4 trajectories/s; fast path plain 27.6 k/s (28.2 k,
+973x), with the terminal set 72.9 k/s (80.6 k, 2567x); public cfuncs plain 22.5 k/s, with the
+terminal set 61.9 k/s; statuses 2000/2000 identical to the baseline in every mode. Per core with
+the terminal set: 41-43 k runs/s (one process, 100,000 states in 2.3-2.5 s; two processes scale
+1.9x). Targets: plain >= 20 k/s met; terminal >= 100 k/s and >= 3000x not met. Why: 65 % of the
+box's states start outside the certified set and integrate for a mean 1.28 s of model time (~51
+accepted steps at rtol 1e-6, the baseline's step sequence) before entering it, at ~690 ns per step
+all-in; the union of all six certified quadratic sets would cut the mean entry time by 9 %
+(1.28 -> 1.17 s, measured), not the 27 % needed.
 """
 
 from __future__ import annotations

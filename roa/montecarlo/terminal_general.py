@@ -36,20 +36,10 @@ BOX_MARGIN = 1e-9
 def _exits(V: Lyapunov, level: float, U: np.ndarray) -> np.ndarray:
     """Per direction (rows of ``U``, in x): the last t before V first exceeds ``level`` along
     ``c + t u`` (inf if it never does for t <= 1e6), to 50 bisection steps."""
-    c = np.asarray(V.center, dtype=float)
-    t = np.geomspace(1e-6, 1e6, 241)
-    with np.errstate(all="ignore"):
-        vals = V.value(c + t[None, :, None] * U[:, None, :])
-    above = ~(vals <= level)
-    k = np.argmax(above, axis=1)
-    hi = t[k]
-    lo = np.where(k > 0, t[np.maximum(k - 1, 0)], 0.0)
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        with np.errstate(all="ignore"):
-            out = ~(V.value(c + mid[:, None] * U) <= level)
-        hi, lo = np.where(out, mid, hi), np.where(out, lo, mid)
-    return np.where(above.any(axis=1), lo, np.inf)
+    from roa.proof.cover import ray_exits
+
+    lo, _, found = ray_exits(V.value, np.asarray(V.center, dtype=float), U, level)
+    return np.where(found, lo, np.inf)
 
 
 def _points(V: Lyapunov, level: float, M: np.ndarray, Z: np.ndarray) -> tuple[np.ndarray, ...]:

@@ -133,18 +133,27 @@ def ray_box(
     U = rng.standard_normal((n_dirs, n)) @ lyap.whitening().T
     U /= np.linalg.norm(U, axis=1, keepdims=True)
     U = np.concatenate([U, np.eye(n), -np.eye(n)])
+    _, hi, found = ray_exits(lyap.value, c, U, level)
+    if not found.all():
+        return None
+    return np.max(np.abs(hi[:, None] * U), axis=0)
+
+
+def ray_exits(
+    value: Any, c: np.ndarray, U: np.ndarray, level: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Along the rays ``c + t u`` (rows ``u`` of ``U``): ``(lo, hi, found)``, a bracket of the
+    first ``t`` in [1e-6, 1e6] (a geometric grid, then 50 bisections) where ``value`` exceeds
+    ``level`` (NaN counts as above); ``found`` is False where it never does on the grid."""
     t = np.geomspace(1e-6, 1e6, 241)
     with np.errstate(all="ignore"):
-        V = lyap.value(c + t[None, :, None] * U[:, None, :])
-    above = ~(V <= level)
-    if not np.all(above.any(axis=1)):
-        return None
+        above = ~(value(c + t[None, :, None] * U[:, None, :]) <= level)
     k = np.argmax(above, axis=1)
     hi = t[k]
     lo = np.where(k > 0, t[np.maximum(k - 1, 0)], 0.0)
     for _ in range(50):
         mid = 0.5 * (lo + hi)
         with np.errstate(all="ignore"):
-            b = ~(lyap.value(c + mid[:, None] * U) <= level)
+            b = ~(value(c + mid[:, None] * U) <= level)
         hi, lo = np.where(b, mid, hi), np.where(b, lo, mid)
-    return np.max(np.abs(hi[:, None] * U), axis=0)
+    return lo, hi, above.any(axis=1)

@@ -144,7 +144,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
 
     def task(key: str, P0: np.ndarray) -> tuple[Any, ...]:
         coords, objective, ball = cases[key]
-        keys[key] = {"case": key, "system": _system_name(coords), "objective": objective,
+        keys[key] = {"case": key, "system": K._system(coords).name, "objective": objective,
                      "P0": P0, **search}  # fmt: skip
         cached = cache.lookup(keys[key])
         return (K.case_optimised, key, coords, objective, P0, ball, search, cached, p, show)
@@ -199,20 +199,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
         ("paper V (3.11)", P_paper, {**ev["ipc_paper"], "coords": "flat"}),
         *((names[k], blocks[k][0].P, blocks[k][1]) for k in names if k in blocks),
     ]:
-        b = block["below"]
-        regions.append(
-            {
-                "name": f"{name}: V <= {b['level']:.5g} ({b['status']}, interval B&B)",
-                "P": np.asarray(P).tolist(),
-                "level": b["level"],
-                "status": b["status"],
-                "coords": block["coords"],
-                "boxes": b["boxes"],
-                "seconds": b["seconds"],
-                "sector_deg": block["physical"]["sector_deg"],
-                "box_fraction": block["physical"]["box"]["fraction"],
-            }
-        )
+        regions.append(_region_entry(name, P, block, block["coords"]))
     P_sec = blocks["ipc_sector"][0].P
     atomic_write_json(
         out / "certified.json",
@@ -226,30 +213,26 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     return {"claims": _claims(ev), "evidence": "results/certify/evidence.json"}
 
 
-def _system_name(coords: str) -> str:
-    from roa.systems.ipc import transformed
-    from roa.systems.ipc.hybrid import hybrid
-
-    return (hybrid() if coords == "hybrid" else transformed()).name
-
-
-def _saturated_region(P: np.ndarray, blk: dict[str, Any]) -> dict[str, Any]:
+def _region_entry(name: str, P: np.ndarray, blk: dict[str, Any], coords: str) -> dict[str, Any]:
+    """One entry of certified.json: the certified set of a case's block."""
     b = blk["below"]
     return {
-        "name": f"saturated loop |u| <= {blk['saturation']:g}, optimised quadratic V: "
-        f"V <= {b['level']:.5g} ({b['status']}, interval B&B)",
+        "name": f"{name}: V <= {b['level']:.5g} ({b['status']}, interval B&B)",
         "P": np.asarray(P).tolist(),
         "level": b["level"],
         "status": b["status"],
-        "coords": "flat",
-        "saturation": blk["saturation"],
-        "system": blk["system"],
+        "coords": coords,
         "boxes": b["boxes"],
         "seconds": b["seconds"],
         "sector_deg": blk["physical"]["sector_deg"],
         "box_fraction": blk["physical"]["box"]["fraction"],
-        "slice_coverage": blk["slice"]["coverage"],
     }
+
+
+def _saturated_region(P: np.ndarray, blk: dict[str, Any]) -> dict[str, Any]:
+    name = f"saturated loop |u| <= {blk['saturation']:g}, optimised quadratic V"
+    return {**_region_entry(name, P, blk, "flat"), "saturation": blk["saturation"],
+            "system": blk["system"], "slice_coverage": blk["slice"]["coverage"]}  # fmt: skip
 
 
 def _ball_containment(blocks: dict[str, tuple[Any, dict[str, Any]]]) -> dict[str, Any]:

@@ -43,12 +43,7 @@ def certify_degree(
     t0 = time.perf_counter()
     if degree not in DEGREES:
         raise RoaInputError(f"degree must be one of {DEGREES}, got {degree!r}")
-    seed = as_lyapunov(system, V)
-    if not isinstance(seed, QuadraticLyapunov):
-        raise RoaInputError(
-            f"degree={degree} searches V from a quadratic seed; V {seed.name!r} is "
-            f"{type(seed).__name__}: give a matrix P or a QuadraticLyapunov (or none)"
-        )
+    seed = _quadratic_seed(system, V, f"degree={degree} searches V from a quadratic seed; V")
     vs = VsOptions() if vs is None else vs
     if vs.method == "sampled":
         o = (SampleSearchOptions() if vs.sampled is None else vs.sampled).replace(degree=degree)
@@ -124,12 +119,7 @@ def certify_sampled(
     o = SampleSearchOptions() if options is None else options
     if check_above is not None and not (np.isfinite(check_above) and check_above > 1):
         raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
-    seed = as_lyapunov(system, V0)
-    if not isinstance(seed, QuadraticLyapunov):
-        raise RoaInputError(
-            f"the sampled search starts from a quadratic seed; V0 {seed.name!r} is "
-            f"{type(seed).__name__}: give a matrix P or a QuadraticLyapunov (or none)"
-        )
+    seed = _quadratic_seed(system, V0, "the sampled search starts from a quadratic seed; V0")
     with step(f"sampled search of V, degree {o.degree}"):
         res = sample_search(system, seed, hard=hard, soft=soft, options=o)
     if res.V is None:
@@ -167,3 +157,14 @@ def certify_sampled(
     return dataclasses.replace(cert, vs=res, search=lv, candidate=opt, above=above,
                                level_source="given" if level is not None else "sampled",
                                seconds=time.perf_counter() - t0)  # fmt: skip
+
+
+def _quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:
+    """``V`` as a quadratic Lyapunov function of ``system``, or an error starting with ``what``."""
+    seed = as_lyapunov(system, V)
+    if not isinstance(seed, QuadraticLyapunov):
+        raise RoaInputError(
+            f"{what} {seed.name!r} is {type(seed).__name__}: give a matrix P or a "
+            "QuadraticLyapunov (or none)"
+        )
+    return seed

@@ -331,16 +331,9 @@ def _v_le(w, tP, tc, thr):
 
 @numba.njit(cache=True, error_model="numpy")
 def _inside(y, coords, params, tP, tc, thr, w):
-    # V(coords(y)) <= thr (the loop of _v_le, written out: one call less per step)
+    # V(coords(y)) <= thr
     coords(y, params, w)
-    n = w.shape[0]
-    v = 0.0
-    for i in range(n):
-        acc = 0.0
-        for j in range(n):
-            acc += tP[i, j] * (w[j] - tc[j])
-        v += (w[i] - tc[i]) * acc
-    return v <= thr
+    return _v_le(w, tP, tc, thr)
 
 
 @numba.njit(cache=True, error_model="numpy")

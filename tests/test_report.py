@@ -219,3 +219,12 @@ def test_a_foreign_config_cannot_overwrite_results(tmp_path):
     )
     with pytest.raises(ValueError, match="holds the results of another config"):
         run_experiment(other, results=results, quick=True)
+
+
+def test_certify_params_name_the_bad_field():
+    from ipc_paper.certify_runs import CertifyParams
+
+    with pytest.raises(RoaInputError, match=r"CertifyParams\.cases .*ipc_optimised"):
+        CertifyParams(cases=("ipc_ball",))
+    with pytest.raises(RoaInputError, match=r"CertifyParams\.n_jobs .*>= 0"):
+        CertifyParams(n_jobs=-1)

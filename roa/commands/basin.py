@@ -76,8 +76,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=None,
         metavar="FILE",
         help="JSON of `roa certify --json` (status certified, for this system or its analysis "
-        "coordinates, e.g. ipc-flat for ipc; quadratic V, or polynomial with --degree, which runs "
-        "on the numpy integrator): runs entering {V <= level} stop as converged",
+        "coordinates, e.g. ipc-flat for ipc; quadratic V, or polynomial with --degree): runs "
+        "entering {V <= level} stop as converged",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
@@ -298,13 +298,6 @@ def run(args: argparse.Namespace) -> int:
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
                        terminal=terminal)  # fmt: skip
     summary = {**result.to_dict(), **mode}
-    note = None
-    if terminal is not None:
-        from roa.montecarlo.terminal_general import kernel_backend
-
-        note = kernel_backend(terminal, system, integrator.backend)[1]
-        if note:
-            summary["terminal_set_note"] = note
     if plot:
         from roa.plotting.basin import plot_slice
 
@@ -323,6 +316,4 @@ def run(args: argparse.Namespace) -> int:
         print(f"fraction converged {summary['fraction_converged']:.4f} (95 % CI {lo:.4f}-{hi:.4f})")
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
-        if note:
-            print(f"note: {note}")
     return 0

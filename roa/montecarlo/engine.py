@@ -48,7 +48,6 @@ from roa.montecarlo.chunks import (  # noqa: F401  (re-exported)
 from roa.montecarlo.dask_client import _close_quietly, _connect
 from roa.montecarlo.sampling import MAX_SAMPLES
 from roa.montecarlo.terminal import TerminalSet
-from roa.montecarlo.terminal_general import kernel_backend
 from roa.status import StopRules
 from roa.system import System
 
@@ -279,14 +278,11 @@ def run_basin(
         "margin_tol": margin_tol,
         "backend": backend,
     }
-    backend_note = None
     if terminal is not None:
         if not isinstance(terminal, TerminalSet):
             raise RoaInputError(f"terminal must be a TerminalSet, got {type(terminal).__name__}")
         terminal.bind(system)  # checked before any work
         opts["terminal"] = terminal  # its repr is exact: part of the fingerprint
-        # the numba kernels test quadratic V only: a polynomial V runs on numpy (with a note)
-        opts["backend"], backend_note = kernel_backend(terminal, system, backend)
     n = int(sampler.n)
     _check_size(n)
     n_chunks = -(-n // chunk_size)
@@ -364,7 +360,5 @@ def run_basin(
     meta: dict[str, Any] = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs}
     if rejected:
         meta["chunks_rejected_reasons"] = dict(rejected)
-    if backend_note:
-        meta["terminal_set_note"] = backend_note
     return BasinRun(code, t_end, chunks_computed=computed, chunks_resumed=len(done), meta=meta,
                     entered_certified_set=entered[0])  # fmt: skip

@@ -70,6 +70,7 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
 )
 from roa.montecarlo.integrator_numpy import integrate_numpy
 from roa.montecarlo.terminal import ENTERED, REASON, TerminalSet
+from roa.montecarlo.terminal_poly import member_numba
 from roa.status import StopRules
 from roa.system import System
 
@@ -131,11 +132,7 @@ def integrate_batch(
         if "numba" not in system.meta:
             raise RoaInputError(f"system {system.name!r} provides no numba field (meta['numba'])")
         run, params = _numba_kernel(system, terminal)
-        n = system.n
-        if terminal is None:
-            tP, tc, thr = np.zeros((n, n)), np.zeros(n), -np.inf
-        else:
-            tP, tc, thr = np.array(terminal.P), np.array(terminal.center), terminal.threshold
+        T = kernel_terminal(terminal, system.n)
         m = x0.shape[0]
         code = np.empty(m, np.int8)
         t_end = np.empty(m)
@@ -143,8 +140,8 @@ def integrate_batch(
         steps = np.empty(m, np.int64)
         run(
             np.ascontiguousarray(params, dtype=float), x0, system.x_eq, rules.converge_tol,
-            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol, terminal is not None,
-            tP, tc, thr, code, t_end, x_end, steps,
+            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol, T, code, t_end, x_end,
+            steps,
         )  # fmt: skip
         res = _base.BatchResult(code, t_end, x_end, steps)
     else:
@@ -156,11 +153,26 @@ def integrate_batch(
     return _elsewhere(system, res, rules.converge_tol)
 
 
+def kernel_terminal(terminal: TerminalSet | None, n: int) -> tuple[Any, ...]:
+    """The terminal set as the numba kernels take it: ``(kind, P, center, threshold, Mi, E, A,
+    B, g, D)``, kind 0 (none), 1 (quadratic: ``P``) or 2 (polynomial: the arrays of
+    :class:`roa.montecarlo.terminal_poly.PolyArrays`; unused entries are empty)."""
+    z2, e = np.zeros((n, n)), np.zeros((0, n), np.int64)
+    if terminal is None:
+        return (0, z2, np.zeros(n), -np.inf, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
+    c, thr = np.array(terminal.center), float(terminal.threshold)
+    if terminal.quadratic:
+        return (1, np.array(terminal.P), c, thr, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
+    assert terminal.poly is not None
+    Mi, E, A, B, g, D = terminal.poly
+    return (2, z2, c, thr, Mi, E, A, B, g, D)
+
+
 def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callable[..., None], Any]:
     """The numba kernel for ``system`` (and ``terminal``) and the parameters it takes.
 
     It is called ``run(params, X0, x_eq, converge_tol, diverge_bound, margin_tol, t_final, rtol,
-    atol, term, P, center, threshold, code, t_end, x_end, steps)``. The fast path
+    atol, T, code, t_end, x_end, steps)`` with ``T`` from :func:`kernel_terminal`. The fast path
     ``system.meta["numba_fast"]`` (njit functions compiled into a kernel of their own,
     :func:`compile_kernel`) is used when the system provides it, with a terminal set in other
     coordinates when it has a map to them; else the public ``system.meta["numba"]`` (cfuncs of
@@ -193,10 +205,10 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
             ) from None
 
     def run(params: Any, X0: Any, x_eq: Any, tol: float, bound: float, margin_tol: float,
-            t_final: float, rtol: float, atol: float, term: bool, tP: Any, tc: Any, thr: float,
-            code: Any, t_end: Any, x_end: Any, steps: Any) -> None:  # fmt: skip
+            t_final: float, rtol: float, atol: float, T: Any, code: Any, t_end: Any, x_end: Any,
+            steps: Any) -> None:  # fmt: skip
         _kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-                term, coords, tP, tc, thr, code, t_end, x_end, steps, None)  # fmt: skip
+                T, coords, code, t_end, x_end, steps, None)  # fmt: skip
 
     return run, params
 
@@ -330,16 +342,24 @@ def _v_le(w, tP, tc, thr):
 
 
 @numba.njit(cache=True, error_model="numpy")
-def _inside(y, coords, params, tP, tc, thr, w):
-    # V(coords(y)) <= thr
+def _member(w, T, d, pw):
+    # w (analysis coordinates) in the terminal set T (kernel_terminal): quadratic or polynomial
+    if T[0] == 1:
+        return _v_le(w, T[1], T[2], T[3])
+    return member_numba(w, T[2], T[4], T[5], T[6], T[7], T[3], T[8], d, pw)
+
+
+@numba.njit(cache=True, error_model="numpy")
+def _inside(y, coords, params, T, w, d, pw):
+    # coords(y) in the terminal set
     coords(y, params, w)
-    return _v_le(w, tP, tc, thr)
+    return _member(w, T, d, pw)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def _one(
     field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-    term, coords, tP, tc, thr, x_out, field_coords,
+    T, coords, x_out, field_coords,
 ):  # fmt: skip
     n = y0.shape[0]
     A, B, C, E, P = _A, _B, _C, _E, _P
@@ -366,7 +386,10 @@ def _one(
         x_out[:] = y
         return DIVERGED, 0.0, 0
     w = np.empty(n)
-    if term and _inside(y, coords, params, tP, tc, thr, w):
+    term = T[0] != 0
+    d = np.empty(n)
+    pw = np.empty((n, T[9] + 1))
+    if term and _inside(y, coords, params, T, w, d, pw):
         x_out[:] = y
         return ENTERED, 0.0, 0
     t = 0.0
@@ -489,9 +512,9 @@ def _one(
             return first, t_first, steps  # codes 0, 1, 2 match the event order
         if term:
             if field_coords is None:
-                inside = _inside(y_new, coords, params, tP, tc, thr, w)
+                inside = _inside(y_new, coords, params, T, w, d, pw)
             else:  # w holds coords(y_new) from the last stage
-                inside = _v_le(w, tP, tc, thr)
+                inside = _member(w, T, d, pw)
         else:
             inside = False
         if inside:
@@ -518,11 +541,8 @@ def _kernel(
     t_final,
     rtol,
     atol,
-    term,
+    T,
     coords,
-    tP,
-    tc,
-    thr,
     code,
     t_end,
     x_end,
@@ -542,11 +562,8 @@ def _kernel(
             t_final,
             rtol,
             atol,
-            term,
+            T,
             coords,
-            tP,
-            tc,
-            thr,
             x_end[k],
             field_coords,
         )
@@ -601,8 +618,8 @@ def compile_kernel(
     sin, cos and log are not computed twice). The kernel calls them directly: LLVM inlines them
     (no call through a pointer). Compiled once per process and cached on disk (the functions
     enter the cache key with the SHA-256 of their modules' source). Returns ``run(params, X0,
-    x_eq, converge_tol, diverge_bound, margin_tol, t_final, rtol, atol, term, P, center,
-    threshold, code, t_end, x_end, steps)``.
+    x_eq, converge_tol, diverge_bound, margin_tol, t_final, rtol, atol, T, code, t_end, x_end,
+    steps)`` (``T``: :func:`kernel_terminal`).
     """
     key = (field, margin, coords, field_coords)
     if key in _COMPILED:
@@ -612,10 +629,10 @@ def compile_kernel(
     fc = None if field_coords is None else Inlined(field_coords)
 
     @numba.njit(cache=True, error_model="numpy")
-    def run(params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, term, tP, tc, thr,
-            code, t_end, x_end, steps):  # fmt: skip
-        _kernel(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, term, c, tP,
-                tc, thr, code, t_end, x_end, steps, fc)  # fmt: skip
+    def run(params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, code, t_end, x_end,
+            steps):  # fmt: skip
+        _kernel(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c, code,
+                t_end, x_end, steps, fc)  # fmt: skip
 
     _COMPILED[key] = run
     return run

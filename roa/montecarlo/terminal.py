@@ -16,9 +16,9 @@ Membership uses ``V(y) <= level (1 - REL_MARGIN)``: float error cannot let a poi
 A polynomial V (``roa certify --degree D``, ``candidate_kind`` in its JSON) is accepted too: a
 degree-2 one becomes the quadratic form above; for a higher degree the set is ``{V <= level}``
 inside a box proved to lie in the bounding box of the certified component of the level set (the
-one holding the equilibrium; :mod:`roa.montecarlo.terminal_general`), and the runs use the numpy
-integrator, since the numba kernels test a quadratic V only (``kernel_backend`` there; the
-quadratic fast path is unchanged).
+one holding the equilibrium; :mod:`roa.montecarlo.terminal_general`), tested with the same
+arithmetic in numpy and in the numba kernels (:mod:`roa.montecarlo.terminal_poly`, which also
+allows for the rounding error of V).
 Runs that enter are finished with status ``converged`` at the time of the accepted step that enters
 (the batch integrators test every accepted step after the usual events, which take precedence);
 initial conditions that start inside cost one evaluation of V.
@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.montecarlo.terminal_poly import PolyArrays, member_numpy, poly_arrays
 from roa.system import System
 
 if TYPE_CHECKING:
@@ -56,8 +57,7 @@ class TerminalSet:
     with ``V(y) = (y - center)' P (y - center)``. Polynomial: :meth:`polynomial` with a
     :class:`~roa.lyapunov_general.PolynomialLyapunov` and the box (in the validation frame
     ``z = M^-1 (y - center)``) of :func:`roa.montecarlo.terminal_general.component_box`: the set is
-    ``{V <= level}`` inside that box (the certified component); runs with it use the numpy
-    integrator (:func:`roa.montecarlo.terminal_general.kernel_backend`).
+    ``{V <= level}`` inside that box (the certified component).
 
     Parameters
     ----------
@@ -74,7 +74,7 @@ class TerminalSet:
         A description for reports.
     """
 
-    __slots__ = ("_P", "center", "level", "coords", "name", "V", "frame", "box")
+    __slots__ = ("_P", "center", "level", "coords", "name", "V", "frame", "box", "poly")
     _P: np.ndarray | None
     center: np.ndarray
     level: float
@@ -83,6 +83,7 @@ class TerminalSet:
     V: PolynomialLyapunov | None
     frame: np.ndarray | None
     box: tuple[np.ndarray, np.ndarray] | None
+    poly: PolyArrays | None
 
     def __init__(
         self,
@@ -119,8 +120,10 @@ class TerminalSet:
         if coords is not None and not isinstance(coords, str):
             raise RoaInputError(f"TerminalSet.coords must be a name or None, got {coords!r}")
         c.setflags(write=False)
+        poly = None if V is None else poly_arrays(V, frame, box)
         for k, v in (("_P", P), ("center", c), ("level", lvl), ("coords", coords),
-                     ("name", str(name)), ("V", V), ("frame", frame), ("box", box)):  # fmt: skip
+                     ("name", str(name)), ("V", V), ("frame", frame), ("box", box),
+                     ("poly", poly)):  # fmt: skip
             object.__setattr__(self, k, v)
 
     @classmethod
@@ -175,17 +178,15 @@ class TerminalSet:
 
     @property
     def quadratic(self) -> bool:
-        """Whether V is quadratic (the numba kernels' fast path)."""
+        """Whether V is quadratic (an ellipsoid with its matrix :attr:`P`)."""
         return self._P is not None
 
     @property
     def P(self) -> np.ndarray:
-        """The matrix of a quadratic V; a non-quadratic V has none (the numba kernels need it)."""
+        """The matrix of a quadratic V; a polynomial V has none (see :attr:`poly`)."""
         if self._P is None:
             raise RoaInputError(
-                f"terminal set {self.name!r}: V is a degree-{self.degree} polynomial and the numba "
-                "kernels test quadratic V only: use backend='numpy' (roa.basin and run_basin "
-                "switch to it by themselves)"
+                f"terminal set {self.name!r}: V is a degree-{self.degree} polynomial, not x'Px"
             )
         return self._P
 
@@ -232,13 +233,9 @@ class TerminalSet:
     def contains(self, y: np.ndarray) -> np.ndarray:
         """Analysis-coordinate points ``y`` (shape ``(m, n)``) inside the set, with the margin."""
         y = np.asarray(y, dtype=float)
-        inside = self.value(y) <= self.threshold  # NaN compares False
-        if self._P is None:
-            assert self.frame is not None and self.box is not None
-            with np.errstate(all="ignore"):
-                z = np.linalg.solve(self.frame, (y - self.center).T).T
-            inside &= ((z >= self.box[0]) & (z <= self.box[1])).all(axis=-1)
-        return inside
+        if self.poly is not None:  # the kernels' arithmetic (roa/montecarlo/terminal_poly.py)
+            return member_numpy(y, self.center, self.poly, self.threshold)
+        return self.value(y) <= self.threshold  # NaN compares False
 
     @classmethod
     def from_certificate(cls, source: str | Path | dict[str, Any], system: System) -> TerminalSet:

@@ -13,7 +13,7 @@ certified (other components of ``{V <= level}``, which no certificate covers, ar
 then :func:`roa.proof.validate_general.connected_to_center`: interval enclosures prove the segment
 from ``c`` lies in the set) and returns their bounding box in ``y``, shrunk by a relative
 ``1e-9`` against rounding in ``y = M^-1 (x - c)``. :func:`polynomial_terminal` builds the
-terminal set of such a certificate; :func:`kernel_backend` runs it on the numpy integrator.
+terminal set of such a certificate.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
-from roa.system import System
 
 if TYPE_CHECKING:
     from roa.montecarlo.terminal import TerminalSet
@@ -132,26 +131,3 @@ def polynomial_terminal(
         return TerminalSet(P, center, data["level"], coords, name)
     frame = data.get("M")  # the validation ran in y with x = x_eq + M y (roa certify --json)
     return TerminalSet.polynomial(V, float(data["level"]), coords, name, frame=frame)
-
-
-def kernel_backend(
-    terminal: TerminalSet | None, system: System, backend: str
-) -> tuple[str, str | None]:
-    """The integrator back end for a run with ``terminal`` and a note when it changes.
-
-    The numba kernels test a quadratic V only: with a non-quadratic V, ``auto`` runs on the numpy
-    integrator (same statuses, slower) and says so; ``numba`` is refused.
-    """
-    if terminal is None or terminal.quadratic:
-        return backend, None
-    if backend == "numpy" or (backend == "auto" and "numba" not in system.meta):
-        return backend, None
-    if backend == "numba":
-        raise RoaInputError(
-            f"terminal set {terminal.name!r}: V has degree {terminal.degree}; the numba kernels "
-            "test quadratic V only: use backend 'numpy' or 'auto'"
-        )
-    return "numpy", (
-        f"terminal set V of degree {terminal.degree}: the numba kernels test quadratic V only, "
-        "so this run uses the numpy integrator"
-    )

@@ -93,6 +93,7 @@ BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
 RULES = StopRules(t_final=30.0)
 RTOL, ATOL = 1e-6, 1e-9
 CERTIFIED = Path(__file__).resolve().parents[1] / "results/certify/certified.json"
+DEGREES = Path(__file__).resolve().parents[1] / "results/degrees/evidence.json"
 #: Chunks per worker process (work balance: a worker slowed down leaves less idle time at the end).
 CHUNKS_PER_JOB = 4
 
@@ -149,6 +150,23 @@ def certified_set(which: str) -> TerminalSet:
     raise SystemExit(f"{CERTIFIED}: no certified entry {prefix!r}")
 
 
+def degree4_set() -> TerminalSet:
+    """The IPC's certified degree-4 V (flat coordinates) of results/degrees/evidence.json, as a
+    polynomial terminal set (its certified component, roa/montecarlo/terminal_general.py)."""
+    from roa.regions import lyapunov_from_json
+
+    row = json.loads(DEGREES.read_text())["ipc"]["degrees"]["4 (sampled)"]
+    if row["status"] != "certified":
+        raise SystemExit(f"{DEGREES}: the degree-4 V is {row['status']}, not certified")
+    V = lyapunov_from_json(row["V"], np.zeros(4), name=row["V"]["lyapunov"])
+    name = f"{row['V']['lyapunov']} <= {row['level']:.6g}"
+    return TerminalSet.polynomial(V, row["level"], coords="flat", name=name)
+
+
+def terminal_set(which: str) -> TerminalSet:
+    return degree4_set() if which == "degree4" else certified_set(which)
+
+
 def _public(system):
     """The system without its fast path: the kernel takes the public cfuncs (meta["numba"])."""
     return dataclasses.replace(
@@ -167,14 +185,15 @@ def _engine(system, smp, jobs, terminal=None, repeat=3):
     return run, float(np.median(times)), min(times)
 
 
-def speed(n: int, n_engine: int, jobs: int, which: str, public: bool) -> None:
+def speed(n: int, n_engine: int, jobs: int, which: list[str], public: bool) -> None:
     system = ipc.closed_loop()
-    terminal = certified_set(which)
+    terminals = {w: terminal_set(w) for w in which}
     smp = box_sample(system, BOX, n_engine, seed=0)
     X = smp.points(0, n)  # the baseline runs the first n of the engine's samples
-    modes = [("plain", system, None), ("terminal", system, terminal)]
+    modes = [("plain", system, None), *((f"T:{w}", system, t) for w, t in terminals.items())]
     if public:  # the same with the public cfuncs (the protocol of user systems)
-        modes += [("plain-pub", _public(system), None), ("term-pub", _public(system), terminal)]
+        modes += [("plain-pub", _public(system), None),
+                  *((f"T:{w}-pub", _public(system), t) for w, t in terminals.items())]  # fmt: skip
     # warm both sides (worker start-up, numba cache load) on a few other states
     warm = box_sample(system, BOX, 64, seed=99)
     for _, sys_, term in modes:  # 8 chunks: every worker loads the kernels
@@ -182,6 +201,14 @@ def speed(n: int, n_engine: int, jobs: int, which: str, public: bool) -> None:
     Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X[:8], jobs))
 
     rows = [(mode, *_engine(sys_, smp, jobs, term)) for mode, sys_, term in modes]
+    steps = {
+        mode: float(
+            I.integrate_batch(
+                sys_, X, rules=RULES, rtol=RTOL, atol=ATOL, terminal=term
+            ).steps.mean()
+        )
+        for mode, sys_, term in modes
+    }  # accepted steps per run (the baseline's states)
     t0 = time.perf_counter()
     parts = Parallel(n_jobs=jobs)(delayed(_baseline_chunk)(c) for c in np.array_split(X, 8 * jobs))
     t_base = time.perf_counter() - t0
@@ -189,11 +216,13 @@ def speed(n: int, n_engine: int, jobs: int, which: str, public: bool) -> None:
     rate_base = n / t_base
     print(f"IPC (physical coordinates), box {BOX}, rtol {RTOL:g}, atol {ATOL:g}, "
           f"T = {RULES.t_final:g}, {jobs} cores")  # fmt: skip
-    print(f"terminal set: {terminal.name} (flat coordinates, V <= level (1 - 1e-9))")
+    for w, t in terminals.items():
+        print(f"terminal set T:{w}: {t.name} (flat coordinates, degree {t.degree}, "
+              "V <= level (1 - 1e-9))")  # fmt: skip
     print(f"  baseline (joblib loop over solve_ivp RK45): {n} states in {t_base:.2f} s = "
           f"{rate_base:.1f} trajectories/s")  # fmt: skip
     print(f"  {'mode':9s} {'states':>8s} {'seconds':>8s} {'traj/s':>10s} {'best/s':>10s} "
-          f"{'x baseline':>10s} {'agree':>11s}  entered")  # fmt: skip
+          f"{'x baseline':>10s} {'agree':>11s}  entered  steps/run")  # fmt: skip
     bad = False
     for mode, run, t_med, t_best in rows:
         mine = [I.CODE_STATUS[int(c)].value for c in run.code[:n]]
@@ -201,7 +230,8 @@ def speed(n: int, n_engine: int, jobs: int, which: str, public: bool) -> None:
         bad |= agree != n
         rate = n_engine / t_med
         print(f"  {mode:9s} {n_engine:8d} {t_med:8.3f} {rate:10.0f} {n_engine / t_best:10.0f} "
-              f"{rate / rate_base:9.0f}x {agree:5d}/{n:<5d}  {run.entered_certified_set}")  # fmt: skip
+              f"{rate / rate_base:9.0f}x {agree:5d}/{n:<5d}  {run.entered_certified_set:7d}  "
+              f"{steps[mode]:.1f}")  # fmt: skip
     for mode, run, *_ in rows:
         print(f"  statuses ({mode}): {run.counts()}")
     print("  targets: plain >= 20,000/s; terminal >= 100,000/s and >= 3,000x the baseline")
@@ -235,9 +265,11 @@ def main() -> None:
     )
     ap.add_argument(
         "--terminal",
-        choices=("paper", "optimised"),
-        default="optimised",
-        help="certified V of results/certify/certified.json for the terminal set",
+        choices=("paper", "optimised", "degree4"),
+        nargs="+",
+        default=["optimised", "degree4"],
+        help="terminal sets, each a mode: a quadratic V of results/certify/certified.json "
+        "(paper, optimised) or the degree-4 V of results/degrees/evidence.json",
     )
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument(

@@ -10,8 +10,12 @@
   SDPs have Gram blocks of 128 monomials), degree 4 by the sampled cutting-plane search
   (``ipc_sampled_degrees``, :func:`roa.certification_vs.certify_sampled`: no SDP over the field,
   the level proved by the same interval validation).
+* **IPC, hybrid coordinates** (q, z2, w1, w2) (``hybrid_degrees``): degree 2 the certify
+  experiment's box-optimised quadratic V there (C9), degree 4 the sampled search seeded by it;
+  the same columns.
 
-Claims D1 (Van der Pol), D2 (IPC, the paper's 60 deg) and D3 (IPC, box share) go to the report.
+Claims D1 (Van der Pol), D2 (IPC, the paper's 60 deg), D3 (IPC, box share) and D4 (the IPC in
+hybrid coordinates) go to the report.
 """
 
 from __future__ import annotations
@@ -42,7 +46,9 @@ class DegreeParams(Options):
     ``sampled_*`` its options: decrease margin, outer radius, rounds, the sector held in
     ``{V <= 1}``); the level validated is the least one whose float estimates reach
     ``sector_goal`` deg and the box share ``share_goal`` (else ``level_safety`` x the sampled
-    optimum), the optimum x 1.001 checked to be refuted.
+    optimum), the optimum x 1.001 checked to be refuted. ``hybrid_degrees``: the IPC in hybrid
+    coordinates (q, z2, w1, w2): 2 the certify experiment's quadratic V there, higher degrees by
+    the sampled search seeded by it (``[]``: not run).
     """
 
     vdp_degrees: tuple[int, ...] = (2, 4, 6, 8)
@@ -63,6 +69,7 @@ class DegreeParams(Options):
     sampled_hard_deg: float = 60.5
     sector_goal: float = 61.0
     share_goal: float = 0.96
+    hybrid_degrees: tuple[int, ...] = (2, 4)
 
 
 def limit_cycle(vdp: Any) -> tuple[np.ndarray, float]:
@@ -82,7 +89,9 @@ def limit_cycle(vdp: Any) -> tuple[np.ndarray, float]:
 def _times(cert: Any) -> dict[str, float]:
     v = cert.validation.seconds if cert.validation is not None else 0.0
     a = cert.above.seconds if cert.above is not None else 0.0
-    return {"solver_s": round(cert.vs.seconds, 2), "validation_s": round(v, 2),
+    # the V search (V-s or cutting planes), else the level search of a given V
+    solver = cert.vs.seconds if cert.vs is not None else cert.seconds - v - a
+    return {"solver_s": round(solver, 2), "validation_s": round(v, 2),
             "refute_above_s": round(a, 2), "total_s": round(cert.seconds, 2)}  # fmt: skip
 
 
@@ -96,7 +105,7 @@ def _row(cert: Any) -> dict[str, Any]:
         "boxes": None if cert.validation is None else cert.validation.boxes,
         "V": cert.V.describe() if cert.V is not None else None,
         "vs": cert.vs.to_dict() if cert.vs is not None else None,
-        **(_times(cert) if cert.vs is not None else {}),
+        **_times(cert),
     }
 
 
@@ -146,23 +155,50 @@ def _ipc(p: dict[str, Any], results: Path) -> dict[str, Any]:
     return {"seed": seed.name, "seed_P": P.tolist(), "degrees": rows}
 
 
-def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any]) -> Any:
+def _ipc_hybrid(p: dict[str, Any], results: Path) -> dict[str, Any]:
+    """The IPC in hybrid coordinates (q, z2, w1, w2): degree 2 is the certify experiment's
+    box-optimised quadratic V there (case C9; its level found by sampling, proved by interval
+    validation, refuted x1.001), degree 4 the sampled cutting-plane search seeded by it."""
+    import roa
+    from roa.systems.ipc.hybrid import hybrid
+
+    ev = json.loads((results / "certify" / "evidence.json").read_text())
+    P = np.asarray(ev["ipc_hybrid_box"]["search"]["P"], dtype=float)
+    hyb = hybrid()
+    seed = roa.QuadraticLyapunov(P, np.zeros(4), "quadratic V in hybrid coordinates (box fraction)")
+    rows = {}
+    for d in p["hybrid_degrees"]:
+        if int(d) == 2:
+            with step("degrees: IPC (hybrid), degree 2 (the quadratic seed)"):
+                cert = roa.certify(hyb, seed, method="both", check_above=1.001,
+                                   interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
+            rows["2"] = _ipc_row(cert, p, "hybrid")
+            continue
+        with step(f"degrees: IPC (hybrid), degree {d}, sampled search"):
+            cert = _ipc_sampled(hyb, seed, int(d), p, "hybrid")
+        rows[f"{d} (sampled)"] = _ipc_row(cert, p, "hybrid")
+    return {"seed": seed.name, "seed_P": P.tolist(), "coords": "hybrid", "degrees": rows}
+
+
+def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "flat") -> Any:
     """The sampled search with the paper's sector (to ``sampled_hard_deg``) as hard targets and
     uniform samples of the reference box as soft ones; the level: see :class:`DegreeParams`."""
     import roa
+    from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _sector_curve
     from roa.certification_vs import certify_sampled
     from roa.options import SampleSearchOptions
-    from roa.systems.ipc import REFERENCE_BOX, physical_to_flat_or_inf
+    from roa.systems.ipc import REFERENCE_BOX
 
+    to_y = coords_map(coords)
     rng = np.random.default_rng(p["seed"])
     b = np.asarray(REFERENCE_BOX, dtype=float)
-    soft = physical_to_flat_or_inf(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((3000, 4)))
+    soft = to_y(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((3000, 4)))
     t = np.radians(np.linspace(-p["sampled_hard_deg"], p["sampled_hard_deg"], 41))
-    hard = physical_to_flat_or_inf(_sector_curve(t))
-    est = physical_to_flat_or_inf(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((p["n_box"], 4)))
+    hard = to_y(_sector_curve(t))
+    est = to_y(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((p["n_box"], 4)))
     th = np.radians(np.linspace(0.0, p["sector_goal"], 200))
-    arc = physical_to_flat_or_inf(_sector_curve(th))
+    arc = to_y(_sector_curve(th))
     opts = SampleSearchOptions(degree=d, margin=p["sampled_margin"], outer=p["sampled_outer"],
                                local_margin=p["sampled_local_margin"],
                                rounds=p["sampled_rounds"], seed=p["seed"])  # fmt: skip
@@ -176,16 +212,28 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any]) -> Any:
                            interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
 
 
-def _ipc_row(cert: Any, p: dict[str, Any]) -> dict[str, Any]:
+def _components(coords: str) -> Any:
+    """Physical components -> the named analysis coordinates, for any namespace."""
+    from roa.systems.ipc.coordinates import to_flat_components
+
+    if coords == "flat":
+        return to_flat_components
+
+    def hybrid(q: Any, qd: Any, th: Any, thd: Any, xp: Any) -> tuple:
+        return (q, *to_flat_components(q, qd, th, thd, xp)[1:])  # z1 -> q
+
+    return hybrid
+
+
+def _ipc_row(cert: Any, p: dict[str, Any], coords: str = "flat") -> dict[str, Any]:
     """The row of one IPC certificate: level, times, the certified sector, the box share."""
     from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _box_fraction, _sector_curve
     from roa.proof.search import sector
     from roa.proof.sector import certified_sector, degrees_lower
     from roa.systems.ipc import REFERENCE_BOX
-    from roa.systems.ipc.coordinates import to_flat_components
 
-    c2y = coords_map("flat")
+    c2y, comps = coords_map(coords), _components(coords)
     row = _row(cert)
     if cert.certified and cert.V is not None and cert.level is not None:
         V, level = cert.V, float(cert.level)
@@ -199,7 +247,7 @@ def _ipc_row(cert: Any, p: dict[str, Any]) -> dict[str, Any]:
             return out
 
         def form_xp(x: Any, xp: Any, V: Any = V) -> Any:
-            return V.expr(list(to_flat_components(x[0], x[1], x[2], x[3], xp)), xp)
+            return V.expr(list(comps(x[0], x[1], x[2], x[3], xp)), xp)
 
         t_max = np.pi / 2 - 1e-6
         th = certified_sector(form_xp, level, lambda s, xp: (0.0, 0.0, s, 0.0), t_max)
@@ -219,6 +267,8 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     ev: dict[str, Any] = {"vanderpol": _vanderpol(params)}
     any_ipc = params["ipc_degrees"] or params["ipc_sampled_degrees"]
     ev["ipc"] = _ipc(params, out.parent) if any_ipc else {"degrees": {}}
+    hyb = params["hybrid_degrees"]
+    ev["ipc_hybrid"] = _ipc_hybrid(params, out.parent) if hyb else {"degrees": {}}
     ev["seconds"] = round(time.perf_counter() - t0, 1)
     atomic_write_json(out / "evidence.json", ev)
     figure(ev, out / "degrees.png")

@@ -151,3 +151,27 @@ def test_saturated_field_is_refused_by_sos():
     )
     res = vs_search(sat, roa.default_lyapunov(sat), degree=2, rounds=1)
     assert res.status is SosStatus.NOT_POLYNOMIAL and "saturation" in res.message
+
+
+def test_degrees_hybrid_row_matches_the_certify_case():
+    """The degrees experiment's hybrid-coordinate row at degree 2 (ipc_paper.degrees._ipc_hybrid)
+    certifies the certify experiment's quadratic V there (C9, results/certify/evidence.json) at the
+    same level, refutes 1.001 x its sampled optimum, and its sector and box share are those of C9
+    (computed there by other code: ipc_paper/certify_runs.py) within the box share's CI."""
+    import dataclasses
+    import json
+    from pathlib import Path
+
+    from ipc_paper import degrees
+
+    root = Path(__file__).resolve().parents[1] / "results"
+    c9 = json.loads((root / "certify" / "evidence.json").read_text())["ipc_hybrid_box"]
+    p = dataclasses.asdict(degrees.DegreeParams()) | {"hybrid_degrees": (2,), "n_box": 20000}
+    row = degrees._ipc_hybrid(p, root)["degrees"]["2"]
+    assert row["status"] == "certified" and row["above"] == "refuted"
+    assert row["level"] == pytest.approx(c9["below"]["level"], rel=1e-9)
+    assert row["above_level"] > row["candidate"] > row["level"]
+    phys = c9["physical"]
+    assert row["sector_deg"] == pytest.approx(phys["sector_deg"], abs=0.01)
+    lo, hi = row["box"]["ci95"]
+    assert lo - 0.01 < phys["box"]["fraction"] < hi + 0.01

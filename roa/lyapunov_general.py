@@ -235,30 +235,48 @@ class PolynomialLyapunov(Lyapunov):
         return [x[i] - float(self.center[i]) for i in range(self.n)]
 
     @staticmethod
-    def _mono(d: list[Any], a: tuple[int, ...]) -> Any:
-        out: Any = None
-        for di, k in zip(d, a, strict=True):
-            if k:
-                p = di**k if k > 1 else di
-                out = p if out is None else out * p
-        return 1.0 if out is None else out
+    def _mono(d: list[Any], a: tuple[int, ...], memo: dict[Any, Any] | None = None) -> Any:
+        """``prod_i d_i^a_i`` multiplied left to right (``d_i^k`` by ``**``, tight for intervals).
+
+        ``memo`` shares the powers and the left-to-right partial products between the monomials of
+        one evaluation (the same operations in the same order, so the same numbers and
+        enclosures, computed once).
+        """
+        if memo is None:
+            memo = {}
+        if a in memo:
+            return memo[a]
+        last = max((i for i, k in enumerate(a) if k), default=-1)
+        if last < 0:
+            return 1.0
+        k = a[last]
+        key = ("power", last, k)
+        if key not in memo:
+            memo[key] = d[last] ** k if k > 1 else d[last]
+        p = memo[key]
+        head = tuple(v if i < last else 0 for i, v in enumerate(a))
+        out = p if not any(head) else PolynomialLyapunov._mono(d, head, memo) * p
+        memo[a] = out
+        return out
 
     def expr(self, x: Any, xp: Any) -> Any:
         d = self._d(x)
         out: Any = 0.0
+        memo: dict[Any, Any] = {}
         for a, c in self.terms.items():
-            out = self._mono(d, a) * c + out
+            out = self._mono(d, a, memo) * c + out
         return out
 
     def gradient_expr(self, x: Any, xp: Any) -> list[Any]:
         d = self._d(x)
         grads = []
+        memo: dict[Any, Any] = {}
         for i in range(self.n):
             g: Any = 0.0
             for a, c in self.terms.items():
                 if a[i]:
                     b = tuple(k - (j == i) for j, k in enumerate(a))
-                    term = self._mono(d, b) * c
+                    term = self._mono(d, b, memo) * c
                     g = (term * a[i] if a[i] > 1 else term) + g
             grads.append(g)
         return grads

@@ -46,7 +46,7 @@ def sublevel_contains(
         return {"status": status, "boxes": boxes, "seconds": round(time.perf_counter() - t0, 3),
                 "coordinates": "whitened" if M is not None else "x", **kw}  # fmt: skip
 
-    box, info, why = _cover(inner, a, None)
+    box, info, why = _cover(inner, a, None, budget=max_boxes)
     if box is None:
         return out("inconclusive", info.get("cover_boxes", 0), message=f"no cover: {why}")
     lo, hi = box[0][None, :], box[1][None, :]

@@ -93,7 +93,9 @@ def _interval_V(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
 def prove_boundary(
     lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, *, budget: int = 400_000
 ) -> tuple[bool, int]:
-    """Prove ``V > level`` on every face of the box ``[lo, hi]`` (returns (proved, boxes))."""
+    """Prove ``V > level`` on every face of the box ``[lo, hi]`` (returns (proved, boxes));
+    not proved once more than ``budget`` boxes are evaluated (the validation passes its own
+    ``max_boxes``)."""
     n = lyap.n
     boxes = 0
     for k, side in itertools.product(range(n), (0, 1)):

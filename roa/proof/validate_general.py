@@ -7,15 +7,37 @@ its connected component holding the equilibrium (a box with ``V > level`` on its
 every trajectory from it converges to ``x_eq`` (LaSalle). Steps, all in interval arithmetic with
 outward rounding:
 
-1. **Cover**: a box ``B`` around ``x_eq`` proved to hold ``Omega``.
+1. **Cover**: a box ``B`` around ``x_eq`` proved to hold ``Omega``; the face proofs share the
+   caller's ``max_boxes`` as their budget (over every box tried).
 2. **Near the equilibrium**: the box ``x_eq + r (B - x_eq)`` (largest ``r = 2^-k``) on which the
    Hessian of ``V'`` (second-order jets of ``V' = grad V . f``) is negative definite (exact
    rational check), with ``f(x_eq) = 0`` exactly and ``grad V(x_eq) = 0`` in interval arithmetic;
    else the lowest-order homogeneous part of a polynomial ``V'`` (:mod:`roa.proof.local`).
-3. **Branch and bound** over ``B``: a box is discarded when the interval ``V > level``, when it
-   lies in the local box, or when ``V' < 0`` (natural extension, centred and second-order Taylor
-   forms intersected) and it is inside the domain. Undecided box centres (moved onto ``V <= level``
-   along their ray) are tried as counterexamples, re-checked at 50 digits with mpmath.
+3. **Branch and bound** over ``B``. A box ``X`` is discarded when
+
+   * the interval ``V > level`` (natural extension, centred form and second-order Taylor form
+     ``V(m) + grad V(m) . d + d' [H_V](X) d / 2`` intersected, ``d = x - m``, ``m`` the centre;
+     each holds by Taylor's theorem with ``[H_V](X)`` enclosing the Hessian on ``X``);
+   * it lies in the local box of step 2;
+   * it is inside the domain and ``V' < 0`` on it (the same three forms for ``V'``);
+   * it is inside the domain and, on a box reaching past the level surface, the **multiplier
+     test** holds: ``F = V' + lambda (level - V) < 0`` on ``X`` for a number ``lambda >= 0``
+     (the three forms of ``F``, whose jets are those of ``V'`` and ``V`` combined in interval
+     arithmetic). Then every ``x`` of ``X`` with ``V(x) <= level`` has
+     ``V'(x) <= V'(x) + lambda (level - V(x)) = F(x) < 0``, whatever ``lambda >= 0`` is; the
+     float ``lambda = max(0, grad V' . grad V / |grad V|^2)`` at ``m`` (the Lagrange multiplier of
+     ``max V'`` on the level surface, where the two gradients are parallel) only makes ``F`` flat
+     there. Near the point where ``V' = 0`` first touches a level surface, ``V'`` changes sign
+     just outside the set, so ``V' < 0`` on whole boxes needs boxes as thin as the margin to the
+     optimal level; ``F`` has a strict maximum there instead.
+
+   Else the box is split along the coordinate with the largest ``|grad| * width`` (of ``F``
+   where it was tried). Undecided box centres inside the set, and at most
+   :data:`WITNESS_RAYS` of those outside moved onto ``V <= level`` along their ray, are tried as
+   counterexamples, re-checked at 50 digits with mpmath.
+
+In the whitened frame (:mod:`roa.proof.whiten`) a polynomial ``V`` is evaluated from exact
+expansions in ``y`` (the same functions, tighter enclosures).
 """
 
 from __future__ import annotations
@@ -99,36 +121,97 @@ def local_box_proof(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarr
     return hessian_negative_definite(vd, lyap.n)
 
 
-def _evaluate(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray):
+def _rows(e: Any, idx: np.ndarray) -> Any:
+    """The boxes ``idx`` of a jet coefficient (an exact float, or an Interval per box or scalar)."""
+    if type(e) is float:
+        return e
+    iv = Interval.of(e)
+    return iv if iv.lo.ndim == 0 else Interval(iv.lo[idx], iv.hi[idx])
+
+
+def _forms(v_mid: Any, g_mid: list, g_box: list, h_box: list, delta: list, m: int):
+    """Centred form ``f(mid) + sum_i [g_i](box) d_i`` and second-order Taylor form
+    ``f(mid) + sum_i g_i(mid) d_i + 1/2 sum_ij [h_ij](box) d_i d_j`` (``d = x - mid``)."""
+    n = len(delta)
+    cen = tay = _full(v_mid, m)
+    for i in range(n):
+        cen = cen + _full(g_box[i], m) * delta[i]
+        tay = tay + _full(g_mid[i], m) * delta[i]
+        for j in range(i, n):
+            hij = _full(h_box[i][j], m)
+            tay = tay + (hij * 0.5 * delta[i].square() if j == i else hij * (delta[i] * delta[j]))
+    return cen, tay
+
+
+def _meet(*ivs: Interval) -> Interval:
+    """The intersection of enclosures of the same values (one per box)."""
+    m = max(np.shape(iv.lo)[0] if np.ndim(iv.lo) else 1 for iv in ivs)
+    lo = np.maximum.reduce([np.broadcast_to(iv.lo, (m,)) for iv in ivs])
+    hi = np.minimum.reduce([np.broadcast_to(iv.hi, (m,)) for iv in ivs])
+    return Interval(lo, hi)
+
+
+def _midpoints(e: Any, m: int) -> np.ndarray:
+    if type(e) is float:
+        return np.full(m, e)
+    iv = Interval.of(e)
+    return np.broadcast_to(0.5 * iv.lo + 0.5 * iv.hi, (m,))
+
+
+def _evaluate(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float):
+    """Enclosures on the boxes: ``V`` and ``V'`` (natural extension, centred and second-order
+    Taylor forms intersected), the upper bound of ``F = V' + lambda (level - V)`` on the boxes
+    that reach past the level surface (``inf`` elsewhere, step 3 of the module doc), the split
+    scores and the domain margin (None without a domain)."""
     from roa.proof.validate import box_offsets
 
     n, m = lyap.n, len(lo)
-    vd = lyap.vdot_expr(system, Jet.variables(lo, hi, order=2), JET)
     mid = 0.5 * (lo + hi)
-    at = lyap.vdot_expr(system, Jet.variables(mid, mid, order=1), JET)
     delta = box_offsets(lo, hi, mid)
-    vc = _full(at.v, m)
-    cen, tay = vc, vc
+    vd = lyap.vdot_expr(system, Jet.variables(lo, hi, order=2), JET)
+    at = lyap.vdot_expr(system, Jet.variables(mid, mid, order=1), JET)
+    cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
+    vdot = _meet(_full(vd.v, m), cen, tay)
+    Vb = lyap.expr(Jet.variables(lo, hi, order=2), JET)
+    Vm = lyap.expr(Jet.variables(mid, mid, order=1), JET)
+    V = _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m))
     score = np.zeros_like(lo)
     for i in range(n):
         g = _full(vd.g[i], m)
-        cen = cen + g * delta[i]
-        tay = tay + _full(at.g[i], m) * delta[i]
-        for j in range(i, n):
-            hij = _full(vd.h[i][j], m)
-            tay = tay + (hij * 0.5 * delta[i].square() if j == i else hij * (delta[i] * delta[j]))
         score[:, i] = np.maximum(np.abs(g.lo), np.abs(g.hi)) * (hi[:, i] - lo[:, i])
-    nat = _full(vd.v, m)
-    vdot = Interval(
-        np.maximum(np.maximum(nat.lo, cen.lo), tay.lo),
-        np.minimum(np.minimum(nat.hi, cen.hi), tay.hi),
-    )
-    V = _interval_V(lyap, lo, hi)
+    F_hi = np.full(m, np.inf)
+    idx = np.flatnonzero(~(V.lo > level) & ~(vdot.hi < 0) & (V.hi > level))
+    if len(idx):
+        k = len(idx)
+        gd = np.stack([_midpoints(_rows(at.g[i], idx), k) for i in range(n)], axis=1)
+        gv = np.stack([_midpoints(_rows(Vm.g[i], idx), k) for i in range(n)], axis=1)
+        with np.errstate(all="ignore"):
+            lam = np.sum(gd * gv, axis=1) / np.sum(gv * gv, axis=1)
+        lam = Interval(np.where(np.isfinite(lam) & (lam > 0), lam, 0.0))  # any lambda >= 0
+        rest = Interval(level) - _full(_rows(Vm.v, idx), k)
+
+        def comb(a: Any, b: Any) -> Interval:  # a - lambda b
+            return _full(_rows(a, idx), k) - lam * _full(_rows(b, idx), k)
+
+        f_mid = _full(_rows(at.v, idx), k) + lam * rest
+        f_nat = _full(_rows(vd.v, idx), k) + lam * (Interval(level) - _full(_rows(Vb.v, idx), k))
+        g_mid = [comb(at.g[i], Vm.g[i]) for i in range(n)]
+        g_box = [comb(vd.g[i], Vb.g[i]) for i in range(n)]
+        h_box = [[comb(vd.h[i][j], Vb.h[i][j]) if j >= i else 0.0 for j in range(n)]
+                 for i in range(n)]  # fmt: skip
+        d_idx = [Interval(d.lo[idx], d.hi[idx]) for d in delta]
+        f_cen, f_tay = _forms(f_mid, g_mid, g_box, h_box, d_idx, k)
+        F_hi[idx] = np.minimum(np.minimum(f_nat.hi, f_cen.hi), f_tay.hi)
+        w = hi[idx] - lo[idx]
+        score[idx] = np.stack(
+            [np.maximum(np.abs(g_box[i].lo), np.abs(g_box[i].hi)) * w[:, i] for i in range(n)],
+            axis=1,
+        )
     margin = None
     if system.margin is not None:
         X = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
         margin = _full(system.margin(X, INTERVAL), m)
-    return V, vdot, score, margin
+    return V, vdot, F_hi, score, margin
 
 
 def connected_to_center(lyap: Lyapunov, w: np.ndarray, level: float, *, rounds: int = 40) -> bool:
@@ -156,11 +239,22 @@ def connected_to_center(lyap: Lyapunov, w: np.ndarray, level: float, *, rounds: 
     return False
 
 
+#: Box centres outside the level set moved onto it per batch (those with the largest float V').
+WITNESS_RAYS = 4096
+
+
 def _witness(system: System, lyap: Lyapunov, pts: np.ndarray, level: float) -> np.ndarray | None:
-    """A point of ``{V <= level}`` with V' >= 0 among ``pts`` and their moves onto the level set."""
+    """A point of ``{V <= level}`` with V' >= 0 among ``pts`` and the moves onto the level set of
+    at most :data:`WITNESS_RAYS` of those outside it (a search: every candidate is re-checked)."""
     c = lyap.center
     with np.errstate(all="ignore"):
         Vp = lyap.value(pts)
+        inner = pts[Vp <= level]
+        out = np.flatnonzero(~(Vp <= level))
+        if len(out) > WITNESS_RAYS:
+            Vd_out = np.nan_to_num(lyap.derivative(system, pts[out]), nan=-np.inf)
+            out = out[np.argsort(-Vd_out, kind="stable")[:WITNESS_RAYS]]
+        pts = pts[out]
         t_lo, t_hi = np.zeros(len(pts)), np.ones(len(pts))
         for _ in range(45):  # along each ray: the last t with V <= level before 1
             mid = 0.5 * (t_lo + t_hi)
@@ -169,7 +263,7 @@ def _witness(system: System, lyap: Lyapunov, pts: np.ndarray, level: float) -> n
         # just inside the level set (1 - 1e-6 of the way): a witness there is provably in the
         # equilibrium's component with short interval pieces (connected_to_center)
         moved = c + (t_lo * (1 - 1e-6))[:, None] * (pts - c)
-        cand = np.concatenate([pts[Vp <= level], moved[t_lo > 0]])
+        cand = np.concatenate([inner, moved[t_lo > 0]])
         if not len(cand):
             return None
         Vd, Vc = lyap.derivative(system, cand), lyap.value(cand)
@@ -180,8 +274,11 @@ def _witness(system: System, lyap: Lyapunov, pts: np.ndarray, level: float) -> n
     return None if idx.size == 0 else cand[idx[np.argmax(Vd[idx])]]
 
 
-def _cover(lyap: Lyapunov, level: float, bounding_box: Any) -> tuple[Any, dict[str, Any], str]:
-    """(lo, hi) of a proved cover, its description, or (None, info, why not)."""
+def _cover(
+    lyap: Lyapunov, level: float, bounding_box: Any, budget: int = 400_000
+) -> tuple[Any, dict[str, Any], str]:
+    """(lo, hi) of a proved cover, its description, or (None, info, why not); ``budget``: boxes
+    of the face proofs (:func:`roa.proof.cover.prove_boundary`) over all the boxes tried."""
     c = lyap.center
     found = gram_cover(lyap, level)
     if found is not None:
@@ -198,7 +295,7 @@ def _cover(lyap: Lyapunov, level: float, bounding_box: Any) -> tuple[Any, dict[s
             )
         if not (np.all(np.isfinite(b)) and np.all(lo < c) and np.all(c < hi)):
             raise RoaInputError("bounding_box must be finite and hold the equilibrium inside")
-        ok, nb = prove_boundary(lyap, lo, hi, level)
+        ok, nb = prove_boundary(lyap, lo, hi, level, budget=budget)
         info = {"cover": "given box, V > level on its faces (component of x_eq)", "cover_boxes": nb}
         return ((lo, hi), info, "") if ok else (None, info, "V > level not proved on its faces")
     w = ray_box(lyap, level)
@@ -207,13 +304,16 @@ def _cover(lyap: Lyapunov, level: float, bounding_box: Any) -> tuple[Any, dict[s
     total = 0
     for k in range(6):
         half = w * 1.05 * 1.3**k + 1e-12 * (1 + np.abs(c))
-        ok, nb = prove_boundary(lyap, c - half, c + half, level)
+        ok, nb = prove_boundary(lyap, c - half, c + half, level, budget=budget - total)
         total += nb
         if ok:
             info = {"cover": "box from rays, V > level on its faces (component of x_eq)",
                     "cover_boxes": total}  # fmt: skip
             return (c - half, c + half), info, ""
-    return None, {"cover_boxes": total}, "V > level could not be proved on the faces of a box"
+        if total >= budget:
+            break
+    return None, {"cover_boxes": total}, (f"V > level could not be proved on the faces of a box "
+                                          f"({total} boxes, budget {budget})")  # fmt: skip
 
 
 def validate_general(
@@ -248,7 +348,7 @@ def validate_general(
     def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
         return Validation(status, level, boxes, time.perf_counter() - t0, message=message, **kw)
 
-    box, info, why = _cover(lyap, level, bounding_box)
+    box, info, why = _cover(lyap, level, bounding_box, budget=max_boxes)
     if box is None:
         return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
                    f"no proved box cover of the level set: {why}", meta=info)  # fmt: skip
@@ -270,18 +370,20 @@ def validate_general(
             loc_lo, loc_hi = c - rho, c + rho
             local = {"local_proof": "lowest-order homogeneous part", **found[1]}
     queue_lo, queue_hi = [lo0[None, :]], [hi0[None, :]]
-    boxes = proved = 0
+    boxes = proved = proved_F = 0
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
         queue_lo = [lo[batch:]] if len(lo) > batch else []
         queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, score, margin = _evaluate(system, lyap, lo, hi)
+        V, Vd, F_hi, score, margin = _evaluate(system, lyap, lo, hi, level)
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
         in_local = np.all((lo >= loc_lo) & (hi <= loc_hi), axis=1)
-        undecided = ~((V.lo > level) | in_local | ((Vd.hi < 0) & inside))
-        proved += int(np.count_nonzero((Vd.hi < 0) & inside))
+        decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside
+        undecided = ~((V.lo > level) | in_local | decreasing)
+        proved += int(np.count_nonzero(decreasing))
+        proved_F += int(np.count_nonzero(decreasing & ~(Vd.hi < 0)))
         lo, hi, score = lo[undecided], hi[undecided], score[undecided]
         if len(lo):
             w = _witness(system, lyap, 0.5 * (lo + hi), level)
@@ -326,7 +428,8 @@ def validate_general(
                    "of V' nor its lowest-order homogeneous part proves it)", meta={**info, **local})  # fmt: skip
     return out(Verdict.CERTIFIED, boxes,
                f"V' < 0 proved on {proved} boxes of the cover; local proof on a box around x_eq",
-               meta={"proved_boxes": proved, **info, **local})  # fmt: skip
+               meta={"proved_boxes": proved, "proved_by_multiplier": proved_F, **info,
+                     **local})  # fmt: skip
 
 
 def _in_x(res: Any, system: System, lyap: Lyapunov, W: Whitened) -> Any:

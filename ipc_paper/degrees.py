@@ -44,9 +44,9 @@ class DegreeParams(Options):
     recast variable's degree in the IPC's Gram bases (``< 0``: no cap). ``ipc_sampled_degrees``:
     the IPC by the sampled cutting-plane search (:func:`roa.certification_vs.certify_sampled`,
     ``sampled_*`` its options: decrease margin, outer radius, rounds, the sector held in
-    ``{V <= 1}``); the level validated is the least one whose float estimates reach
-    ``sector_goal`` deg and the box share ``share_goal`` (else ``level_safety`` x the sampled
-    optimum), the optimum x 1.001 checked to be refuted. ``hybrid_degrees``: the IPC in hybrid
+    ``{V <= 1}``); the level validated is ``level_safety`` x the optimum (sampled, or V at a
+    witness of a refuted validation: :func:`roa.certification_vs.certify_sampled`), the optimum x
+    1.001 checked to be refuted. ``hybrid_degrees``: the IPC in hybrid
     coordinates (q, z2, w1, w2): 2 the certify experiment's quadratic V there, higher degrees by
     the sampled search seeded by it (``[]``: not run).
     """
@@ -67,8 +67,7 @@ class DegreeParams(Options):
     sampled_outer: float = 2.5
     sampled_rounds: int = 40
     sampled_hard_deg: float = 60.5
-    sector_goal: float = 61.0
-    share_goal: float = 0.96
+    level_safety: float = 0.999
     hybrid_degrees: tuple[int, ...] = (2, 4)
 
 
@@ -196,17 +195,13 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "
     soft = to_y(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((3000, 4)))
     t = np.radians(np.linspace(-p["sampled_hard_deg"], p["sampled_hard_deg"], 41))
     hard = to_y(_sector_curve(t))
-    est = to_y(b[:, 0] + (b[:, 1] - b[:, 0]) * rng.random((p["n_box"], 4)))
-    th = np.radians(np.linspace(0.0, p["sector_goal"], 200))
-    arc = to_y(_sector_curve(th))
     opts = SampleSearchOptions(degree=d, margin=p["sampled_margin"], outer=p["sampled_outer"],
                                local_margin=p["sampled_local_margin"],
-                               rounds=p["sampled_rounds"], seed=p["seed"])  # fmt: skip
+                               rounds=p["sampled_rounds"], seed=p["seed"],
+                               level_safety=p["level_safety"])  # fmt: skip
 
-    def level(V: Any, opt: float) -> float:
-        need = max(float(np.max(V.value(arc))), float(np.quantile(V.value(est), p["share_goal"])))
-        cap = opts.level_safety * opt
-        return min(need * 1.0001, cap)
+    def level(V: Any, opt: float) -> float:  # the largest this V allows (below its optimum)
+        return opts.level_safety * opt
 
     return certify_sampled(ipc, seed, options=opts, hard=hard, soft=soft, level=level,
                            interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip

@@ -96,6 +96,7 @@ def certify_sampled(
     level: float | Callable[[Any, float], float] | None = None,
     interval: IntervalOptions | None = None,
     check_above: float | None = 1.001,
+    retries: int = 3,
 ) -> Any:
     """Search a polynomial V by sampled cutting planes (:mod:`roa.proof.sample_search`), then
     certify one of its levels with :func:`roa.certify` (interval validation).
@@ -107,7 +108,11 @@ def certify_sampled(
     ``min(1, options.level_safety * c*)`` (1 is the search's target level). ``check_above``:
     ``check_above * c*`` is validated too (expected: refuted, with a 50-digit witness; its cover is
     the box reached along rays, proved by ``V > level`` on its faces, without whitening), so the
-    report shows how close the certified level is to the best this V allows. The returned
+    report shows how close the certified level is to the best this V allows. A validation
+    refuted with a confirmed witness ``w`` (V' >= 0 at 50 digits, in the equilibrium's component)
+    proves the true optimum is at most ``V(w)``: up to ``retries`` times, ``c*`` becomes ``V(w)``
+    and the level is chosen again, at most ``options.level_safety * V(w)`` (the message says so;
+    ``candidate`` is then ``V(w)`` and ``check_above`` applies to it). The returned
     :class:`~roa.certification.Certificate` carries the search record in ``.vs``
     (``SampleSearchResult``).
     """
@@ -119,6 +124,8 @@ def certify_sampled(
     o = SampleSearchOptions() if options is None else options
     if check_above is not None and not (np.isfinite(check_above) and check_above > 1):
         raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
+    if isinstance(retries, bool) or not isinstance(retries, int) or not 0 <= retries <= 10:
+        raise RoaInputError(f"retries must be an integer in [0, 10], got {retries!r}")
     seed = _quadratic_seed(system, V0, "the sampled search starts from a quadratic seed; V0")
     with step(f"sampled search of V, degree {o.degree}"):
         res = sample_search(system, seed, hard=hard, soft=soft, options=o)
@@ -145,6 +152,29 @@ def certify_sampled(
         value = float(value)
     with step(f"validation of {V.name} at level {value:.6g}"):
         cert = certify(system, V, level=value, method="interval", interval=interval)
+    sampled, notes = opt, []
+    for _ in range(retries):
+        # a confirmed witness (V' >= 0 at 50 digits, in the equilibrium's component) bounds the
+        # true optimum by V(witness): the sampled one was above it; retry below the witness
+        w = cert.validation.witness if cert.validation is not None else None
+        ok = cert.validation is not None and (cert.validation.witness_check or {}).get("confirmed")
+        if cert.status is not Verdict.REFUTED or w is None or not ok:
+            break
+        bound = float(V.value(np.asarray([w], dtype=float))[0])
+        if not (0 < bound < opt):
+            break
+        notes.append(f"refuted at {value:.7g} (V' >= 0 at V = {bound:.10g}, 50 digits)")
+        opt = bound
+        value = level(V, opt) if callable(level) else o.level_safety * opt
+        value = min(float(value), o.level_safety * opt)
+        with step(f"validation of {V.name} at level {value:.6g} (below the witness)"):
+            cert = certify(system, V, level=value, method="interval", interval=interval)
+    if notes:
+        cert = dataclasses.replace(
+            cert,
+            message=f"{cert.message}; sampled optimum {sampled:.7g} is above the true one: "
+            + "; ".join(notes),
+        )
     above = None
     if check_above is not None:  # refute just above the optimum: a box from rays as the cover
         from roa.proof.cover import ray_box

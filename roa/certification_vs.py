@@ -110,9 +110,10 @@ def certify_sampled(
     the box reached along rays, proved by ``V > level`` on its faces, without whitening), so the
     report shows how close the certified level is to the best this V allows. A validation
     refuted with a confirmed witness ``w`` (V' >= 0 at 50 digits, in the equilibrium's component)
-    proves the true optimum is at most ``V(w)``: up to ``retries`` times, ``c*`` becomes ``V(w)``
-    and the level is chosen again, at most ``options.level_safety * V(w)`` (the message says so;
-    ``candidate`` is then ``V(w)`` and ``check_above`` applies to it). The returned
+    proves the true optimum is at most ``V(w)``: up to ``retries`` times, ``c*`` becomes
+    ``min(c*, V(w))`` and the level is chosen again, at most ``options.level_safety * c*`` and
+    below the refuted one (the message says so; ``check_above`` applies to the new ``c*``, which
+    is the returned ``candidate``). The returned
     :class:`~roa.certification.Certificate` carries the search record in ``.vs``
     (``SampleSearchResult``).
     """
@@ -155,25 +156,28 @@ def certify_sampled(
     sampled, notes = opt, []
     for _ in range(retries):
         # a confirmed witness (V' >= 0 at 50 digits, in the equilibrium's component) bounds the
-        # true optimum by V(witness): the sampled one was above it; retry below the witness
+        # true optimum by V(witness): retry below it and below the refuted level
         w = cert.validation.witness if cert.validation is not None else None
         ok = cert.validation is not None and (cert.validation.witness_check or {}).get("confirmed")
         if cert.status is not Verdict.REFUTED or w is None or not ok:
             break
         bound = float(V.value(np.asarray([w], dtype=float))[0])
-        if not (0 < bound < opt):
+        if not bound > 0:
+            break
+        opt = min(opt, bound)
+        new = level(V, opt) if callable(level) else o.level_safety * opt
+        new = min(float(new), o.level_safety * opt)
+        if not 0 < new < value:
             break
         notes.append(f"refuted at {value:.7g} (V' >= 0 at V = {bound:.10g}, 50 digits)")
-        opt = bound
-        value = level(V, opt) if callable(level) else o.level_safety * opt
-        value = min(float(value), o.level_safety * opt)
+        value = new
         with step(f"validation of {V.name} at level {value:.6g} (below the witness)"):
             cert = certify(system, V, level=value, method="interval", interval=interval)
     if notes:
         cert = dataclasses.replace(
             cert,
-            message=f"{cert.message}; sampled optimum {sampled:.7g} is above the true one: "
-            + "; ".join(notes),
+            message=f"{cert.message}; retried below confirmed witnesses (sampled optimum "
+            f"{sampled:.7g}): " + "; ".join(notes),
         )
     above = None
     if check_above is not None:  # refute just above the optimum: a box from rays as the cover

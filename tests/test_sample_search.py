@@ -116,3 +116,32 @@ def test_certify_sampled_needs_a_quadratic_seed(vdp):
         certify_sampled(vdp, V)
     with pytest.raises(RoaInputError, match="check_above"):
         certify_sampled(vdp, None, check_above=0.5)
+
+
+def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
+    """A level above V's true optimum (here 1.3 x the sampled one, given on purpose) is refuted
+    with a 50-digit witness w; V(w) bounds the optimum, so the level is chosen again below it and
+    certified, with the refutation just above V(w) (no certified level above the optimum)."""
+    from roa.certification_vs import certify_sampled
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        first = {}
+
+        def level(V, c):  # above the optimum the first time, then just below the bound
+            if "c" not in first:
+                first["c"] = c
+                return 1.3 * c
+            return 0.999 * c
+
+        cert = certify_sampled(vdp, None, options=FAST, level=level)
+    assert cert.certified, cert.message
+    assert "retried below confirmed witnesses" in cert.message and "50 digits" in cert.message
+    assert cert.candidate is not None and cert.candidate <= first["c"]
+    # at most level_safety (0.98 here) x the corrected optimum, below the refuted level
+    assert cert.level <= FAST.level_safety * cert.candidate * (1 + 1e-12)
+    assert cert.level < 1.3 * first["c"]
+    assert cert.above is not None and cert.above.status.value == "refuted"
+    assert cert.above.level == pytest.approx(1.001 * cert.candidate, rel=1e-12)
+    with pytest.raises(RoaInputError, match="retries"):
+        certify_sampled(vdp, None, retries=-1)

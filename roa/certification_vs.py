@@ -161,7 +161,7 @@ def certify_sampled(
         ok = cert.validation is not None and (cert.validation.witness_check or {}).get("confirmed")
         if cert.status is not Verdict.REFUTED or w is None or not ok:
             break
-        bound = float(V.value(np.asarray([w], dtype=float))[0])
+        bound = _lowest_witness(system, V, np.asarray(w, dtype=float))
         if not bound > 0:
             break
         opt = min(opt, bound)
@@ -191,6 +191,39 @@ def certify_sampled(
     return dataclasses.replace(cert, vs=res, search=lv, candidate=opt, above=above,
                                level_source="given" if level is not None else "sampled",
                                seconds=time.perf_counter() - t0)  # fmt: skip
+
+
+def _lowest_witness(system: System, V: Any, w: np.ndarray) -> float:
+    """``V(w)``, or less: a local minimum of V on ``{V' >= delta}`` from ``w`` (SLSQP) whose
+    ``V' >= 0`` holds at 50 digits and that is proved to lie in the equilibrium's component of
+    ``{V <= V(x)}`` (:func:`roa.proof.validate_general.connected_to_center`). Either point bounds
+    the true optimum of V (the validation's witness sits on the level it refuted, not at the
+    point where V' = 0 first touches a level surface)."""
+    from scipy.optimize import minimize
+
+    from roa.proof.validate_general import connected_to_center, recheck_general
+
+    best = float(V.value(w[None])[0])
+
+    def vdot(x: np.ndarray) -> float:
+        return float(V.derivative(system, x[None])[0])
+
+    for delta in (1e-12, 1e-10, 1e-8):
+        with np.errstate(all="ignore"):
+            res = minimize(lambda x: float(V.value(x[None])[0]), w, method="SLSQP",
+                           constraints=[{"type": "ineq", "fun": lambda x, dl=delta: vdot(x) - dl}],
+                           options={"maxiter": 300, "ftol": 1e-15})  # fmt: skip
+        x = np.asarray(res.x, dtype=float)
+        v = float(V.value(x[None])[0])
+        if not (np.isfinite(v) and 0 < v < best):
+            continue
+        if system.margin is not None and not system.inside(x[None])[0]:
+            continue
+        if recheck_general(system, V, x, v * (1 + 1e-12))["confirmed"] and connected_to_center(
+            V, x, v * (1 + 1e-12)
+        ):
+            return v
+    return best
 
 
 def _quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:

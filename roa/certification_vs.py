@@ -113,7 +113,10 @@ def certify_sampled(
     proves the true optimum is at most ``V(w)``: up to ``retries`` times, ``c*`` becomes
     ``min(c*, V(w))`` and the level is chosen again, at most ``options.level_safety * c*`` and
     below the refuted one (the message says so; ``check_above`` applies to the new ``c*``, which
-    is the returned ``candidate``). The returned
+    is the returned ``candidate``); ``w`` is first moved to a local minimum of V on ``{V' >= 0}``
+    (:func:`_lowest_witness`). The check at ``check_above * c*`` is refuted by such a confirmed
+    point when one lies below it (from a retry, or from the level search's witness), else by the
+    branch and bound. The returned
     :class:`~roa.certification.Certificate` carries the search record in ``.vs``
     (``SampleSearchResult``).
     """
@@ -154,6 +157,7 @@ def certify_sampled(
     with step(f"validation of {V.name} at level {value:.6g}"):
         cert = certify(system, V, level=value, method="interval", interval=interval)
     sampled, notes = opt, []
+    proof: tuple[Any, Any, float] | None = None  # a confirmed witness below the optimum
     for _ in range(retries):
         # a confirmed witness (V' >= 0 at 50 digits, in the equilibrium's component) bounds the
         # true optimum by V(witness): retry below it and below the refuted level
@@ -161,9 +165,11 @@ def certify_sampled(
         ok = cert.validation is not None and (cert.validation.witness_check or {}).get("confirmed")
         if cert.status is not Verdict.REFUTED or w is None or not ok:
             break
-        bound = _lowest_witness(system, V, np.asarray(w, dtype=float))
+        bound, x, check = _lowest_witness(system, V, np.asarray(w, dtype=float))
         if not bound > 0:
             break
+        if x is not None and bound <= opt:
+            proof = (x, check, bound)  # refutes every level >= V(x)
         opt = min(opt, bound)
         new = level(V, opt) if callable(level) else o.level_safety * opt
         new = min(float(new), o.level_safety * opt)
@@ -180,30 +186,43 @@ def certify_sampled(
             f"{sampled:.7g}): " + "; ".join(notes),
         )
     above = None
-    if check_above is not None:  # refute just above the optimum: a box from rays as the cover
-        from roa.proof.cover import ray_box
-
+    if check_above is not None:  # refute just above the optimum
         top = check_above * opt
-        half = ray_box(V, top)
-        with step(f"refutation check of {V.name} at level {top:.6g}"):
-            above = certify(system, V, level=top, method="interval", interval=interval,
-                            bounding_box=None if half is None else 1.3 * half).validation  # fmt: skip
+        if proof is None and lv.witness is not None:  # from the level search's witness
+            v, x, check = _lowest_witness(system, V, np.asarray(lv.witness, dtype=float))
+            if x is not None and v <= top:
+                proof = (x, check, v)
+        if proof is not None and proof[2] <= top:
+            how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
+            above = _refuted_by(proof[0], proof[1], top, how)
+        else:  # branch and bound, a box from rays as the cover
+            from roa.proof.cover import ray_box
+
+            half = ray_box(V, top)
+            with step(f"refutation check of {V.name} at level {top:.6g}"):
+                above = certify(system, V, level=top, method="interval", interval=interval,
+                                bounding_box=None if half is None else 1.3 * half).validation  # fmt: skip
     return dataclasses.replace(cert, vs=res, search=lv, candidate=opt, above=above,
                                level_source="given" if level is not None else "sampled",
                                seconds=time.perf_counter() - t0)  # fmt: skip
 
 
-def _lowest_witness(system: System, V: Any, w: np.ndarray) -> float:
-    """``V(w)``, or less: a local minimum of V on ``{V' >= delta}`` from ``w`` (SLSQP) whose
-    ``V' >= 0`` holds at 50 digits and that is proved to lie in the equilibrium's component of
-    ``{V <= V(x)}`` (:func:`roa.proof.validate_general.connected_to_center`). Either point bounds
-    the true optimum of V (the validation's witness sits on the level it refuted, not at the
-    point where V' = 0 first touches a level surface)."""
+def _lowest_witness(
+    system: System, V: Any, w: np.ndarray
+) -> tuple[float, np.ndarray | None, dict[str, Any] | None]:
+    """``(value, x, check)``: a local minimum ``x`` of V on ``{V' >= delta}`` from ``w`` (SLSQP)
+    whose ``V' >= 0`` holds at 50 digits (``check``) and that is proved to lie in the
+    equilibrium's component of ``{V <= V(x)}``
+    (:func:`roa.proof.validate_general.connected_to_center`); ``(V(w), None, None)`` when none is
+    found below ``V(w)``. A confirmed ``x`` bounds the true optimum of V by ``V(x)`` (the
+    validation's witness sits on the level it refuted, the level search's near the touching
+    point; the minimum is where V' = 0 first touches a level surface)."""
     from scipy.optimize import minimize
 
     from roa.proof.validate_general import connected_to_center, recheck_general
 
-    best = float(V.value(w[None])[0])
+    with np.errstate(all="ignore"):
+        best = float(V.value(w[None])[0])
 
     def vdot(x: np.ndarray) -> float:
         return float(V.derivative(system, x[None])[0])
@@ -213,17 +232,27 @@ def _lowest_witness(system: System, V: Any, w: np.ndarray) -> float:
             res = minimize(lambda x: float(V.value(x[None])[0]), w, method="SLSQP",
                            constraints=[{"type": "ineq", "fun": lambda x, dl=delta: vdot(x) - dl}],
                            options={"maxiter": 300, "ftol": 1e-15})  # fmt: skip
-        x = np.asarray(res.x, dtype=float)
-        v = float(V.value(x[None])[0])
-        if not (np.isfinite(v) and 0 < v < best):
+            x = np.asarray(res.x, dtype=float)
+            v = float(V.value(x[None])[0])
+        if not (np.isfinite(v) and 0 < v < best * (1 + 1e-6)):
             continue
         if system.margin is not None and not system.inside(x[None])[0]:
             continue
-        if recheck_general(system, V, x, v * (1 + 1e-12))["confirmed"] and connected_to_center(
-            V, x, v * (1 + 1e-12)
-        ):
-            return v
-    return best
+        top = v * (1 + 1e-12)
+        check = recheck_general(system, V, x, top)
+        if check["confirmed"] and connected_to_center(V, x, top):
+            return v, x, check
+    return best, None, None
+
+
+def _refuted_by(x: np.ndarray, check: dict[str, Any], level: float, how: str) -> Any:
+    """A refutation of ``level`` by a confirmed witness ``x`` with ``V(x) <= level``."""
+    from roa.proof.validate import Validation
+
+    return Validation(Verdict.REFUTED, level, 0, 0.0, witness=[float(v) for v in x],
+                      witness_check=check,
+                      message=f"V' >= 0 at a point of {{V <= level}} in the equilibrium's "
+                      f"component (float and 50 digits; {how})")  # fmt: skip
 
 
 def _quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:

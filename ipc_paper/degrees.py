@@ -101,6 +101,8 @@ def _row(cert: Any) -> dict[str, Any]:
         "above": None if cert.above is None else cert.above.status.value,
         "above_level": None if cert.above is None else cert.above.level,
         "candidate": cert.candidate,
+        "sampled_optimum": None if cert.search is None else cert.search.level,
+        "message": cert.message,
         "boxes": None if cert.validation is None else cert.validation.boxes,
         "V": cert.V.describe() if cert.V is not None else None,
         "vs": cert.vs.to_dict() if cert.vs is not None else None,

@@ -31,8 +31,11 @@ def _ipc_texts(irows: dict[str, Any]) -> list[str]:
             head = (f"degree {d}: sector {r['sector_deg']:.2f} deg (certified lower bound), "
                     f"box share {b['fraction']:.3f} (95% CI {b['ci95'][0]:.3f}-{b['ci95'][1]:.3f})")  # fmt: skip
             if "sampled" in d:
-                txt.append(f"{head}, level {r['level']:.4g} (V's sampled optimum "
-                           f"{r.get('candidate') or 0:.4g}; x1.001 of it: {r['above']}); "
+                lowered = r.get("sampled_optimum") not in (None, r.get("candidate"))
+                opt = (f"V's optimum at most {r.get('candidate') or 0:.6g} (a 50-digit witness; "
+                       f"the sampled level search gave {r['sampled_optimum']:.6g})" if lowered
+                       else f"V's sampled optimum {r.get('candidate') or 0:.6g}")  # fmt: skip
+                txt.append(f"{head}, level {r['level']:.6g} ({opt}; x1.001 of it: {r['above']}); "
                            f"{_times(r)}, {r.get('boxes')} boxes; "
                            f"{len(vs.get('rounds', []))} cutting-plane rounds "
                            f"({'converged' if vs.get('converged') else 'not converged'}), "
@@ -199,4 +202,3 @@ def figure(ev: dict[str, Any], path: Path) -> None:
 
     atomic_savefig(fig, path)
     plt.close(fig)
-

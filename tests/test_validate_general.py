@@ -208,7 +208,6 @@ def test_ipc_degree4_certified_below_and_refuted_above_its_optimum(ipc_v):
     opts = roa.IntervalOptions(max_boxes=3_000_000)
     cert = roa.certify(system, V, level=0.999 * top, method="interval", interval=opts)
     assert cert.status is roa.Verdict.CERTIFIED
-    assert cert.validation.seconds < 120
     for level in (1.001 * top, 0.999 * SAMPLED_OPTIMUM):
         above = roa.certify(system, V, level=level, method="interval", interval=opts)
         assert above.status is roa.Verdict.REFUTED

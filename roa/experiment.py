@@ -289,12 +289,18 @@ def run_experiment(
     return summary
 
 
+def _scratch(rel: str) -> bool:
+    """Resumable chunk files (in any ``chunks/`` folder of an experiment, git-ignored): scratch of
+    a run, not among its results (the summary records what they held)."""
+    return "chunks" in rel.split("/")[:-1]
+
+
 def output_hashes(out: Path) -> dict[str, str]:
     """SHA-256 of every file an experiment wrote (but its manifest and resumable chunks)."""
     hashes = {}
     for f in sorted(out.rglob("*")):
         rel = f.relative_to(out).as_posix()
-        if f.is_file() and rel != "manifest.json" and not rel.startswith("chunks/"):
+        if f.is_file() and rel != "manifest.json" and not _scratch(rel):
             hashes[rel] = hashlib.sha256(f.read_bytes()).hexdigest()
     return hashes
 
@@ -316,6 +322,7 @@ def verify_outputs(out: Path, manifest: dict[str, Any] | None = None) -> list[st
     if "summary.json" not in recorded:
         return [f"{out}: no summary.json recorded"]
     now = output_hashes(out)
+    recorded = {k: v for k, v in recorded.items() if not _scratch(k)}  # older manifests had them
     problems = [
         f"{out}/{name} was modified after its run"
         for name in recorded

@@ -228,3 +228,23 @@ def test_certify_params_name_the_bad_field():
         CertifyParams(cases=("ipc_ball",))
     with pytest.raises(RoaInputError, match=r"CertifyParams\.n_jobs .*>= 0"):
         CertifyParams(n_jobs=-1)
+
+
+def test_resumable_chunks_are_scratch_not_results(tmp_path):
+    """Chunk files in any chunks/ folder (git-ignored, e.g. results/basin_box/reference/chunks)
+    are not outputs: a fresh clone without them verifies, a changed summary still does not."""
+    from roa.experiment import output_hashes, verify_outputs
+
+    out = tmp_path / "exp"
+    (out / "reference" / "chunks").mkdir(parents=True)
+    (out / "summary.json").write_text("{}")
+    (out / "reference" / "chunks" / "chunk_0.npz").write_bytes(b"x")
+    (out / "reference" / "data.json").write_text("[]")
+    hashes = output_hashes(out)
+    assert sorted(hashes) == ["reference/data.json", "summary.json"]
+    old = {**hashes, "reference/chunks/chunk_4096.npz": "0" * 64}  # recorded by older manifests
+    assert verify_outputs(out, {"outputs": old}) == []
+    (out / "summary.json").write_text('{"x": 1}')
+    assert verify_outputs(out, {"outputs": old}) == [
+        f"{out}/summary.json was modified after its run"
+    ]

@@ -56,16 +56,19 @@ accepted steps per run plain, 33.2 with the terminal set):
 * thread vs process pool: the kernel holds the GIL (no nogil), so the threading backend runs one
   core; processes (loky, reused between runs) are used.
 
-Throughputs measured 2026-11-29 on the idle 2-core machine (default arguments, --public; median of
-3 engine runs, best in brackets): baseline 28.4 trajectories/s; fast path plain 27.6 k/s (28.2 k,
-973x), with the terminal set 72.9 k/s (80.6 k, 2567x); public cfuncs plain 22.5 k/s, with the
-terminal set 61.9 k/s; statuses 2000/2000 identical to the baseline in every mode. Per core with
-the terminal set: 41-43 k runs/s (one process, 100,000 states in 2.3-2.5 s; two processes scale
-1.9x). Targets: plain >= 20 k/s met; terminal >= 100 k/s and >= 3000x not met. Why: 65 % of the
-box's states start outside the certified set and integrate for a mean 1.28 s of model time (~51
-accepted steps at rtol 1e-6, the baseline's step sequence) before entering it, at ~690 ns per step
-all-in; the union of all six certified quadratic sets would cut the mean entry time by 9 %
-(1.28 -> 1.17 s, measured), not the 27 % needed.
+Throughputs measured 2026-12-01 on this session's idle 2-core machine (default arguments,
+--public; median of 3 engine runs, best in brackets; two runs): baseline 103-108 trajectories/s
+(this machine runs solve_ivp ~3.7x faster than the one of 2026-11-29, which measured 28.4/s);
+fast path plain 52.5-53.7 k/s (488-521x); with the quadratic terminal set (T:optimised, 33.2
+accepted steps per run) 125-129 k/s (1164-1254x); with the certified degree-4 V of
+results/degrees (T:degree4, level 0.996294, share 1.000 of the reference box, 22.1 steps per
+run; the polynomial test of roa/montecarlo/terminal_poly.py in the kernel) 147-161 k/s (160-164 k
+best, 1424-1495x); public cfuncs plain 49.0 k/s, T:optimised 86.5 k/s, T:degree4 115 k/s;
+statuses 2000/2000 identical to the baseline in every mode. Targets: plain >= 20 k/s met;
+terminal >= 100 k/s met (161 k/s); >= 3000x not met on this machine (1495x): the ratio moves
+with the baseline's Python speed (3000x of 107.5/s is 322 k/s; 161 k/s on 2 cores is ~12.5 us
+per run and core at 22 accepted steps, ~0.55 us a step: twice the speed needs half the steps,
+i.e. a certified set the runs enter sooner, or looser tolerances than the baseline's).
 """
 
 from __future__ import annotations

@@ -190,9 +190,9 @@ def certify_sampled(
         top = check_above * opt
         if proof is None and lv.witness is not None:  # from the level search's witness
             v, x, check = _lowest_witness(system, V, np.asarray(lv.witness, dtype=float))
-            if x is not None and v <= top:
+            if x is not None and v * (1 + 1e-12) <= top:
                 proof = (x, check, v)
-        if proof is not None and proof[2] <= top:
+        if proof is not None and proof[2] * (1 + 1e-12) <= top:  # checked at V(x) (1 + 1e-12)
             how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
             above = _refuted_by(proof[0], proof[1], top, how)
         else:  # branch and bound, a box from rays as the cover

@@ -166,9 +166,9 @@ def certify_sampled(
         if cert.status is not Verdict.REFUTED or w is None or not ok:
             break
         bound, x, check = _lowest_witness(system, V, np.asarray(w, dtype=float))
-        if not bound > 0:
+        if not bound > 0 or x is None:  # only a point proved in the component bounds c*
             break
-        if x is not None and bound <= opt:
+        if bound <= opt:
             proof = (x, check, bound)  # refutes every level >= V(x)
         opt = min(opt, bound)
         new = level(V, opt) if callable(level) else o.level_safety * opt

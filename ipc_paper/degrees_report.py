@@ -166,7 +166,7 @@ def figure(ev: dict[str, Any], path: Path) -> None:
         from roa.systems.ipc.hybrid import physical_to_hybrid_or_inf
 
         th = np.linspace(-np.pi / 2 + 1e-3, np.pi / 2 - 1e-3, 301)
-        om = np.linspace(-4, 4, 301)
+        om = np.linspace(-6, 6, 361)
         T, W = np.meshgrid(th, om)
         P = np.stack([np.zeros(T.size), np.zeros(T.size), T.ravel(), W.ravel()], -1)
         k = 0

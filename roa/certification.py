@@ -51,7 +51,9 @@ class Certificate:
         What produced the verdict: ``"interval"``, ``"sos"`` (an unchecked candidate: never
         certified) or ``"level search"`` (no candidate was found).
     level_source : str or None
-        Where the level came from: ``"given"``, ``"sos"``, ``"sampled"`` or ``"candidate"``.
+        Where the level came from: ``"given"``, ``"sos"``, ``"sampled"``, ``"candidate"`` or
+        ``"witness"`` (chosen again below a confirmed refutation witness,
+        :func:`roa.certification_vs.certify_sampled`).
     candidate : float or None
         The level before the safety factor (SOS optimum or sampled optimum).
     above : Validation or None

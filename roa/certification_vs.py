@@ -188,7 +188,8 @@ def certify_sampled(
     above = None
     if check_above is not None:  # refute just above the optimum
         top = check_above * opt
-        if proof is None and lv.witness is not None:  # from the level search's witness
+        if (proof is None or proof[2] * (1 + 1e-12) > top) and lv.witness is not None:
+            # from the level search's witness
             v, x, check = _lowest_witness(system, V, np.asarray(lv.witness, dtype=float))
             if x is not None and v * (1 + 1e-12) <= top:
                 proof = (x, check, v)
@@ -202,9 +203,18 @@ def certify_sampled(
             with step(f"refutation check of {V.name} at level {top:.6g}"):
                 above = certify(system, V, level=top, method="interval", interval=interval,
                                 bounding_box=None if half is None else 1.3 * half).validation  # fmt: skip
+    source = _source(level, bool(notes))
     return dataclasses.replace(cert, vs=res, search=lv, candidate=opt, above=above,
-                               level_source="given" if level is not None else "sampled",
-                               seconds=time.perf_counter() - t0)  # fmt: skip
+                               level_source=source, seconds=time.perf_counter() - t0)  # fmt: skip
+
+
+def _source(level: Any, retried: bool) -> str:
+    """``level_source`` of :func:`certify_sampled`: ``"witness"`` when a retry chose the level
+    below a confirmed witness (a given number is then not the level validated), ``"given"`` for
+    a number or function of the caller, else ``"sampled"``."""
+    if retried:
+        return "witness"
+    return "given" if level is not None else "sampled"
 
 
 def _lowest_witness(
@@ -214,9 +224,11 @@ def _lowest_witness(
     whose ``V' >= 0`` holds at 50 digits (``check``) and that is proved to lie in the
     equilibrium's component of ``{V <= V(x)}``
     (:func:`roa.proof.validate_general.connected_to_center`); ``(V(w), None, None)`` when none is
-    found below ``V(w)``. A confirmed ``x`` bounds the true optimum of V by ``V(x)`` (the
-    validation's witness sits on the level it refuted, the level search's near the touching
-    point; the minimum is where V' = 0 first touches a level surface)."""
+    found at most ``V(w) (1 + 1e-6)`` (SLSQP may end a hair above a ``w`` that is already a
+    local minimum; a confirmed ``x`` is a valid bound whatever its value). A confirmed ``x``
+    bounds the true optimum of V by ``V(x)`` (the validation's witness sits on the level it
+    refuted, the level search's near the touching point; the minimum is where V' = 0 first
+    touches a level surface)."""
     from scipy.optimize import minimize
 
     from roa.proof.validate_general import connected_to_center, recheck_general

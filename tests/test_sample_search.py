@@ -137,6 +137,7 @@ def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
         cert = certify_sampled(vdp, None, options=FAST, level=level)
     assert cert.certified, cert.message
     assert "retried below confirmed witnesses" in cert.message and "50 digits" in cert.message
+    assert cert.level_source == "witness"  # not the caller's level function's first answer
     assert cert.candidate is not None and cert.candidate <= first["c"]
     # at most level_safety (0.98 here) x the corrected optimum, below the refuted level
     assert cert.level <= FAST.level_safety * cert.candidate * (1 + 1e-12)

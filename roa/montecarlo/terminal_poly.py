@@ -5,12 +5,21 @@ The set (:meth:`roa.montecarlo.terminal.TerminalSet.polynomial`) is
     { y : z = Mi (y - c) in [lo, hi],  V(y) + g S(y) <= thr },
 
 with ``V = sum_k a_k prod_i d_i^E[k, i]`` (``d = y - c``), ``S = sum_k |a_k prod_i d_i^E[k, i]|``
-and ``thr = level (1 - REL_MARGIN)``. ``g S`` bounds the rounding error of V computed this way
-(powers by repeated multiplication, each term with at most ``D + n`` multiplications, ``K`` terms
-summed in order: ``|fl(V) - V(d)| <= gamma_{K + D + n} S``, Higham's gamma; ``g`` doubles it for
-the rounding of ``S`` itself), so a point counts only if V at its float ``d`` is below ``thr``.
-The rounding of ``d`` and of the coordinate map is covered by ``REL_MARGIN`` (as for the quadratic
-test) and that of ``z`` by the box's own shrink (:data:`roa.montecarlo.terminal_general.BOX_MARGIN`).
+and ``thr = level (1 - REL_MARGIN)``. ``g = 2 (K + deg + n + 1) u`` (``deg`` the total degree,
+``u`` the unit roundoff) bounds three roundings together:
+
+* V computed this way (powers by repeated multiplication, each term with at most ``deg + n``
+  rounded multiplications, ``K`` terms summed in order): ``|fl(V) - V(d)| <= gamma_{K + deg + n}
+  S``, Higham's gamma;
+* ``d = fl(y - c)`` itself: each component is off by a factor ``1 + delta``, ``|delta| <= u``,
+  so each term by at most ``gamma_deg`` of its size, V by at most ``gamma_deg S``;
+* ``S`` computed in floats (relative error ``gamma_{K + deg + n}``), a second-order term.
+
+Their sum is below ``(K + 2 deg + n) u (1 + O(u)) <= g S``: a point counts only if V at the exact
+``y - c`` is below ``thr``. The rounding of the coordinate map (the analysis coordinates of a
+simulated state) and of the final sum ``V + g S`` is covered by ``REL_MARGIN`` (as for the
+quadratic test), that of ``z`` by the box's own shrink
+(:data:`roa.montecarlo.terminal_general.BOX_MARGIN`).
 
 :func:`member_numpy` (rows of an array) and :func:`member_numba` (one point, in the kernels) do
 the same operations in the same order, so they give the same bits (tests/test_terminal_poly.py);
@@ -47,6 +56,8 @@ def poly_arrays(V: Any, frame: np.ndarray, box: tuple[np.ndarray, np.ndarray]) -
     g = 2.0 * (K + int(E.sum(axis=1).max()) + n + 1) * UNIT_ROUNDOFF
     Mi = np.ascontiguousarray(np.linalg.inv(np.asarray(frame, dtype=float)))
     B = np.ascontiguousarray(np.stack([np.asarray(box[0], float), np.asarray(box[1], float)]))
+    for a in (Mi, E, A, B):  # part of an immutable TerminalSet
+        a.setflags(write=False)
     return PolyArrays(Mi, E, A, B, g, D)
 
 

@@ -47,7 +47,10 @@ accepted steps per run plain, 33.2 with the terminal set):
   scratch arrays (7 x n stages): allocation is per run, not per step (scratch allocated once per
   chunk measured no faster);
 * unrolled Runge-Kutta stages (constant coefficients) and a compile-time n = 4 measured no faster
-  (the step is latency-bound: each stage waits for the previous field);
+  while the field takes and fills arrays; a field on scalars returning a tuple, everything in
+  registers, is x1.17-1.30 faster per step (benchmarks/bench_rk_interface.py, same steps, same
+  bits): the cost of the array interface (FIELD_SIGNATURE), kept for user systems; interleaving
+  runs in lockstep measured no faster (each stage waits for the previous field);
 * chunk size and work balance: the benchmark runs 4 chunks per worker (CHUNKS_PER_JOB; 1 to 12
   per worker measure the same within noise on an idle machine, and on a shared one a worker that
   is slowed down leaves less idle time at the end); joblib's process start-up and dispatch cost
@@ -69,6 +72,9 @@ terminal >= 100 k/s met (161 k/s); >= 3000x not met on this machine (1495x): the
 with the baseline's Python speed (3000x of 107.5/s is 322 k/s; 161 k/s on 2 cores is ~12.5 us
 per run and core at 22 accepted steps, ~0.55 us a step: twice the speed needs half the steps,
 i.e. a certified set the runs enter sooner, or looser tolerances than the baseline's).
+benchmarks/bench_entry_steps.py measures the first lever: a union with the other certified sets
+saves nothing, and even {V4 <= 10 c} (not certified) would save only x1.6 of the steps (13.7 per
+run), as the slowest runs swing far out of every sublevel set of V4 before settling.
 """
 
 from __future__ import annotations

@@ -34,12 +34,10 @@ HALF_PI = np.pi / 2
 
 
 @numba.njit(cache=True, error_model="numpy", inline="always")
-def _physical(x, p, out, w, mode):
-    """The closed loop in physical coordinates (q, q', theta, theta'), zero reference, into
-    ``out``; with ``mode`` 1 (2) also the flat (hybrid) coordinates of ``x`` into ``w``, bit for
-    bit what :func:`_to_flat` (and :func:`physical_to_hybrid`) give, from the same sin, cos and
-    log."""
-    q, qd, th, thd = x[0], x[1], x[2], x[3]
+def physical_scalar(q, qd, th, thd, p):
+    """The closed loop in physical coordinates, zero reference, on scalars: ``(q', q'', theta',
+    theta'', s, c, sec, a)`` with ``s, c = sin, cos theta``, ``sec = 1 / c`` and ``a = log((1 +
+    |s|) |sec|)`` (for the coordinate maps of :func:`_physical`)."""
     delta = p[0]
     s, c = np.sin(th), np.cos(th)
     sec = 1.0 / c
@@ -63,10 +61,19 @@ def _physical(x, p, out, w, mode):
             u = sat
         elif u < -sat:
             u = -sat
-    out[0] = qd
-    out[1] = (u + thd * thd * s - s * c) * inv_den
-    out[2] = thd
-    out[3] = (-u * c - thd * thd * s * c + (1.0 + delta) * s) * inv_den
+    f1 = (u + thd * thd * s - s * c) * inv_den
+    f3 = (-u * c - thd * thd * s * c + (1.0 + delta) * s) * inv_den
+    return qd, f1, thd, f3, s, c, sec, a
+
+
+@numba.njit(cache=True, error_model="numpy", inline="always")
+def _physical(x, p, out, w, mode):
+    """The closed loop in physical coordinates (q, q', theta, theta'), zero reference, into
+    ``out``; with ``mode`` 1 (2) also the flat (hybrid) coordinates of ``x`` into ``w``, bit for
+    bit what :func:`_to_flat` (and :func:`physical_to_hybrid`) give, from the same sin, cos and
+    log."""
+    q, qd, th, thd = x[0], x[1], x[2], x[3]
+    out[0], out[1], out[2], out[3], s, c, sec, a = physical_scalar(q, qd, th, thd, p)
     if mode == 0:
         return
     if not (abs(th) < HALF_PI) or not (abs(q) < np.inf and abs(qd) < np.inf and abs(thd) < np.inf):
@@ -80,7 +87,7 @@ def _physical(x, p, out, w, mode):
     else:  # hybrid: q where the flat z1 is finite (as physical_to_hybrid)
         w[0] = q if f0 < np.inf else np.inf
     w[1] = qd + thd * sec
-    w[2] = w1
+    w[2] = s * sec  # w1, the same product
     w[3] = thd * sec * sec
 
 

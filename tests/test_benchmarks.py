@@ -1,0 +1,43 @@
+"""The benchmarks run, at small sizes, and their own checks hold (they exit non-zero otherwise):
+
+* bench_rk_interface.py: the array-interface and the scalar Runge-Kutta loops take the same steps
+  and end on the same bits;
+* bench_entry_steps.py: scipy's solve_ivp (RK45) enters the certified degree-4 set at the same
+  accepted step as the engine, run for run;
+* bench_montecarlo.py (slow): the engine's statuses, plain and with each terminal set, equal the
+  solve_ivp baseline's.
+Their speed figures are for an idle machine and are not asserted.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+BENCH = Path(__file__).resolve().parents[1] / "benchmarks"
+
+
+def _run(script: str, *args: str) -> str:
+    out = subprocess.run([sys.executable, str(BENCH / script), *args], cwd=BENCH,
+                         capture_output=True, text=True, timeout=600)  # fmt: skip
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-2000:]
+    return out.stdout
+
+
+def test_rk_interface_loops_agree_bit_for_bit():
+    out = _run("bench_rk_interface.py", "--n", "30", "--t-final", "1")
+    assert "scalars / arrays" in out
+
+
+def test_entry_steps_match_the_engine():
+    out = _run("bench_entry_steps.py", "--n", "200", "--outside", "25")
+    assert "certified V4 <= c" in out and "not certified" in out
+
+
+@pytest.mark.slow
+def test_montecarlo_statuses_agree_with_solve_ivp():
+    out = _run("bench_montecarlo.py", "--n", "40", "--n-engine", "400")
+    assert out.count("40/40") >= 3  # plain and both terminal sets

@@ -98,5 +98,6 @@ def main() -> None:
         bad = int(np.sum(mine != run.steps[out]))
         raise SystemExit(f"solve_ivp's entry steps disagree with the engine's on {bad} runs")
 
+
 if __name__ == "__main__":
     main()

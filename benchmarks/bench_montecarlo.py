@@ -48,7 +48,7 @@ accepted steps per run plain, 33.2 with the terminal set):
   chunk measured no faster);
 * unrolled Runge-Kutta stages (constant coefficients) and a compile-time n = 4 measured no faster
   while the field takes and fills arrays; a field on scalars returning a tuple, everything in
-  registers, is x1.17-1.30 faster per step (benchmarks/bench_rk_interface.py, same steps, same
+  registers, is x1.15-1.31 faster per step (benchmarks/bench_rk_interface.py, same steps, same
   bits): the cost of the array interface (FIELD_SIGNATURE), kept for user systems; interleaving
   runs in lockstep measured no faster (each stage waits for the previous field);
 * chunk size and work balance: the benchmark runs 4 chunks per worker (CHUNKS_PER_JOB; 1 to 12
@@ -67,14 +67,19 @@ accepted steps per run) 125-129 k/s (1164-1254x); with the certified degree-4 V 
 results/degrees (T:degree4, level 0.996294, share 1.000 of the reference box, 22.1 steps per
 run; the polynomial test of roa/montecarlo/terminal_poly.py in the kernel) 147-161 k/s (160-164 k
 best, 1424-1495x); public cfuncs plain 49.0 k/s, T:optimised 86.5 k/s, T:degree4 115 k/s;
-statuses 2000/2000 identical to the baseline in every mode. Targets: plain >= 20 k/s met;
-terminal >= 100 k/s met (161 k/s); >= 3000x not met on this machine (1495x): the ratio moves
-with the baseline's Python speed (3000x of 107.5/s is 322 k/s; 161 k/s on 2 cores is ~12.5 us
-per run and core at 22 accepted steps, ~0.55 us a step: twice the speed needs half the steps,
-i.e. a certified set the runs enter sooner, or looser tolerances than the baseline's).
-benchmarks/bench_entry_steps.py measures the first lever: a union with the other certified sets
-saves nothing, and even {V4 <= 10 c} (not certified) would save only x1.6 of the steps (13.7 per
-run), as the slowest runs swing far out of every sublevel set of V4 before settling.
+statuses 2000/2000 identical to the baseline in every mode. The same machine kind ran ~2.2x
+slower for both sides later that day (a new session, 2.1 GHz; four runs): baseline 40.5-47.2/s,
+plain 23.3-25.8 k/s (518-615x), T:optimised 51.7-57.4 k/s (1097-1419x), T:degree4 65.9-70.0 k/s
+(1461-1629x; the last two runs with the regenerated degree-4 V of round 30, level 1.02706, 21.9
+steps per run): the ratios hold, the absolute rates move with the machine. Targets: plain
+>= 20 k/s met on both (23-54 k/s); terminal >= 100 k/s met on the fast machine (161 k/s), not on
+the slow one (70 k/s); >= 3000x not met on either (1424-1629x). 3000x needs about half the time
+per run: at ~0.55 us per accepted step (fast machine), 322 k/s would be ~11 steps per run
+instead of 22. Neither lever gets there: benchmarks/bench_entry_steps.py shows that a union with
+the other certified sets saves nothing and even {V4 <= 10 c} (not certified) only x1.6 of the
+steps (13.3 per run), as the slowest runs swing far out of every sublevel set of V4 before
+settling; benchmarks/bench_rk_interface.py shows that a scalar-field step would be x1.15-1.31
+faster. Looser tolerances than the baseline's would not be a like-for-like comparison.
 """
 
 from __future__ import annotations

@@ -9,13 +9,14 @@ seed 0, rtol 1e-6, atol 1e-9) to t = --t-final on one core:
 * scalars: n = 4 unrolled, the field on scalars returning a tuple
   (``roa.systems.ipc.fast.physical_scalar``, the same arithmetic), everything in registers.
 
-Both take the same steps and end on the same bits (checked). Prints ns per accepted step and the
+Both take the same steps, run for run, and end on the same bits (checked); a run whose step
+size underflows stops the benchmark. Prints ns per accepted step and the
 ratio; the field alone (throughput of 2e6 calls) for scale.
 
     python benchmarks/bench_rk_interface.py [--n 4000] [--t-final 5]
 
-Measured 2026-12-01 on the idle 2-core machine (one core; three runs): field alone 47 ns;
-arrays 559-618 ns/step, scalars 432-482 ns/step: x1.25-1.30. Six field calls are ~280 ns of the
+Measured 2026-12-01 on the idle 2-core machine (one core; seven runs): field alone 36-48 ns;
+arrays 510-626 ns/step, scalars 432-569 ns/step: x1.15-1.31. Six field calls are ~280 ns of the
 step: a scalar-field protocol (n fixed at compile time) would save ~20 % per step of the engine,
 not the 2x that issue 14's 3000x target needs on this machine (bench_montecarlo.py). Interleaving
 2-8 runs in lockstep (to hide latency) measured no faster in a prototype (x0.8-1.3, noise).
@@ -41,7 +42,7 @@ S, MAXF, MINF = 0.9, 10.0, 0.2
 
 @numba.njit(error_model="numpy", inline="always")
 def _control(en, h_abs, rejected):
-    """scipy's step-size update: (accepted, new |h|)."""
+    """scipy's step-size update: (accepted, new |h|); NaN is rejected, as in scipy."""
     if en < 1.0:
         factor = MAXF if en == 0.0 else min(MAXF, S * en**-0.2)
         return True, h_abs * (min(1.0, factor) if rejected else factor)
@@ -57,8 +58,11 @@ def arrays(p, y0, t_final, rtol, atol, h0, y_out):
     while t < t_final:
         rejected = False
         while True:
+            if h_abs < 10 * abs(np.nextafter(t, np.inf) - t):
+                return -1  # the step size underflowed (scipy: failure)
             t_new = min(t + h_abs, t_final)
             h = t_new - t
+            h_abs = h
             for s in range(1, 6):
                 for i in range(n):
                     acc = 0.0
@@ -123,8 +127,11 @@ def scalars(p, y0, t_final, rtol, atol, h0, y_out):
     while t < t_final:
         rejected = False
         while True:
+            if h_abs < 10 * abs(np.nextafter(t, np.inf) - t):
+                return -1  # the step size underflowed (scipy: failure)
             t_new = min(t + h_abs, t_final)
             h = t_new - t
+            h_abs = h
             k2 = _f(_st(y, h, (a[1, 0],), (k1, z, z, z, z, z, z)), p)
             k3 = _f(_st(y, h, (a[2, 0], a[2, 1]), (k1, k2, z, z, z, z, z)), p)
             k4 = _f(_st(y, h, (a[3, 0], a[3, 1], a[3, 2]), (k1, k2, k3, z, z, z, z)), p)
@@ -153,14 +160,12 @@ def scalars(p, y0, t_final, rtol, atol, h0, y_out):
 
 
 @numba.njit(error_model="numpy")
-def batch(kind, p, X, t_final, rtol, atol, h0, Y):
-    tot = 0
+def batch(kind, p, X, t_final, rtol, atol, h0, Y, steps):
     for k in range(X.shape[0]):
         if kind == 0:
-            tot += arrays(p, X[k], t_final, rtol, atol, h0, Y[k])
+            steps[k] = arrays(p, X[k], t_final, rtol, atol, h0, Y[k])
         else:
-            tot += scalars(p, X[k], t_final, rtol, atol, h0, Y[k])
-    return tot
+            steps[k] = scalars(p, X[k], t_final, rtol, atol, h0, Y[k])
 
 
 @numba.njit(error_model="numpy")
@@ -183,8 +188,9 @@ def main() -> None:
     X = np.ascontiguousarray(box_sample(system, B.BOX, args.n, seed=0).points(0, args.n))
     h0 = 1e-3  # the same first step for both (the engine selects it as scipy does)
     Ys = [np.empty_like(X), np.empty_like(X)]
+    Ns = [np.zeros(len(X), np.int64), np.zeros(len(X), np.int64)]
     for kind in (0, 1):  # compile
-        batch(kind, p, X[:4], args.t_final, B.RTOL, B.ATOL, h0, Ys[kind][:4])
+        batch(kind, p, X[:4], args.t_final, B.RTOL, B.ATOL, h0, Ys[kind][:4], Ns[kind][:4])
     field_alone(p, 10)
     t0 = time.perf_counter()
     field_alone(p, 2_000_000)
@@ -192,13 +198,16 @@ def main() -> None:
     per = []
     for kind, name in ((0, "arrays"), (1, "scalars")):
         t0 = time.perf_counter()
-        steps = batch(kind, p, X, args.t_final, B.RTOL, B.ATOL, h0, Ys[kind])
+        batch(kind, p, X, args.t_final, B.RTOL, B.ATOL, h0, Ys[kind], Ns[kind])
+        if (Ns[kind] < 0).any():
+            raise SystemExit(f"{name}: the step size underflowed on {(Ns[kind] < 0).sum()} runs")
+        steps = int(Ns[kind].sum())
         per.append((time.perf_counter() - t0) / steps * 1e9)
         print(f"  {name:8s} {args.n} runs to t = {args.t_final:g}: {steps} accepted steps, "
               f"{per[-1]:.0f} ns/step")  # fmt: skip
     print(f"  scalars / arrays: x{per[0] / per[1]:.2f} faster per step")
-    if not np.array_equal(Ys[0], Ys[1]):
-        raise SystemExit("the two loops end on different states")
+    if not (np.array_equal(Ns[0], Ns[1]) and np.array_equal(Ys[0], Ys[1], equal_nan=True)):
+        raise SystemExit("the two loops take different steps or end on different states")
 
 
 if __name__ == "__main__":

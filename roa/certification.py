@@ -105,6 +105,8 @@ class Certificate:
             }
             if self.level_source == "sampled":
                 out["sampled_level"] = self.candidate
+            elif self.level_source == "witness":  # candidate: lowered to a witness's V
+                out["sampled_level"] = self.search.level
         if self.validation is not None:
             out.update(self.validation.to_json())
         out.update(

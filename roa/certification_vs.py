@@ -188,8 +188,9 @@ def certify_sampled(
     above = None
     if check_above is not None:  # refute just above the optimum
         top = check_above * opt
+        # a retry's proof has V(x) = opt <= top / check_above, so it is below top; the level
+        # search's witness is tried when there is none (the test below re-checks either way)
         if (proof is None or proof[2] * (1 + 1e-12) > top) and lv.witness is not None:
-            # from the level search's witness
             v, x, check = _lowest_witness(system, V, np.asarray(lv.witness, dtype=float))
             if x is not None and v * (1 + 1e-12) <= top:
                 proof = (x, check, v)

@@ -4,9 +4,11 @@
   and end on the same bits;
 * bench_entry_steps.py: scipy's solve_ivp (RK45) enters the certified degree-4 set at the same
   accepted step as the engine, run for run;
-* bench_montecarlo.py (slow): the engine's statuses, plain and with each terminal set, equal the
+* bench_montecarlo.py: the engine's statuses, plain and with each terminal set, equal the
   solve_ivp baseline's.
-Their speed figures are for an idle machine and are not asserted.
+Their speed figures are for an idle machine and are not asserted. All three are slow (15-40 s
+each, numba compilation included): ``pytest -m slow``; the default run covers the engine against
+solve_ivp in tests/test_montecarlo.py.
 """
 
 from __future__ import annotations
@@ -27,11 +29,13 @@ def _run(script: str, *args: str) -> str:
     return out.stdout
 
 
+@pytest.mark.slow
 def test_rk_interface_loops_agree_bit_for_bit():
     out = _run("bench_rk_interface.py", "--n", "30", "--t-final", "1")
     assert "scalars / arrays" in out
 
 
+@pytest.mark.slow
 def test_entry_steps_match_the_engine():
     out = _run("bench_entry_steps.py", "--n", "200", "--outside", "25")
     assert "certified V4 <= c" in out and "not certified" in out

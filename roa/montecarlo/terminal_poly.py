@@ -8,18 +8,23 @@ with ``V = sum_k a_k prod_i d_i^E[k, i]`` (``d = y - c``), ``S = sum_k |a_k prod
 and ``thr = level (1 - REL_MARGIN)``. ``g = 2 (K + deg + n + 1) u`` (``deg`` the total degree,
 ``u`` the unit roundoff) bounds three roundings together:
 
-* V computed this way (powers by repeated multiplication, each term with at most ``deg + n``
-  rounded multiplications, ``K`` terms summed in order): ``|fl(V) - V(d)| <= gamma_{K + deg + n}
-  S``, Higham's gamma;
+* V computed this way (the coefficients ``a_k`` are doubles already; powers by repeated
+  multiplication, each term with at most ``deg + n`` rounded multiplications, ``K`` terms summed
+  in order): ``|fl(V) - V(d)| <= gamma_{K + deg + n} S``, Higham's gamma;
 * ``d = fl(y - c)`` itself: each component is off by a factor ``1 + delta``, ``|delta| <= u``,
   so each term by at most ``gamma_deg`` of its size, V by at most ``gamma_deg S``;
-* ``S`` computed in floats (relative error ``gamma_{K + deg + n}``), a second-order term.
+* ``S`` computed in floats, and ``g S`` (relative error ``gamma_{K + 2 deg + n + 1}``): a
+  second-order term.
 
-Their sum is below ``(K + 2 deg + n) u (1 + O(u)) <= g S``: a point counts only if V at the exact
-``y - c`` is below ``thr``. The rounding of the coordinate map (the analysis coordinates of a
-simulated state) and of the final sum ``V + g S`` is covered by ``REL_MARGIN`` (as for the
-quadratic test), that of ``z`` by the box's own shrink
-(:data:`roa.montecarlo.terminal_general.BOX_MARGIN`).
+Their sum is below ``(K + 2 deg + n) u (1 + O(u)) S <= g fl(S)`` (``g`` leaves ``(K + n + 2) u
+S`` for the second-order terms; Higham's model excludes underflow, whose absolute errors of at
+most 2^-1074 per operation are far below ``level REL_MARGIN``): a point counts only if V at the
+exact ``y - c`` is below ``thr``. The rounding of the final sum ``V + g S`` is covered by
+``REL_MARGIN``, that of ``z`` by the box's own shrink
+(:data:`roa.montecarlo.terminal_general.BOX_MARGIN`). The coordinate map (the analysis
+coordinates of a simulated state, e.g. ``z1 = q + arsinh(tan theta)``, which can cancel) is
+evaluated in floats as in the quadratic test: its rounding is part of the simulated state's own
+error, which no terminal set test bounds (nor does the baseline's integration).
 
 :func:`member_numpy` (rows of an array) and :func:`member_numba` (one point, in the kernels) do
 the same operations in the same order, so they give the same bits (tests/test_terminal_poly.py);

@@ -74,6 +74,18 @@ from roa.montecarlo.terminal_poly import member_numba
 from roa.status import StopRules
 from roa.system import System
 
+#: Modules whose numba code or constants the kernels compile in. numba keys a cached function by
+#: the source of the file defining it only (changes in other files are not seen: its documented
+#: caching limitation), so the kernels' entry points below are closures over :data:`KERNEL_STAMP`,
+#: whose value numba hashes into their cache key, and the functions they call that reach into
+#: these modules (``_member``, ``_inside``, ``_one``, ``_kernel``) are not cached on their own.
+KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
+#: SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits).
+KERNEL_STAMP = int(
+    hashlib.sha256(b"".join((Path(__file__).parent / f).read_bytes() for f in KERNEL_DEPS))
+    .hexdigest()[:15], 16
+)  # fmt: skip
+
 _ARR = numba.types.float64[::1]
 #: Signature of a compiled field ``field(t, x, params, out)`` (``numba.cfunc``).
 FIELD_SIGNATURE = numba.types.void(numba.types.float64, _ARR, _ARR, _ARR)
@@ -204,13 +216,32 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
                 f"coordinates {name!r} of the terminal set (use backend='numpy')"
             ) from None
 
+    kernel = _public_kernel()
+
     def run(params: Any, X0: Any, x_eq: Any, tol: float, bound: float, margin_tol: float,
             t_final: float, rtol: float, atol: float, T: Any, code: Any, t_end: Any, x_end: Any,
             steps: Any) -> None:  # fmt: skip
-        _kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-                T, coords, code, t_end, x_end, steps, None)  # fmt: skip
+        kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+               coords, code, t_end, x_end, steps)  # fmt: skip
 
     return run, params
+
+
+@functools.cache
+def _public_kernel() -> Callable[..., None]:
+    """The kernel of the public protocol (cfuncs as first-class function values), compiled once
+    and cached on disk, its key holding :data:`KERNEL_STAMP`."""
+    stamp = KERNEL_STAMP
+
+    @numba.njit(cache=True, error_model="numpy")
+    def kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+               coords, code, t_end, x_end, steps):  # fmt: skip
+        if stamp < 0:  # never: the stamp is here for the cache key
+            return
+        _kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+                coords, code, t_end, x_end, steps, None)  # fmt: skip
+
+    return kernel
 
 
 @dataclass(frozen=True)
@@ -341,7 +372,7 @@ def _v_le(w, tP, tc, thr):
     return v <= thr
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(error_model="numpy")  # compiled into the entry points
 def _member(w, T, d, pw):
     # w (analysis coordinates) in the terminal set T (kernel_terminal): quadratic or polynomial
     if T[0] == 1:
@@ -349,14 +380,14 @@ def _member(w, T, d, pw):
     return member_numba(w, T[2], T[4], T[5], T[6], T[7], T[3], T[8], d, pw)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(error_model="numpy")  # compiled into the entry points
 def _inside(y, coords, params, T, w, d, pw):
     # coords(y) in the terminal set
     coords(y, params, w)
     return _member(w, T, d, pw)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(error_model="numpy")  # compiled into the entry points
 def _one(
     field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
     T, coords, x_out, field_coords,
@@ -528,7 +559,7 @@ def _one(
             g_old[e] = g_new[e]
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(error_model="numpy")  # compiled into the entry points
 def _kernel(
     field,
     margin,
@@ -627,10 +658,13 @@ def compile_kernel(
     f, m = Inlined(field), Inlined(margin)
     c = Inlined(identity_coords_njit if coords is None else coords)
     fc = None if field_coords is None else Inlined(field_coords)
+    stamp = KERNEL_STAMP
 
     @numba.njit(cache=True, error_model="numpy")
     def run(params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, code, t_end, x_end,
             steps):  # fmt: skip
+        if stamp < 0:  # never: the stamp is here for the cache key
+            return
         _kernel(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c, code,
                 t_end, x_end, steps, fc)  # fmt: skip
 

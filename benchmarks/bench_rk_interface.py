@@ -49,6 +49,15 @@ def _control(en, h_abs, rejected):
     return False, h_abs * max(MINF, S * en**-0.2)
 
 
+@numba.njit(error_model="numpy", inline="always")
+def _begin(t, h_abs, t_final):
+    """scipy's start of a step: (step size underflowed, t_new, h), h clipped at t_final."""
+    if h_abs < 10 * abs(np.nextafter(t, np.inf) - t):
+        return True, t, 0.0
+    t_new = min(t + h_abs, t_final)
+    return False, t_new, t_new - t
+
+
 @numba.njit(error_model="numpy")
 def arrays(p, y0, t_final, rtol, atol, h0, y_out):
     n = y0.shape[0]
@@ -58,10 +67,9 @@ def arrays(p, y0, t_final, rtol, atol, h0, y_out):
     while t < t_final:
         rejected = False
         while True:
-            if h_abs < 10 * abs(np.nextafter(t, np.inf) - t):
+            bad, t_new, h = _begin(t, h_abs, t_final)
+            if bad:
                 return -1  # the step size underflowed (scipy: failure)
-            t_new = min(t + h_abs, t_final)
-            h = t_new - t
             h_abs = h
             for s in range(1, 6):
                 for i in range(n):
@@ -127,10 +135,9 @@ def scalars(p, y0, t_final, rtol, atol, h0, y_out):
     while t < t_final:
         rejected = False
         while True:
-            if h_abs < 10 * abs(np.nextafter(t, np.inf) - t):
+            bad, t_new, h = _begin(t, h_abs, t_final)
+            if bad:
                 return -1  # the step size underflowed (scipy: failure)
-            t_new = min(t + h_abs, t_final)
-            h = t_new - t
             h_abs = h
             k2 = _f(_st(y, h, (a[1, 0],), (k1, z, z, z, z, z, z)), p)
             k3 = _f(_st(y, h, (a[2, 0], a[2, 1]), (k1, k2, z, z, z, z, z)), p)

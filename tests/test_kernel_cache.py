@@ -22,6 +22,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCRIPT = """
 import dataclasses, json
 import numpy as np
+import roa
 from roa.lyapunov_general import PolynomialLyapunov
 from roa.montecarlo.integrator import integrate_batch
 from roa.montecarlo.terminal import TerminalSet
@@ -38,6 +39,7 @@ out = {}
 for name, s in (("fast", system), ("public", public)):
     r = integrate_batch(s, X, rules=StopRules(t_final=30.0), terminal=T)
     out[name] = [int(r.entered.sum()), r.status[0].value]
+out["file"] = roa.__file__
 print(json.dumps(out))
 """
 
@@ -55,12 +57,17 @@ def _run(pkg: Path) -> dict:
 def test_a_change_in_terminal_poly_reaches_the_cached_kernels(tmp_path):
     shutil.copytree(ROOT / "roa", tmp_path / "roa", ignore=shutil.ignore_patterns("__pycache__"))
     before = _run(tmp_path)
+    assert before.pop("file").startswith(str(tmp_path))  # the copy, not the installed package
     assert before == {"fast": [3, "converged"], "public": [3, "converged"]}
+    cache = tmp_path / "roa" / "montecarlo" / "__pycache__"  # the kernels are cached on disk
+    assert list(cache.glob("integrator.compile_kernel.locals.run-*.nbi"))
+    assert list(cache.glob("integrator._public_kernel.locals.kernel-*.nbi"))
     poly = tmp_path / "roa" / "montecarlo" / "terminal_poly.py"
     src = poly.read_text()
     marker = "    return v + g * s <= thr\n"
     assert src.count(marker) == 1
     poly.write_text(src.replace(marker, "    return False  # refuses every point\n"))
     after = _run(tmp_path)
+    after.pop("file")
     # the runs converge by the ball now, none by the terminal set
     assert after == {"fast": [0, "converged"], "public": [0, "converged"]}

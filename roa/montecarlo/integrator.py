@@ -78,7 +78,9 @@ from roa.system import System
 #: the source of the file defining it only (changes in other files are not seen: its documented
 #: caching limitation), so the kernels' entry points below are closures over :data:`KERNEL_STAMP`,
 #: whose value numba hashes into their cache key, and the functions they call that reach into
-#: these modules (``_member``, ``_inside``, ``_one``, ``_kernel``) are not cached on their own.
+#: these modules (``_member``, ``_inside``, ``_one``, ``_kernel``), or take an inlined function
+#: of the fast path (``_events``: its cache key would name the function by its address only),
+#: are not cached on their own.
 KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
 #: SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits).
 KERNEL_STAMP = int(
@@ -280,7 +282,8 @@ class Inlined:
     """A ``numba.njit`` function handed to the kernel as a compile-time constant (see
     :func:`compile_kernel`): the kernel calls it directly (LLVM inlines it), where a cfunc is
     called through its pointer. It pickles by name with the SHA-256 of its module's source, so a
-    kernel cached on disk is recompiled when that source changes."""
+    kernel cached on disk is recompiled when that source changes; only that module is hashed, so
+    an inlined function must not call numba code of other modules."""
 
     def __init__(self, fn: Any) -> None:
         self.fn = fn
@@ -337,7 +340,7 @@ def _dist(x: np.ndarray, c: np.ndarray) -> float:
     return np.sqrt(s)
 
 
-@numba.njit(cache=True, error_model="numpy")
+@numba.njit(error_model="numpy")  # compiled into the entry points (margin inlined)
 def _events(x, x_eq, tol, bound, margin, params, margin_tol, g):
     g[0] = _dist(x, x_eq) - tol
     g[1] = margin(x, params) - margin_tol

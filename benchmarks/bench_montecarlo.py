@@ -164,17 +164,19 @@ def certified_set(which: str) -> TerminalSet:
     raise SystemExit(f"{CERTIFIED}: no certified entry {prefix!r}")
 
 
-def degree4_set() -> TerminalSet:
-    """The IPC's certified degree-4 V (flat coordinates) of results/degrees/evidence.json, as a
-    polynomial terminal set (its certified component, roa/montecarlo/terminal_general.py)."""
+def degree4_set(coords: str = "flat") -> TerminalSet:
+    """The IPC's certified degree-4 V in ``coords`` (flat or hybrid) of
+    results/degrees/evidence.json, as a polynomial terminal set (its certified component,
+    roa/montecarlo/terminal_general.py)."""
     from roa.regions import lyapunov_from_json
 
-    row = json.loads(DEGREES.read_text())["ipc"]["degrees"]["4 (sampled)"]
+    key = {"flat": "ipc", "hybrid": "ipc_hybrid"}[coords]
+    row = json.loads(DEGREES.read_text())[key]["degrees"]["4 (sampled)"]
     if row["status"] != "certified":
-        raise SystemExit(f"{DEGREES}: the degree-4 V is {row['status']}, not certified")
+        raise SystemExit(f"{DEGREES}: the {coords} degree-4 V is {row['status']}, not certified")
     V = lyapunov_from_json(row["V"], np.zeros(4), name=row["V"]["lyapunov"])
     name = f"{row['V']['lyapunov']} <= {row['level']:.6g}"
-    return TerminalSet.polynomial(V, row["level"], coords="flat", name=name)
+    return TerminalSet.polynomial(V, row["level"], coords=coords, name=name)
 
 
 def terminal_set(which: str) -> TerminalSet:

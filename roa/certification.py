@@ -103,9 +103,7 @@ class Certificate:
                 "level": self.search.level,
                 "method": self.search.method,
             }
-            if self.level_source == "sampled":
-                out["sampled_level"] = self.candidate
-            elif self.level_source == "witness":  # candidate: lowered to a witness's V
+            if self.level_source in ("sampled", "witness"):  # witness: candidate lowered
                 out["sampled_level"] = self.search.level
         if self.validation is not None:
             out.update(self.validation.to_json())

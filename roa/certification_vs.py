@@ -188,9 +188,9 @@ def certify_sampled(
     above = None
     if check_above is not None:  # refute just above the optimum
         top = check_above * opt
-        # a retry's proof has V(x) = opt <= top / check_above, so it is below top; the level
-        # search's witness is tried when there is none (the test below re-checks either way)
-        if (proof is None or proof[2] * (1 + 1e-12) > top) and lv.witness is not None:
+        # a retry's proof has V(x) = opt = top / check_above, below top; without one, the level
+        # search's witness is tried (the test below re-checks either way)
+        if proof is None and lv.witness is not None:
             v, x, check = _lowest_witness(system, V, np.asarray(lv.witness, dtype=float))
             if x is not None and v * (1 + 1e-12) <= top:
                 proof = (x, check, v)
@@ -204,18 +204,10 @@ def certify_sampled(
             with step(f"refutation check of {V.name} at level {top:.6g}"):
                 above = certify(system, V, level=top, method="interval", interval=interval,
                                 bounding_box=None if half is None else 1.3 * half).validation  # fmt: skip
-    source = _source(level, bool(notes))
+    # "witness": a retry chose the level below a confirmed witness (not the caller's level)
+    source = "witness" if notes else "given" if level is not None else "sampled"
     return dataclasses.replace(cert, vs=res, search=lv, candidate=opt, above=above,
                                level_source=source, seconds=time.perf_counter() - t0)  # fmt: skip
-
-
-def _source(level: Any, retried: bool) -> str:
-    """``level_source`` of :func:`certify_sampled`: ``"witness"`` when a retry chose the level
-    below a confirmed witness (a given number is then not the level validated), ``"given"`` for
-    a number or function of the caller, else ``"sampled"``."""
-    if retried:
-        return "witness"
-    return "given" if level is not None else "sampled"
 
 
 def _lowest_witness(

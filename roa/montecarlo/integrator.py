@@ -74,20 +74,6 @@ from roa.montecarlo.terminal_poly import member_numba
 from roa.status import StopRules
 from roa.system import System
 
-#: Modules whose numba code or constants the kernels compile in. numba keys a cached function by
-#: the source of the file defining it only (changes in other files are not seen: its documented
-#: caching limitation), so the kernels' entry points below are closures over :data:`KERNEL_STAMP`,
-#: whose value numba hashes into their cache key, and the functions they call that reach into
-#: these modules (``_member``, ``_inside``, ``_one``, ``_kernel``), or take an inlined function
-#: of the fast path (``_events``: its cache key would name the function by its address only),
-#: are not cached on their own.
-KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
-#: SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits).
-KERNEL_STAMP = int(
-    hashlib.sha256(b"".join((Path(__file__).parent / f).read_bytes() for f in KERNEL_DEPS))
-    .hexdigest()[:15], 16
-)  # fmt: skip
-
 _ARR = numba.types.float64[::1]
 #: Signature of a compiled field ``field(t, x, params, out)`` (``numba.cfunc``).
 FIELD_SIGNATURE = numba.types.void(numba.types.float64, _ARR, _ARR, _ARR)
@@ -297,6 +283,24 @@ class Inlined:
 @functools.cache
 def _source_digest(filename: str) -> str:
     return hashlib.sha256(Path(filename).read_bytes()).hexdigest()
+
+
+#: Modules whose numba code or constants the kernels compile in. numba keys a cached function by
+#: the source of the file defining it only (changes in other files are not seen: its documented
+#: caching limitation), so the kernels' entry points (:func:`compile_kernel`, ``_public_kernel``)
+#: are closures over :data:`KERNEL_STAMP`,
+#: whose value numba hashes into their cache key, and the functions they call that reach into
+#: these modules (``_member``, ``_inside``, ``_one``, ``_kernel``), or take an inlined function
+#: of the fast path (``_events``: its cache key would name the function by its address only),
+#: are not cached on their own.
+KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
+#: The SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits of the digests' digest).
+KERNEL_STAMP = int(
+    hashlib.sha256(
+        "".join(_source_digest(str(Path(__file__).parent / f)) for f in KERNEL_DEPS).encode()
+    ).hexdigest()[:15],
+    16,
+)
 
 
 def _inlined_by_name(module: str, qualname: str, digest: str) -> Inlined:

@@ -174,9 +174,15 @@ def degree4_set(coords: str = "flat") -> TerminalSet:
     row = json.loads(DEGREES.read_text())[key]["degrees"]["4 (sampled)"]
     if row["status"] != "certified":
         raise SystemExit(f"{DEGREES}: the {coords} degree-4 V is {row['status']}, not certified")
+    from roa.proof.reverify import reverify
+
     V = lyapunov_from_json(row["V"], np.zeros(4), name=row["V"]["lyapunov"])
     name = f"{row['V']['lyapunov']} <= {row['level']:.6g}"
-    return TerminalSet.polynomial(V, row["level"], coords=coords, name=name)
+    analysis = ipc.closed_loop().meta["analysis_coords"].system(coords)
+    proof = reverify(analysis, V, row["level"])  # its frame; cached after the first run
+    if not proof.certified:
+        raise SystemExit(f"{DEGREES}: the {coords} degree-4 V did not re-verify: {proof.message}")
+    return TerminalSet.polynomial(V, row["level"], coords=coords, name=name, frame=proof.frame)
 
 
 def terminal_set(which: str) -> TerminalSet:

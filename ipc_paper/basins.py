@@ -30,11 +30,13 @@ from ipc_paper.estimates import paper_ball
 from roa.errors import ResultsError, RoaInputError
 from roa.experiment import VERDICTS, accepts, check_int, check_number, check_numbers
 from roa.io import atomic_write_json
+from roa.lyapunov import QuadraticLyapunov
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.basin import BasinResult
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
 from roa.montecarlo.terminal import REL_MARGIN, TerminalSet, coords_map
 from roa.options import IntegratorOptions, Options, RunOptions
+from roa.proof.reverify import reverify
 from roa.regions import Region
 from roa.status import StopRules
 from roa.systems import ipc
@@ -253,6 +255,11 @@ def terminal_set(
     best = max(entries, key=lambda e: float(e.get("box_fraction") or 0.0))
     coords = str(best.get("coords", "flat"))
     center = coords_map(system, coords)(system.x_eq[None, :])[0]
+    analysis = system.meta["analysis_coords"].system(coords)
+    proof = reverify(analysis, QuadraticLyapunov(best["P"], analysis.x_eq), float(best["level"]))
+    if not proof.certified:  # a stale or edited certified.json: never trusted as it stands
+        return None, {**off, "reason": f"{path}: {best['name']} did not re-verify for "
+                      f"{analysis.name} ({proof.status.value}: {proof.message})"}  # fmt: skip
     terminal = TerminalSet(best["P"], center, best["level"], coords=coords, name=best["name"])
     from ipc_paper.certified import plain_label
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from roa.checks import check_system
 from roa.errors import RoaInputError
+from roa.fingerprint import system_fingerprint
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
@@ -89,6 +90,7 @@ class Certificate:
         out: dict[str, Any] = {}
         if self.system is not None:
             out["system"] = self.system.name
+            out["system_fingerprint"] = system_fingerprint(self.system)
         if isinstance(self.V, QuadraticLyapunov):
             out.update(lyapunov=self.V.name, P=self.V.P.tolist())
         elif self.V is not None:

@@ -57,6 +57,31 @@ def _np():  # noqa: ANN202 - the numpy namespace
     return NP
 
 
+#: Times at which an autonomous field must give what it gives at t = 0.
+PROBE_TIMES = (0.7, 13.1, -2.9)
+
+
+def _check_autonomous(system: System, X: np.ndarray, F0: np.ndarray) -> None:
+    """A field that changes with ``t`` must be declared ``time_varying=True``: an equilibrium
+    analysis of it would be about the field frozen at ``t = 0``."""
+    for t in PROBE_TIMES:
+        with np.errstate(all="ignore"):
+            try:
+                Ft = system.f(X, t)
+            except Exception:  # noqa: BLE001 - a field that fails at t != 0 depends on t
+                Ft = np.full_like(F0, np.nan)
+        same = np.isclose(Ft, F0, rtol=1e-12, atol=0.0, equal_nan=True)
+        if not same.all():
+            k = int(np.argwhere(~same.all(axis=1))[0, 0])
+            raise RoaInputError(
+                f"system {system.name!r}: the field depends on t (at x = "
+                f"{np.array2string(X[k], precision=4)}: f = {np.array2string(F0[k], precision=6)} "
+                f"at t = 0, {np.array2string(Ft[k], precision=6)} at t = {t}) but the system is "
+                "not declared time_varying=True; an equilibrium analysis needs an autonomous "
+                "field (remove t from the field, or declare time_varying=True to simulate it)"
+            )
+
+
 @functools.lru_cache(maxsize=64)
 def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
     """Check ``system`` at its equilibrium; with ``analysis`` also classify its linearisation.
@@ -95,6 +120,7 @@ def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
     with np.errstate(all="ignore"):
         near = system.f(x_eq + r * U)
     scale = float(np.nanmax(np.linalg.norm(near, axis=1))) if np.isfinite(near).any() else 1.0
+    _check_autonomous(system, x_eq + r * U, near)
     residual = float(np.linalg.norm(f_eq))
     if residual > RESIDUAL_RTOL * max(scale, 1.0):
         raise RoaInputError(

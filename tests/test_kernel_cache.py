@@ -33,7 +33,7 @@ system = ipc.closed_loop()
 public = dataclasses.replace(system, meta={k: v for k, v in system.meta.items() if k != "numba_fast"})
 E = np.eye(4, dtype=int) * 2
 V = PolynomialLyapunov(E.tolist(), [1.0] * 4, center=[0.0] * 4)
-T = TerminalSet.polynomial(V, 0.01, coords="flat", box=([-0.1] * 4, [0.1] * 4))
+T = TerminalSet.polynomial(V, 0.01, coords="flat", frame=np.eye(4), box=([-0.1] * 4, [0.1] * 4))
 X = np.array([[0.0, 0.0, a, 0.0] for a in (0.2, -0.3, 0.4)])
 out = {}
 for name, s in (("fast", system), ("public", public)):

@@ -35,7 +35,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.fingerprint import system_fingerprint
 from roa.montecarlo.terminal_poly import PolyArrays, member_numpy, poly_arrays
+from roa.progress import step
 from roa.system import System
 
 if TYPE_CHECKING:
@@ -134,13 +136,16 @@ class TerminalSet:
         coords: str | None = None,
         name: str = "certified set",
         *,
-        frame: Any = None,
+        frame: Any,
         box: Any = None,
     ) -> TerminalSet:
-        """``{y : V(y) <= level(1 - REL_MARGIN), z in box}`` with ``z = frame^-1 (y - V.center)``
-        (``frame`` default identity). ``box`` ``(lo, hi)`` must lie in the bounding box of the
-        component of ``{V <= level}`` holding the centre (default: found and proved by
-        :func:`~roa.montecarlo.terminal_general.component_box`)."""
+        """``{y : V(y) <= level(1 - REL_MARGIN), z in box}`` with ``z = frame^-1 (y - V.center)``.
+
+        ``frame`` must be the frame ``M`` of the validation that proved the level (``x = x_eq +
+        M y``; the ``"M"`` of its JSON, or :attr:`roa.proof.reverify.Reverified.frame`): the
+        component box is sound in that frame only, so there is no default. ``box`` ``(lo, hi)``
+        must lie in the bounding box of the component of ``{V <= level}`` holding the centre
+        (default: found and proved by :func:`~roa.montecarlo.terminal_general.component_box`)."""
         from roa.lyapunov_general import PolynomialLyapunov
 
         if not isinstance(V, PolynomialLyapunov):
@@ -148,7 +153,10 @@ class TerminalSet:
                 f"TerminalSet.polynomial: V must be a PolynomialLyapunov, got {type(V).__name__}"
             )
         n = V.n
-        M = np.eye(n) if frame is None else np.array(frame, dtype=float)
+        try:
+            M = np.array(frame, dtype=float)
+        except (TypeError, ValueError):
+            raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix") from None
         if M.shape != (n, n) or not np.isfinite(M).all() or abs(np.linalg.det(M)) == 0:
             raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix")
         if box is None:
@@ -239,10 +247,16 @@ class TerminalSet:
 
     @classmethod
     def from_certificate(cls, source: str | Path | dict[str, Any], system: System) -> TerminalSet:
-        """The certified set of ``roa certify --json`` output (a file or its dict) for ``system``.
+        """The certified set of ``roa certify --json`` output (a file or its dict) for ``system``,
+        re-verified before it is used.
 
-        Refused (:class:`roa.errors.RoaInputError`) unless its status is ``certified`` and it is
-        for ``system`` itself or for analysis coordinates ``system`` declares.
+        Nothing in the file is trusted: its ``V`` and ``level`` are validated again by interval
+        branch and bound on ``system`` as loaded (or on the analysis coordinates ``system``
+        declares for the certificate's system), cached by content
+        (:func:`roa.proof.reverify.reverify`); a polynomial V's frame is the re-verification's.
+        Refused (:class:`roa.errors.RoaInputError`, with the reason) unless its status is
+        ``certified``, it names ``system`` (or declared analysis coordinates), its
+        ``system_fingerprint`` (when present) is that system's, and the re-verification proves it.
         """
         where = "terminal set" if isinstance(source, dict) else f"terminal set {source}"
         if isinstance(source, dict):
@@ -255,7 +269,7 @@ class TerminalSet:
                 )
             try:
                 data = json.loads(path.read_text())
-            except (OSError, ValueError, UnicodeDecodeError) as exc:
+            except (OSError, ValueError, UnicodeDecodeError, RecursionError) as exc:
                 raise RoaInputError(f"{where}: not a readable JSON file ({exc})") from None
         if not isinstance(data, dict):
             raise RoaInputError(
@@ -274,29 +288,49 @@ class TerminalSet:
                 "level set may finish trajectories"
             )
         cert_system = str(data["system"])
+        analysis = system  # the system the certificate's V and level are about
         if cert_system == system.name:
             coords = None
         else:
-            declared = getattr(system.meta.get("analysis_coords"), "systems", {}) or {}
+            provider = system.meta.get("analysis_coords")
+            declared = getattr(provider, "systems", {}) or {}
             if cert_system not in declared:
                 raise RoaInputError(
                     f"{where}: the certificate is for system {cert_system!r}, not {system.name!r}"
                     + (f" (allowed: {', '.join([system.name, *declared])})" if declared else "")
                 )
             coords = declared[cert_system]
-        if data["level"] is None:
-            raise RoaInputError(f"{where}: no level")
-        center = coords_map(system, coords)(system.x_eq[None, :])[0]
-        name = f"{data.get('lyapunov', 'V')} <= {float(data['level']):.6g} ({cert_system})"
-        if "P" in data:
-            try:
-                P = np.asarray(data["P"], dtype=float)
-            except (TypeError, ValueError):
-                raise RoaInputError(f"{where}: P must be a list of rows of numbers") from None
-            return cls(P, center, data["level"], coords, name)
-        from roa.montecarlo.terminal_general import polynomial_terminal
+            assert provider is not None
+            analysis = provider.system(coords)
+        level = data["level"]
+        if isinstance(level, bool) or not isinstance(level, int | float):
+            raise RoaInputError(f"{where}: level must be a number, got {level!r}")
+        level = float(level)
+        if not (np.isfinite(level) and level > 0):
+            raise RoaInputError(f"{where}: level must be a finite number > 0, got {level!r}")
+        stamp = data.get("system_fingerprint")
+        if stamp is not None and stamp != system_fingerprint(analysis):
+            raise RoaInputError(
+                f"{where}: the certificate was made for another system than {analysis.name!r} "
+                "as loaded (its system_fingerprint differs: other parameters, field or "
+                "equilibrium)"
+            )
+        from roa.montecarlo.terminal_general import certificate_lyapunov, terminal_of
+        from roa.proof.reverify import reverify
 
-        return polynomial_terminal(data, center, coords, name, where)
+        V = certificate_lyapunov(data, analysis.x_eq, where)
+        with step(f"re-verifying the certificate ({V.name} <= {level:.6g}, {analysis.name})"):
+            proof = reverify(analysis, V, level)
+        if not proof.certified:
+            raise RoaInputError(
+                f"{where}: re-verification failed for system {analysis.name!r} at level "
+                f"{level:.6g}: {proof.status.value}"
+                + (f" ({proof.message})" if proof.message else "")
+                + "; only a level set proved for the system as loaded may finish trajectories"
+            )
+        center = coords_map(system, coords)(system.x_eq[None, :])[0]
+        name = f"{data.get('lyapunov', 'V')} <= {level:.6g} ({cert_system})"
+        return terminal_of(V, level, center, coords, name, frame=proof.frame)
 
     def bind(self, system: System) -> BoundTerminal:
         """Check the set against ``system`` and resolve its coordinate map."""

@@ -18,6 +18,7 @@ same trajectories bit for bit.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
 
 import numba
 import numpy as np
@@ -29,6 +30,9 @@ from roa.montecarlo.integrator import (
     no_margin,
     no_margin_njit,
 )
+
+if TYPE_CHECKING:
+    from roa.system import System
 
 HALF_PI = np.pi / 2
 
@@ -262,6 +266,18 @@ class AnalysisCoords:
         # certificates carry the system name only: the built-in flat/hybrid systems have the
         # default gains, so they match only a closed loop with those gains
         self.systems = {"ipc_flat": "flat", "ipc_hybrid": "hybrid"} if default_gains else {}
+
+    def system(self, name: str) -> System:
+        """The closed loop in the coordinates ``name`` (what a certificate there is about)."""
+        if name == "flat":
+            from roa.systems.ipc import transformed
+
+            return transformed()
+        if name == "hybrid":
+            from roa.systems.ipc.hybrid import hybrid
+
+            return hybrid()
+        raise KeyError(name)
 
     def __call__(self, name: str):
         if name == "flat":

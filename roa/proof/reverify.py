@@ -1,0 +1,136 @@
+"""Re-verify a certificate read from a file before anything trusts it.
+
+A certificate file (``roa certify --json``) says that ``{V <= level}`` is certified for a system.
+Nothing in the file is believed: :func:`reverify` runs the interval validation
+(:func:`roa.proof.validate.validate_level`) for ``V`` and ``level`` on the system *as loaded*, so a
+forged level, a scaled ``P``, an edited polynomial or a certificate of another system is refused
+with the validation's reason (its refutation witness, re-checked at 50 digits, where there is
+one). What a terminal set, an overlay or a report row then uses is what was proved here,
+including the validation's own frame ``M`` (never the file's).
+
+Proved results are cached by content: the key is the SHA-256 of the system's fingerprint
+(:func:`roa.fingerprint.system_fingerprint`), ``V``'s exact description, the level's exact value
+and the hash of the library's code, so a change of any of them re-runs the validation. The cache
+lives in ``$ROA_CACHE_DIR`` (default ``~/.cache/roa``) under ``verified/``; it trusts whoever can
+write there (as a compiler cache does), which is the user running ``roa``.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from roa.fingerprint import system_fingerprint
+from roa.lyapunov import Lyapunov
+from roa.options import IntervalOptions
+from roa.status import Verdict
+from roa.system import System
+
+
+@dataclass(frozen=True)
+class Reverified:
+    """The verdict of a re-verification: ``status`` is ``certified`` only when proved here (or
+    proved earlier for exactly this content, ``cached``)."""
+
+    status: Verdict
+    level: float
+    message: str
+    seconds: float
+    cached: bool = False
+    validation: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def certified(self) -> bool:
+        return self.status is Verdict.CERTIFIED
+
+    @property
+    def frame(self) -> list[list[float]] | None:
+        """The validation's frame ``M`` (``x = x_eq + M y``) of a non-quadratic V."""
+        return self.validation.get("M")
+
+
+def cache_dir() -> Path:
+    """Where proved certificates are remembered (``$ROA_CACHE_DIR``, else ``~/.cache/roa``)."""
+    root = os.environ.get("ROA_CACHE_DIR")
+    return Path(root) if root else Path.home() / ".cache" / "roa"
+
+
+@functools.lru_cache(maxsize=1)
+def _code_stamp() -> str:
+    from roa.io import code_hash
+
+    return code_hash("roa")
+
+
+def content_key(system: System, V: Lyapunov, level: float) -> str:
+    """SHA-256 of what a re-verification depends on (see module doc)."""
+    data = {
+        "system": system_fingerprint(system),
+        "V": V.describe(),
+        "center": [float(c).hex() for c in V.center],
+        "level": float(level).hex(),
+        "code": _code_stamp(),
+    }
+    return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
+
+
+def _read(key: str) -> dict[str, Any] | None:
+    path = cache_dir() / "verified" / f"{key}.json"
+    try:
+        data = json.loads(path.read_text())
+    except (OSError, ValueError, UnicodeDecodeError):
+        return None
+    if not isinstance(data, dict) or data.get("key") != key or data.get("status") != "certified":
+        return None
+    return data
+
+
+def _write(key: str, data: dict[str, Any]) -> None:
+    from roa.io import atomic_write_json
+
+    try:
+        atomic_write_json(cache_dir() / "verified" / f"{key}.json", {"key": key, **data})
+    except OSError:  # a read-only home: the proof stands, it is only not remembered
+        pass
+
+
+def reverify(
+    system: System,
+    V: Lyapunov,
+    level: float,
+    *,
+    interval: IntervalOptions | None = None,
+    use_cache: bool = True,
+) -> Reverified:
+    """Prove (or fail to prove) ``{V <= level}`` for ``system`` by interval validation.
+
+    Never raises for a bad certificate: a level the validation cannot take (not finite, so large
+    that the arithmetic overflows) is ``inconclusive`` with the reason.
+    """
+    from roa.proof.validate import validate_level
+
+    t0 = time.perf_counter()
+    lvl = float(level)
+    key = content_key(system, V, lvl) if use_cache else ""
+    hit = _read(key) if use_cache else None
+    if hit is not None:
+        return Reverified(Verdict.CERTIFIED, lvl, "proved earlier for this exact content",
+                          time.perf_counter() - t0, True, hit.get("validation", {}))  # fmt: skip
+    opts = IntervalOptions() if interval is None else interval
+    try:
+        v = validate_level(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch)
+    except (OverflowError, FloatingPointError, ZeroDivisionError) as exc:
+        return Reverified(Verdict.INCONCLUSIVE, lvl,
+                          f"the validation cannot take level {lvl!r} ({type(exc).__name__})",
+                          time.perf_counter() - t0)  # fmt: skip
+    record = v.to_json()
+    out = Reverified(v.status, lvl, v.message, time.perf_counter() - t0, False, record)
+    if use_cache and out.certified:
+        _write(key, {"status": "certified", "validation": record})
+    return out

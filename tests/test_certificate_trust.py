@@ -1,0 +1,147 @@
+"""Certificates are re-verified where they are used: a forged or mismatched certificate file never
+turns diverging runs into converged ones (reliability issue, items 1 and 2).
+
+Van der Pol (mu = 1, the benchmark P): {V <= 2.30} is certified, the published optimum is 2.3045,
+so every level edited above it is false and must be refused; mu = 15 is another system, whose
+certificate the mu = 1 file is not. Each tampered file below is one of the adversarial run's
+findings; each was accepted before re-verification (the basin then counted diverging runs as
+converged).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import roa
+from roa.cli import main
+from roa.errors import RoaInputError
+from roa.fingerprint import system_fingerprint
+from roa.montecarlo.terminal import TerminalSet
+from roa.proof.reverify import content_key, reverify
+from roa.systems.vanderpol import P_BENCHMARK, vanderpol
+
+LEVEL = 2.30
+
+
+@pytest.fixture(autouse=True)
+def _private_cache(tmp_path, monkeypatch):
+    monkeypatch.setenv("ROA_CACHE_DIR", str(tmp_path / "cache"))
+
+
+@pytest.fixture(scope="module")
+def certificate() -> dict:
+    cert = roa.certify(vanderpol(), level=LEVEL)
+    assert cert.certified
+    return json.loads(roa.io.to_json(cert.to_dict()))
+
+
+def _quadratic_form(P: np.ndarray) -> dict:
+    return {"lyapunov": "q", "kind": "PolynomialLyapunov", "degree": 2,
+            "monomials": [[2, 0], [1, 1], [0, 2]],
+            "coefficients": [P[0, 0], 2 * P[0, 1], P[1, 1]]}  # fmt: skip
+
+
+TAMPERED = {
+    "level 1000": lambda c: {**c, "level": 1000.0},
+    "level 1e308": lambda c: {**c, "level": 1e308},
+    "level just above the optimum": lambda c: {**c, "level": 2.31},
+    "P scaled by 1e-3": lambda c: {**c, "P": (np.asarray(c["P"]) * 1e-3).tolist()},
+    "indefinite P": lambda c: {**c, "P": [[1.0, 0.0], [0.0, -1.0]]},
+    "forged polynomial": lambda c: {
+        **{k: v for k, v in c.items() if k != "P"},
+        "candidate_kind": _quadratic_form(np.asarray(c["P"]) * 1e-3),
+    },
+    "polynomial centred elsewhere": lambda c: {
+        **{k: v for k, v in c.items() if k != "P"},
+        "candidate_kind": {**_quadratic_form(np.asarray(c["P"])), "center": [0.5, 0.0]},
+    },
+}
+
+
+@pytest.mark.parametrize("edit", list(TAMPERED))
+def test_tampered_certificates_are_refused(certificate, edit):
+    forged = TAMPERED[edit](certificate)
+    with pytest.raises(RoaInputError, match="terminal set"):
+        TerminalSet.from_certificate(forged, vanderpol())
+
+
+def test_the_genuine_certificate_is_proved_again_and_remembered_by_content(certificate):
+    system = vanderpol()
+    term = TerminalSet.from_certificate(certificate, system)
+    assert term.quadratic and term.level == LEVEL
+    np.testing.assert_array_equal(term.P, P_BENCHMARK)
+    moved = TerminalSet.from_certificate({**certificate, "center": [5.0, 5.0]}, system)
+    np.testing.assert_array_equal(moved.center, system.x_eq)  # the file cannot move the centre
+    V = roa.default_lyapunov(system)
+    again = reverify(system, V, LEVEL)
+    assert again.certified and again.cached  # the first use proved it; the key is the content
+    assert not reverify(system, V, 2.31).certified  # refuted: never cached, never certified
+    assert content_key(system, V, LEVEL) != content_key(system, V, np.nextafter(LEVEL, 3.0))
+    assert content_key(system, V, LEVEL) != content_key(vanderpol(mu=1.5), V, LEVEL)
+
+
+def test_a_certificate_of_another_parameter_is_refused(certificate):
+    """The mu = 1 certificate names "vanderpol" as mu = 15 does: the fingerprint tells them apart,
+    and without it the re-verification on mu = 15 refuses the level."""
+    stiff = roa.load_system("vanderpol:mu=15")
+    assert stiff.name == certificate["system"]
+    assert certificate["system_fingerprint"] == system_fingerprint(vanderpol())
+    assert certificate["system_fingerprint"] != system_fingerprint(stiff)
+    with pytest.raises(RoaInputError, match="another system"):
+        TerminalSet.from_certificate(certificate, stiff)
+    unstamped = {k: v for k, v in certificate.items() if k != "system_fingerprint"}
+    with pytest.raises(RoaInputError, match="re-verification failed"):
+        TerminalSet.from_certificate(unstamped, stiff)
+
+
+def test_forged_terminal_set_leaves_basin_counts_as_without_it(certificate, tmp_path, capsys):
+    """Through the CLI: the forged file is refused (exit 2, naming --terminal-set), the genuine one
+    leaves every count as the run without a terminal set."""
+    good, forged = tmp_path / "good.json", tmp_path / "forged.json"
+    good.write_text(json.dumps(certificate))
+    forged.write_text(json.dumps({**certificate, "level": 1000.0}))
+    argv = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "12x12",
+            "--box", "x1=-4:4,x2=-4:4", "--t-final", "20", "--jobs", "1", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    plain = json.loads(capsys.readouterr().out)
+    assert plain["counts"]["diverged"] + plain["counts"].get("undecided", 0) > 0
+    assert main([*argv, "--terminal-set", str(forged)]) == 2
+    err = capsys.readouterr().err
+    assert "--terminal-set" in err and "re-verification failed" in err and "Traceback" not in err
+    assert main([*argv, "--terminal-set", str(good)]) == 0
+    with_set = json.loads(capsys.readouterr().out)
+    assert with_set["counts"] == plain["counts"] and with_set["entered_certified_set"] > 0
+
+
+def test_polynomial_frame_comes_from_the_reverification_not_the_file():
+    """A polynomial certificate without its frame M (or with a forged one) is not built in the
+    identity frame: the frame is the one of the validation that re-proved it."""
+    V = roa.PolynomialLyapunov([[2, 0], [1, 1], [0, 2], [4, 0]],
+                               [P_BENCHMARK[0, 0], 2 * P_BENCHMARK[0, 1], P_BENCHMARK[1, 1], 0.05],
+                               [0.0, 0.0], "quartic")  # fmt: skip
+    cert = roa.certify(vanderpol(), V, level=1.5, method="interval")
+    assert cert.certified
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    M = np.asarray(data["M"])
+    assert not np.allclose(M, np.eye(2))
+    for variant in ({k: v for k, v in data.items() if k != "M"}, {**data, "M": [[1, 0], [0, 1]]}):
+        term = TerminalSet.from_certificate(variant, vanderpol())
+        np.testing.assert_array_equal(term.frame, M)
+
+
+def test_a_field_using_t_undeclared_is_an_input_error(tmp_path, capsys):
+    src = tmp_path / "tv.py"
+    src.write_text(
+        "from roa import System\n"
+        "def field(t, x, xp):\n"
+        "    return (-x[1] + 0.5 * t * x[0], x[0] + (x[0] ** 2 - 1) * x[1])\n"
+        "SYSTEM = System(name='tv', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'))\n"
+    )
+    with pytest.raises(RoaInputError, match=r"tv\.py.*depends on t"):
+        roa.load_system(f"{src}:SYSTEM")
+    assert main(["certify", "--system", f"{src}:SYSTEM", "--level", "2.3", "--json"]) == 2
+    err = capsys.readouterr().err
+    assert "depends on t" in err and "time_varying=True" in err and "Traceback" not in err

@@ -168,7 +168,7 @@ def degree4_set(coords: str = "flat") -> TerminalSet:
     """The IPC's certified degree-4 V in ``coords`` (flat or hybrid) of
     results/degrees/evidence.json, as a polynomial terminal set (its certified component,
     roa/montecarlo/terminal_general.py)."""
-    from roa.regions import lyapunov_from_json
+    from roa.lyapunov import from_json as lyapunov_from_json
 
     key = {"flat": "ipc", "hybrid": "ipc_hybrid"}[coords]
     row = json.loads(DEGREES.read_text())[key]["degrees"]["4 (sampled)"]

@@ -136,7 +136,7 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
 def figure(ev: dict[str, Any], path: Path) -> None:
     import matplotlib.pyplot as plt
 
-    from roa.regions import lyapunov_from_json
+    from roa.lyapunov import from_json as lyapunov_from_json
 
     fig, axes = plt.subplots(1, 2, figsize=(11, 5.2))
     ax = axes[0]

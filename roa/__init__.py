@@ -19,8 +19,13 @@ certification and Monte Carlo all work on the same definition.
 from roa.certification import Certificate, certify
 from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
 from roa.levelset import LevelSearchResult, level_search
-from roa.lyapunov import Lyapunov, QuadraticLyapunov, default_lyapunov
-from roa.lyapunov_general import FunctionLyapunov, PolynomialLyapunov
+from roa.lyapunov import (
+    FunctionLyapunov,
+    Lyapunov,
+    PolynomialLyapunov,
+    QuadraticLyapunov,
+    default_lyapunov,
+)
 from roa.montecarlo.basin import BasinResult, basin
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
 from roa.options import (

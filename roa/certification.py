@@ -26,7 +26,7 @@ from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.fingerprint import system_fingerprint
 from roa.levelset import LevelSearchResult, level_search
-from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
+from roa.lyapunov import Lyapunov, as_lyapunov, certificate_fields
 from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
 from roa.proof.sos import SOSResult, sos_level
@@ -91,10 +91,8 @@ class Certificate:
         if self.system is not None:
             out["system"] = self.system.name
             out["system_fingerprint"] = system_fingerprint(self.system)
-        if isinstance(self.V, QuadraticLyapunov):
-            out.update(lyapunov=self.V.name, P=self.V.P.tolist())
-        elif self.V is not None:
-            out.update(lyapunov=self.V.name, candidate_kind=self.V.describe())
+        if self.V is not None:
+            out.update(certificate_fields(self.V))
         if self.sos is not None:
             out["sos"] = self.sos.to_json()
         if self.vs is not None:
@@ -136,7 +134,7 @@ class Certificate:
         c = self.V.center
         style = "-" if self.certified else "--"
         label = f"V <= {self.level:.6g} ({self.status})"
-        if isinstance(self.V, QuadraticLyapunov):
+        if self.V.P is not None:
             Pij = self.V.P[np.ix_([i, j], [i, j])]
             t = np.linspace(0, 2 * np.pi, n)
             L = np.linalg.cholesky(Pij)
@@ -268,7 +266,8 @@ def certify(
     sos = SosOptions() if sos is None else sos
     interval = IntervalOptions() if interval is None else interval
     keep: dict[str, Any] = {"system": system, "V": lyap}
-    quadratic = isinstance(lyap, QuadraticLyapunov)
+    quad = lyap.as_quadratic()
+    quadratic = quad is not None
     if not quadratic and method == "sos" and level is None:
         raise RoaInputError(
             f"method='sos' needs a QuadraticLyapunov; V {lyap.name!r} is "
@@ -302,11 +301,11 @@ def certify(
         return done(status=v.status, level=float(level), method="interval", level_source="given",
                     message=v.message, validation=v, above=above, candidate=float(level))  # fmt: skip
     sos_res = None
-    if method in ("sos", "both") and isinstance(lyap, QuadraticLyapunov):  # SOS: quadratic V
+    if method in ("sos", "both") and quad is not None:  # SOS: quadratic V
         with step("SOS program (cvxpy + Clarabel)"):
             sos_res = sos_level(
                 system,
-                lyap,
+                quad,
                 recast_mode=sos.recast,
                 multiplier_degree=sos.multiplier_degree,
                 solver_options=sos.solver_options(),

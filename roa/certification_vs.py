@@ -262,10 +262,11 @@ def _refuted_by(x: np.ndarray, check: dict[str, Any], level: float, how: str) ->
 
 def _quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:
     """``V`` as a quadratic Lyapunov function of ``system``, or an error starting with ``what``."""
-    seed = as_lyapunov(system, V)
-    if not isinstance(seed, QuadraticLyapunov):
+    given = as_lyapunov(system, V)
+    seed = given.as_quadratic()
+    if seed is None:
         raise RoaInputError(
-            f"{what} {seed.name!r} is {type(seed).__name__}: give a matrix P or a "
+            f"{what} {given.name!r} is {type(given).__name__}: give a matrix P or a "
             "QuadraticLyapunov (or none)"
         )
     return seed

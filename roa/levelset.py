@@ -26,7 +26,7 @@ from roa.levelset_casadi import casadi_level
 from roa.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
 from roa.levelset_sampled import sampled_level
 from roa.linearisation import jacobian, lyapunov_matrix
-from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
+from roa.lyapunov import Lyapunov, as_lyapunov
 from roa.options import CasadiOptions, SampledOptions
 from roa.progress import step
 from roa.status import LevelStatus
@@ -118,7 +118,7 @@ class LevelSearchResult:
             out["per_method"] = {k: v.to_dict() for k, v in self.per_method.items()}
         if self.system is not None:
             out["system"] = self.system.name
-        if isinstance(self.V, QuadraticLyapunov):
+        if self.V is not None and self.V.P is not None:
             out["P"] = self.V.P.tolist()
         elif self.V is not None:
             out["lyapunov"] = self.V.describe()
@@ -138,7 +138,7 @@ class LevelSearchResult:
         X = c + t[:, None] * (self.witness - c)
         with np.errstate(all="ignore"):
             vd = self.V.derivative(self.system, X)
-        if isinstance(self.V, QuadraticLyapunov) or self.S is not None:
+        if self.V.P is not None or self.S is not None:
             sv = self.level * t**2
         else:
             sv = self.V.value(X)
@@ -157,7 +157,7 @@ def shape_matrix(system: System, V: Lyapunov, shape: Any) -> tuple[np.ndarray | 
     positive-definite matrix (``"custom"``)."""
     if isinstance(shape, str):
         if shape == "level":
-            return (V.P if isinstance(V, QuadraticLyapunov) else None), "level"
+            return V.P, "level"
         if shape == "ball":
             return (np.eye(system.n) if system.norm is None else np.asarray(system.norm)), "ball"
         raise RoaInputError(f"shape must be one of {SHAPES} or an n x n matrix, got {shape!r}")

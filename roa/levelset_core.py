@@ -23,7 +23,7 @@ from scipy import linalg, optimize
 
 from roa.errors import RoaInputError
 from roa.linearisation import jacobian
-from roa.lyapunov import Lyapunov, QuadraticLyapunov, check_positive_definite
+from roa.lyapunov import Lyapunov, check_positive_definite
 from roa.system import System
 
 #: Relative agreement required between the two methods.
@@ -149,11 +149,11 @@ def locally_negative(system: System, V: Lyapunov) -> tuple[bool, float]:
     then sampled on small spheres (an estimate, not a proof).
     """
     A = jacobian(system)
-    P = V.P if isinstance(V, QuadraticLyapunov) else 0.5 * V.hessian_at_center()
+    P = V.P if V.P is not None else 0.5 * V.hessian_at_center()
     Q = A.T @ P + P @ A
     lam = float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[-1])
     scale = max(1.0, float(np.abs(Q).max()), float(np.abs(P).max()))
-    definite = isinstance(V, QuadraticLyapunov) or bool(np.linalg.eigvalsh(P)[0] > 1e-10 * scale)
+    definite = V.P is not None or bool(np.linalg.eigvalsh(P)[0] > 1e-10 * scale)
     if abs(lam) > 1e-10 * scale and definite:
         return lam < 0, lam
     rng = np.random.default_rng(0)

@@ -22,7 +22,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov import Lyapunov, QuadraticLyapunov, check_positive_definite
+from roa.lyapunov import Lyapunov, QuadraticLyapunov, check_positive_definite, from_json
 
 
 def symmetric_extent(
@@ -62,44 +62,6 @@ REGION_STATUSES = (
 )
 
 
-def lyapunov_from_json(data: Mapping[str, Any], center: Any, *, name: str = "V") -> Lyapunov:
-    """A Lyapunov candidate from its JSON form, centred at ``center`` unless the JSON says.
-
-    Accepts ``{"P": rows}`` (quadratic), ``{"monomials": [...], "coefficients": [...]}``
-    (:class:`~roa.lyapunov_general.PolynomialLyapunov` in ``d = x - center``, as its
-    ``describe()`` writes it), or an object holding one of those under ``"V"`` (a
-    :meth:`Region.to_json`) or ``"candidate_kind"`` (``roa certify --json`` for a non-quadratic V).
-    """
-    from roa.lyapunov_general import PolynomialLyapunov
-
-    if not isinstance(data, Mapping):
-        raise RoaInputError(f"V: expected a JSON object, got {type(data).__name__}")
-    for key in ("V", "candidate_kind"):
-        if "P" not in data and "monomials" not in data and isinstance(data.get(key), Mapping):
-            return lyapunov_from_json(data[key], data.get("center", center), name=name)
-    try:
-        c = np.asarray(data.get("center", center), dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise RoaInputError("V: center must be a list of numbers") from None
-    name = str(data.get("lyapunov", name))
-    if "P" in data:
-        try:
-            P = np.asarray(data["P"], dtype=float)
-        except (TypeError, ValueError):
-            raise RoaInputError("V: P must be a list of rows of numbers") from None
-        n = P.shape[0] if P.ndim == 2 else 0
-        return QuadraticLyapunov(P, c if c.size else np.zeros(n), name)
-    if "monomials" in data and "coefficients" in data:
-        mono = data["monomials"]
-        n = len(mono[0]) if isinstance(mono, list) and mono and isinstance(mono[0], list) else 0
-        return PolynomialLyapunov(mono, data["coefficients"], c if c.size else np.zeros(n), name)
-    kind = data.get("kind")
-    raise RoaInputError(
-        "V: the JSON holds neither P nor polynomial monomials and coefficients"
-        + (f" (a {kind} cannot be rebuilt from JSON: give it as file.py:NAME)" if kind else "")
-    )
-
-
 @dataclass(frozen=True)
 class Region:
     """``{x : V(coords(x)) <= level}`` with its provenance.
@@ -133,12 +95,12 @@ class Region:
                 f"region {self.name!r}: V must be a roa.lyapunov.Lyapunov, got {type(V).__name__}"
             )
         elif P is not None:  # dataclasses.replace of a matrix region passes both: P wins
-            if not (isinstance(V, QuadraticLyapunov) and not V.center.any()):
+            if not (V.P is not None and not V.center.any()):
                 raise RoaInputError(f"region {self.name!r}: give P or V, not both")
             P = check_positive_definite(P, what=f"region {self.name!r} P")
             if not np.array_equal(P, V.P):
                 V = QuadraticLyapunov(P, np.zeros(P.shape[0]), V.name)
-        elif isinstance(V, QuadraticLyapunov) and not V.center.any():
+        elif V.P is not None and not V.center.any():
             P = V.P
         object.__setattr__(self, "P", P)
         object.__setattr__(self, "V", V)
@@ -174,7 +136,7 @@ class Region:
     def degree(self) -> int | None:
         """The degree of a polynomial V (2 for a quadratic one), None for any other V."""
         V = self.lyapunov
-        return 2 if isinstance(V, QuadraticLyapunov) else getattr(V, "degree", None)
+        return V.degree
 
     def form(self, x: np.ndarray) -> np.ndarray:
         """``V(coords(x))`` (``y' P y`` for a quadratic V); ``inf`` where ``coords`` is undefined
@@ -184,7 +146,7 @@ class Region:
         ok = np.isfinite(y).all(axis=-1)
         V = self.lyapunov
         with np.errstate(all="ignore"):
-            if isinstance(V, QuadraticLyapunov) and not V.center.any():
+            if V.P is not None and not V.center.any():
                 v = np.einsum("...i,ij,...j->...", y, V.P, y)  # exactly as for a matrix P
             else:
                 v = V.value(np.where(ok[..., None], y, V.center))
@@ -197,7 +159,7 @@ class Region:
         """V as JSON: ``P`` (quadratic) or its kind, degree, monomials and coefficients, and its
         centre when not 0."""
         V = self.lyapunov
-        if isinstance(V, QuadraticLyapunov):
+        if V.P is not None:
             out: dict[str, Any] = {"P": V.P.tolist()}
         else:
             out = {k: v for k, v in V.describe().items() if k != "lyapunov"}
@@ -223,7 +185,7 @@ class Region:
         meta: Mapping[str, Any] | None = None,
     ) -> Region:
         """A region from :meth:`to_json` (or any entry with ``name``, ``level``, ``status`` and
-        ``P`` or a polynomial V, see :func:`lyapunov_from_json`; ``center`` defaults to 0)."""
+        ``P`` or a polynomial V, see :func:`roa.lyapunov.from_json`; ``center`` defaults to 0)."""
         for key in ("name", "level", "status"):
             if key not in entry:
                 raise RoaInputError(f"region entry: missing {key!r}")
@@ -234,7 +196,7 @@ class Region:
         if "P" in entry and not np.any(entry.get("center", 0.0)):  # the historical y' P y
             P = np.asarray(entry["P"], dtype=float)
             return cls(name, P, float(entry["level"]), str(entry["status"]), coords, extra)
-        V = lyapunov_from_json(entry, center if center is not None else [], name=name)
+        V = from_json(entry, center if center is not None else [], name=name)
         return cls.from_lyapunov(
             name, V, float(entry["level"]), str(entry["status"]), coords, extra
         )

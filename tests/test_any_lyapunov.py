@@ -18,8 +18,7 @@ import roa
 from roa import System
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.lyapunov import Lyapunov
-from roa.lyapunov_general import FunctionLyapunov, PolynomialLyapunov
+from roa.lyapunov import FunctionLyapunov, Lyapunov, PolynomialLyapunov
 from roa.proof.validate import validate_level
 from roa.status import Verdict
 from roa.systems import load_system
@@ -172,7 +171,7 @@ def test_cli_accepts_polynomial_json_and_python_object(tmp_path, capsys):
     assert data["level"] == pytest.approx(0.999 * 2, rel=1e-6)
     py = tmp_path / "v.py"
     py.write_text(
-        "from roa.lyapunov_general import FunctionLyapunov\n"
+        "from roa.lyapunov import FunctionLyapunov\n"
         "V = FunctionLyapunov(lambda x, xp: x[0] ** 2 + x[0] ** 4, [0.0], 'quartic')\n"
     )
     code, out, _ = _cli(capsys, ["certify", "--system", ONE_STATE, "--lyapunov", f"{py}:V",

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import roa
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov
 from roa.proof.contain_general import sublevel_contains
 from roa.proof.containment import ellipsoid_contains
 

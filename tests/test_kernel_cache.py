@@ -23,7 +23,7 @@ SCRIPT = """
 import dataclasses, json
 import numpy as np
 import roa
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov
 from roa.montecarlo.integrator import integrate_batch
 from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules

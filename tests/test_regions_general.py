@@ -19,7 +19,7 @@ import pytest
 import roa
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import grid_slice, region_sample

@@ -109,7 +109,7 @@ def test_sampled_certificate_is_inside_the_limit_cycle(vdp, cycle):
 
 def test_certify_sampled_needs_a_quadratic_seed(vdp):
     from roa.certification_vs import certify_sampled
-    from roa.lyapunov_general import PolynomialLyapunov
+    from roa.lyapunov import PolynomialLyapunov
 
     V = PolynomialLyapunov([[2, 0], [0, 2], [4, 0]], [1.0, 1.0, 1.0], [0.0, 0.0])
     with pytest.raises(RoaInputError, match="quadratic seed"):

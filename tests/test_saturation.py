@@ -362,7 +362,7 @@ def test_saturated_toy_certified_at_0999_and_refuted_just_above():
     from roa.certification import certify
     from roa.levelset import level_search
     from roa.linearisation import lyapunov_matrix
-    from roa.lyapunov_general import PolynomialLyapunov
+    from roa.lyapunov import PolynomialLyapunov
     from roa.options import IntervalOptions
 
     s = _saturated_pendulum()

@@ -15,7 +15,7 @@ from fractions import Fraction
 
 import numpy as np
 
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov
 from roa.montecarlo.terminal import TerminalSet
 from roa.montecarlo.terminal_poly import member_numba, member_numpy
 

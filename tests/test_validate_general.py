@@ -11,7 +11,7 @@ import pytest
 import roa
 from roa import System
 from roa.backend import namespace
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
 from roa.proof.validate_general import _evaluate, connected_to_center, validate_general

@@ -60,7 +60,7 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
         return default_lyapunov(sys_)
     obj = read_matrix(spec, what="--lyapunov")
     if isinstance(obj, dict):  # polynomial coefficients from a JSON file
-        from roa.lyapunov_general import PolynomialLyapunov
+        from roa.lyapunov import PolynomialLyapunov
 
         try:
             return PolynomialLyapunov(
@@ -71,8 +71,6 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
     if isinstance(obj, Lyapunov):
         if obj.n != sys_.n:
             raise RoaInputError(f"--lyapunov {spec}: V has {obj.n} states, the system {sys_.n}")
-        return obj
-    if isinstance(obj, QuadraticLyapunov):
         return obj
     try:
         return QuadraticLyapunov.for_system(sys_, obj, name=Path(spec.split(":")[0]).name)

@@ -41,7 +41,7 @@ from roa.progress import step
 from roa.system import System
 
 if TYPE_CHECKING:
-    from roa.lyapunov_general import PolynomialLyapunov
+    from roa.lyapunov import PolynomialLyapunov
 
 #: Relative margin of the membership test V <= level (1 - REL_MARGIN).
 REL_MARGIN = 1e-9
@@ -57,7 +57,7 @@ class TerminalSet:
 
     Quadratic (the fast path of the numba kernels): ``TerminalSet(P, center, level, coords, name)``
     with ``V(y) = (y - center)' P (y - center)``. Polynomial: :meth:`polynomial` with a
-    :class:`~roa.lyapunov_general.PolynomialLyapunov` and the box (in the validation frame
+    :class:`~roa.lyapunov.PolynomialLyapunov` and the box (in the validation frame
     ``z = M^-1 (y - center)``) of :func:`roa.montecarlo.terminal_general.component_box`: the set is
     ``{V <= level}`` inside that box (the certified component).
 
@@ -146,9 +146,8 @@ class TerminalSet:
         component box is sound in that frame only, so there is no default. ``box`` ``(lo, hi)``
         must lie in the bounding box of the component of ``{V <= level}`` holding the centre
         (default: found and proved by :func:`~roa.montecarlo.terminal_general.component_box`)."""
-        from roa.lyapunov_general import PolynomialLyapunov
 
-        if not isinstance(V, PolynomialLyapunov):
+        if V.terms is None:
             raise RoaInputError(
                 f"TerminalSet.polynomial: V must be a PolynomialLyapunov, got {type(V).__name__}"
             )

@@ -19,7 +19,7 @@ that proved it.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
@@ -27,6 +27,7 @@ from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 
 if TYPE_CHECKING:
+    from roa.lyapunov import PolynomialLyapunov
     from roa.montecarlo.terminal import TerminalSet
 
 #: Relative shrink of the proved box (rounding of the frame map).
@@ -107,7 +108,7 @@ def component_box(
 def certificate_lyapunov(data: dict[str, Any], center: np.ndarray, where: str) -> Lyapunov:
     """The V of a certificate (``P``, or a polynomial under ``candidate_kind``), centred at
     ``center`` (the equilibrium of the system it is used for: a certificate cannot move it)."""
-    from roa.regions import lyapunov_from_json
+    from roa.lyapunov import from_json as lyapunov_from_json
 
     kind = data.get("candidate_kind") if "P" not in data else None
     if kind is not None and (
@@ -144,22 +145,18 @@ def terminal_of(
 ) -> TerminalSet:
     """The terminal set ``{V <= level}`` of a *proved* certificate: an ellipsoid for a quadratic
     (or degree-2 polynomial) V, else the component box in the validation's ``frame``."""
-    from roa.lyapunov_general import PolynomialLyapunov
     from roa.montecarlo.terminal import TerminalSet
 
-    P = getattr(V, "P", None)
-    if P is None and isinstance(V, PolynomialLyapunov) and V.degree == 2:
-        P = np.zeros((V.n, V.n))  # an ellipsoid: the quadratic fast path
-        for a, c in V.terms.items():
-            i, j = [k for k, e in enumerate(a) for _ in range(e)]
-            P[i, j] += c if i == j else 0.5 * c
-            P[j, i] += 0.0 if i == j else 0.5 * c
+    P = V.P
+    if P is None and V.degree == 2:  # an ellipsoid: the quadratic fast path (exactly H / 2)
+        P = 0.5 * V.hessian_at_center()
     if P is not None:
         return TerminalSet(P, center, level, coords, name)
-    if not isinstance(V, PolynomialLyapunov):
+    if V.terms is None:
         raise RoaInputError(f"terminal set: V is a {type(V).__name__}, not a polynomial")
     if frame is None:
         raise RoaInputError(
             "terminal set: a polynomial V needs the frame of its validation (re-verify it)"
         )
-    return TerminalSet.polynomial(V, float(level), coords, name, frame=frame)
+    return TerminalSet.polynomial(cast("PolynomialLyapunov", V), float(level), coords, name,
+                                  frame=frame)  # fmt: skip

@@ -25,7 +25,6 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from roa.io import atomic_savefig
-from roa.lyapunov import QuadraticLyapunov
 from roa.montecarlo import dopri as I  # noqa: N812  (status codes, without numba)
 from roa.montecarlo.sampling import GridSlice
 from roa.regions import Region
@@ -82,7 +81,7 @@ def kind_text(region: Region) -> str:
     """What V a region is a level set of, in words: ``quadratic``, ``degree-4 polynomial``, or
     the candidate's class for any other V."""
     degree = region.degree
-    if isinstance(region.lyapunov, QuadraticLyapunov):
+    if region.lyapunov.P is not None:
         return "quadratic"
     if degree is not None:
         return f"degree-{degree} polynomial"
@@ -94,7 +93,7 @@ def region_label(region: Region) -> str:
     kind of a non-quadratic V when the label does not say it, and the status when the line style
     alone does not say it (refuted, inconclusive)."""
     label = str(region.meta.get("label") or region.name)
-    quadratic = isinstance(region.lyapunov, QuadraticLyapunov)
+    quadratic = region.lyapunov.P is not None
     if not quadratic and "degree" not in label and "polynomial" not in label:
         label += f" ({kind_text(region)} V)"
     if region.status in ("refuted", "inconclusive") and region.status not in label:

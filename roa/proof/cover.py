@@ -2,7 +2,7 @@
 
 A box ``B`` *covers* ``{V <= level}`` in one of two ways:
 
-* **globally** (:func:`gram_cover`): a :class:`~roa.lyapunov_general.PolynomialLyapunov` built
+* **globally** (:func:`gram_cover`): a :class:`~roa.lyapunov.PolynomialLyapunov` built
   from a Gram matrix ``Q`` over a basis holding the linear monomials satisfies
   ``V(d) = m(d)' Q' m(d) >= lambda |d|^2`` with ``Q'`` the Gram matrix that reproduces the float
   coefficients exactly and ``Q' - lambda E`` positive definite, checked in exact rationals; then

@@ -43,15 +43,15 @@ def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
     x = [c[i] + d[i] for i in range(n)]
     try:
         f = system.field(0.0, x, namespace("sympy"))
-        if isinstance(lyap, QuadraticLyapunov):
+        if lyap.P is not None:
             P = [[sp.Rational(float(lyap.P[i, j])) for j in range(n)] for i in range(n)]
             vd = 2 * sum(d[i] * P[i][j] * f[j] for i in range(n) for j in range(n))
         else:
-            from roa.lyapunov_general import _exact
+            from roa.lyapunov import exact_rationals
 
             g = lyap.gradient_expr(x, namespace("sympy"))
-            vd = sum(_exact(sp.sympify(g[i])) * f[i] for i in range(n))
-            vd = _exact(sp.sympify(vd))
+            vd = sum(exact_rationals(sp.sympify(g[i])) * f[i] for i in range(n))
+            vd = exact_rationals(sp.sympify(vd))
         poly = sp.Poly(sp.expand(vd), *d)
     except (sp.PolynomialError, TypeError, ValueError):
         return None

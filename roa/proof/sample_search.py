@@ -38,8 +38,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov import QuadraticLyapunov
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.options import SampleSearchOptions
 from roa.system import System
 
@@ -395,7 +394,7 @@ def sample_search(
     o = SampleSearchOptions() if options is None else options
     if system.equilibrium is None or system.time_varying:
         raise RoaInputError(f"system {system.name!r} must be autonomous with an equilibrium")
-    if not isinstance(V0, QuadraticLyapunov):
+    if V0.P is None:
         raise RoaInputError(f"V0 must be a QuadraticLyapunov seed, got {type(V0).__name__}")
     t0 = time.perf_counter()
     rng = np.random.default_rng(o.seed)

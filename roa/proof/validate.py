@@ -104,10 +104,12 @@ def recheck_witness(
     """Evaluate ``V(x)`` and ``V'(x)`` at ``digits`` decimal digits (the float ``x`` taken exactly)."""
     import mpmath as mp
 
-    if not isinstance(lyap, QuadraticLyapunov):
+    quad = lyap.as_quadratic()
+    if quad is None:
         from roa.proof.validate_general import recheck_general
 
         return recheck_general(system, lyap, x, level, digits=digits)
+    lyap = quad
 
     with mp.workdps(digits):
         xs = [mp.mpf(float(v)) for v in x]
@@ -391,12 +393,14 @@ def validate_level(
         raise RoaInputError(f"level must be a finite number > 0, got {level!r}")
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
-    if not isinstance(lyap, QuadraticLyapunov):
+    quad = lyap.as_quadratic()
+    if quad is None:
         from roa.proof.validate_general import validate_general
 
         return validate_general(
             system, lyap, level, max_boxes=max_boxes, batch=batch, bounding_box=bounding_box
         )
+    lyap = quad
     if bounding_box is not None:
         raise RoaInputError("bounding_box applies to non-quadratic V only (V' box is whitened)")
     t0 = time.perf_counter()

@@ -93,15 +93,15 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
     import sympy as sp
 
     from roa.backend import namespace
-    from roa.lyapunov_general import PolynomialLyapunov, _exact
+    from roa.lyapunov import exact_rationals
 
-    if isinstance(lyap, PolynomialLyapunov):
+    if lyap.terms is not None:
         ok = True  # every term has degree >= 2 in d = x - x_eq
     else:
         x = [sp.Rational(float(c)) for c in lyap.center]
         try:
             g = lyap.gradient_expr(x, namespace("sympy"))
-            ok = all(sp.simplify(_exact(sp.sympify(gi))) == 0 for gi in g)
+            ok = all(sp.simplify(exact_rationals(sp.sympify(gi))) == 0 for gi in g)
         except (TypeError, ValueError, RoaInputError):
             ok = False
     try:

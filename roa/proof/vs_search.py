@@ -29,8 +29,7 @@ import numpy as np
 import sympy as sp
 
 from roa.errors import RoaInputError
-from roa.lyapunov import QuadraticLyapunov
-from roa.lyapunov_general import PolynomialLyapunov
+from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.progress import step
 from roa.proof.polysdp import Identity, Poly, diff, is_even, monomials, mul, poly_of, scale
 from roa.proof.sos import recast_field

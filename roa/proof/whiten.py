@@ -10,7 +10,7 @@ of the exact composition, and the derivative proved negative is ``V'(x(y)) = gra
 is the image of ``{V <= c}``). Nothing depends on ``M`` being accurate: any invertible ``M`` gives
 a valid proof, a good one only fewer boxes.
 
-**Expanded polynomials** (a :class:`~roa.lyapunov_general.PolynomialLyapunov` base): evaluating
+**Expanded polynomials** (a :class:`~roa.lyapunov.PolynomialLyapunov` base): evaluating
 ``V(c + M y)`` through ``x`` loses the correlation of the ``x_i`` (each is a linear form in the
 same ``y``) and a badly conditioned ``V`` cancels large terms, so its interval enclosures on a
 ``y``-box are wide (the IPC's degree-4 V: Hessian enclosures of ``V'`` ~27x the true range on the
@@ -113,7 +113,7 @@ class Polynomial:
 
     def __call__(self, y: Any, xp: Any, memo: dict[Any, Any] | None = None) -> Any:
         """The polynomial at the components ``y`` (``memo`` shares monomials between calls)."""
-        from roa.lyapunov_general import PolynomialLyapunov
+        from roa.lyapunov import PolynomialLyapunov
 
         exact = getattr(xp, "name", "") != "numpy"
         memo = {} if memo is None else memo
@@ -252,7 +252,6 @@ class Whitened(Lyapunov):
     """``W(y) = V(c + M y)`` with ``W' = grad V . f`` evaluated at ``x = c + M y``."""
 
     def __init__(self, base: Lyapunov, system: System, M: np.ndarray) -> None:
-        from roa.lyapunov_general import PolynomialLyapunov
 
         self.base, self.system = base, system
         self.M = np.asarray(M, dtype=float)
@@ -260,9 +259,7 @@ class Whitened(Lyapunov):
         self.center = np.zeros(base.n)
         self.name = f"{base.name} (whitened)"
         #: the exact polynomials in ``y`` (module doc), or None (the composition through ``x``)
-        self.expanded = (
-            Expanded(base, system, self.M) if isinstance(base, PolynomialLyapunov) else None
-        )
+        self.expanded = Expanded(base, system, self.M) if base.terms is not None else None
 
     def x_of(self, y: Any) -> list[Any]:
         """``x = c + M y`` in the namespace of ``y`` (exact products where ``M`` has zeros)."""

@@ -1,12 +1,14 @@
-"""Lyapunov candidates beyond quadratic: polynomials of even degree and any user function.
+"""Polynomial Lyapunov candidates; the quadratic V is the degree-2 polynomial.
 
 * :class:`PolynomialLyapunov`: ``V = sum_k c_k d^a_k`` with ``d = x - x_eq``, from exponent tuples
   and coefficients, or from a Gram matrix over a monomial basis (``V = m(d)' Q m(d)``).
-* :class:`FunctionLyapunov`: any ``V(x, xp)`` written against the array namespace (like a system's
-  field), with its gradient derived exactly by sympy (float constants taken as exact rationals).
+* :class:`QuadraticLyapunov`: ``V = d' P d``, the polynomial of degree 2 whose Gram matrix over the
+  linear monomials is ``P``; it keeps closed-form numpy paths (value, gradient, V') as overrides
+  and exposes ``P``, which the quadratic fast paths (SOS level, whitened validation, ellipsoid
+  terminal sets) take.
 
 Both run on every namespace of :mod:`roa.backend` and on the interval namespace and jets of
-:mod:`roa.proof.interval`, so the level search and the interval validation accept them.
+:mod:`roa.proof.interval`.
 """
 
 from __future__ import annotations
@@ -18,129 +20,8 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov import Lyapunov
-
-_EXACT = ("interval", "interval-jet")
-
-
-def _const(p: int, q: int, xp: Any) -> Any:
-    """The rational p/q as a constant of namespace ``xp`` (enclosed, or at working precision)."""
-    name = getattr(xp, "name", "")
-    if q == 1:
-        return float(p) if abs(p) <= 2**53 and name != "mpmath" else _big(p, xp)
-    if name in _EXACT:
-        return Fraction(p, q)
-    if name == "mpmath":
-        import mpmath as mp
-
-        return mp.mpf(p) / q
-    return p / q
-
-
-def _big(p: int, xp: Any) -> Any:
-    if getattr(xp, "name", "") in _EXACT:
-        return Fraction(p)
-    if getattr(xp, "name", "") == "mpmath":
-        import mpmath as mp
-
-        return mp.mpf(p)
-    return float(p)
-
-
-_FUNCS = {
-    "sin": "sin",
-    "cos": "cos",
-    "tan": "tan",
-    "exp": "exp",
-    "log": "log",
-    "atan": "arctan",
-    "asinh": "arcsinh",
-    "atanh": "arctanh",
-    "Abs": "abs",
-}
-
-
-def sympy_eval(e: Any, env: dict[Any, Any], xp: Any) -> Any:
-    """Evaluate a sympy expression (exact rationals, the functions of :mod:`roa.backend`) in ``xp``."""
-    import sympy as sp
-
-    if e.is_Symbol:
-        return env[e]
-    if e.is_Rational:
-        return _const(int(e.p), int(e.q), xp)
-    if e.is_Add:
-        out: Any = 0.0
-        for a in e.args:
-            out = sympy_eval(a, env, xp) + out
-        return out
-    if e.is_Mul:
-        num = [a for a in e.args if a.is_Rational]
-        out = None
-        for a in e.args:
-            if not a.is_Rational:
-                v = sympy_eval(a, env, xp)
-                out = v if out is None else out * v
-        for a in num:
-            c = sympy_eval(a, env, xp)
-            out = c if out is None else out * c
-        return out
-    if e.is_Pow:
-        b, k = e.args
-        base = sympy_eval(b, env, xp)
-        if k.is_Integer:
-            return base ** int(k) if int(k) > 0 else 1.0 / base ** (-int(k))
-        if k.is_Rational and int(k.q) == 2:
-            r = xp.sqrt(base)
-            p = int(k.p)
-            return r**p if p > 0 else 1.0 / r ** (-p)
-        raise RoaInputError(f"V: unsupported power {e} (integer and half-integer powers only)")
-    if isinstance(e, sp.Function) and type(e).__name__ in _FUNCS:
-        return getattr(xp, _FUNCS[type(e).__name__])(sympy_eval(e.args[0], env, xp))
-    if e.is_Number:  # an irrational sympy number (pi, E, ...)
-        raise RoaInputError(f"V: unsupported constant {e} (write it as a float)")
-    raise RoaInputError(f"V: unsupported expression {type(e).__name__} {e}")
-
-
-def _exact(expr: Any) -> Any:
-    """``expr`` with every float replaced by the exact rational of the double."""
-    import sympy as sp
-
-    return expr.xreplace({f: sp.Rational(f) for f in expr.atoms(sp.Float)})
-
-
-def symbolic_gradient(lyap: Lyapunov) -> Any:
-    """A function ``(x, xp) -> [dV/dx_i]`` from an exact sympy differentiation of ``lyap.expr``."""
-    cached = getattr(lyap, "_gradient_cache", None)
-    if cached is not None:
-        return cached
-    import sympy as sp
-
-    from roa.backend import namespace
-
-    xs = sp.symbols(f"x0:{lyap.n}", real=True)
-    try:
-        V = _exact(sp.sympify(lyap.expr(list(xs), namespace("sympy"))))
-    except (TypeError, ValueError, AttributeError) as exc:
-        raise RoaInputError(
-            f"V {lyap.name!r} must be written against the array namespace xp (sympy failed: {exc})"
-        ) from None
-    grads = [sp.diff(V, s) for s in xs]
-    if any(g.has(sp.sign, sp.Heaviside, sp.DiracDelta, sp.Derivative) for g in grads):
-        raise RoaInputError(f"V {lyap.name!r} is not differentiable (abs or a kink): no gradient")
-
-    def fn(x: Any, xp: Any) -> list[Any]:
-        env = dict(zip(xs, [x[i] for i in range(lyap.n)], strict=True))
-        return [sympy_eval(g, env, xp) for g in grads]
-
-    object.__setattr__(lyap, "_gradient_cache", fn)
-    return fn
-
-
-def _center(center: Any, n: int | None, what: str) -> np.ndarray:
-    c = np.asarray(center, dtype=float).reshape(-1)
-    if (n is not None and c.shape[0] != n) or not np.all(np.isfinite(c)) or c.size == 0:
-        raise RoaInputError(f"{what}: center must be {n or 'n'} finite numbers, got {center!r}")
-    return c
+from roa.lyapunov.base import Lyapunov, center_vector, check_positive_definite
+from roa.system import System
 
 
 class PolynomialLyapunov(Lyapunov):
@@ -153,11 +34,14 @@ class PolynomialLyapunov(Lyapunov):
 
     Examples
     --------
-    >>> from roa.lyapunov_general import PolynomialLyapunov
+    >>> from roa.lyapunov import PolynomialLyapunov
     >>> V = PolynomialLyapunov([[2], [4]], [1.0, 1.0], center=[0.0])
     >>> float(V.value([[1.0]])[0]), V.degree
     (2.0, 4)
     """
+
+    terms: dict[tuple[int, ...], float]
+    degree: int
 
     def __init__(
         self, monomials: Any, coefficients: Any, center: Any, name: str = "polynomial V"
@@ -179,7 +63,7 @@ class PolynomialLyapunov(Lyapunov):
             )
         if not np.all(np.isfinite(c)):
             raise RoaInputError("coefficients must be finite")
-        self.center = _center(center, a.shape[1], "PolynomialLyapunov")
+        self.center = center_vector(center, a.shape[1], "PolynomialLyapunov")
         self.name = str(name)
         terms: dict[tuple[int, ...], float] = {}
         for row, cf in zip(a.astype(int), c, strict=True):
@@ -307,38 +191,109 @@ class PolynomialLyapunov(Lyapunov):
         return f"PolynomialLyapunov({self.name!r}, degree {self.degree}, {len(self.terms)} terms)"
 
 
-class FunctionLyapunov(Lyapunov):
-    """Any candidate ``V = func(x, xp)`` written against the array namespace ``xp``.
+class QuadraticLyapunov(PolynomialLyapunov):
+    """``V(x) = (x - center)' P (x - center)``: the polynomial of degree 2 whose Gram matrix over
+    the linear monomials ``d_1 .. d_n`` is ``P`` (symmetric positive definite).
 
-    ``func`` must use only the functions of :mod:`roa.backend` (``xp.log``, ``xp.sqrt``, ...) so
-    that it runs on numpy, CasADi, sympy (its gradient is derived exactly) and intervals. It must
-    vanish at ``center`` with a zero gradient there.
+    It is a :class:`PolynomialLyapunov` (its ``terms``, ``degree`` and ``gram`` are those of the
+    polynomial) with closed-form overrides of the numpy paths and of its expressions, and ``P``.
 
     Examples
     --------
-    >>> from roa.lyapunov_general import FunctionLyapunov
-    >>> V = FunctionLyapunov(lambda x, xp: xp.log(1 + x[0] ** 2 + x[1] ** 2), [0.0, 0.0], "log V")
-    >>> round(float(V.value([[1.0, 0.0]])[0]), 6)
-    0.693147
+    >>> from roa.lyapunov import QuadraticLyapunov
+    >>> V = QuadraticLyapunov([[2.0, 0.5], [0.5, 1.0]], [0.0, 0.0])
+    >>> V.degree, V.terms
+    (2, {(2, 0): 2.0, (1, 1): 1.0, (0, 2): 1.0})
     """
 
-    def __init__(self, func: Any, center: Any, name: str = "V") -> None:
-        if not callable(func):
-            raise RoaInputError(f"func must be callable V(x, xp), got {type(func).__name__}")
-        self.func = func
-        self.center = _center(center, None, "FunctionLyapunov")
-        self.name = str(name)
-        try:
-            v0 = float(self.value(self.center[None, :])[0])
-        except RoaInputError:
-            raise
-        except Exception as exc:  # noqa: BLE001 - a user function: report what it raised
-            raise RoaInputError(f"func: V({self.center.tolist()}) raised {exc!r}") from None
-        if not (np.isfinite(v0) and abs(v0) <= 1e-12):
-            raise RoaInputError(f"func: V must vanish at center, V(center) = {v0!r}")
+    P: np.ndarray
+
+    def as_quadratic(self) -> QuadraticLyapunov:
+        return self
+
+    def __init__(self, P: Any, center: Any, name: str = "V") -> None:
+        P = check_positive_definite(P, what=f"{name}.P")
+        n = P.shape[0]
+        c = np.asarray(center, dtype=float).reshape(-1)
+        if c.shape[0] != n:
+            raise RoaInputError(f"{name}.center must have {n} components")
+        monomials, coefficients = [], []
+        for i in range(n):
+            for j in range(i, n):
+                e = [0] * n
+                e[i] += 1
+                e[j] += 1
+                monomials.append(e)
+                coefficients.append(P[i, i] if i == j else 2.0 * P[i, j])
+        super().__init__(monomials, coefficients, c, name)
+        P.setflags(write=False)
+        self.P = P
+        self.gram = ([tuple(int(i == j) for j in range(n)) for i in range(n)], P)
+
+    @classmethod
+    def for_system(cls, system: System, P: Any, name: str = "V") -> QuadraticLyapunov:
+        P = np.asarray(P, dtype=float)
+        if P.shape != (system.n, system.n):
+            raise RoaInputError(
+                f"V: P must be {system.n}x{system.n} for system {system.name!r}, got {P.shape}"
+            )
+        return cls(P, system.x_eq, name)
+
+    @property
+    def n(self) -> int:
+        return self.P.shape[0]
+
+    def value(self, x: np.ndarray) -> np.ndarray:
+        """V on states of shape ``(..., n)``."""
+        d = np.asarray(x, dtype=float) - self.center
+        return np.einsum("...i,ij,...j->...", d, self.P, d)
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        d = np.asarray(x, dtype=float) - self.center
+        return 2.0 * d @ self.P
+
+    def derivative(self, system: System, x: np.ndarray) -> np.ndarray:
+        """V' = grad V . f on states of shape ``(..., n)`` (numpy)."""
+        d = np.asarray(x, dtype=float) - self.center
+        return 2.0 * np.einsum("...i,ij,...j->...", d, self.P, system.f(x))
 
     def expr(self, x: Any, xp: Any) -> Any:
-        return self.func(x, xp)
+        d = [x[i] - float(self.center[i]) for i in range(self.n)]
+        out: Any = 0.0
+        for i in range(self.n):
+            for j in range(self.n):
+                if self.P[i, j] != 0.0:
+                    out = d[i] * d[j] * float(self.P[i, j]) + out
+        return out
+
+    def gradient_expr(self, x: Any, xp: Any) -> list[Any]:
+        d = [x[i] - float(self.center[i]) for i in range(self.n)]
+        out = []
+        for i in range(self.n):
+            g: Any = 0.0
+            for j in range(self.n):
+                if self.P[i, j] != 0.0:
+                    g = d[j] * float(self.P[i, j]) + g
+            out.append(g * 2.0)
+        return out
+
+    def symbolic(self, system: System, x: Any, xp: Any) -> tuple[Any, Any]:
+        """``(V, V')`` as expressions of the components ``x`` in namespace ``xp`` (CasADi, sympy)."""
+        d = [x[i] - self.center[i] for i in range(self.n)]
+        f = system.field(0.0, x, xp)
+        Pd = [sum(self.P[i, j] * d[j] for j in range(self.n)) for i in range(self.n)]
+        V = sum(d[i] * Pd[i] for i in range(self.n))
+        Vd = 2 * sum(Pd[i] * f[i] for i in range(self.n))
+        return V, Vd
+
+    def hessian_at_center(self) -> np.ndarray:
+        return 2.0 * self.P
+
+    def whitening(self) -> np.ndarray:
+        return np.linalg.inv(np.linalg.cholesky(self.P).T)
+
+    def describe(self) -> dict[str, Any]:
+        return {"lyapunov": self.name, "kind": "QuadraticLyapunov", "P": self.P.tolist()}
 
     def __repr__(self) -> str:
-        return f"FunctionLyapunov({self.name!r}, center={self.center.tolist()})"
+        return f"QuadraticLyapunov({self.name!r}, P={self.P.tolist()!r}, center={self.center.tolist()!r})"

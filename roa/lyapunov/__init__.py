@@ -1,0 +1,31 @@
+"""Lyapunov candidates: one abstraction for every V.
+
+:class:`Lyapunov` is the protocol (``expr``, ``gradient_expr``, ``value``, ``derivative``, the
+whitening frame, ``describe``); what a candidate offers beyond it is told by attributes (``P``,
+``terms``, ``degree``), never by its class. :class:`PolynomialLyapunov` is any polynomial of even
+degree, :class:`QuadraticLyapunov` the degree-2 one (with ``P`` and closed-form numpy paths),
+:class:`FunctionLyapunov` any function written against the array namespace. :func:`from_json`
+reads every JSON form the toolkit writes, :func:`certificate_fields` writes a certificate's.
+"""
+
+from roa.lyapunov.base import Lyapunov, check_positive_definite
+from roa.lyapunov.defaults import as_lyapunov, default_lyapunov
+from roa.lyapunov.function import FunctionLyapunov
+from roa.lyapunov.polynomial import PolynomialLyapunov, QuadraticLyapunov
+from roa.lyapunov.serial import certificate_fields, from_json
+from roa.lyapunov.symbolic import exact_rationals, symbolic_gradient, sympy_eval
+
+__all__ = [
+    "FunctionLyapunov",
+    "Lyapunov",
+    "PolynomialLyapunov",
+    "QuadraticLyapunov",
+    "as_lyapunov",
+    "certificate_fields",
+    "check_positive_definite",
+    "default_lyapunov",
+    "exact_rationals",
+    "from_json",
+    "symbolic_gradient",
+    "sympy_eval",
+]

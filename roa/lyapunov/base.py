@@ -1,0 +1,147 @@
+"""The Lyapunov protocol: any ``V(x)`` written once against an array namespace.
+
+:class:`Lyapunov` is what every candidate follows: ``expr(x, xp)`` writes ``V`` against the array
+namespace ``xp`` (numpy, CasADi, sympy, the interval namespace and interval jets of
+:mod:`roa.proof.interval`, mpmath), ``gradient_expr(x, xp)`` its gradient, and ``value`` /
+``derivative`` evaluate them with numpy on rows of states. What a candidate can offer beyond that
+is told by attributes, never by its class: ``P`` (the matrix of a quadratic form, else None),
+``terms`` and ``degree`` (the exponents and coefficients of a polynomial, else None).
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from roa.backend import NP
+from roa.errors import RoaInputError
+from roa.system import System
+
+if TYPE_CHECKING:
+    from roa.lyapunov.polynomial import QuadraticLyapunov
+
+
+def check_positive_definite(P: Any, *, what: str = "P") -> np.ndarray:
+    """Return ``P`` as a symmetric float array; raise if not symmetric positive definite."""
+    P = np.asarray(P, dtype=float)
+    if P.ndim != 2 or P.shape[0] != P.shape[1]:
+        raise RoaInputError(f"{what} must be a square matrix, got shape {P.shape}")
+    if not np.all(np.isfinite(P)):
+        raise RoaInputError(f"{what} must be finite")
+    if not np.allclose(P, P.T, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(P).max())):
+        raise RoaInputError(f"{what} must be symmetric")
+    lam = np.linalg.eigvalsh(P)
+    if lam[0] <= 0:
+        raise RoaInputError(
+            f"{what} is not positive definite (smallest eigenvalue {lam[0]:.3g} <= 0): "
+            "a Lyapunov candidate must be positive definite"
+        )
+    return 0.5 * (P + P.T)
+
+
+def center_vector(center: Any, n: int | None, what: str) -> np.ndarray:
+    """``center`` as a vector of ``n`` finite floats (any ``n`` when None)."""
+    c = np.asarray(center, dtype=float).reshape(-1)
+    if (n is not None and c.shape[0] != n) or not np.all(np.isfinite(c)) or c.size == 0:
+        raise RoaInputError(f"{what}: center must be {n or 'n'} finite numbers, got {center!r}")
+    return c
+
+
+def _components(x: np.ndarray, n: int, what: str) -> list[np.ndarray]:
+    x = np.asarray(x, dtype=float)
+    if x.shape[-1] != n:
+        raise RoaInputError(f"{what}: states must have {n} components, got shape {x.shape}")
+    return [x[..., i] for i in range(n)]
+
+
+class Lyapunov:
+    """A Lyapunov candidate ``V(x)`` centred at an equilibrium (the protocol of every candidate).
+
+    Subclasses define ``center`` (ndarray), ``name`` (str) and :meth:`expr`; :meth:`gradient_expr`
+    defaults to an exact symbolic gradient (sympy) of :meth:`expr`. ``x`` is indexable by
+    component (a list of arrays, CasADi symbols, sympy symbols, intervals or jets).
+    """
+
+    center: np.ndarray
+    name: str
+    #: The matrix of ``V = (x - c)' P (x - c)`` when V is that quadratic form, else None.
+    P: np.ndarray | None = None
+    #: ``{exponents: coefficient}`` of a polynomial V in ``d = x - c``, else None.
+    terms: dict[tuple[int, ...], float] | None = None
+    #: The degree of a polynomial V, else None.
+    degree: int | None = None
+
+    def as_quadratic(self) -> QuadraticLyapunov | None:
+        """This V as a :class:`~roa.lyapunov.QuadraticLyapunov` (its closed-form paths) when it is
+        one, else None."""
+        return None
+
+    @property
+    def n(self) -> int:
+        return int(np.asarray(self.center).shape[0])
+
+    # -- to be written by each candidate ---------------------------------------------------------
+    def expr(self, x: Any, xp: Any) -> Any:
+        """V as an expression of the components ``x`` in namespace ``xp``."""
+        raise NotImplementedError
+
+    def gradient_expr(self, x: Any, xp: Any) -> list[Any]:
+        """grad V as expressions of ``x`` in ``xp`` (default: exact sympy gradient of :meth:`expr`)."""
+        from roa.lyapunov.symbolic import symbolic_gradient
+
+        return symbolic_gradient(self)(x, xp)
+
+    # -- derived ---------------------------------------------------------------------------------
+    def vdot_expr(self, system: System, x: Any, xp: Any) -> Any:
+        """V' = grad V . f as an expression of ``x`` in ``xp``."""
+        g = self.gradient_expr(x, xp)
+        f = system.field(0.0, x, xp)
+        out: Any = 0.0
+        for i in range(self.n):
+            out = g[i] * f[i] + out
+        return out
+
+    def symbolic(self, system: System, x: Any, xp: Any) -> tuple[Any, Any]:
+        """``(V, V')`` as expressions of the components ``x`` in namespace ``xp`` (CasADi, sympy)."""
+        return self.expr(x, xp), self.vdot_expr(system, x, xp)
+
+    def value(self, x: np.ndarray) -> np.ndarray:
+        """V on states of shape ``(..., n)`` (numpy)."""
+        x = np.asarray(x, dtype=float)
+        v = self.expr(_components(x, self.n, self.name), NP)
+        return np.broadcast_to(np.asarray(v, dtype=float), x.shape[:-1]).copy()
+
+    def gradient(self, x: np.ndarray) -> np.ndarray:
+        """grad V on states of shape ``(..., n)``; returns ``(..., n)``."""
+        x = np.asarray(x, dtype=float)
+        g = self.gradient_expr(_components(x, self.n, self.name), NP)
+        return np.stack([np.broadcast_to(np.asarray(gi, float), x.shape[:-1]) for gi in g], -1)
+
+    def derivative(self, system: System, x: np.ndarray) -> np.ndarray:
+        """V' = grad V . f on states of shape ``(..., n)`` (numpy)."""
+        x = np.asarray(x, dtype=float)
+        return np.einsum("...i,...i->...", self.gradient(x), system.f(x))
+
+    def hessian_at_center(self) -> np.ndarray:
+        """The Hessian of V at its centre (central differences of the gradient; exact overrides)."""
+        n, c = self.n, np.asarray(self.center, dtype=float)
+        h = 1e-5 * np.maximum(1.0, np.abs(c))
+        H = np.empty((n, n))
+        for j in range(n):
+            e = np.zeros(n)
+            e[j] = h[j]
+            H[:, j] = (self.gradient(c + e) - self.gradient(c - e)) / (2 * h[j])
+        return 0.5 * (H + H.T)
+
+    def whitening(self) -> np.ndarray:
+        """``M`` with ``x = c + M y`` making V ~ |y|^2 near the centre (identity if not definite)."""
+        H = 0.5 * self.hessian_at_center()
+        try:
+            return np.linalg.inv(np.linalg.cholesky(H).T)
+        except np.linalg.LinAlgError:
+            return np.eye(self.n)
+
+    def describe(self) -> dict[str, Any]:
+        """A JSON-able description (what ``--json`` prints for the candidate)."""
+        return {"lyapunov": self.name, "kind": type(self).__name__}

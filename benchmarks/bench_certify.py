@@ -19,7 +19,7 @@ import numpy as np
 from roa.levelset import level_search
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof import validate as va
-from roa.proof.sos import sos_level
+from roa.search.sos import sos_level
 from roa.systems.ipc import transformed
 from roa.systems.ipc.lyapunov import paper_lyapunov
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol

@@ -57,8 +57,8 @@ def _physical(
     ``sector_float_rad`` / ``sector_float_deg``: the float grid + bisection estimate.
     """
     from ipc_paper.certified import coords_map
-    from roa.proof.search import sector
     from roa.proof.sector import certified_sector, degrees_lower, quadratic_form
+    from roa.search.quadratic import sector
     from roa.systems.ipc.coordinates import to_flat_components
 
     c2y = coords_map(coords)
@@ -177,7 +177,7 @@ def case_vanderpol(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C1: the Van der Pol benchmark (SOS level, sampled optimum, interval pair)."""
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
-    from roa.proof.sos import sos_level
+    from roa.search.sos import sos_level
     from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
     _fresh(progress)
@@ -195,7 +195,7 @@ def case_vanderpol(p: dict[str, Any], progress: bool) -> dict[str, Any]:
 def case_paper(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C2-C4, C7: the paper's V (SOS programs, interval pair, sector and box share)."""
     from roa.levelset import level_search
-    from roa.proof.sos import sos_level
+    from roa.search.sos import sos_level
     from roa.systems.ipc import REFERENCE_BOX, transformed
     from roa.systems.ipc.lyapunov import paper_lyapunov
 
@@ -245,7 +245,7 @@ def case_optimised(
     from ipc_paper.certified import coords_map
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
-    from roa.proof.search import optimise_quadratic
+    from roa.search.quadratic import optimise_quadratic
     from roa.systems.ipc import REFERENCE_BOX
 
     _fresh(progress)
@@ -313,7 +313,7 @@ def case_saturated(
     from ipc_paper.certified import coords_map
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
-    from roa.proof.search import optimise_quadratic
+    from roa.search.quadratic import optimise_quadratic
     from roa.systems.ipc import REFERENCE_BOX, transformed
 
     _fresh(progress)

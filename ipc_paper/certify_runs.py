@@ -110,12 +110,12 @@ class CertifyParams(Options):
 @accepts(CertifyParams)
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """The certify experiment: independent cases run in parallel worker processes (``n_jobs``,
-    :mod:`ipc_paper.certify_cases`); searches are cached (:mod:`roa.proof.search_cache`), every
+    :mod:`ipc_paper.certify_cases`); searches are cached (:mod:`roa.search.cache`), every
     level is certified afresh."""
     from ipc_paper import certify_cases as K
     from roa import progress
     from roa.lyapunov import QuadraticLyapunov
-    from roa.proof.search_cache import SearchCache
+    from roa.search.cache import SearchCache
     from roa.systems.ipc.lyapunov import paper_lyapunov
 
     p = params  # every key of CertifyParams, defaults filled in

@@ -226,8 +226,8 @@ def _ipc_row(cert: Any, p: dict[str, Any], coords: str = "flat") -> dict[str, An
     """The row of one IPC certificate: level, times, the certified sector, the box share."""
     from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _box_fraction, _sector_curve
-    from roa.proof.search import sector
     from roa.proof.sector import certified_sector, degrees_lower
+    from roa.search.quadratic import sector
     from roa.systems.ipc import REFERENCE_BOX
 
     c2y, comps = coords_map(coords), _components(coords)

@@ -5,7 +5,7 @@ branch-and-bound validation (:func:`roa.proof.validate.validate_level`), which i
 the SOS solver and of the level search that proposed it. A candidate level comes from
 
 * the caller (``level=``),
-* the SOS program (:func:`roa.proof.sos.sos_level`, validated at ``safety_factor`` x its level),
+* the SOS program (:func:`roa.search.sos.sos_level`, validated at ``safety_factor`` x its level),
 * or the sampled level search (validated at ``sampled_safety`` x the sampled optimum), used when
   SOS does not apply or fails.
 
@@ -29,8 +29,8 @@ from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, as_lyapunov, certificate_fields
 from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
-from roa.proof.sos import SOSResult, sos_level
 from roa.proof.validate import Validation, validate_level
+from roa.search.sos import SOSResult, sos_level
 from roa.status import LevelStatus, SosStatus, Verdict
 from roa.system import System
 
@@ -73,7 +73,7 @@ class Certificate:
     above: Validation | None = None
     sos: SOSResult | None = None
     search: LevelSearchResult | None = None
-    vs: Any = None  # VsResult of a degree= search (roa.proof.vs_search)
+    vs: Any = None  # VsResult of a degree= search (roa.search.vs_iteration)
     system: System | None = field(default=None, repr=False, compare=False)
     V: Lyapunov | None = field(default=None, repr=False, compare=False)
 

@@ -1,7 +1,7 @@
 """``roa.certify(..., degree=2|4|6|8)``: search a polynomial V by SOS V-s iteration (or by sampled
 cutting planes, ``VsOptions(method="sampled")``, :func:`certify_sampled`), then prove it.
 
-The search (:func:`roa.proof.vs_search.vs_search`, seeded by the quadratic candidate) proposes one
+The search (:func:`roa.search.vs_iteration.vs_search`, seeded by the quadratic candidate) proposes one
 V per round; they are tried best shape level first: each gets the sampled level search and the
 interval validation of :func:`roa.certify` (with ``check_above`` if asked), and the first certified
 one is returned with the search's record (``Certificate.vs``). The SDPs prove nothing: only the
@@ -38,7 +38,7 @@ def certify_degree(
     check_above: float | None,
 ) -> Any:
     from roa.certification import Certificate, certify
-    from roa.proof.vs_search import vs_search
+    from roa.search.vs_iteration import vs_search
 
     t0 = time.perf_counter()
     if degree not in DEGREES:
@@ -98,7 +98,7 @@ def certify_sampled(
     check_above: float | None = 1.001,
     retries: int = 3,
 ) -> Any:
-    """Search a polynomial V by sampled cutting planes (:mod:`roa.proof.sample_search`), then
+    """Search a polynomial V by sampled cutting planes (:mod:`roa.search.cutting_planes`), then
     certify one of its levels with :func:`roa.certify` (interval validation).
 
     ``V0`` is the quadratic seed (default :func:`roa.default_lyapunov`); ``hard`` / ``soft`` the
@@ -122,7 +122,7 @@ def certify_sampled(
     """
     from roa.certification import Certificate, certify
     from roa.levelset import level_search
-    from roa.proof.sample_search import sample_search
+    from roa.search.cutting_planes import sample_search
 
     t0 = time.perf_counter()
     o = SampleSearchOptions() if options is None else options

@@ -209,7 +209,7 @@ class SosOptions(Options):
 
 @dataclass(frozen=True)
 class VsOptions(Options):
-    """Search of a polynomial V by SOS V-s iteration (:func:`roa.proof.vs_search.vs_search`).
+    """Search of a polynomial V by SOS V-s iteration (:func:`roa.search.vs_iteration.vs_search`).
 
     Parameters
     ----------
@@ -292,7 +292,7 @@ class VsOptions(Options):
 
 @dataclass(frozen=True)
 class SampleSearchOptions(Options):
-    """Sampled cutting-plane search of a polynomial V (:func:`roa.proof.sample_search.sample_search`)
+    """Sampled cutting-plane search of a polynomial V (:func:`roa.search.cutting_planes.sample_search`)
     and its certification (:func:`roa.certification_vs.certify_sampled`).
 
     Parameters

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from roa.proof.containment import ellipsoid_contains
-from roa.proof.search_cache import SearchCache
+from roa.search.cache import SearchCache
 
 
 def test_diagonal_containment_decided_on_both_sides_of_the_exact_bound():

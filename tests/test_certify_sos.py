@@ -8,8 +8,8 @@ import pytest
 import sympy as sp
 
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.sos import recast, sos_level
 from roa.proof.validate import validate_level
+from roa.search.sos import recast, sos_level
 from roa.systems.ipc import transformed
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 

@@ -1,4 +1,4 @@
-"""Containment of sublevel sets for any V (roa.proof.contain_general) against the exact rational
+"""Containment of sublevel sets for any V (roa.proof.sublevel_containment) against the exact rational
 ellipsoid test (roa.proof.containment.ellipsoid_contains): {x'Qx <= a} lies in {x'Px <= b} iff
 a lambda_max(Q^-1 P) <= b, here decided 1 % either side of the threshold."""
 
@@ -9,8 +9,8 @@ import pytest
 
 import roa
 from roa.lyapunov import PolynomialLyapunov
-from roa.proof.contain_general import sublevel_contains
 from roa.proof.containment import ellipsoid_contains
+from roa.proof.sublevel_containment import sublevel_contains
 
 
 def _as_poly(P: np.ndarray) -> PolynomialLyapunov:

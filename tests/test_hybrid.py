@@ -75,7 +75,7 @@ def test_physical_and_hybrid_simulations_agree(x0):
 
 def test_hybrid_equilibrium_is_exact_and_linearisation_hurwitz():
     from roa.levelset import jacobian
-    from roa.proof.validate import exact_equilibrium
+    from roa.proof.exact import exact_equilibrium
 
     h = hybrid()
     assert exact_equilibrium(h, h.x_eq)

@@ -458,7 +458,7 @@ def test_search_cache_rejects_an_edited_entry(tmp_path):
     """Issue 12 item 4: a replaced P in the search cache is recomputed, never used silently."""
     import json
 
-    from roa.proof.search_cache import SearchCache
+    from roa.search.cache import SearchCache
 
     path = tmp_path / "cache.json"
     cache = SearchCache(path)

@@ -1,4 +1,4 @@
-"""The sampled cutting-plane search of a polynomial V (roa.proof.sample_search) and its
+"""The sampled cutting-plane search of a polynomial V (roa.search.cutting_planes) and its
 certification (roa.certification_vs.certify_sampled, roa.certify(..., vs=VsOptions(method=
 "sampled"))), on Van der Pol (reversed, mu = 1), whose true region is bounded by its limit cycle."""
 
@@ -13,7 +13,7 @@ import roa
 from roa.errors import RoaInputError
 from roa.options import SampleSearchOptions, VsOptions
 from roa.proof.cover import gram_cover
-from roa.proof.sample_search import monomials, sample_search
+from roa.search.cutting_planes import monomials, sample_search
 
 FAST = SampleSearchOptions(rounds=6, directions=1500, radial=12, soft_points=600,
                            initial_cuts=600, outer_points=400, horizon=20.0)  # fmt: skip

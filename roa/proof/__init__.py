@@ -1,1 +1,1 @@
-"""Certified regions of attraction: SOS certificates, rigorous interval validation, Lyapunov search."""
+"""What proves or refutes: interval arithmetic and jets, the branch-and-bound validation, box covers, local proofs, containment, certified sectors, 50-digit witness checks and the re-verification of certificate files. Candidates come from :mod:`roa.search`; only what this package proves is ever called certified."""

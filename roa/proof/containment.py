@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.proof.exact import exact_positive_definite
 
 
 def _exact(x: Any) -> Fraction:
@@ -27,22 +28,6 @@ def _exact(x: Any) -> Fraction:
     if not np.isfinite(v):
         raise RoaInputError(f"ellipsoid data must be finite, got {x!r}")
     return Fraction(v)
-
-
-def exact_positive_definite(A: list[list[Fraction]]) -> tuple[bool, list[Fraction]]:
-    """All leading pivots of the symmetric rational matrix ``A`` are > 0 (Sylvester, via LDL')."""
-    n = len(A)
-    A = [list(row) for row in A]
-    pivots: list[Fraction] = []
-    for k in range(n):
-        if A[k][k] <= 0:
-            return False, pivots + [A[k][k]]
-        pivots.append(A[k][k])
-        for i in range(k + 1, n):
-            r = A[i][k] / A[k][k]
-            for j in range(k, n):
-                A[i][j] -= r * A[k][j]
-    return True, pivots
 
 
 def ellipsoid_contains(P: np.ndarray, b: Any, Q: np.ndarray, a: Any) -> dict[str, Any]:

@@ -22,13 +22,8 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
-from roa.proof.containment import exact_positive_definite as _pivots_positive
+from roa.proof.exact import exact_positive_definite
 from roa.proof.interval import INTERVAL, Interval, _up
-
-
-def exact_positive_definite(A: list[list[Fraction]]) -> bool:
-    """Whether the symmetric rational matrix ``A`` is positive definite (Gaussian elimination)."""
-    return _pivots_positive(A)[0]
 
 
 def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]] | None:
@@ -67,7 +62,7 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
         [Qx[i][j] - (lam if i == j and i in lin.values() else 0) for j in range(m)]
         for i in range(m)
     ]
-    if not exact_positive_definite(A):
+    if not exact_positive_definite(A)[0]:
         return None
     half = float(_up(np.sqrt(float(Fraction(level) / lam)), 4))
     return np.full(n, half), {"cover": "global (Gram lower bound)", "lambda": float(lam)}

@@ -1,6 +1,6 @@
 """Certified sectors: a proved lower bound ``t`` with ``form(curve(s)) <= level`` for all ``|s| <= t``.
 
-:func:`roa.proof.search.sector` reads the sector off a float grid and bisection (an estimate).
+:func:`roa.search.quadratic.sector` reads the sector off a float grid and bisection (an estimate).
 :func:`certified_sector` proves it: ``[0, t]`` and ``[-t, 0]`` are covered by closed intervals ``S``
 of the parameter, each with an interval enclosure (:data:`roa.proof.interval.INTERVAL`, outward
 rounding) of ``form(curve(S))`` whose upper bound is ``<= level``. The pieces are found by a

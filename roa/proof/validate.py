@@ -30,14 +30,13 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
-from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov, QuadraticLyapunov
-from roa.proof.containment import exact_positive_definite
+from roa.proof.exact import exact_equilibrium, interval_negative_definite
 from roa.proof.interval import INTERVAL, Interval, _down, _up
 from roa.proof.jet import JET, Jet
 from roa.status import Verdict
@@ -152,35 +151,6 @@ def recheck_domain_witness(
 
 
 # -- proof near the equilibrium -------------------------------------------------------------------------
-def _exact_negative_definite(lo: np.ndarray, hi: np.ndarray) -> bool:
-    """Every symmetric matrix with entries in ``[lo, hi]`` is negative definite (exact rationals)."""
-    n = lo.shape[0]
-    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
-        return False
-    Lo = [[Fraction(float(lo[i, j])) for j in range(n)] for i in range(n)]
-    Hi = [[Fraction(float(hi[i, j])) for j in range(n)] for i in range(n)]
-    mid = [[(Lo[i][j] + Hi[i][j] + Lo[j][i] + Hi[j][i]) / 4 for j in range(n)] for i in range(n)]
-    frob2 = sum(
-        max(Hi[i][j] - mid[i][j], mid[i][j] - Lo[i][j]) ** 2 for i in range(n) for j in range(n)
-    )
-    t = Fraction(float(np.sqrt(float(frob2)))) * Fraction(1000001, 1000000) + Fraction(1, 10**300)
-    if t * t < frob2:
-        return False
-    A = [[-mid[i][j] - (t if i == j else 0) for j in range(n)] for i in range(n)]
-    return exact_positive_definite(A)[0]  # all pivots > 0 <=> A positive definite
-
-
-def exact_equilibrium(system: System, center: np.ndarray) -> bool:
-    """``f(center) == 0`` exactly (sympy, the float centre taken as an exact rational)."""
-    import sympy as sp
-
-    from roa.backend import namespace
-
-    x = [sp.Rational(float(c)) for c in center]
-    f = system.field(0.0, x, namespace("sympy"))
-    return all(sp.nsimplify(sp.sympify(fi)) == 0 for fi in f)
-
-
 def local_proof(system: System, lyap: QuadraticLyapunov, eps: float) -> bool:
     """Prove ``V' < 0`` on ``{V <= eps}`` minus the equilibrium (see module doc).
 
@@ -207,7 +177,7 @@ def hessian_negative_definite(vd: Jet, n: int) -> bool:
 
     H_lo = np.array([[bound(h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
     H_hi = np.array([[bound(h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
-    return _exact_negative_definite(H_lo, H_hi)
+    return interval_negative_definite(H_lo, H_hi)
 
 
 def find_eps(

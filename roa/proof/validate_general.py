@@ -113,7 +113,8 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
 
 def local_box_proof(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> bool:
     """Prove ``V' < 0`` on the box ``[lo, hi]`` (holding ``x_eq``) minus the equilibrium."""
-    from roa.proof.validate import exact_equilibrium, hessian_negative_definite
+    from roa.proof.exact import exact_equilibrium
+    from roa.proof.validate import hessian_negative_definite
 
     if not gradient_vanishes(lyap) or not exact_equilibrium(system, lyap.center):
         return False

@@ -26,7 +26,6 @@ The result is a value with the solver's status; ``rho`` is a *candidate* until c
 
 from __future__ import annotations
 
-import itertools
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -38,6 +37,7 @@ import sympy as sp
 from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
+from roa.search.polysdp import monomials, poly_of
 from roa.status import SosStatus
 from roa.system import System
 
@@ -201,22 +201,6 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
 
 
 # -- polynomial <-> coefficient vectors --------------------------------------------------------------
-def _monomials(nvars: int, max_deg: int, min_deg: int = 0) -> list[tuple[int, ...]]:
-    out = []
-    for deg in range(min_deg, max_deg + 1):
-        for c in itertools.combinations_with_replacement(range(nvars), deg):
-            e = [0] * nvars
-            for i in c:
-                e[i] += 1
-            out.append(tuple(e))
-    return out
-
-
-def _coeffs(expr: sp.Expr, gens: list[sp.Symbol]) -> dict[tuple[int, ...], float]:
-    poly = sp.Poly(sp.expand(expr), *gens)
-    return {m: float(c) for m, c in poly.terms() if c != 0}
-
-
 def _add(a: tuple, b: tuple) -> tuple:
     return tuple(x + y for x, y in zip(a, b, strict=True))
 
@@ -320,7 +304,7 @@ def sos_level(
     gens = rc.d + rc.aux
     nv = len(gens)
     nd = len(rc.d)
-    Vd = _coeffs(rc.Vdot, gens)
+    Vd = poly_of(rc.Vdot, gens)
     deg_vd = max(sum(m) for m in Vd)
     if multiplier_degree is None:
         multiplier_degree = 2 if deg_vd % 2 == 0 else 1
@@ -329,10 +313,10 @@ def sos_level(
         total += 1
     k = (total - 2) // 2
     dd = sum(x**2 for x in rc.d)  # whitened: d'd ~ V
-    A = _coeffs(sp.expand(dd**k * rc.V), gens)
-    B = _coeffs(sp.expand(dd**k), gens)
-    eq_polys = [_coeffs(h, gens) for h in rc.equalities]
-    nn_polys = [_coeffs(g, gens) for g in rc.nonnegative]
+    A = poly_of(sp.expand(dd**k * rc.V), gens)
+    B = poly_of(sp.expand(dd**k), gens)
+    eq_polys = [poly_of(h, gens) for h in rc.equalities]
+    nn_polys = [poly_of(g, gens) for g in rc.nonnegative]
     if symmetry not in SYMMETRY:
         raise RoaInputError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
     even = _is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
@@ -356,16 +340,16 @@ def sos_level(
         return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
 
     asm = _Assembler()
-    lam_basis = keep(_monomials(nv, multiplier_degree))
+    lam_basis = keep(monomials(nv, multiplier_degree))
     parts: dict[str, Any] = {"lambda": asm.multiplier(Vd, lam_basis)}
     mu_bases = []
     for j, h in enumerate(eq_polys):
-        mu_bases.append(keep(_monomials(nv, total - max(sum(m) for m in h))))
+        mu_bases.append(keep(monomials(nv, total - max(sum(m) for m in h))))
         parts[f"mu{j}"] = asm.multiplier(h, mu_bases[-1])
     half = total // 2
-    grams: list[tuple[list[tuple], dict | None]] = [(b, None) for b in blocks(_monomials(nv, half))]
+    grams: list[tuple[list[tuple], dict | None]] = [(b, None) for b in blocks(monomials(nv, half))]
     for gp in nn_polys:
-        basis = _monomials(nv, (total - max(sum(m) for m in gp)) // 2)
+        basis = monomials(nv, (total - max(sum(m) for m in gp)) // 2)
         grams += [(b, gp) for b in blocks(basis)]
     for j, (b, times) in enumerate(grams):
         parts[f"gram{j}"] = asm.gram(b, times)

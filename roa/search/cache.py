@@ -1,10 +1,10 @@
 """A content-addressed cache of Lyapunov-function *searches* (candidates, not certificates).
 
-The search of :func:`roa.proof.search.optimise_quadratic` takes minutes; its result is only a
+The search of :func:`roa.search.quadratic.optimise_quadratic` takes minutes; its result is only a
 candidate ``P``, which is certified afterwards by the interval validation, recomputed on every
 run. Reusing a cached ``P`` therefore never weakens a certificate: a stale candidate could only
 give a smaller certified region, never an unsound one. The key is a SHA-256 of the search inputs
-(system name, objective, start matrix, options) and of the source of :mod:`roa.proof.search`,
+(system name, objective, start matrix, options) and of the source of :mod:`roa.search.quadratic`,
 so a change of the search recomputes. Changes elsewhere (the level search it calls, the system)
 do not: they can only make the cached candidate suboptimal, and its certificate is redone anyway.
 
@@ -31,7 +31,7 @@ def _plain(obj: Any) -> Any:
 
 
 def _source_hash() -> str:
-    import roa.proof.search as search
+    import roa.search.quadratic as search
 
     return hashlib.sha256(Path(search.__file__).read_bytes()).hexdigest()
 

@@ -44,6 +44,39 @@ def mul(a: Poly, b: Poly) -> Poly:
     return out
 
 
+def monomial(m: tuple[int, ...]) -> Poly:
+    """The polynomial ``y^m``."""
+    return {m: 1.0}
+
+
+def total_degree(p: Poly) -> int:
+    """The total degree of ``p``."""
+    return max(sum(m) for m in p)
+
+
+def add(a: Poly, b: Poly) -> Poly:
+    out = dict(a)
+    for m, c in b.items():
+        out[m] = out.get(m, 0.0) + c
+    return out
+
+
+def poly_sum(ps: list[Poly]) -> Poly:
+    """The sum of the polynomials ``ps``."""
+    out: Poly = {}
+    for p in ps:
+        out = add(out, p)
+    return out
+
+
+def power(p: Poly, k: int, nv: int) -> Poly:
+    """``p^k`` in ``nv`` variables."""
+    out: Poly = {tuple([0] * nv): 1.0}
+    for _ in range(k):
+        out = mul(out, p)
+    return out
+
+
 def scale(a: Poly, c: float) -> Poly:
     return {m: v * c for m, v in a.items()}
 

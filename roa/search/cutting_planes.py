@@ -40,6 +40,7 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.options import SampleSearchOptions
+from roa.search.seed import seed_level
 from roa.system import System
 
 
@@ -352,14 +353,6 @@ def _odd(system: System, center: np.ndarray, M: np.ndarray) -> bool:
         a, b = system.f(center + D), system.f(center - D)
     ok = np.isfinite(a).all(axis=1) & np.isfinite(b).all(axis=1)
     return bool(ok.any() and np.allclose(a[ok], -b[ok], rtol=1e-9, atol=1e-12))
-
-
-def seed_level(system: System, V0: QuadraticLyapunov) -> float:
-    """The seed's sampled largest level (the whitening's scale; 1 when none is found)."""
-    from roa.levelset import level_search
-
-    res = level_search(system, V0, shape="level", method="sampled")
-    return float(res.level) if res.level is not None and res.level > 0 else 1.0
 
 
 def sample_search(

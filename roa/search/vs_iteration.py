@@ -1,7 +1,7 @@
 """Search of a polynomial Lyapunov function by SOS V-s iteration (Jarvis-Wloszek, Tan-Packard).
 
 In whitened variables ``y`` (``x = x_eq + M y`` from a quadratic seed ``V0``), with the field made
-polynomial in ``(y, aux)`` by :func:`roa.proof.sos.recast_field` (equalities ``h = 0``, ``g >= 0``),
+polynomial in ``(y, aux)`` by :func:`roa.search.sos.recast_field` (equalities ``h = 0``, ``g >= 0``),
 three semidefinite programs (cvxpy + Clarabel) alternate, each linear in its unknowns:
 
 * **gamma step** (V fixed): the largest ``gamma`` with ``(y'y)^k (V - gamma) + lambda V' + mu h -
@@ -31,8 +31,23 @@ import sympy as sp
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.progress import step
-from roa.proof.polysdp import Identity, Poly, diff, is_even, monomials, mul, poly_of, scale
-from roa.proof.sos import recast_field
+from roa.search.polysdp import (
+    Identity,
+    Poly,
+    add,
+    diff,
+    is_even,
+    monomial,
+    monomials,
+    mul,
+    poly_of,
+    poly_sum,
+    power,
+    scale,
+    total_degree,
+)
+from roa.search.seed import seed_level
+from roa.search.sos import recast_field
 from roa.status import SosStatus
 from roa.system import System
 
@@ -135,11 +150,11 @@ class _Problem:
         self.k = (self.total - degree) // 2
         self.k2 = self.D  # (y'y)^k2 (p - beta) + lambda2 (V - 1): lambda2 quadratic
         self.yy = {tuple(2 * int(i == a) for i in range(self.nv)): 1.0 for a in range(self.nd)}
-        self.yyk = _power(self.yy, self.k, self.nv)
-        self.yyk2 = _power(self.yy, self.k2, self.nv)
+        self.yyk = power(self.yy, self.k, self.nv)
+        self.yyk2 = power(self.yy, self.k2, self.nv)
         # V' of each basis monomial of V: sum_i d(y^a)/dy_i f_i
         self.dmono = [
-            _sum([mul(diff(m, i), self.fy[i]) for i in range(self.nd)]) for m in self.vbasis
+            poly_sum([mul(diff(m, i), self.fy[i]) for i in range(self.nd)]) for m in self.vbasis
         ]
 
     def cap(self, basis: list[tuple]) -> list[tuple]:
@@ -164,22 +179,24 @@ class _Problem:
     def decrease(self, ident: Identity, Vc: Any, lam: Any, gamma: Any) -> None:
         """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
         multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
-        cols = [mul(self.yyk, _mono(m)) for m in self.vbasis]
+        cols = [mul(self.yyk, monomial(m)) for m in self.vbasis]
         if lam is None:  # gamma step: V fixed (numbers), lambda free
-            Vpoly = _sum([scale(_mono(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)])
-            Vd = _sum([scale(p, float(c)) for p, c in zip(self.dmono, Vc, strict=True)])
+            Vpoly = poly_sum(
+                [scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]
+            )
+            Vd = poly_sum([scale(p, float(c)) for p, c in zip(self.dmono, Vc, strict=True)])
             ident.const(mul(self.yyk, Vpoly))
             ident.free(Vd, self.keep(monomials(self.nv, self.mlam)))
         else:  # V step: V free (variable), lambda fixed
-            ident.linear([_add(c, mul(lam, d)) for c, d in zip(cols, self.dmono, strict=True)], Vc)
+            ident.linear([add(c, mul(lam, d)) for c, d in zip(cols, self.dmono, strict=True)], Vc)
         ident.linear([scale(self.yyk, -1.0)], gamma)
         for h in self.eqs:
-            ident.free(h, self.keep(monomials(self.nv, self.total - _deg(h))))
+            ident.free(h, self.keep(monomials(self.nv, self.total - total_degree(h))))
         half = self.total // 2
         for b in self.blocks(monomials(self.nv, half)):
             ident.gram(b, None)
         for g in self.nonneg:
-            for b in self.blocks(monomials(self.nv, (self.total - _deg(g)) // 2)):
+            for b in self.blocks(monomials(self.nv, (self.total - total_degree(g)) // 2)):
                 ident.gram(b, g)
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
@@ -189,18 +206,18 @@ class _Problem:
         deg = 2 * self.D + 2
         lam_basis = self.y_only(self.keep(monomials(self.nv, 2)))
         if lam2 is None:
-            Vm1 = _add(_sum([scale(_mono(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]),
+            Vm1 = add(poly_sum([scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]),
                        {tuple([0] * self.nv): -1.0})  # fmt: skip
             ident.free(Vm1, lam_basis)
         else:
-            ident.linear([mul(lam2, _mono(m)) for m in self.vbasis], Vc)
+            ident.linear([mul(lam2, monomial(m)) for m in self.vbasis], Vc)
             ident.const(scale(lam2, -1.0))
         for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
             ident.gram(b, None)
 
     def positive(self, ident: Identity, Vc: Any, eps: float) -> None:
         """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
-        ident.linear([_mono(m) for m in self.vbasis], Vc)
+        ident.linear([monomial(m) for m in self.vbasis], Vc)
         ident.const(scale(self.yy, -eps))
         basis = [m for m in self.y_only(monomials(self.nv, self.D)) if sum(m) >= 1]
         for b in self.blocks(basis):
@@ -251,43 +268,6 @@ class _Problem:
         return PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
 
 
-def _seed_level(system: System, V0: QuadraticLyapunov) -> float:
-    """The seed's sampled largest level (scales the variables; 1 when none is found)."""
-    from roa.levelset import level_search
-
-    res = level_search(system, V0, shape="level", method="sampled")
-    return float(res.level) if res.level is not None and res.level > 0 else 1.0
-
-
-def _mono(m: tuple) -> Poly:
-    return {m: 1.0}
-
-
-def _deg(p: Poly) -> int:
-    return max(sum(m) for m in p)
-
-
-def _add(a: Poly, b: Poly) -> Poly:
-    out = dict(a)
-    for m, c in b.items():
-        out[m] = out.get(m, 0.0) + c
-    return out
-
-
-def _sum(ps: list[Poly]) -> Poly:
-    out: Poly = {}
-    for p in ps:
-        out = _add(out, p)
-    return out
-
-
-def _power(p: Poly, k: int, nv: int) -> Poly:
-    out: Poly = {tuple([0] * nv): 1.0}
-    for _ in range(k):
-        out = mul(out, p)
-    return out
-
-
 def vs_search(
     system: System,
     V0: QuadraticLyapunov,
@@ -309,7 +289,7 @@ def vs_search(
     ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
     shape function ``p(x) = (x - x_eq)' S (x - x_eq)`` (default ``V0.P``). Stops after ``rounds``
     V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
-    ``clarabel`` or ``scs`` (:meth:`roa.proof.polysdp.Identity.solve`).
+    ``clarabel`` or ``scs`` (:meth:`roa.search.polysdp.Identity.solve`).
     """
     if solver not in SOLVERS:
         raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
@@ -319,7 +299,7 @@ def vs_search(
         raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
     t0 = time.perf_counter()
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
-    scale = _seed_level(system, V0)
+    scale = seed_level(system, V0)
     try:
         pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
                       scale)  # fmt: skip

@@ -1,0 +1,78 @@
+"""Exact rational checks that proofs end on: definiteness of rational matrices, exact equilibria.
+
+Matrices are handled by python-flint (``fmpq_mat``: exact rationals, fast determinants). A
+symmetric matrix is positive definite iff all its leading principal minors are positive
+(Sylvester); the pivots of its LDL' factorisation are the ratios of consecutive minors.
+"""
+
+from __future__ import annotations
+
+from fractions import Fraction
+from typing import Any
+
+import flint
+import numpy as np
+
+from roa.system import System
+
+
+def _fmpq(x: Any) -> flint.fmpq:
+    q = x if isinstance(x, Fraction) else Fraction(x)
+    return flint.fmpq(q.numerator, q.denominator)
+
+
+def exact_positive_definite(A: Any) -> tuple[bool, list[Fraction]]:
+    """Whether the symmetric rational matrix ``A`` (rows of Fractions, ints or floats, taken
+    exactly) is positive definite, and the LDL' pivots up to the first that is not positive."""
+    rows = [[_fmpq(v) for v in row] for row in A]
+    n = len(rows)
+    pivots: list[Fraction] = []
+    prev = flint.fmpq(1)
+    for k in range(1, n + 1):
+        minor = flint.fmpq_mat(k, k, [rows[i][j] for i in range(k) for j in range(k)]).det()
+        pivot = minor / prev
+        pivots.append(Fraction(int(pivot.p), int(pivot.q)))
+        if minor <= 0:
+            return False, pivots
+        prev = minor
+    return True, pivots
+
+
+def interval_negative_definite(lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Every symmetric matrix with entries in ``[lo, hi]`` is negative definite (exact rationals).
+
+    With ``mid`` the symmetrised centre and ``t`` a rational bound on the Frobenius radius of the
+    interval matrix, every member is ``mid + E`` with ``|E|_2 <= t``, so ``-mid - t I`` positive
+    definite proves the claim. Returns False (unproved) for non-finite or overflowing bounds.
+    """
+    n = lo.shape[0]
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        return False
+    Lo = [[Fraction(float(lo[i, j])) for j in range(n)] for i in range(n)]
+    Hi = [[Fraction(float(hi[i, j])) for j in range(n)] for i in range(n)]
+    mid = [[(Lo[i][j] + Hi[i][j] + Lo[j][i] + Hi[j][i]) / 4 for j in range(n)] for i in range(n)]
+    frob2 = sum(
+        max(Hi[i][j] - mid[i][j], mid[i][j] - Lo[i][j]) ** 2 for i in range(n) for j in range(n)
+    )
+    try:
+        root = float(np.sqrt(float(frob2)))
+    except OverflowError:
+        return False
+    if not np.isfinite(root):
+        return False
+    t = Fraction(root) * Fraction(1000001, 1000000) + Fraction(1, 10**300)
+    if t * t < frob2:
+        return False
+    A = [[-mid[i][j] - (t if i == j else 0) for j in range(n)] for i in range(n)]
+    return exact_positive_definite(A)[0]
+
+
+def exact_equilibrium(system: System, center: np.ndarray) -> bool:
+    """``f(center) == 0`` exactly (sympy, the float centre taken as an exact rational)."""
+    import sympy as sp
+
+    from roa.backend import namespace
+
+    x = [sp.Rational(float(c)) for c in center]
+    f = system.field(0.0, x, namespace("sympy"))
+    return all(sp.nsimplify(sp.sympify(fi)) == 0 for fi in f)

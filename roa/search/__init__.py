@@ -1,0 +1,6 @@
+"""Solvers that only propose: candidates for V and for its level, never a verdict.
+
+Every module here returns a *candidate* (an SOS level, a V found by V-s iteration or by cutting
+planes on samples, an optimised quadratic V); :mod:`roa.proof` decides whether it holds. Nothing in
+this package may call a result certified.
+"""

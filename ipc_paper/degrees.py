@@ -8,7 +8,7 @@
   experiment: certified level, the certified sector at q = q' = theta' = 0 (interval lower bound),
   the share of the reference box, times. Degree 2 by SOS V-s iteration (``ipc_degrees``; degree 4
   SDPs have Gram blocks of 128 monomials), degree 4 by the sampled cutting-plane search
-  (``ipc_sampled_degrees``, :func:`roa.certification_vs.certify_sampled`: no SDP over the field,
+  (``ipc_sampled_degrees``, ``roa.certify`` with :class:`roa.CuttingPlanes`: no SDP over the field,
   the level proved by the same interval validation).
 * **IPC, hybrid coordinates** (q, z2, w1, w2) (``hybrid_degrees``): degree 2 the certify
   experiment's box-optimised quadratic V there (C9), degree 4 the sampled search seeded by it;
@@ -42,10 +42,10 @@ class DegreeParams(Options):
 
     ``ipc_degrees = []`` skips the IPC (its SDPs take minutes per round); ``aux_degree`` caps the
     recast variable's degree in the IPC's Gram bases (``< 0``: no cap). ``ipc_sampled_degrees``:
-    the IPC by the sampled cutting-plane search (:func:`roa.certification_vs.certify_sampled`,
+    the IPC by the sampled cutting-plane search (``roa.certify`` with :class:`roa.CuttingPlanes`,
     ``sampled_*`` its options: decrease margin, outer radius, rounds, the sector held in
     ``{V <= 1}``); the level validated is ``level_safety`` x the optimum (sampled, or V at a
-    witness of a refuted validation: :func:`roa.certification_vs.certify_sampled`), the optimum x
+    witness of a refuted validation: ``roa.certify`` with :class:`roa.CuttingPlanes`), the optimum x
     1.001 checked to be refuted. ``hybrid_degrees``: the IPC in hybrid
     coordinates (q, z2, w1, w2): 2 the certify experiment's quadratic V there, higher degrees by
     the sampled search seeded by it (``[]``: not run).
@@ -187,7 +187,6 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "
     import roa
     from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _sector_curve
-    from roa.certification_vs import certify_sampled
     from roa.options import SampleSearchOptions
     from roa.systems.ipc import REFERENCE_BOX
 
@@ -205,8 +204,9 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "
     def level(V: Any, opt: float) -> float:  # the largest this V allows (below its optimum)
         return opts.level_safety * opt
 
-    return certify_sampled(ipc, seed, options=opts, hard=hard, soft=soft, level=level,
-                           interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
+    search = roa.CuttingPlanes(opts, hard=hard, soft=soft, level=level, seed=seed)
+    return roa.certify(ipc, search, interval=roa.IntervalOptions(max_boxes=p["max_boxes"]),
+                       check_above=1.001)  # fmt: skip
 
 
 def _components(coords: str) -> Any:

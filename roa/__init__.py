@@ -16,7 +16,17 @@ against an array namespace (numpy, CasADi, sympy, intervals), so that simulation
 certification and Monte Carlo all work on the same definition.
 """
 
-from roa.certification import Certificate, certify
+from roa.certification import (
+    CandidateLevel,
+    Certificate,
+    CuttingPlanes,
+    GivenLevel,
+    IntervalValidator,
+    SampledLevel,
+    SosLevel,
+    VsIteration,
+    certify,
+)
 from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import (
@@ -53,6 +63,13 @@ from roa.systems import load_system
 
 __all__ = [
     "BasinResult",
+    "CandidateLevel",
+    "CuttingPlanes",
+    "GivenLevel",
+    "IntervalValidator",
+    "SampledLevel",
+    "SosLevel",
+    "VsIteration",
     "BasinStatus",
     "CasadiOptions",
     "Certificate",

@@ -231,7 +231,7 @@ class VsOptions(Options):
         As in :class:`SosOptions`.
     method : {"sos", "sampled"}
         ``sos``: the V-s iteration; ``sampled``: the sampled cutting-plane search
-        (:func:`roa.certification_vs.certify_sampled`, no SDP over the field), with ``sampled``
+        (``roa.certify`` with :class:`roa.CuttingPlanes`, no SDP over the field), with ``sampled``
         its options (:class:`SampleSearchOptions`; ``degree`` is taken from ``roa.certify``).
     """
 
@@ -293,7 +293,7 @@ class VsOptions(Options):
 @dataclass(frozen=True)
 class SampleSearchOptions(Options):
     """Sampled cutting-plane search of a polynomial V (:func:`roa.search.cutting_planes.sample_search`)
-    and its certification (:func:`roa.certification_vs.certify_sampled`).
+    and its certification (``roa.certify`` with :class:`roa.CuttingPlanes`).
 
     Parameters
     ----------

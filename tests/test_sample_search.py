@@ -1,5 +1,5 @@
 """The sampled cutting-plane search of a polynomial V (roa.search.cutting_planes) and its
-certification (roa.certification_vs.certify_sampled, roa.certify(..., vs=VsOptions(method=
+certification (roa.certify with roa.CuttingPlanes, roa.certify(..., vs=VsOptions(method=
 "sampled"))), on Van der Pol (reversed, mu = 1), whose true region is bounded by its limit cycle."""
 
 from __future__ import annotations
@@ -108,8 +108,10 @@ def test_sampled_certificate_is_inside_the_limit_cycle(vdp, cycle):
 
 
 def test_certify_sampled_needs_a_quadratic_seed(vdp):
-    from roa.certification_vs import certify_sampled
     from roa.lyapunov import PolynomialLyapunov
+
+    def certify_sampled(system, V0, **kw):
+        return roa.certify(system, roa.CuttingPlanes(seed=V0), **kw)
 
     V = PolynomialLyapunov([[2, 0], [0, 2], [4, 0]], [1.0, 1.0, 1.0], [0.0, 0.0])
     with pytest.raises(RoaInputError, match="quadratic seed"):
@@ -122,8 +124,6 @@ def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
     """A level above V's true optimum (here 1.3 x the sampled one, given on purpose) is refuted
     with a 50-digit witness w; V(w) bounds the optimum, so the level is chosen again below it and
     certified, with the refutation just above V(w) (no certified level above the optimum)."""
-    from roa.certification_vs import certify_sampled
-
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         first = {}
@@ -134,7 +134,7 @@ def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
                 return 1.3 * c
             return 0.999 * c
 
-        cert = certify_sampled(vdp, None, options=FAST, level=level)
+        cert = roa.certify(vdp, roa.CuttingPlanes(FAST, level=level), check_above=1.001)
     assert cert.certified, cert.message
     assert "retried below confirmed witnesses" in cert.message and "50 digits" in cert.message
     assert cert.level_source == "witness"  # not the caller's level function's first answer
@@ -150,4 +150,4 @@ def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
     w = np.asarray(cert.above.witness)
     assert recheck_general(vdp, cert.V, w, cert.above.level)["confirmed"]
     with pytest.raises(RoaInputError, match="retries"):
-        certify_sampled(vdp, None, retries=-1)
+        roa.certify(vdp, roa.CuttingPlanes(FAST), retries=-1)

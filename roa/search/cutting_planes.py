@@ -382,7 +382,7 @@ def sample_search(
     -------
     SampleSearchResult
         ``.V`` is a candidate only; certify it with :func:`roa.certify` (or use
-        :func:`roa.certification_vs.certify_sampled`, which does both).
+        ``roa.certify`` with :class:`roa.CuttingPlanes`, which does both).
     """
     o = SampleSearchOptions() if options is None else options
     if system.equilibrium is None or system.time_varying:

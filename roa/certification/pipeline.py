@@ -1,0 +1,461 @@
+"""``roa.certify``: a pipeline of strategies, "find V, propose a level, prove it, refute above".
+
+The stages, each an object of :mod:`roa.certification.strategies`:
+
+1. **V**: the caller's candidate (default :func:`roa.default_lyapunov`), or candidates from a
+   source of V (:class:`~roa.certification.strategies.VsIteration`,
+   :class:`~roa.certification.strategies.CuttingPlanes`) seeded by a quadratic V.
+2. **Level**: the first proposer that accepts V and finds a level (default: SOS for a quadratic V,
+   else the sampled level search); each proposer owns its safety factor.
+3. **Proof**: the validator (the interval branch and bound) decides the level. It alone can
+   certify.
+4. **Refinement**: a proposed level refuted by a confirmed witness (V' >= 0 at 50 digits, in the
+   equilibrium's component) is chosen again below ``V(witness)``, which bounds the true optimum
+   (``retries`` times at most; a level the caller gave is never changed).
+5. **Refutation above**: with ``check_above``, ``check_above`` x the optimum is refuted, by a
+   confirmed witness below it when there is one, else by the validator.
+
+Every stage leaves an entry in ``Certificate.trace``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+
+from roa.certification.result import Certificate
+from roa.certification.strategies import (
+    DEGREES,
+    CandidateLevel,
+    CuttingPlanes,
+    GivenLevel,
+    IntervalValidator,
+    LevelProposer,
+    Proposal,
+    SampledLevel,
+    SosLevel,
+    Validator,
+    VsIteration,
+)
+from roa.checks import check_system
+from roa.errors import RoaInputError
+from roa.levelset import LevelSearchResult, level_search
+from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
+from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
+from roa.progress import step
+from roa.proof.validate import Validation
+from roa.status import Verdict
+from roa.system import System
+
+METHODS = ("sos", "interval", "both")
+#: Times a proposed level is chosen again below a confirmed witness.
+RETRIES = 3
+
+
+def certify(
+    system: System,
+    V: Any = None,
+    *,
+    level: float | LevelProposer | None = None,
+    method: str = "both",
+    sos: SosOptions | None = None,
+    interval: IntervalOptions | None = None,
+    sampled: SampledOptions | None = None,
+    candidate: LevelSearchResult | float | None = None,
+    check_above: float | None = None,
+    bounding_box: Any = None,
+    degree: int | None = None,
+    vs: VsOptions | None = None,
+    validator: Validator | None = None,
+    retries: int = RETRIES,
+) -> Certificate:
+    """Certify (or refute) that ``{V <= level}`` lies in the region of attraction.
+
+    Parameters
+    ----------
+    system : System
+        Autonomous system with an equilibrium; its field must run on the interval namespace.
+    V : Lyapunov, n x n matrix or source of V, optional
+        The candidate (default :func:`roa.default_lyapunov`): any :class:`roa.lyapunov.Lyapunov`
+        or a matrix ``P``; or a source of candidates (:class:`roa.VsIteration`,
+        :class:`roa.CuttingPlanes`) seeded by the system's quadratic V.
+    level : float or level proposer, optional
+        A level (> 0) to validate as it is, or a proposer object (:class:`roa.SosLevel`,
+        :class:`roa.SampledLevel`, :class:`roa.CandidateLevel`, :class:`roa.GivenLevel`).
+        Default: SOS for a quadratic V, else (or when SOS fails) the sampled level search.
+    method : {"both", "sos", "interval"}
+        Shorthand for the proposers when ``level`` is not given: ``both`` (SOS, then the sampled
+        search), ``interval`` (the sampled search) or ``sos`` (the SOS level only: never
+        certified).
+    sos, interval, sampled : SosOptions, IntervalOptions, SampledOptions, optional
+        Options of the SOS proposer, of the validator and of the sampled proposer.
+    candidate : LevelSearchResult or float, optional
+        A largest level found elsewhere, validated at ``interval.sampled_safety`` x it.
+    check_above : float, optional
+        Also refute ``check_above`` x the optimum (> 1, e.g. 1.001); its verdict is ``.above``.
+    bounding_box : array, optional
+        Non-quadratic ``V``: a box holding the level set (see :func:`roa.proof.validate.validate_level`).
+    degree : {2, 4, 6, 8}, optional
+        Shorthand for ``V=roa.VsIteration(degree, vs)`` (``vs.method="sampled"``:
+        ``roa.CuttingPlanes``), seeded by ``V`` (quadratic).
+    vs : VsOptions, optional
+        Options of the search of V.
+    validator : Validator, optional
+        What decides a level (default :class:`roa.IntervalValidator`).
+    retries : int
+        Times a proposed level is chosen again below a confirmed refutation witness (0 to 10).
+
+    Returns
+    -------
+    Certificate
+
+    Examples
+    --------
+    >>> import roa
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> cert = roa.certify(vanderpol(), level=2.30)
+    >>> cert.status
+    <Verdict.CERTIFIED: 'certified'>
+    >>> roa.certify(vanderpol(), level=2.31).status
+    <Verdict.REFUTED: 'refuted'>
+    """
+    t0 = time.perf_counter()
+    if isinstance(retries, bool) or not isinstance(retries, int) or not 0 <= retries <= 10:
+        raise RoaInputError(f"retries must be an integer in [0, 10], got {retries!r}")
+    if check_above is not None and not (np.isfinite(check_above) and check_above > 1):
+        raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
+    interval = IntervalOptions() if interval is None else interval
+    if validator is not None and bounding_box is not None:
+        raise RoaInputError("bounding_box belongs to the validator: give one or the other")
+    check: Validator = IntervalValidator(interval, bounding_box) if validator is None else validator
+    source: VsIteration | CuttingPlanes | None = None
+    if degree is not None:
+        if level is not None or candidate is not None or method != "both":
+            raise RoaInputError("degree= searches V and its level: drop level, candidate, method")
+        if degree not in DEGREES:
+            raise RoaInputError(f"degree must be one of {DEGREES}, got {degree!r}")
+        vs = VsOptions() if vs is None else vs
+        if vs.method == "sampled":
+            from roa.options import SampleSearchOptions
+
+            o = (SampleSearchOptions() if vs.sampled is None else vs.sampled).replace(degree=degree)
+            source = CuttingPlanes(o)
+        else:
+            source = VsIteration(degree, vs)
+    elif isinstance(V, VsIteration | CuttingPlanes):
+        source, V = V, V.seed
+    _check_system(system)
+    if source is not None:
+        seed = quadratic_seed(system, V, "the search of V starts from a quadratic seed; V")
+        return _from_source(system, seed, source, check, sampled, interval, check_above,
+                            retries, t0)  # fmt: skip
+    lyap = as_lyapunov(system, V)
+    proposers = _proposers(lyap, level, method, candidate, sos, interval, sampled)
+    return run(system, lyap, proposers, check, check_above=check_above, retries=retries,
+               t0=t0)  # fmt: skip
+
+
+def _check_system(system: System) -> None:
+    if system.equilibrium is None or system.time_varying:
+        raise RoaInputError(f"system {system.name!r} must be autonomous with an equilibrium")
+    check_system(system, analysis=True)
+
+
+def _proposers(
+    lyap: Lyapunov,
+    level: Any,
+    method: str,
+    candidate: Any,
+    sos: SosOptions | None,
+    interval: IntervalOptions,
+    sampled: SampledOptions | None,
+) -> list[LevelProposer]:
+    """The level proposers of the shorthand arguments, in the order they are tried."""
+    if method not in METHODS:
+        raise RoaInputError(f"method must be one of {METHODS}, got {method!r}")
+    if level is not None and not isinstance(level, int | float):
+        if candidate is not None:
+            raise RoaInputError("give either level or candidate, not both")
+        if not isinstance(level, LevelProposer):
+            raise RoaInputError(
+                f"level must be a number > 0 or a level proposer, got {type(level).__name__}"
+            )
+        return [level]
+    if level is not None:
+        if method == "sos":
+            raise RoaInputError(
+                "method='sos' with a given level: a given level is checked by interval "
+                "validation only; use method='interval', or drop level to let SOS find one"
+            )
+        if candidate is not None:
+            raise RoaInputError("give either level or candidate, not both")
+        return [GivenLevel(level)]
+    if candidate is not None:
+        return [CandidateLevel(candidate, interval.sampled_safety)]
+    sos = SosOptions() if sos is None else sos
+    if method == "sos":
+        if lyap.as_quadratic() is None:
+            raise RoaInputError(
+                f"method='sos' needs a QuadraticLyapunov; V {lyap.name!r} is "
+                f"{type(lyap).__name__}: use method='both' or 'interval' (sampled search + "
+                "interval validation)"
+            )
+        return [SosLevel(sos, only=True)]
+    sampled_level = SampledLevel(sampled, interval.sampled_safety)
+    return [SosLevel(sos), sampled_level] if method == "both" else [sampled_level]
+
+
+def run(
+    system: System,
+    V: Lyapunov,
+    proposers: Sequence[LevelProposer],
+    validator: Validator,
+    *,
+    check_above: float | None = None,
+    retries: int = RETRIES,
+    t0: float | None = None,
+    choose: Any = None,
+    fresh: bool = False,
+) -> Certificate:
+    """Propose a level for ``V``, prove it, refine below a witness, refute above.
+
+    ``choose(opt)`` is the level validated for an optimum ``opt`` (default: the proposal's factor
+    x ``opt``); ``fresh``: V was just found by a search (its level search's witness may refute
+    the level above, whose cover is then taken from rays).
+    """
+    t0 = time.perf_counter() if t0 is None else t0
+    trace: list[dict[str, Any]] = []
+    if not validator.accepts(system, V):
+        raise RoaInputError(f"validator {validator.name!r} does not accept V {V.name!r}")
+
+    def done(**kw: Any) -> Certificate:
+        return Certificate(seconds=time.perf_counter() - t0, system=system, V=V,
+                           trace=tuple(trace), **kw)  # fmt: skip
+
+    prop, sos_res, skipped = _propose(system, V, proposers, trace)
+    if prop.final:
+        return done(status=Verdict.INCONCLUSIVE, level=prop.candidate, method="sos",
+                    level_source="sos" if prop.candidate is not None else None,
+                    message=prop.message, sos=prop.sos, candidate=prop.candidate)  # fmt: skip
+    if prop.level is None:
+        return done(status=Verdict.INCONCLUSIVE, level=None, method="level search",
+                    level_source=None, message=prop.message, sos=sos_res,
+                    search=prop.search)  # fmt: skip
+    assert prop.candidate is not None
+    given = prop.source == "given"
+    opt = prop.candidate
+    factor = 1.0 if prop.factor is None else prop.factor
+
+    def level_for(o: float) -> float:
+        return float(choose(o)) if choose is not None else factor * o
+
+    value = prop.level if given or choose is None else level_for(opt)
+    v = _validate(system, V, validator, value, trace, "validate")
+    notes: list[str] = []
+    proof: tuple[Any, Any, float] | None = None  # a confirmed witness below the optimum
+    for _ in range(0 if given and not fresh else retries):
+        w = v.witness
+        confirmed = (v.witness_check or {}).get("confirmed")
+        if v.status is not Verdict.REFUTED or w is None or not confirmed:
+            break
+        from roa.proof.witness import lowest_confirmed_witness
+
+        bound, x, check = lowest_confirmed_witness(system, V, np.asarray(w, dtype=float))
+        if not bound > 0 or x is None:  # only a point proved in the component bounds c*
+            break
+        if bound <= opt:
+            proof = (x, check, bound)  # refutes every level >= V(x)
+        opt = min(opt, bound)
+        new = min(level_for(opt), factor * opt) if choose is not None else factor * opt
+        if not 0 < new < value:
+            break
+        notes.append(f"refuted at {value:.7g} (V' >= 0 at V = {bound:.10g}, 50 digits)")
+        trace.append({"stage": "refine", "witness_level": bound, "next_level": new})
+        value = new
+        v = _validate(system, V, validator, value, trace, "validate below the witness")
+    above = None
+    if check_above is not None:
+        above = _refute_above(system, V, validator, check_above * opt, proof, prop, fresh, trace)
+    message = v.message
+    if notes:
+        sampled_opt = prop.candidate
+        message = (f"{message}; retried below confirmed witnesses (sampled optimum "
+                   f"{sampled_opt:.7g}): " + "; ".join(notes))  # fmt: skip
+    if skipped and not given:
+        message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
+                   f"sampled search, checked by interval validation. {message}")  # fmt: skip
+    if given and not fresh:
+        return done(status=v.status, level=value, method="interval", level_source="given",
+                    message=message, validation=v, above=above, candidate=value)  # fmt: skip
+    source = "witness" if notes else prop.source
+    return done(status=v.status, level=value, method="interval", level_source=source,
+                message=message, candidate=opt,
+                safety_factor=None if choose is not None else factor, validation=v,
+                above=above, sos=sos_res, search=prop.search)  # fmt: skip
+
+
+def _propose(
+    system: System, V: Lyapunov, proposers: Sequence[LevelProposer], trace: list[dict[str, Any]]
+) -> tuple[Proposal, Any, bool]:
+    """The first proposal with a level (or the last one), the SOS result met on the way, and
+    whether a proposer declined V."""
+    prop: Proposal | None = None
+    sos_res, skipped = None, False
+    for proposer in proposers:
+        if not proposer.accepts(system, V):
+            skipped = True
+            trace.append({"stage": "propose", "by": type(proposer).__name__, "accepted": False})
+            continue
+        prop = proposer.propose(system, V)
+        trace.append({"stage": "propose", "by": type(proposer).__name__, "source": prop.source,
+                      "candidate": prop.candidate, "level": prop.level})  # fmt: skip
+        sos_res = prop.sos if prop.sos is not None else sos_res
+        if prop.level is not None or prop.final:
+            return prop, sos_res, skipped and isinstance(proposer, SampledLevel)
+    if prop is None:
+        raise RoaInputError(f"no level proposer accepts V {V.name!r}")
+    return prop, sos_res, False
+
+
+def _validate(system: System, V: Lyapunov, validator: Validator, level: float,
+              trace: list[dict[str, Any]], stage: str) -> Validation:  # fmt: skip
+    v = validator.check(system, V, level)
+    trace.append({"stage": stage, "by": validator.name, "level": level, "status": v.status.value,
+                  "boxes": v.boxes, "seconds": round(v.seconds, 3)})  # fmt: skip
+    return v
+
+
+def _refute_above(
+    system: System,
+    V: Lyapunov,
+    validator: Validator,
+    top: float,
+    proof: tuple[Any, Any, float] | None,
+    prop: Proposal,
+    fresh: bool,
+    trace: list[dict[str, Any]],
+) -> Validation:
+    """``top`` refuted by a confirmed witness below it (a retry's, or for a freshly found V the
+    level search's), else decided by the validator."""
+    from roa.proof.witness import lowest_confirmed_witness, refuted_by
+
+    if fresh and proof is None and prop.search is not None and prop.search.witness is not None:
+        w = np.asarray(prop.search.witness, dtype=float)
+        val, x, check = lowest_confirmed_witness(system, V, w)
+        if x is not None and val * (1 + 1e-12) <= top:
+            proof = (x, check, val)
+    if proof is not None and proof[2] * (1 + 1e-12) <= top:  # checked at V(x) (1 + 1e-12)
+        how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
+        trace.append({"stage": "refute above", "by": "witness", "level": top})
+        return refuted_by(proof[0], proof[1], top, how)
+    if fresh and isinstance(validator, IntervalValidator) and validator.bounding_box is None:
+        from roa.proof.cover import ray_box
+
+        half = ray_box(V, top)  # a cover from rays, proved by V > level on its faces
+        validator = IntervalValidator(validator.options, None if half is None else 1.3 * half)
+    with step(f"refutation check of {V.name} at level {top:.6g}"):
+        return _validate(system, V, validator, top, trace, "refute above")
+
+
+def _from_source(
+    system: System,
+    seed: QuadraticLyapunov,
+    source: VsIteration | CuttingPlanes,
+    validator: Validator,
+    sampled: SampledOptions | None,
+    interval: IntervalOptions,
+    check_above: float | None,
+    retries: int,
+    t0: float,
+) -> Certificate:
+    """Certify the candidates of a source of V (see :func:`certify`)."""
+    import dataclasses
+
+    res = source.search(system, seed)
+    if isinstance(source, CuttingPlanes):
+        return _cutting_planes(system, seed, source, res, validator, check_above, retries, t0)
+    assert isinstance(source, VsIteration)
+    if not res.candidates:
+        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="sos",
+                           level_source=None, seconds=time.perf_counter() - t0,
+                           message=f"V-s iteration found no candidate: {res.message}", vs=res,
+                           system=system, V=seed)  # fmt: skip
+    last, tried = None, 0
+    for i in np.argsort(res.betas)[::-1]:  # best shape level first
+        cand = res.candidates[int(i)]
+        with step(f"validation of {cand.name}"):
+            cert = run(system, cand, [SampledLevel(sampled, interval.sampled_safety)], validator,
+                       check_above=check_above, retries=retries)  # fmt: skip
+        if cert.validation is None and last is not None:
+            continue  # a candidate without a sampled level costs no proof
+        last = dataclasses.replace(cert, vs=res, seconds=time.perf_counter() - t0)
+        tried += cert.validation is not None
+        if cert.certified or tried >= source.options.validate:
+            return last
+    assert last is not None
+    return last
+
+
+def _cutting_planes(
+    system: System,
+    seed: QuadraticLyapunov,
+    source: CuttingPlanes,
+    res: Any,
+    validator: Validator,
+    check_above: float | None,
+    retries: int,
+    t0: float,
+) -> Certificate:
+    """The candidate of the cutting-plane search, validated at its chosen level."""
+    import dataclasses
+
+    if res.V is None:
+        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="sampled search",
+                           level_source=None, seconds=time.perf_counter() - t0,
+                           message=f"the sampled search found no candidate: {res.message}",
+                           vs=res, system=system, V=seed)  # fmt: skip
+    V = res.V
+    with step("sampled level search of the candidate"):
+        lv = level_search(system, V, shape="level", method="sampled")
+    if lv.level is None:
+        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="level search",
+                           level_source=None, seconds=time.perf_counter() - t0,
+                           message=f"no sampled level for the candidate: {lv.message}",
+                           search=lv, vs=res, system=system, V=V)  # fmt: skip
+    safety, chosen, found = source.options.level_safety, source.level, float(lv.level)
+    if chosen is None:
+        choose = lambda opt: min(1.0, safety * opt)  # noqa: E731 - 1: the search's target
+    elif callable(chosen):
+        choose = lambda opt: _positive_level(chosen(V, opt))  # noqa: E731
+    else:
+        fixed = _positive_level(chosen)
+        choose = lambda opt: fixed if opt == found else safety * opt  # noqa: E731
+    prop = CandidateLevel(lv, safety)
+    cert = run(system, V, [prop], validator, check_above=check_above, retries=retries, t0=t0,
+               choose=choose, fresh=True)  # fmt: skip
+    source_name = cert.level_source
+    if source_name != "witness":
+        source_name = "given" if chosen is not None else "sampled"
+    return dataclasses.replace(cert, vs=res, search=lv, level_source=source_name,
+                               seconds=time.perf_counter() - t0)  # fmt: skip
+
+
+def _positive_level(value: Any) -> float:
+    if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+        raise RoaInputError(f"level must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+def quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:
+    """``V`` as a quadratic Lyapunov function of ``system``, or an error starting with ``what``."""
+    given = as_lyapunov(system, V)
+    seed = given.as_quadratic()
+    if seed is None:
+        raise RoaInputError(
+            f"{what} {given.name!r} is {type(given).__name__}: give a matrix P or a "
+            "QuadraticLyapunov (or none)"
+        )
+    return seed

@@ -1,0 +1,267 @@
+"""The strategies :func:`roa.certify` is built from: sources of V, level proposers, validators.
+
+Each is a small object with ``accepts(system, V)`` and one action, as cvxpy's reductions are:
+
+* **Validators** decide a level (:class:`Validator`): :class:`IntervalValidator`, the interval
+  branch and bound of :func:`roa.proof.validate.validate_level`, is the one that certifies.
+* **Level proposers** find a candidate level and own the safety factor it is validated at
+  (:class:`LevelProposer`): :class:`GivenLevel`, :class:`CandidateLevel` (a level found
+  elsewhere), :class:`SosLevel` (quadratic V), :class:`SampledLevel` (any V).
+* **Sources of V** propose candidates (:class:`VSource`): :class:`VsIteration` (SOS V-s
+  iteration), :class:`CuttingPlanes` (sampled cutting planes); a given V is its own source.
+
+Proposers and sources prove nothing; only a validator's verdict reaches ``certified``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Protocol, runtime_checkable
+
+import numpy as np
+
+from roa.errors import RoaInputError
+from roa.levelset import LevelSearchResult, level_search
+from roa.lyapunov import Lyapunov
+from roa.options import IntervalOptions, SampledOptions, SampleSearchOptions, SosOptions, VsOptions
+from roa.progress import step
+from roa.proof.validate import Validation, validate_level
+from roa.status import LevelStatus, SosStatus
+from roa.system import System
+
+
+# -- validators ------------------------------------------------------------------------------------
+@runtime_checkable
+class Validator(Protocol):
+    """Decides ``V' < 0`` on ``{V <= level}`` minus the equilibrium: certified, refuted (with a
+    witness) or inconclusive."""
+
+    @property
+    def name(self) -> str: ...
+
+    def accepts(self, system: System, V: Lyapunov) -> bool: ...
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation: ...
+
+
+@dataclass(frozen=True)
+class IntervalValidator:
+    """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
+
+    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (a
+    non-quadratic V only) is a box holding the level set, proved by ``V > level`` on its faces.
+    """
+
+    options: IntervalOptions = field(default_factory=IntervalOptions)
+    bounding_box: Any = None
+    name: str = "interval"
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return system.equilibrium is not None and not system.time_varying
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        with step(f"interval validation of level {level:.6g}"):
+            return validate_level(system, V, level, max_boxes=self.options.max_boxes,
+                                  batch=self.options.batch,
+                                  bounding_box=self.bounding_box)  # fmt: skip
+
+
+# -- level proposers --------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Proposal:
+    """A candidate level: ``candidate`` (an optimum, an upper bound of the largest level) and the
+    ``level`` to validate (``factor`` x it); ``level`` None when there is none (``message``)."""
+
+    source: str
+    candidate: float | None
+    factor: float | None
+    message: str = ""
+    sos: Any = None
+    search: LevelSearchResult | None = None
+    final: bool = False  # a proposal that is the answer itself (SOS only, never certified)
+
+    @property
+    def level(self) -> float | None:
+        if self.candidate is None:
+            return None
+        return self.candidate * (1.0 if self.factor is None else self.factor)
+
+
+@runtime_checkable
+class LevelProposer(Protocol):
+    """Proposes a level for V (never proves it)."""
+
+    def accepts(self, system: System, V: Lyapunov) -> bool: ...
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal: ...
+
+
+def _positive(value: Any, what: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
+        raise RoaInputError(f"{what} must be a finite number > 0, got {value!r}")
+    if not value > 0:
+        raise RoaInputError(f"{what} must be a finite number > 0, got {value!r}")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class GivenLevel:
+    """The caller's level, validated as it is (no safety factor, no retry below it)."""
+
+    level: float
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "level", _positive(self.level, "level"))
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return True
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        return Proposal("given", self.level, None)
+
+
+@dataclass(frozen=True)
+class CandidateLevel:
+    """A largest level found elsewhere (a number, or a :class:`roa.LevelSearchResult`),
+    validated at ``safety`` x it."""
+
+    candidate: LevelSearchResult | float
+    safety: float = 0.999
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return True
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        search = self.candidate if isinstance(self.candidate, LevelSearchResult) else None
+        value: Any = search.level if search is not None else self.candidate
+        if value is None or not (np.isfinite(value) and value > 0):
+            if search is None:
+                raise RoaInputError(f"candidate must be a finite number > 0, got {value!r}")
+            return Proposal("candidate", None, None, "the candidate level search found no level",
+                            search=search)  # fmt: skip
+        return Proposal("candidate", float(value), self.safety, search=search)
+
+
+@dataclass(frozen=True)
+class SosLevel:
+    """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
+    validated at ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
+    (never certified: no independent check)."""
+
+    options: SosOptions = field(default_factory=SosOptions)
+    only: bool = False
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return V.as_quadratic() is not None
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        from roa.search.sos import sos_level
+
+        quad = V.as_quadratic()
+        assert quad is not None
+        o = self.options
+        with step("SOS program (cvxpy + Clarabel)"):
+            res = sos_level(system, quad, recast_mode=o.recast,
+                            multiplier_degree=o.multiplier_degree,
+                            solver_options=o.solver_options(), symmetry=o.symmetry,
+                            aux_degree=o.aux_degree)  # fmt: skip
+        ok = res.status is SosStatus.SOLVED and res.level is not None
+        if self.only:
+            msg = (
+                "SOS candidate only (not independently checked); use method='both' for an "
+                "interval validation"
+                if ok
+                else res.message
+            )
+            return Proposal("sos", res.level if ok else None, None, msg, sos=res, final=True)
+        if not ok:
+            return Proposal("sos", None, None, res.message, sos=res)
+        return Proposal("sos", res.level, o.safety_factor, sos=res)
+
+
+@dataclass(frozen=True)
+class SampledLevel:
+    """The sampled level search's optimum (:func:`roa.level_search`, any V), validated at
+    ``safety`` x it."""
+
+    options: SampledOptions | None = None
+    safety: float = 0.999
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return True
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        search = level_search(system, V, shape="level", method="sampled", sampled=self.options)
+        if search.status is not LevelStatus.FOUND or search.level is None:
+            msg = search.message or f"the level search ended {search.status.value}: no candidate"
+            if search.status is LevelStatus.UNBOUNDED:
+                msg += "; give level= to validate a level of your choice"
+            return Proposal("sampled", None, None, msg, search=search)
+        return Proposal("sampled", float(search.level), self.safety, search=search)
+
+
+# -- sources of V ------------------------------------------------------------------------------------
+@runtime_checkable
+class VSource(Protocol):
+    """Proposes candidates V from a quadratic seed (never proves them)."""
+
+    @property
+    def seed(self) -> Any: ...
+
+    @property
+    def degree(self) -> int: ...
+
+    def search(self, system: System, seed: Any) -> Any: ...
+
+
+DEGREES = (2, 4, 6, 8)
+
+
+@dataclass(frozen=True)
+class VsIteration:
+    """SOS V-s iteration (:func:`roa.search.vs_iteration.vs_search`): one candidate per round,
+    tried best shape level first; ``options.validate`` of them are validated at most."""
+
+    degree: int = 4
+    options: VsOptions = field(default_factory=VsOptions)
+    seed: Any = None  # the quadratic seed (default: the system's quadratic V)
+
+    def __post_init__(self) -> None:
+        if self.degree not in DEGREES:
+            raise RoaInputError(f"degree must be one of {DEGREES}, got {self.degree!r}")
+
+    def search(self, system: System, seed: Any) -> Any:
+        from roa.search.vs_iteration import vs_search
+
+        vs = self.options
+        with step(f"SOS V-s iteration, degree {self.degree}"):
+            return vs_search(system, seed, degree=self.degree,
+                             shape=None if vs.shape is None else np.asarray(vs.shape),
+                             rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
+                             symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
+                             tol=vs.tol, solver_options=vs.solver_options(),
+                             solver=vs.solver)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class CuttingPlanes:
+    """Sampled cutting planes (:func:`roa.search.cutting_planes.sample_search`): one candidate,
+    its level chosen at ``options.level_safety`` x its sampled optimum (capped at 1, the search's
+    target level) or by ``level`` (a number, or ``level(V, c*)``)."""
+
+    options: SampleSearchOptions = field(default_factory=SampleSearchOptions)
+    hard: Any = None
+    soft: Any = None
+    level: Any = None
+    seed: Any = None  # the quadratic seed (default: the system's quadratic V)
+
+    @property
+    def degree(self) -> int:
+        return int(self.options.degree)
+
+    def search(self, system: System, seed: Any) -> Any:
+        from roa.search.cutting_planes import sample_search
+
+        with step(f"sampled search of V, degree {self.options.degree}"):
+            return sample_search(system, seed, hard=self.hard, soft=self.soft,
+                                 options=self.options)  # fmt: skip

@@ -1,0 +1,66 @@
+"""Refutation witnesses moved to where they bound the optimum, and refutations built from them.
+
+A refuted validation returns a point ``w`` with ``V'(w) >= 0`` inside ``{V <= level}``. The lowest
+such point of its neighbourhood (a local minimum of V on ``{V' >= 0}``, by SLSQP: a proposal) is
+then *proved* to be a witness: ``V' >= 0`` re-checked at 50 digits and the point proved to lie in
+the equilibrium's connected component of ``{V <= V(x)}``. Such a point proves the largest
+certifiable level is at most ``V(x)``: every level from ``V(x)`` up is refuted by it.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from roa.proof.validate import Validation
+from roa.status import Verdict
+from roa.system import System
+
+
+def lowest_confirmed_witness(
+    system: System, V: Any, w: np.ndarray
+) -> tuple[float, np.ndarray | None, dict[str, Any] | None]:
+    """``(value, x, check)``: a local minimum ``x`` of V on ``{V' >= delta}`` from ``w`` (SLSQP)
+    whose ``V' >= 0`` holds at 50 digits (``check``) and that is proved to lie in the
+    equilibrium's component of ``{V <= V(x)}``
+    (:func:`roa.proof.validate_general.connected_to_center`); ``(V(w), None, None)`` when none is
+    found at most ``V(w) (1 + 1e-6)`` (SLSQP may end a hair above a ``w`` that is already a
+    local minimum; a confirmed ``x`` is a valid bound whatever its value). A confirmed ``x``
+    bounds the true optimum of V by ``V(x)`` (the validation's witness sits on the level it
+    refuted, the level search's near the touching point; the minimum is where V' = 0 first
+    touches a level surface)."""
+    from scipy.optimize import minimize
+
+    from roa.proof.validate_general import connected_to_center, recheck_general
+
+    with np.errstate(all="ignore"):
+        best = float(V.value(w[None])[0])
+
+    def vdot(x: np.ndarray) -> float:
+        return float(V.derivative(system, x[None])[0])
+
+    for delta in (1e-12, 1e-10, 1e-8):
+        with np.errstate(all="ignore"):
+            res = minimize(lambda x: float(V.value(x[None])[0]), w, method="SLSQP",
+                           constraints=[{"type": "ineq", "fun": lambda x, dl=delta: vdot(x) - dl}],
+                           options={"maxiter": 300, "ftol": 1e-15})  # fmt: skip
+            x = np.asarray(res.x, dtype=float)
+            v = float(V.value(x[None])[0])
+        if not (np.isfinite(v) and 0 < v < best * (1 + 1e-6)):
+            continue
+        if system.margin is not None and not system.inside(x[None])[0]:
+            continue
+        top = v * (1 + 1e-12)
+        check = recheck_general(system, V, x, top)
+        if check["confirmed"] and connected_to_center(V, x, top):
+            return v, x, check
+    return best, None, None
+
+
+def refuted_by(x: np.ndarray, check: dict[str, Any], level: float, how: str) -> Any:
+    """A refutation of ``level`` by a confirmed witness ``x`` with ``V(x) <= level``."""
+    return Validation(Verdict.REFUTED, level, 0, 0.0, witness=[float(v) for v in x],
+                      witness_check=check,
+                      message=f"V' >= 0 at a point of {{V <= level}} in the equilibrium's "
+                      f"component (float and 50 digits; {how})")  # fmt: skip

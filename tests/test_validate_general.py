@@ -212,3 +212,22 @@ def test_ipc_degree4_certified_below_and_refuted_above_its_optimum(ipc_v):
         above = roa.certify(system, V, level=level, method="interval", interval=opts)
         assert above.status is roa.Verdict.REFUTED
         assert above.validation.witness_check["confirmed"]
+
+
+def test_whitened_gram_quadratic_gets_the_global_cover():
+    """A quadratic written as a Gram polynomial keeps its proved global cover through the whitening
+    (no face proofs, no component check) and matches the quadratic loop's verdicts."""
+    from roa.proof.cover import gram_cover
+    from roa.systems.vanderpol import vanderpol
+
+    s = vanderpol()
+    Vq = roa.default_lyapunov(s)
+    V = PolynomialLyapunov.from_gram([(1, 0), (0, 1)], Vq.P, Vq.center)
+    W = Whitened(V, s, whitening_for(V))
+    half, info = gram_cover(W, 2.3)
+    y = np.random.default_rng(0).standard_normal((2000, 2))
+    y *= np.sqrt(2.3 / W.value(y))[:, None]  # points of the level surface in y
+    assert info["cover"].startswith("global") and np.all(np.abs(y) <= half)
+    ok, bad = validate_general(s, V, 2.30), validate_general(s, V, 2.31)
+    assert ok.status.value == "certified" and ok.meta["cover"].startswith("global")
+    assert bad.status.value == "refuted" and bad.witness_check["confirmed"]

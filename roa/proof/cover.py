@@ -3,9 +3,13 @@
 A box ``B`` *covers* ``{V <= level}`` in one of two ways:
 
 * **globally** (:func:`gram_cover`): a :class:`~roa.lyapunov.PolynomialLyapunov` built
-  from a Gram matrix ``Q`` over a basis holding the linear monomials satisfies
-  ``V(d) = m(d)' Q' m(d) >= lambda |d|^2`` with ``Q'`` the Gram matrix that reproduces the float
-  coefficients exactly and ``Q' - lambda E`` positive definite, checked in exact rationals; then
+  from a Gram matrix ``Q`` over a basis holding the linear monomials (or its whitening
+  :class:`~roa.proof.whiten.Whitened`, whose exact coefficients in ``y`` are those of
+  ``m(y)' T' Q T m(y)`` when ``m(M y) = T m(y)``) satisfies
+  ``V(d) = m(d)' Q' m(d) >= lambda |d|^2`` with ``Q'`` the Gram matrix that reproduces the
+  coefficients exactly (floats, or the exact rationals of a whitened V) and ``Q' - lambda E``
+  positive definite, checked in exact rationals (the largest of 0.999, 0.99, 0.9 times the least
+  float eigenvalue that passes); then
   ``{V <= level}`` lies in the cube ``|d_i| <= sqrt(level / lambda)``;
 * **by its boundary** (:func:`prove_boundary`): ``V > level`` on every face of ``B`` (interval
   branch and bound with the mean-value form), so the connected component of ``{V <= level}``
@@ -45,8 +49,11 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
     terms = getattr(lyap, "terms", {})
     if set(terms) - set(pairs):
         return None
-    for key, idx in pairs.items():  # make m' Qx m equal the float polynomial exactly
-        diff = Fraction(float(terms.get(key, 0.0))) - sum(Qx[i][j] for i, j in idx)
+    for key, idx in pairs.items():  # make m' Qx m equal the polynomial exactly
+        q = terms.get(key, 0.0)  # a float coefficient (taken exactly) or an exact Fraction
+        diff = (q if isinstance(q, Fraction) else Fraction(float(q))) - sum(
+            Qx[i][j] for i, j in idx
+        )
         if diff:
             i, j = min(idx)
             if i == j:
@@ -57,12 +64,15 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
     lam_f = float(np.linalg.eigvalsh(np.array(Qx, dtype=float))[0])
     if not lam_f > 0:
         return None
-    lam = Fraction(0.9 * lam_f)
-    A = [
-        [Qx[i][j] - (lam if i == j and i in lin.values() else 0) for j in range(m)]
-        for i in range(m)
-    ]
-    if not exact_positive_definite(A)[0]:
+    for shrink in (0.999, 0.99, 0.9):  # the largest lambda proved: the smallest cube
+        lam = Fraction(shrink * lam_f)
+        A = [
+            [Qx[i][j] - (lam if i == j and i in lin.values() else 0) for j in range(m)]
+            for i in range(m)
+        ]
+        if exact_positive_definite(A)[0]:
+            break
+    else:
         return None
     half = float(_up(np.sqrt(float(Fraction(level) / lam)), 4))
     return np.full(n, half), {"cover": "global (Gram lower bound)", "lambda": float(lam)}

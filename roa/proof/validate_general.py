@@ -33,8 +33,8 @@ outward rounding:
 
    Else the box is split along the coordinate with the largest ``|grad| * width`` (of ``F``
    where it was tried). Undecided box centres inside the set, and at most
-   :data:`WITNESS_RAYS` of those outside moved onto ``V <= level`` along their ray, are tried as
-   counterexamples, re-checked at 50 digits with mpmath.
+   :data:`WITNESS_RAYS` of them (inside or outside) moved onto the level surface along their ray,
+   are tried as counterexamples, re-checked at 50 digits with mpmath.
 
 In the whitened frame (:mod:`roa.proof.whiten`) a polynomial ``V`` is evaluated from exact
 expansions in ``y`` (the same functions, tighter enclosures).
@@ -240,24 +240,36 @@ def connected_to_center(lyap: Lyapunov, w: np.ndarray, level: float, *, rounds: 
     return False
 
 
-#: Box centres outside the level set moved onto it per batch (those with the largest float V').
+#: Box centres moved onto the level surface along their ray per batch (those with the largest
+#: float V').
 WITNESS_RAYS = 4096
 
 
 def _witness(system: System, lyap: Lyapunov, pts: np.ndarray, level: float) -> np.ndarray | None:
-    """A point of ``{V <= level}`` with V' >= 0 among ``pts`` and the moves onto the level set of
-    at most :data:`WITNESS_RAYS` of those outside it (a search: every candidate is re-checked)."""
+    """A point of ``{V <= level}`` with V' >= 0 among ``pts`` inside the set and the moves onto
+    the level surface, along their ray from the equilibrium, of at most :data:`WITNESS_RAYS` of
+    ``pts`` (inward for those outside, outward for those inside: near a critical level ``V' >= 0``
+    first appears at the surface). A search: every candidate is re-checked."""
     c = lyap.center
     with np.errstate(all="ignore"):
         Vp = lyap.value(pts)
         inner = pts[Vp <= level]
-        out = np.flatnonzero(~(Vp <= level))
-        if len(out) > WITNESS_RAYS:
-            Vd_out = np.nan_to_num(lyap.derivative(system, pts[out]), nan=-np.inf)
-            out = out[np.argsort(-Vd_out, kind="stable")[:WITNESS_RAYS]]
-        pts = pts[out]
-        t_lo, t_hi = np.zeros(len(pts)), np.ones(len(pts))
-        for _ in range(45):  # along each ray: the last t with V <= level before 1
+        ray = np.flatnonzero(np.any(pts != c, axis=1))
+        if len(ray) > WITNESS_RAYS:
+            Vd_ray = np.nan_to_num(lyap.derivative(system, pts[ray]), nan=-np.inf)
+            ray = ray[np.argsort(-Vd_ray, kind="stable")[:WITNESS_RAYS]]
+        pts, t_hi = pts[ray], np.ones(len(ray))
+        t_lo = np.where(Vp[ray] <= level, 1.0, 0.0)
+        for _ in range(60):  # inside: double t until V > level (bounded sets; else dropped)
+            grow = (t_lo == t_hi) & (t_hi < 2.0**59)
+            if not grow.any():
+                break
+            t_hi[grow] *= 2.0
+            ok = lyap.value(c + t_hi[grow, None] * (pts[grow] - c)) <= level
+            t_lo[np.flatnonzero(grow)[ok]] = t_hi[grow][ok]
+        keep = t_lo < t_hi
+        pts, t_lo, t_hi = pts[keep], t_lo[keep], t_hi[keep]
+        for _ in range(45):  # along each ray: a t with V <= level, V > level a little further
             mid = 0.5 * (t_lo + t_hi)
             ok = lyap.value(c + mid[:, None] * (pts - c)) <= level
             t_lo, t_hi = np.where(ok, mid, t_lo), np.where(ok, t_hi, mid)

@@ -41,7 +41,7 @@ from __future__ import annotations
 
 import itertools
 from fractions import Fraction
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -166,6 +166,7 @@ class Expanded:
             return out
 
         terms = {a: Fraction(float(q)) for a, q in base.terms.items()}
+        self.compose = compose
         self.W = compose(terms)
         self.dW = [self.W.diff(j) for j in range(n)]
         self.P: Polynomial | None = None
@@ -260,6 +261,12 @@ class Whitened(Lyapunov):
         self.name = f"{base.name} (whitened)"
         #: the exact polynomials in ``y`` (module doc), or None (the composition through ``x``)
         self.expanded = Expanded(base, system, self.M) if base.terms is not None else None
+        #: ``(basis, T' Q T)`` and the exact coefficients of ``W`` for a global cover
+        #: (:func:`roa.proof.cover.gram_cover`), when V has a Gram matrix ``Q`` over a basis
+        #: ``m`` with ``m(M y) = T m(y)`` (each degree's monomials all in it, e.g. quadratic V)
+        self.gram = None if self.expanded is None else _gram_in_y(base, self.expanded)
+        exact = None if self.gram is None or self.expanded is None else self.expanded.W.terms
+        self.terms = None if exact is None else cast(dict[tuple[int, ...], float], dict(exact))
 
     def x_of(self, y: Any) -> list[Any]:
         """``x = c + M y`` in the namespace of ``y`` (exact products where ``M`` has zeros)."""
@@ -322,6 +329,24 @@ class Whitened(Lyapunov):
 
     def hessian_at_center(self) -> np.ndarray:
         return self.M.T @ self.base.hessian_at_center() @ self.M
+
+
+def _gram_in_y(base: Any, e: Expanded) -> tuple[list[tuple[int, ...]], np.ndarray] | None:
+    """``(basis, T' Q T)`` with ``m(M y) = T m(y)`` (exact expansions; None if ``m(M y)`` leaves
+    the span of the basis or V has no Gram matrix). Floats suffice: :func:`gram_cover` adjusts the
+    matrix to reproduce ``W``'s exact coefficients and proves it positive definite exactly."""
+    gram = getattr(base, "gram", None)
+    if gram is None:
+        return None
+    basis, Q = gram
+    where = {b: k for k, b in enumerate(basis)}
+    T = np.zeros((len(basis), len(basis)))
+    for k, b in enumerate(basis):
+        for a, q in e.compose({b: Fraction(1)}).terms.items():
+            if a not in where:
+                return None
+            T[k, where[a]] = float(cast(Fraction, q))
+    return list(basis), T.T @ np.asarray(Q, dtype=float) @ T
 
 
 def whitened_system(system: System, W: Whitened) -> System:

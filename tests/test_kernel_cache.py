@@ -27,7 +27,7 @@ from roa.lyapunov_general import PolynomialLyapunov
 from roa.montecarlo.integrator import integrate_batch
 from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
-from roa.systems import ipc
+from ipc_paper import system as ipc
 
 system = ipc.closed_loop()
 public = dataclasses.replace(system, meta={k: v for k, v in system.meta.items() if k != "numba_fast"})

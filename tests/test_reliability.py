@@ -18,13 +18,13 @@ import warnings
 import numpy as np
 import pytest
 
+from ipc_paper import system as ipc
+from ipc_paper.system.controller import ExpressionReference, SineReference, make_reference
 from roa.errors import ResultsError, RoaInputError, SolverError
 from roa.montecarlo import engine
 from roa.montecarlo.engine import BasinRun, ChunkRejectedWarning, run_basin
 from roa.montecarlo.sampling import MAX_SAMPLES, box_sample, grid_slice
 from roa.status import StopRules
-from roa.systems import ipc
-from roa.systems.ipc.controller import ExpressionReference, SineReference, make_reference
 from roa.systems.vanderpol import vanderpol
 
 RULES = StopRules(t_final=15.0, diverge_bound=1e3)

@@ -179,7 +179,7 @@ def test_library_does_not_special_case_the_ipc():
     """No "ipc" special case in the commands, top-level modules or the library's built-ins; the
     IPC's names come from its study (roa.studies), after the library's own."""
     for path in [*(ROOT / "roa" / "commands").glob("*.py"), *(ROOT / "roa").glob("*.py")]:
-        assert '"ipc"' not in path.read_text(), path
+        assert '"ipc' not in path.read_text(), path
     from roa.systems import BUILTIN, builtin_names
 
     assert set(BUILTIN) == {"vanderpol"}

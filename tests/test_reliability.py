@@ -334,8 +334,8 @@ def test_huge_sample_counts_fail_fast_without_allocation(capsys):
     assert MAX_SAMPLES == 10**9
     from roa.cli import main
 
-    box = "q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1"
-    assert main(["basin", "--system", "ipc", "--samples", str(10**12), "--box", box]) == 2
+    box = "x1=-1:1,x2=-1:1"
+    assert main(["basin", "--system", "vanderpol", "--samples", str(10**12), "--box", box]) == 2
     assert "1e+09" in capsys.readouterr().err
 
 

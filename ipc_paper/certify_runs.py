@@ -207,7 +207,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
          # another closed loop: kept apart from "regions" (sets of the loop without saturation)
          "saturated": [_saturated_region(P_sat, ev["ipc_saturated"])]},
     )  # fmt: skip
-    # the optimised V of ipc-flat as files for `roa certify --lyapunov FILE`
+    # the optimised V of ipc-flat as files for `roa certify --system ipc-flat --lyapunov FILE`
     atomic_write_json(out / "V_optimised_box.json", {"system": "ipc_flat", "P": P_opt.tolist()})
     atomic_write_json(out / "V_optimised_sector.json", {"system": "ipc_flat", "P": P_sec.tolist()})
     return {"claims": _claims(ev), "evidence": "results/certify/evidence.json"}

@@ -16,12 +16,12 @@ import time
 
 import numpy as np
 
+from ipc_paper.system import transformed
+from ipc_paper.system.lyapunov import paper_lyapunov
 from roa.levelset import level_search
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof import validate as va
 from roa.search.sos import sos_level
-from roa.systems.ipc import transformed
-from roa.systems.ipc.lyapunov import paper_lyapunov
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 

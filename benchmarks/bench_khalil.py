@@ -14,8 +14,8 @@ import time
 import numpy as np
 from scipy.optimize import minimize
 
+from ipc_paper.system import lyapunov as ly
 from roa.levelset import casadi_level, sampled_level
-from roa.systems.ipc import lyapunov as ly
 
 
 def scipy_baseline(shape: str, n_starts: int = 16, seed: int = 1) -> tuple[float, int]:

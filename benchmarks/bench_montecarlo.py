@@ -95,13 +95,13 @@ import numpy as np
 import psutil
 from joblib import Parallel, delayed
 
+from ipc_paper import system as ipc
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample
 from roa.montecarlo.terminal import TerminalSet
 from roa.simulation import simulate
 from roa.status import StopRules
-from roa.systems import ipc
 
 BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
 RULES = StopRules(t_final=30.0)

@@ -5,9 +5,9 @@ terminal sets) integrate the same IPC states (physical coordinates, bench_montec
 seed 0, rtol 1e-6, atol 1e-9) to t = --t-final on one core:
 
 * arrays (the engine's interface, ``field(t, x, params, out)``): stages in a (7, n) array, each
-  stage's input and output passed as arrays (``roa.systems.ipc.fast.physical_field_njit``);
+  stage's input and output passed as arrays (``ipc_paper.system.fast.physical_field_njit``);
 * scalars: n = 4 unrolled, the field on scalars returning a tuple
-  (``roa.systems.ipc.fast.physical_scalar``, the same arithmetic), everything in registers.
+  (``ipc_paper.system.fast.physical_scalar``, the same arithmetic), everything in registers.
 
 Both take the same steps, run for run, and end on the same bits (checked); a run whose step
 size underflows stops the benchmark. Prints ns per accepted step and the
@@ -31,11 +31,11 @@ import bench_montecarlo as B  # noqa: N812
 import numba
 import numpy as np
 
+from ipc_paper import system as ipc
+from ipc_paper.system.fast import physical_field_njit as field
+from ipc_paper.system.fast import physical_scalar as f4
 from roa.montecarlo.dopri import _A, _B, _C, _E
 from roa.montecarlo.sampling import box_sample
-from roa.systems import ipc
-from roa.systems.ipc.fast import physical_field_njit as field
-from roa.systems.ipc.fast import physical_scalar as f4
 
 S, MAXF, MINF = 0.9, 10.0, 0.2
 

@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 import roa
+from ipc_paper import system as ipc
 from ipc_paper.estimates import paper_ball
 from roa.errors import ResultsError, RoaInputError
 from roa.experiment import VERDICTS, accepts, check_int, check_number, check_numbers
@@ -39,7 +40,6 @@ from roa.options import IntegratorOptions, Options, RunOptions
 from roa.proof.reverify import reverify
 from roa.regions import Region
 from roa.status import StopRules
-from roa.systems import ipc
 
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"

@@ -23,8 +23,8 @@ from typing import Any
 
 import numpy as np
 
-from roa.systems.ipc.lyapunov import P_Q, M, Phi
-from roa.systems.ipc.model import phi0
+from ipc_paper.system.lyapunov import P_Q, M, Phi
+from ipc_paper.system.model import phi0
 
 KAPPA = 2 / 3**1.5
 

@@ -27,14 +27,14 @@ def coords_map(name: str) -> Callable[[np.ndarray], np.ndarray]:
     """Physical IPC states -> the named analysis coordinates (``inf`` outside |theta| < pi/2).
 
     ``"flat"``: (2.2), ``(z1, z2, w1, w2)``; ``"hybrid"``: ``(q, z2, w1, w2)`` of
-    :mod:`roa.systems.ipc.hybrid`.
+    :mod:`ipc_paper.system.hybrid`.
     """
     if name == "flat":
-        from roa.systems.ipc import physical_to_flat_or_inf
+        from ipc_paper.system import physical_to_flat_or_inf
 
         return physical_to_flat_or_inf
     if name == "hybrid":
-        from roa.systems.ipc.hybrid import physical_to_hybrid_or_inf
+        from ipc_paper.system.hybrid import physical_to_hybrid_or_inf
 
         return physical_to_hybrid_or_inf
     raise RoaInputError(f"coords {name!r}: allowed {', '.join(COORDS)}")

@@ -40,7 +40,7 @@ def _ball_surface(u: np.ndarray) -> np.ndarray:
     """Unit-cube samples -> points of the paper's sphere ||T xi||^2 = 4.89 (flat coordinates)."""
     from scipy.special import ndtri
 
-    from roa.systems.ipc.lyapunov import PAPER_C_STAR_SQ, T
+    from ipc_paper.system.lyapunov import PAPER_C_STAR_SQ, T
 
     g = ndtri(np.clip(u, 1e-12, 1 - 1e-12))  # Gaussian: uniform directions
     g /= np.linalg.norm(g, axis=-1, keepdims=True)
@@ -57,9 +57,9 @@ def _physical(
     ``sector_float_rad`` / ``sector_float_deg``: the float grid + bisection estimate.
     """
     from ipc_paper.certified import coords_map
+    from ipc_paper.system.coordinates import to_flat_components
     from roa.proof.sector import certified_sector, degrees_lower, quadratic_form
     from roa.search.quadratic import sector
-    from roa.systems.ipc.coordinates import to_flat_components
 
     c2y = coords_map(coords)
 
@@ -116,11 +116,11 @@ def _slice_coverage(sat: float, P: np.ndarray, level: float, p: dict[str, Any]) 
     holds (every point inside must converge: a check of the certificate, not a proof)."""
     import roa
     from ipc_paper.certified import coords_map
+    from ipc_paper.system import closed_loop
     from roa.montecarlo import integrator as I  # noqa: N812
     from roa.montecarlo.sampling import grid_slice
     from roa.options import IntegratorOptions, RunOptions
     from roa.status import StopRules
-    from roa.systems.ipc import closed_loop
 
     system = closed_loop(saturation=sat)
     rules = StopRules(t_final=60.0, diverge_bound=1e9)  # as the saturated basin map
@@ -194,10 +194,10 @@ def case_vanderpol(p: dict[str, Any], progress: bool) -> dict[str, Any]:
 
 def case_paper(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C2-C4, C7: the paper's V (SOS programs, interval pair, sector and box share)."""
+    from ipc_paper.system import REFERENCE_BOX, transformed
+    from ipc_paper.system.lyapunov import paper_lyapunov
     from roa.levelset import level_search
     from roa.search.sos import sos_level
-    from roa.systems.ipc import REFERENCE_BOX, transformed
-    from roa.systems.ipc.lyapunov import paper_lyapunov
 
     _fresh(progress)
     aux = p["sos_aux_degree"]
@@ -222,8 +222,8 @@ def case_paper(p: dict[str, Any], progress: bool) -> dict[str, Any]:
 
 
 def _system(name: str) -> Any:
-    from roa.systems.ipc import transformed
-    from roa.systems.ipc.hybrid import hybrid
+    from ipc_paper.system import transformed
+    from ipc_paper.system.hybrid import hybrid
 
     return {"flat": transformed, "hybrid": hybrid}[name]()
 
@@ -243,10 +243,10 @@ def case_optimised(
     ``coords``, then certified afresh; ``ball`` measures the paper's sphere instead of the box.
     Returns ``(search result, block)``."""
     from ipc_paper.certified import coords_map
+    from ipc_paper.system import REFERENCE_BOX
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
     from roa.search.quadratic import optimise_quadratic
-    from roa.systems.ipc import REFERENCE_BOX
 
     _fresh(progress)
     system = _system(coords)
@@ -279,7 +279,7 @@ def case_optimised(
 
 def saturated_key(p: dict[str, Any], P0: np.ndarray, search: dict[str, Any]) -> dict[str, Any]:
     """The search-cache key of the saturated case."""
-    from roa.systems.ipc import transformed
+    from ipc_paper.system import transformed
 
     return {"case": "ipc_saturated", "system": transformed(saturation=float(p["sat_limit"])).name,
             "saturation": float(p["sat_limit"]), "objective": "box", "box": _slice_box(p),
@@ -302,7 +302,7 @@ def case_saturated(
     the largest share of the saturated map's (q, theta) slice, its level certified (and refuted
     just above) for the saturated field, its sector and its share of the slice's basin.
 
-    The system is :func:`roa.systems.ipc.transformed` with ``saturation``: the physical saturated
+    The system is :func:`ipc_paper.system.transformed` with ``saturation``: the physical saturated
     loop in the coordinates (2.2), so ``{V <= c}`` in flat coordinates is ``{V(xi(x)) <= c}`` of
     physical states, and ``V' = grad V . f`` is the same number in both. The field carries
     ``xp.clip``: the interval validation encloses it and its generalised derivative
@@ -311,10 +311,10 @@ def case_saturated(
     ``P0`` itself is certified.
     """
     from ipc_paper.certified import coords_map
+    from ipc_paper.system import REFERENCE_BOX, transformed
     from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
     from roa.search.quadratic import optimise_quadratic
-    from roa.systems.ipc import REFERENCE_BOX, transformed
 
     _fresh(progress)
     sat = float(p["sat_limit"])

@@ -113,10 +113,10 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     :mod:`ipc_paper.certify_cases`); searches are cached (:mod:`roa.search.cache`), every
     level is certified afresh."""
     from ipc_paper import certify_cases as K
+    from ipc_paper.system.lyapunov import paper_lyapunov
     from roa import progress
     from roa.lyapunov import QuadraticLyapunov
     from roa.search.cache import SearchCache
-    from roa.systems.ipc.lyapunov import paper_lyapunov
 
     p = params  # every key of CertifyParams, defaults filled in
     show = progress.enabled()
@@ -207,7 +207,7 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
          # another closed loop: kept apart from "regions" (sets of the loop without saturation)
          "saturated": [_saturated_region(P_sat, ev["ipc_saturated"])]},
     )  # fmt: skip
-    # the optimised V of ipc-flat as files for `roa certify --lyapunov FILE`
+    # the optimised V of ipc-flat as files for `roa certify --system ipc-flat --lyapunov FILE`
     atomic_write_json(out / "V_optimised_box.json", {"system": "ipc_flat", "P": P_opt.tolist()})
     atomic_write_json(out / "V_optimised_sector.json", {"system": "ipc_flat", "P": P_sec.tolist()})
     return {"claims": _claims(ev), "evidence": "results/certify/evidence.json"}
@@ -239,8 +239,8 @@ def _ball_containment(blocks: dict[str, tuple[Any, dict[str, Any]]]) -> dict[str
     """Is the paper's ball ||T xi||^2 <= 4.89 inside a certified sublevel set (flat V only)?"""
     from fractions import Fraction
 
+    from ipc_paper.system.lyapunov import T
     from roa.proof.containment import ellipsoid_contains
-    from roa.systems.ipc.lyapunov import T
 
     out: dict[str, Any] = {"ball": "||T xi||^2 <= 489/100 (exact)", "candidates": {}}
     for key, (V, blk) in blocks.items():
@@ -455,8 +455,8 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
     from roa.options import IntervalOptions
 
     if case == "ipc-paper":
-        from roa.systems.ipc import transformed
-        from roa.systems.ipc.lyapunov import paper_lyapunov
+        from ipc_paper.system import transformed
+        from ipc_paper.system.lyapunov import paper_lyapunov
 
         system, V = transformed(), paper_lyapunov()
     elif case == "vanderpol":

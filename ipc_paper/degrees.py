@@ -134,7 +134,7 @@ def _vanderpol(p: dict[str, Any]) -> dict[str, Any]:
 
 def _ipc(p: dict[str, Any], results: Path) -> dict[str, Any]:
     import roa
-    from roa.systems.ipc import transformed
+    from ipc_paper.system import transformed
 
     cert_path = results / "certify" / "certified.json"
     P = np.asarray(json.loads(cert_path.read_text())["optimised_P"], dtype=float)
@@ -161,7 +161,7 @@ def _ipc_hybrid(p: dict[str, Any], results: Path) -> dict[str, Any]:
     box-optimised quadratic V there (case C9; its level found by sampling, proved by interval
     validation, refuted x1.001), degree 4 the sampled cutting-plane search seeded by it."""
     import roa
-    from roa.systems.ipc.hybrid import hybrid
+    from ipc_paper.system.hybrid import hybrid
 
     ev = json.loads((results / "certify" / "evidence.json").read_text())
     P = np.asarray(ev["ipc_hybrid_box"]["search"]["P"], dtype=float)
@@ -187,8 +187,8 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "
     import roa
     from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _sector_curve
+    from ipc_paper.system import REFERENCE_BOX
     from roa.options import SampleSearchOptions
-    from roa.systems.ipc import REFERENCE_BOX
 
     to_y = coords_map(coords)
     rng = np.random.default_rng(p["seed"])
@@ -211,7 +211,7 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "
 
 def _components(coords: str) -> Any:
     """Physical components -> the named analysis coordinates, for any namespace."""
-    from roa.systems.ipc.coordinates import to_flat_components
+    from ipc_paper.system.coordinates import to_flat_components
 
     if coords == "flat":
         return to_flat_components
@@ -226,9 +226,9 @@ def _ipc_row(cert: Any, p: dict[str, Any], coords: str = "flat") -> dict[str, An
     """The row of one IPC certificate: level, times, the certified sector, the box share."""
     from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _box_fraction, _sector_curve
+    from ipc_paper.system import REFERENCE_BOX
     from roa.proof.sector import certified_sector, degrees_lower
     from roa.search.quadratic import sector
-    from roa.systems.ipc import REFERENCE_BOX
 
     c2y, comps = coords_map(coords), _components(coords)
     row = _row(cert)

@@ -162,8 +162,8 @@ def figure(ev: dict[str, Any], path: Path) -> None:
     rows = ev["ipc"]["degrees"]
     hrows = (ev.get("ipc_hybrid") or {}).get("degrees") or {}
     if rows or hrows:
-        from roa.systems.ipc import physical_to_flat_or_inf
-        from roa.systems.ipc.hybrid import physical_to_hybrid_or_inf
+        from ipc_paper.system import physical_to_flat_or_inf
+        from ipc_paper.system.hybrid import physical_to_hybrid_or_inf
 
         th = np.linspace(-np.pi / 2 + 1e-3, np.pi / 2 - 1e-3, 301)
         om = np.linspace(-6, 6, 361)

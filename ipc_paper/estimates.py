@@ -13,10 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.errors import RoaInputError
-from roa.levelset import inner_level, level_search
-from roa.regions import Region, symmetric_extent
-from roa.systems.ipc.lyapunov import (
+from ipc_paper.system.lyapunov import (
     PAPER_C_STAR_SQ,
     Phi,
     flat_system,
@@ -24,6 +21,9 @@ from roa.systems.ipc.lyapunov import (
     shape_matrix,
     to_q,
 )
+from roa.errors import RoaInputError
+from roa.levelset import inner_level, level_search
+from roa.regions import Region, symmetric_extent
 
 
 @functools.lru_cache(maxsize=8)
@@ -33,7 +33,7 @@ def khalil(shape: str = "ball", method: str = "both") -> dict[str, Any]:
     Returns :meth:`roa.LevelSearchResult.to_dict`, plus the witness in q and physical
     coordinates and Phi(q) at the witness. Cached; do not mutate the result.
     """
-    from roa.systems.ipc import from_flat
+    from ipc_paper.system import from_flat
 
     res = level_search(
         flat_system(), paper_lyapunov(), shape=shape_matrix(shape), method=method
@@ -67,7 +67,7 @@ def sector_theta(region: Region, *, t_max: float = np.pi / 2 - 1e-9) -> float:
 @functools.lru_cache(maxsize=1)
 def _regions() -> tuple[Region, ...]:
     from ipc_paper.bound import corrected_bound, paper_bound
-    from roa.systems.ipc import physical_to_flat_or_inf as coords
+    from ipc_paper.system import physical_to_flat_or_inf as coords
 
     ball = khalil("ball")
     level = khalil("level")
@@ -173,7 +173,7 @@ def _regions() -> tuple[Region, ...]:
 
 def paper_ball() -> Region:
     """The paper's estimate (3.15)-(3.16), ``||T xi||^2 <= 4.89`` in flat coordinates (claimed)."""
-    from roa.systems.ipc import physical_to_flat_or_inf
+    from ipc_paper.system import physical_to_flat_or_inf
 
     return Region(
         "paper (3.15): ||Tx||^2 <= 4.89",

@@ -10,6 +10,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from ipc_paper import system as ipc
+from ipc_paper.system.controller import Gains, make_reference
+from ipc_paper.system.model import phi0
 from roa.errors import RoaInputError
 from roa.experiment import accepts, check_int, check_number, check_numbers
 from roa.io import atomic_savefig, atomic_write_json
@@ -17,9 +20,6 @@ from roa.options import Options
 from roa.plotting.trajectories import plot_runs
 from roa.simulation import simulate
 from roa.status import StopRules
-from roa.systems import ipc
-from roa.systems.ipc.controller import Gains, make_reference
-from roa.systems.ipc.model import phi0
 
 IPC_LABELS = ("q [-]", r"$\dot q$ [1/s]", r"$\theta$ [rad]", r"$\dot\theta$ [rad/s]")
 FORCE_LABEL = "force u [-] (u = F/(m g))"
@@ -174,7 +174,7 @@ def linear_error_prediction(gains: Gains, reference, t: np.ndarray) -> np.ndarra
 @dataclass(frozen=True, kw_only=True)
 class Figure2Params(Options):
     """``[params]`` of :func:`run_figure2`; ``reference`` is parsed by
-    :func:`roa.systems.ipc.controller.make_reference` (``None`` or ``"0"``: regulation)."""
+    :func:`ipc_paper.system.controller.make_reference` (``None`` or ``"0"``: regulation)."""
 
     initial_condition: tuple[float, ...] = (0.0, 0.0, 1.0, 0.0)
     t_final: float = 60.0

@@ -18,6 +18,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.lines import Line2D
 
+from ipc_paper import system as ipc
 from ipc_paper.basins import SECTOR, regions
 from ipc_paper.estimates import sector_theta
 from roa.errors import ResultsError
@@ -32,7 +33,6 @@ from roa.plotting.basin import (
     region_label,
     save_figure,
 )
-from roa.systems import ipc
 
 #: Row order of the kinds (top to bottom) and their markers.
 KINDS = ("claimed", "sampled", "certified", "refuted", "inconclusive", "empirical")

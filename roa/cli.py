@@ -14,8 +14,9 @@ COMMANDS = ("simulate", "khalil", "certify", "basin", "run", "reproduce", "repor
 
 def build_parser() -> argparse.ArgumentParser:
     from roa import studies
+    from roa.commands._common import Parser
 
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="roa",
         description="Region-of-attraction verification toolkit: simulate, estimate, certify, map basins.",
     )

@@ -2,9 +2,10 @@
 
 A study (such as the IPC paper reproduction beside this package) is a Python package registered under the entry
 point group ``roa.studies`` whose object is a :class:`Study`: where its experiment configs are, the
-reference values ``roa check`` recomputes, how its report is rendered, and any extra CLI commands.
-The library itself never imports a study; ``roa run``, ``roa reproduce``, ``roa report`` and
-``roa check`` look them up here by name.
+reference values ``roa check`` recomputes, how its report is rendered, any extra CLI commands and
+the systems it adds to the built-in ones (``load_system`` and every ``--system``).
+The library itself never imports a study; ``roa run``, ``roa reproduce``, ``roa report``,
+``roa check`` and :func:`roa.systems.load_system` look them up here by name.
 """
 
 from __future__ import annotations
@@ -42,6 +43,11 @@ class Study:
         Default file name of the report.
     commands : tuple of str
         Modules with ``register(subparsers)`` adding study commands to ``roa``.
+    systems : dict of str to str
+        Systems the study adds to the library's built-ins: name -> ``"module:factory"``, the
+        factory taking keyword parameters (floats) and returning a :class:`roa.System`. They are
+        loaded by name like the built-ins (``load_system("NAME:key=value")``, ``--system``); a
+        library built-in of the same name takes precedence.
     """
 
     name: str
@@ -51,6 +57,7 @@ class Study:
     report: str
     report_name: str = "report.md"
     commands: tuple[str, ...] = field(default=())
+    systems: dict[str, str] = field(default_factory=dict, hash=False)
 
     def resolve(self, target: str) -> Any:
         module, attr = target.split(":")
@@ -91,6 +98,19 @@ def get(name: str | None = None) -> Study:
     if name not in studies:
         raise RoaInputError(f"study must be one of {sorted(studies)}, got {name!r}")
     return studies[name]
+
+
+def systems() -> dict[str, list[tuple[str, str]]]:
+    """The systems the installed studies declare: name -> ``[("module:factory", study name)]``.
+
+    A name normally has one entry; two studies declaring the same name give two (an error when
+    that name is loaded: which one would ``--system NAME`` mean?).
+    """
+    out: dict[str, list[tuple[str, str]]] = {}
+    for study in registered().values():
+        for name, target in study.systems.items():
+            out.setdefault(name, []).append((target, study.name))
+    return out
 
 
 def runner_allowed(target: str) -> bool:

@@ -7,6 +7,7 @@ notes); 2.30 is certified and 2.31 refuted (interval validation, 50-digit witnes
 
 from __future__ import annotations
 
+import ast
 import doctest
 import importlib
 import json
@@ -144,20 +145,46 @@ def test_readme_python_section_runs():
     assert namespace["cert"].status is roa.Verdict.CERTIFIED
 
 
+def _docstrings(tree: ast.AST) -> set[int]:
+    """``id`` of the docstring nodes of a module and its classes and functions."""
+    out = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Module | ast.ClassDef | ast.FunctionDef | ast.AsyncFunctionDef):
+            body = node.body
+            if body and isinstance(body[0], ast.Expr) and isinstance(body[0].value, ast.Constant):
+                out.add(id(body[0].value))
+    return out
+
+
+def test_library_does_not_import_the_study():
+    """No module of roa/ imports ipc_paper (statically, or by a "module:attr" string such as a
+    built-in system's factory): the library reaches a study only through roa.studies."""
+    for path in sorted((ROOT / "roa").rglob("*.py")):
+        tree = ast.parse(path.read_text(), filename=str(path))
+        docs = _docstrings(tree)
+        for node in ast.walk(tree):
+            if isinstance(node, ast.Import):
+                names = [a.name for a in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                names = [node.module or ""]
+            elif isinstance(node, ast.Constant) and isinstance(node.value, str):
+                names = [] if id(node) in docs else [node.value]
+            else:
+                continue
+            for name in names:
+                assert not name.startswith("ipc_paper"), f"{path}:{node.lineno}: {name}"
+    assert not (ROOT / "roa" / "systems" / "ipc").exists()
+
+
 def test_library_does_not_special_case_the_ipc():
-    """No "ipc" special case in the commands or top-level modules; no IPC import outside its
-    own package (the study lives in ipc_paper/)."""
+    """No "ipc" special case in the commands, top-level modules or the library's built-ins; the
+    IPC's names come from its study (roa.studies), after the library's own."""
     for path in [*(ROOT / "roa" / "commands").glob("*.py"), *(ROOT / "roa").glob("*.py")]:
-        assert '"ipc"' not in path.read_text(), path
-    for path in (ROOT / "roa").rglob("*.py"):
-        if (
-            "systems/ipc" in path.as_posix()
-            or path.name == "__init__.py"
-            and path.parent.name == "systems"
-        ):
-            continue
-        text = path.read_text()
-        assert "roa.systems.ipc" not in text and "ipc_paper" not in text, path
+        assert '"ipc' not in path.read_text(), path
+    from roa.systems import BUILTIN, builtin_names
+
+    assert set(BUILTIN) == {"vanderpol"}
+    assert builtin_names() == {"vanderpol": None, "ipc": "ipc", "ipc-flat": "ipc"}
 
 
 def test_cli_reports_each_long_step_on_stderr_and_the_library_stays_silent(capsys):

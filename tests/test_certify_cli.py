@@ -47,10 +47,10 @@ def test_sos_with_level_is_rejected(capsys):
     assert "--method sos with --level" in cap.err and "--method interval" in cap.err
 
 
-def test_default_system_is_the_ipc_with_the_papers_v(capsys):
-    """Default --system ipc-flat carries V (3.11); its largest level is 2.28284 (roa check), so
-    2.3 lies above it and must be refuted with a witness."""
-    code, cap = _run(capsys, ["certify", "--level", "2.3", "--json"])
+def test_ipc_flat_carries_the_papers_v(capsys):
+    """--system ipc-flat (the IPC study's system) carries V (3.11); its largest level is 2.28284
+    (roa check), so 2.3 lies above it and must be refuted with a witness."""
+    code, cap = _run(capsys, ["certify", "--system", "ipc-flat", "--level", "2.3", "--json"])
     out = json.loads(cap.out)
     assert code == 1 and out["system"] == "ipc_flat" and out["status"] == "refuted"
     assert out["witness_check"]["confirmed"] is True
@@ -89,7 +89,7 @@ def test_help_describes_every_option_with_its_default(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "Exit code 0 iff certified" in text
     for opt, default in (
-        ("--system", "default ipc-flat"),
+        ("--system", "the system (required): a built-in by name (vanderpol; study ipc:"),
         ("--lyapunov", "default: the system's own"),
         ("--level", "default: maximise"),
         ("--maximise", "(default: what happens without --level)"),

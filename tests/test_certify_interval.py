@@ -15,11 +15,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.optimize import minimize
 
+from ipc_paper.system import phi0, transformed
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
 from roa.proof.validate import box_offsets, local_proof, validate_level
-from roa.systems.ipc import phi0, transformed
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 finite = st.floats(-5, 5, allow_nan=False)

@@ -7,10 +7,10 @@ import numpy as np
 import pytest
 import sympy as sp
 
+from ipc_paper.system import transformed
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof.validate import validate_level
 from roa.search.sos import recast, sos_level
-from roa.systems.ipc import transformed
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 
@@ -88,8 +88,8 @@ def test_ipc_exact_sos_solves_with_symmetry_and_matches_sampled_optimum():
     """The exact recast (s = (1 + w^2)^(-1/2)) with even/odd blocks solves; its rho is (up to the
     solver tolerance) a lower bound of the true level, compared with the independent IPOPT
     optimum (an upper bound attained at a witness)."""
+    from ipc_paper.system.lyapunov import paper_lyapunov
     from roa.levelset import level_search
-    from roa.systems.ipc.lyapunov import paper_lyapunov
 
     system, V = transformed(), paper_lyapunov()
     r = sos_level(system, V, recast_mode="exact", aux_degree=2)

@@ -102,6 +102,25 @@ def test_every_command_has_help(capsys):
                 assert action.help, f"roa {name} {action.option_strings[0]} has no help text"
 
 
+@pytest.mark.parametrize("command", ["simulate", "khalil", "certify", "basin"])
+def test_a_missing_system_exits_2_listing_the_built_ins(command, capsys):
+    """No analysis command has a default system: without --system it exits 2 (before any work)
+    naming the option and the systems loadable by name, the library's and the studies'."""
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--json"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert f"roa {command}: error:" in err and "--system" in err
+    assert "built-in systems: vanderpol; study ipc: ipc, ipc-flat;" in err
+    assert "path/file.py:NAME" in err
+
+
+def test_an_unknown_system_lists_the_built_ins(capsys):
+    assert main(["simulate", "--system", "nosuch", "--x0", "1,0"]) == 2
+    err = capsys.readouterr().err
+    assert "nosuch" in err and "vanderpol; study ipc: ipc, ipc-flat" in err
+
+
 def test_the_console_script_runs():
     proc = run_cli("khalil", "--help")
     assert proc.returncode == 0 and "usage: roa khalil" in proc.stdout

@@ -1,6 +1,6 @@
 """The IPC closed loop in hybrid coordinates (q, z2, w1, w2) and the interval arsinh it needs.
 
-References: the flat closed loop (3.8) (``roa.systems.ipc.transformed``, itself checked against the
+References: the flat closed loop (3.8) (``ipc_paper.system.transformed``, itself checked against the
 physical model in tests/test_ipc.py) pushed through the exact Jacobian of ``q = z1 - arsinh(w1)``;
 trajectories of the physical closed loop by solve_ivp.
 """
@@ -12,18 +12,18 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import JET, Jet
-from roa.simulation import simulate
-from roa.status import StopRules
-from roa.systems import ipc
-from roa.systems.ipc.hybrid import (
+from ipc_paper import system as ipc
+from ipc_paper.system.hybrid import (
     flat_to_hybrid,
     hybrid,
     hybrid_to_flat,
     hybrid_to_physical,
     physical_to_hybrid_or_inf,
 )
+from roa.proof.interval import INTERVAL, Interval
+from roa.proof.jet import JET, Jet
+from roa.simulation import simulate
+from roa.status import StopRules
 
 
 def _pushed_flat_field(flat, y: np.ndarray, t: float = 0.0) -> np.ndarray:

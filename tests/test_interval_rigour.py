@@ -399,8 +399,8 @@ def _exact_jacobian(system):
 
 
 def _systems():
-    from roa.systems.ipc import transformed
-    from roa.systems.ipc.hybrid import hybrid
+    from ipc_paper.system import transformed
+    from ipc_paper.system.hybrid import hybrid
     from roa.systems.vanderpol import vanderpol
 
     return {"vanderpol": vanderpol, "ipc_flat": transformed, "ipc_hybrid": hybrid}
@@ -477,8 +477,8 @@ def test_ipc_certified_sector_is_a_lower_bound_of_the_exact_sector(coords):
     """_physical: the certified sector (interval) is <= the exact one (50 digits), close to the
     float estimate, and both are reported."""
     from ipc_paper.certify_runs import _physical
-    from roa.systems.ipc import REFERENCE_BOX
-    from roa.systems.ipc.lyapunov import paper_lyapunov
+    from ipc_paper.system import REFERENCE_BOX
+    from ipc_paper.system.lyapunov import paper_lyapunov
 
     P = paper_lyapunov().P
     if coords == "hybrid":

@@ -5,10 +5,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from ipc_paper import system as ipc
+from ipc_paper.system.controller import ExpressionReference, Gains, SineReference, make_reference
 from roa.simulation import simulate
 from roa.status import RunStatus, StopRules
-from roa.systems import ipc
-from roa.systems.ipc.controller import ExpressionReference, Gains, SineReference, make_reference
 
 finite = st.floats(-50, 50, allow_nan=False)
 angle = st.floats(-1.55, 1.55, allow_nan=False)

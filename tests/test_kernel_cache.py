@@ -2,10 +2,10 @@
 
 numba keys a cached function by the source of its own file only; the batch kernels compile in
 code of other modules (the polynomial terminal-set test of terminal_poly.py, the tableau of
-dopri.py). A copy of the package runs a polynomial terminal set through both kernels (the IPC's
-fast path and the public cfunc protocol), then ``member_numba`` is edited to refuse every point
-and the same run, in a new process with the same cache directory, must see it: no run enters the
-set any more. Before KERNEL_STAMP, the second process loaded the old code from the cache.
+dopri.py). A copy of the packages (library and study) runs a polynomial terminal set through both
+kernels (the IPC's fast path and the public cfunc protocol), then ``member_numba`` is edited to
+refuse every point and the same run, in a new process with the same cache directory, must see it:
+no run enters the set any more. Before KERNEL_STAMP, the second process loaded the old code from the cache.
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ from roa.lyapunov import PolynomialLyapunov
 from roa.montecarlo.integrator import integrate_batch
 from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
-from roa.systems import ipc
+from ipc_paper import system as ipc
 
 system = ipc.closed_loop()
 public = dataclasses.replace(system, meta={k: v for k, v in system.meta.items() if k != "numba_fast"})
@@ -55,7 +55,8 @@ def _run(pkg: Path) -> dict:
 
 @pytest.mark.slow
 def test_a_change_in_terminal_poly_reaches_the_cached_kernels(tmp_path):
-    shutil.copytree(ROOT / "roa", tmp_path / "roa", ignore=shutil.ignore_patterns("__pycache__"))
+    for pkg in ("roa", "ipc_paper"):  # the library and the study holding the IPC's kernels
+        shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
     before = _run(tmp_path)
     assert before.pop("file").startswith(str(tmp_path))  # the copy, not the installed package
     assert before == {"fast": [3, "converged"], "public": [3, "converged"]}

@@ -58,7 +58,7 @@ def test_vanderpol_benchmark(method):
 @pytest.mark.parametrize("shape", ["ball", "level"])
 def test_ipc_methods_agree_and_witness_verifies(shape):
     from ipc_paper.estimates import khalil
-    from roa.systems.ipc import lyapunov as ly
+    from ipc_paper.system import lyapunov as ly
 
     res = khalil(shape)
     assert res["status"] == "agree"

@@ -7,7 +7,7 @@ import pytest
 from scipy.optimize import brentq
 
 from ipc_paper import estimates as est
-from roa.systems.ipc import lyapunov as ly
+from ipc_paper.system import lyapunov as ly
 
 
 @pytest.fixture(scope="module")

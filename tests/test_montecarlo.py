@@ -1,6 +1,6 @@
 """Monte Carlo engine: agreement with solve_ivp, determinism, resume, dask, bad inputs.
 
-Reference problem: the IPC closed loop (roa.systems.ipc.closed_loop, physical coordinates) and the
+Reference problem: the IPC closed loop (ipc_paper.system.closed_loop, physical coordinates) and the
 time-reversed Van der Pol benchmark; the reference integrator is scipy's solve_ivp (method RK45,
 the same Dormand-Prince 5(4) pair, same tolerances and events) through roa.simulation.simulate.
 """
@@ -10,6 +10,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from ipc_paper import system as ipc
 from roa.errors import ResultsError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin, wilson_interval
@@ -17,7 +18,6 @@ from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
 from roa.regions import Region
 from roa.simulation import simulate
 from roa.status import StopRules
-from roa.systems import ipc
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 RULES = StopRules(t_final=30.0)

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import roa
+from ipc_paper import system as ipc
 from roa.cli import main
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov
@@ -27,7 +28,6 @@ from roa.montecarlo.terminal import TerminalSet
 from roa.plotting.basin import region_label
 from roa.regions import Region
 from roa.status import StopRules
-from roa.systems import ipc
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 #: The degree-4 V of `roa certify --system vanderpol --degree 4 --rounds 3 --json` (candidate_kind).

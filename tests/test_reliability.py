@@ -18,13 +18,13 @@ import warnings
 import numpy as np
 import pytest
 
+from ipc_paper import system as ipc
+from ipc_paper.system.controller import ExpressionReference, SineReference, make_reference
 from roa.errors import ResultsError, RoaInputError, SolverError
 from roa.montecarlo import engine
 from roa.montecarlo.engine import BasinRun, ChunkRejectedWarning, run_basin
 from roa.montecarlo.sampling import MAX_SAMPLES, box_sample, grid_slice
 from roa.status import StopRules
-from roa.systems import ipc
-from roa.systems.ipc.controller import ExpressionReference, SineReference, make_reference
 from roa.systems.vanderpol import vanderpol
 
 RULES = StopRules(t_final=15.0, diverge_bound=1e3)
@@ -334,8 +334,8 @@ def test_huge_sample_counts_fail_fast_without_allocation(capsys):
     assert MAX_SAMPLES == 10**9
     from roa.cli import main
 
-    box = "q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1"
-    assert main(["basin", "--system", "ipc", "--samples", str(10**12), "--box", box]) == 2
+    box = "x1=-1:1,x2=-1:1"
+    assert main(["basin", "--system", "vanderpol", "--samples", str(10**12), "--box", box]) == 2
     assert "1e+09" in capsys.readouterr().err
 
 

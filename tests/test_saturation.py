@@ -10,11 +10,11 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from ipc_paper import system as ipc
 from roa.backend import FUNCTIONS, PIECEWISE, namespace
 from roa.proof.interval import INTERVAL, Interval, iabs, iclip, imaximum, iminimum
 from roa.proof.jet import JET, Jet
 from roa.proof.validate import box_offsets
-from roa.systems import ipc
 
 finite = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)
 
@@ -229,7 +229,7 @@ def test_kink_box_fails_the_hessian_test():
 # -- the saturated IPC field -----------------------------------------------------------------------
 def _reference_field(x: np.ndarray, sat: float) -> np.ndarray:
     """The saturated closed loop as before xp.clip: np.clip of the unsaturated force."""
-    from roa.systems.ipc.model import accelerations
+    from ipc_paper.system.model import accelerations
 
     u = np.clip(ipc.control_force(0.0, x.T), -sat, sat)
     qdd, thdd = accelerations(x[:, 1], x[:, 2], x[:, 3], u, 1.0)
@@ -308,7 +308,7 @@ def test_flat_saturated_loop_is_the_physical_one_in_flat_coordinates():
     import mpmath as mp
     import sympy as sp
 
-    from roa.systems.ipc.coordinates import to_flat_components
+    from ipc_paper.system.coordinates import to_flat_components
 
     S, M = namespace("sympy"), namespace("mpmath")
     q = sp.symbols("q qd th thd", real=True)
@@ -389,10 +389,10 @@ def test_quadratic_fast_path_rechecks_a_clip_field_witness():
 
 
 def _ipc_saturated_certificate(fraction: float):
+    from ipc_paper.system.lyapunov import paper_lyapunov
     from roa.certification import certify
     from roa.levelset import level_search
     from roa.options import IntervalOptions
-    from roa.systems.ipc.lyapunov import paper_lyapunov
 
     s = ipc.transformed(saturation=1.0)  # the physical loop |u| <= 1 in flat coordinates
     V = paper_lyapunov()
@@ -403,7 +403,7 @@ def _ipc_saturated_certificate(fraction: float):
 
 
 def _assert_saturated_ipc(V, cert):
-    from roa.systems.ipc.coordinates import from_flat
+    from ipc_paper.system.coordinates import from_flat
 
     assert cert.certified, cert.message
     assert cert.above is not None and cert.above.status.value == "refuted"
@@ -434,9 +434,9 @@ def test_saturated_certificates_are_kept_apart_and_drawn_on_the_saturated_map(tm
 
     from ipc_paper.basins import _basin_title, slice_panels
     from ipc_paper.certified import ipc_certified_regions, ipc_saturated_regions
+    from ipc_paper.system.lyapunov import paper_lyapunov
     from roa.montecarlo import integrator as I  # noqa: N812
     from roa.montecarlo.sampling import grid_slice
-    from roa.systems.ipc.lyapunov import paper_lyapunov
 
     entry = {"name": "saturated loop |u| <= 1, optimised quadratic V: V <= 0.1 (certified)",
              "P": paper_lyapunov().P.tolist(), "level": 0.1, "status": "certified",

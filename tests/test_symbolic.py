@@ -6,7 +6,7 @@ import sympy as sp
 
 from ipc_paper import symbolic as S
 from ipc_paper.errata import analyse
-from roa.systems.ipc import model
+from ipc_paper.system import model
 
 
 @pytest.fixture(scope="module")

@@ -25,13 +25,13 @@ import numpy as np
 import pytest
 
 from ipc_paper import basins
+from ipc_paper import system as ipc
+from ipc_paper.system import fast
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.sampling import box_sample, grid_slice
 from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
-from roa.systems import ipc
-from roa.systems.ipc import fast
 
 ROOT = Path(__file__).resolve().parents[1]
 RULES = StopRules(t_final=30.0)
@@ -114,7 +114,7 @@ def test_inlined_functions_key_the_disk_cache_by_their_source():
     b = pickle.loads(pickle.dumps(a))
     assert pickle.dumps(a) == pickle.dumps(b) and b.fn is a.fn
     module, qualname, digest = a.key
-    assert (module, qualname) == ("roa.systems.ipc.fast", "physical_field_njit")
+    assert (module, qualname) == ("ipc_paper.system.fast", "physical_field_njit")
     assert digest == hashlib.sha256(Path(fast.__file__).read_bytes()).hexdigest()
 
 

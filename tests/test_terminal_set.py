@@ -13,13 +13,13 @@ import numpy as np
 import pytest
 
 import roa
+from ipc_paper import system as ipc
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample, grid_slice
 from roa.montecarlo.terminal import REASON, TerminalSet
 from roa.status import StopRules
-from roa.systems import ipc
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 RULES = StopRules(t_final=30.0)

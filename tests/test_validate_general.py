@@ -184,7 +184,7 @@ SAMPLED_OPTIMUM = 1.0212231810756223
 
 @pytest.fixture(scope="module")
 def ipc_v():
-    from roa.systems.ipc import transformed
+    from ipc_paper.system import transformed
 
     V = PolynomialLyapunov(IPC_MONOMIALS, IPC_COEFFICIENTS, np.zeros(4), "IPC degree-4 V")
     return transformed(), V

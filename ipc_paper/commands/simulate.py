@@ -46,10 +46,10 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from ipc_paper import system as ipc
+    from ipc_paper.system.controller import Gains, make_reference
     from roa.simulation import simulate
     from roa.status import StopRules
-    from roa.systems import ipc
-    from roa.systems.ipc.controller import Gains, make_reference
 
     x0 = np.array(floats(args.ic, "--ic", 4))
     if args.poles and args.coefficients:

@@ -9,7 +9,7 @@ import argparse
 import json
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, TypeVar
+from typing import Any, NoReturn, TypeVar
 
 import numpy as np
 
@@ -18,14 +18,10 @@ from roa.io import to_json
 
 T = TypeVar("T")
 
-#: The default of ``--system`` for every command: the IPC's closed loop (3.8) in flat
-#: coordinates, which carries the paper's V (3.11) and ball ||q||^2.
-DEFAULT_SYSTEM = "ipc-flat"
-
+#: ``--system`` has no default: the analysis commands are not about any one system.
 SYSTEM_HELP = (
-    "the system: ipc-flat (the IPC closed loop (3.8), which carries the paper's V), ipc "
-    "(physical coordinates q, q_dot, theta, theta_dot), vanderpol, a built-in with parameters "
-    "(ipc:saturation=2, vanderpol:mu=0.5), or path/file.py:NAME; default ipc-flat"
+    "the system (required): a built-in by name ({builtins}), with parameters "
+    "(e.g. vanderpol:mu=0.5), or path/file.py:NAME"
 )
 
 LYAPUNOV_HELP = (
@@ -40,9 +36,29 @@ LYAPUNOV_HELP = (
 
 
 def add_system(p: argparse.ArgumentParser, *, lyapunov: bool = False) -> None:
-    p.add_argument("--system", default=DEFAULT_SYSTEM, help=SYSTEM_HELP)
+    """The required ``--system`` (missing: :class:`Parser` lists the built-ins), ``--lyapunov``."""
+    from roa.systems import describe_builtins
+
+    p.add_argument(
+        "--system",
+        required=True,
+        metavar="SYSTEM",
+        help=SYSTEM_HELP.format(builtins=describe_builtins()),
+    )
     if lyapunov:
         p.add_argument("--lyapunov", default=None, metavar="FILE", help=LYAPUNOV_HELP)
+
+
+class Parser(argparse.ArgumentParser):
+    """The parser of ``roa`` and its commands: an error about ``--system`` (missing, no value)
+    lists the systems loadable by name."""
+
+    def error(self, message: str) -> NoReturn:
+        if "--system" in message and any("--system" in a.option_strings for a in self._actions):
+            from roa.systems import describe_builtins
+
+            message += f"; built-in systems: {describe_builtins()}; or a user's path/file.py:NAME"
+        super().error(message)
 
 
 def system(args: argparse.Namespace) -> Any:

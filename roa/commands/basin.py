@@ -19,7 +19,7 @@ EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
   roa basin --system ipc:saturation=2 --slice q,theta --grid 100x100 --fix theta_dot=0.5 --json
   roa basin --system ipc --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
-  roa basin --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
+  roa basin --system ipc --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
 """
 
 

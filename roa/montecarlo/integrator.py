@@ -19,7 +19,7 @@ Two back ends with identical semantics: a numba kernel (one trajectory at a time
 code) used when ``system.meta["numba"]`` is a callable returning ``(field, margin, params)`` --
 ``field(t, x, params, out)`` and ``margin(x, params) -> float``, both ``numba.cfunc`` compiled with
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
-disk for every system; see roa/systems/ipc/fast.py); otherwise a vectorised numpy version over
+disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
 ``system.f``. Built-in systems add a fast path, ``system.meta["numba_fast"]``: the same functions
 as ``numba.njit`` functions, compiled into a kernel of their own (:func:`compile_kernel`: no call
 through a pointer, the field fused with the map to a terminal set's coordinates), bit for bit the

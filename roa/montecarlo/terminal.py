@@ -9,7 +9,7 @@ declares them in ``system.meta["analysis_coords"]`` (a callable ``name -> numpy 
 ``systems`` dict ``certified system name -> coordinates name``), and its numba factory
 ``system.meta["numba"](coords=name)`` returns the compiled map as a fourth element (the fast path
 ``system.meta["numba_fast"](coords=name)`` the map and the field fused with it, so the test after
-each step costs only V; see roa/systems/ipc/fast.py).
+each step costs only V; see ipc_paper/system/fast.py).
 
 Membership uses ``V(y) <= level (1 - REL_MARGIN)``: float error cannot let a point outside count.
 

@@ -2,8 +2,10 @@
 
 ``load_system(spec)`` takes
 
-* a built-in name (:data:`BUILTIN`), optionally with keyword parameters:
-  ``"ipc"``, ``"ipc:saturation=2"``, ``"vanderpol:mu=0.5"``;
+* a built-in name, optionally with keyword parameters: the library's own (:data:`BUILTIN`,
+  ``"vanderpol"``, ``"vanderpol:mu=0.5"``), then those the installed studies declare
+  (:attr:`roa.studies.Study.systems`, e.g. the IPC study's ``"ipc"``, ``"ipc:saturation=2"``,
+  ``"ipc-flat"``); :func:`builtin_names` lists them all;
 * ``"path/to/file.py:NAME"``: ``NAME`` in a user's file is a :class:`roa.System` (or a function
   with no required arguments returning one). An optional ``LYAPUNOV_P`` in the file (an n x n
   positive-definite matrix) becomes the system's ``lyapunov`` unless it already has one.
@@ -23,12 +25,57 @@ from types import ModuleType
 from roa.errors import RoaInputError, SystemDefinitionError
 from roa.system import System
 
-#: name -> "module:factory"; factories take keyword parameters (floats).
+#: The library's built-in systems: name -> "module:factory"; factories take keyword parameters
+#: (floats). Studies add their own (:attr:`roa.studies.Study.systems`), looked up after these.
 BUILTIN: dict[str, str] = {
-    "ipc": "roa.systems.ipc:closed_loop",
-    "ipc-flat": "roa.systems.ipc:transformed",
     "vanderpol": "roa.systems.vanderpol:vanderpol",
 }
+
+
+def builtin_names() -> dict[str, str | None]:
+    """Every system loadable by name: name -> the study declaring it (None: the library's own).
+
+    Examples
+    --------
+    >>> from roa.systems import builtin_names
+    >>> builtin_names()["vanderpol"] is None
+    True
+    """
+    from roa.studies import systems
+
+    out: dict[str, str | None] = dict.fromkeys(BUILTIN)
+    for name, entries in systems().items():
+        out.setdefault(
+            name, entries[0][1] if len(entries) == 1 else "/".join(s for _, s in entries)
+        )
+    return out
+
+
+def describe_builtins() -> str:
+    """The names of :func:`builtin_names` for messages: ``vanderpol; study ipc: ipc, ipc-flat``."""
+    by_origin: dict[str | None, list[str]] = {}
+    for name, origin in builtin_names().items():
+        by_origin.setdefault(origin, []).append(name)
+    parts = [", ".join(by_origin.pop(None, []))]
+    parts += [f"study {origin}: {', '.join(names)}" for origin, names in by_origin.items()]
+    return "; ".join(p for p in parts if p)
+
+
+def _target(name: str) -> str | None:
+    """``"module:factory"`` of the built-in ``name`` (the library's first, then the studies')."""
+    if name in BUILTIN:
+        return BUILTIN[name]
+    from roa.studies import systems
+
+    entries = systems().get(name)
+    if not entries:
+        return None
+    if len(entries) > 1:
+        raise RoaInputError(
+            f"system {name!r} is declared by several studies "
+            f"({', '.join(study for _, study in entries)}): uninstall all but one"
+        )
+    return entries[0][0]
 
 
 def _resolve(target: str) -> Callable[..., System]:
@@ -38,7 +85,8 @@ def _resolve(target: str) -> Callable[..., System]:
 
 def _builtin(spec: str) -> System | None:
     name, _, params = spec.partition(":")
-    if name not in BUILTIN:
+    target = _target(name)
+    if target is None:
         return None
     kwargs: dict[str, float] = {}
     for part in filter(None, (p.strip() for p in params.split(","))):
@@ -50,16 +98,19 @@ def _builtin(spec: str) -> System | None:
         except ValueError:
             raise RoaInputError(
                 f"system {spec!r}: parameters must be NAME=NUMBER separated by commas "
-                f"(e.g. ipc:saturation=2), got {part!r}"
+                f"(e.g. vanderpol:mu=0.5), got {part!r}"
             ) from None
     try:
-        return _resolve(BUILTIN[name])(**kwargs)
+        return _resolve(target)(**kwargs)
     except TypeError as exc:
         raise RoaInputError(f"system {spec!r}: {exc}") from None
 
 
 def load_system(spec: str) -> System:
     """A built-in system by name (with parameters) or ``path/to/file.py:NAME`` from a user's file.
+
+    Built-in names are the library's (:data:`BUILTIN`), then those of the installed studies
+    (:func:`builtin_names`).
 
     Examples
     --------
@@ -72,8 +123,8 @@ def load_system(spec: str) -> System:
         return builtin
     if ":" not in spec:
         raise RoaInputError(
-            f"system {spec!r}: not a built-in system ({', '.join(BUILTIN)}) and not of the form "
-            "path/to/file.py:NAME"
+            f"system {spec!r}: not a built-in system ({describe_builtins()}) and not of the "
+            "form path/to/file.py:NAME"
         )
     path_str, name = spec.rsplit(":", 1)
     path = Path(path_str)

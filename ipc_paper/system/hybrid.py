@@ -22,10 +22,10 @@ from typing import Any
 
 import numpy as np
 
+from ipc_paper.system.controller import Gains, Reference, make_reference, virtual_input
+from ipc_paper.system.coordinates import physical_to_flat_or_inf
+from ipc_paper.system.model import phi0
 from roa.system import System
-from roa.systems.ipc.controller import Gains, Reference, make_reference, virtual_input
-from roa.systems.ipc.coordinates import physical_to_flat_or_inf
-from roa.systems.ipc.model import phi0
 
 HYBRID_NAMES = ("q", "z2", "w1", "w2")
 

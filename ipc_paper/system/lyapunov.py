@@ -3,13 +3,14 @@
 * ``T`` of (3.9): ``q = T xi`` with ``xi = (z1, z2, w1, w2)``;
 * (3.10): ``q' = -L q + beta(q) (3, 1, 0, 0)`` with ``beta = q4^2 phi0(w1)``, ``w1 = q3 - q4``;
 * ``V = q'q/2 + (q3 - q4)^2/2 = q' P_q q`` of (3.11); as a :class:`QuadraticLyapunov` on
-  :func:`roa.systems.ipc.transformed` it has ``P = T' P_q T``;
+  :func:`ipc_paper.system.transformed` it has ``P = T' P_q T``;
 * ``Phi(q) = -q'Mq + (3 q1 + q2) beta(q) + q3 q4 - q4^2`` of (3.12), ``M = (I + 11')/2``.
 
-The flat closed loop :func:`roa.systems.ipc.transformed` carries ``P = T' P_q T`` as its
+The flat closed loop :func:`ipc_paper.system.transformed` carries ``P = T' P_q T`` as its
 ``lyapunov`` and ``T'T`` as its ``norm`` (the paper's ball ``||q||^2``), so the generic analyses
 (:func:`roa.level_search`, :func:`roa.certify`) use the paper's setting by default. The paper's
-estimates and their reproduction live in the study (``ipc_paper``), not here.
+estimates and their reproduction live in the rest of the study (``ipc_paper.estimates``, ...), not
+here.
 """
 
 from __future__ import annotations
@@ -18,9 +19,9 @@ from typing import Any
 
 import numpy as np
 
+from ipc_paper.system.model import phi0
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
-from roa.systems.ipc.model import phi0
 
 #: (3.9): q = T (z1, z2, w1, w2).
 T = np.array([[1.0, 3, 3, 1], [0, 1, 2, 1], [0, 0, 1, 1], [0, 0, 0, 1]])
@@ -65,7 +66,7 @@ def Phi(q: np.ndarray) -> np.ndarray:
 
 
 def flat_system() -> Any:
-    from roa.systems.ipc import transformed
+    from ipc_paper.system import transformed
 
     return transformed()
 

@@ -3,7 +3,7 @@
 Two systems with the same trajectories (for |theta| < pi/2):
 
 * :func:`closed_loop` -- physical coordinates ``(q, q', theta, theta')``, the model derived in
-  :mod:`roa.systems.ipc.model` with the corrected linearising force (2.5) and the law (3.3);
+  :mod:`ipc_paper.system.model` with the corrected linearising force (2.5) and the law (3.3);
 * :func:`transformed` -- the closed loop (3.8) in flat coordinates ``(z1, z2, w1, w2)``, which does
   not depend on the mass ratio delta.
 """
@@ -14,23 +14,21 @@ from typing import Any
 
 import numpy as np
 
-from roa.errors import RoaInputError
-from roa.system import System
-from roa.systems.ipc.controller import (
+from ipc_paper.system.controller import (
     Gains,
     Reference,
     force,
     make_reference,
     virtual_input,
 )
-from roa.systems.ipc.coordinates import (
+from ipc_paper.system.coordinates import (
     HALF_PI,
     from_flat,
     physical_to_flat_or_inf,
     to_flat,
     to_flat_components,
 )
-from roa.systems.ipc.model import (
+from ipc_paper.system.model import (
     DEFAULT_DELTA,
     accelerations,
     check_delta,
@@ -39,6 +37,8 @@ from roa.systems.ipc.model import (
     phi2,
     phi3,
 )
+from roa.errors import RoaInputError
+from roa.system import System
 
 __all__ = [
     "closed_loop",
@@ -129,7 +129,7 @@ def closed_loop(
         F*(t); default zero (regulation to the upright equilibrium).
     saturation : float, optional
         Actuator limit ``|u| <= saturation`` (> 0) on the normalised force ``u = F / (m g)``
-        (:mod:`roa.systems.ipc.model`); default none. ``saturation=1`` is the issue's
+        (:mod:`ipc_paper.system.model`); default none. ``saturation=1`` is the issue's
         ``|u| <= 1``, the saturated basin map's loop (``experiments/basin_q_theta_saturated.toml``).
     """
     delta = check_delta(delta)
@@ -207,7 +207,7 @@ def transformed(
         return (z2, w1 + phi0(w1, xp) * w2 * w2, w2, a - p1 * u)
 
     paper_v = reference.is_zero and np.allclose(gains.h, Gains.default().h)
-    from roa.systems.ipc.lyapunov import P_Q, T
+    from ipc_paper.system.lyapunov import P_Q, T
 
     return System(
         name="ipc_flat" if sat is None else "ipc_flat_saturated",
@@ -233,12 +233,12 @@ def transformed(
 
 def _numba_meta(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
     """``{"numba": factory, "numba_fast": factory}`` for the batch integrator (zero reference only;
-    the public array signatures and the pointer-only fast path, see ipc/fast.py), and for the
+    the public array signatures and the pointer-only fast path, see fast.py), and for the
     physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
     coordinates, roa/montecarlo/terminal.py)."""
     if not reference.is_zero:
         return {}
-    from roa.systems.ipc import fast
+    from ipc_paper.system import fast
 
     if which != "physical":
         return {"numba": fast.FlatKernels(**kw), "numba_fast": fast.FlatFastKernels(**kw)}

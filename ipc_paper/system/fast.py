@@ -1,7 +1,7 @@
 """Numba-compiled scalar fields of the IPC closed loops, for the batch integrator.
 
-The same formulas as :func:`roa.systems.ipc.closed_loop` (physical coordinates, zero reference,
-optional saturation) and :func:`roa.systems.ipc.transformed` ((3.8), flat coordinates), written as
+The same formulas as :func:`ipc_paper.system.closed_loop` (physical coordinates, zero reference,
+optional saturation) and :func:`ipc_paper.system.transformed` ((3.8), flat coordinates), written as
 scalar code. ``tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
 Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
 
@@ -196,7 +196,7 @@ def physical_to_flat(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
 
 @numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
 def physical_to_hybrid(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """Physical -> hybrid ``(q, z2, w1, w2)`` (roa/systems/ipc/hybrid.py); inf as above."""
+    """Physical -> hybrid ``(q, z2, w1, w2)`` (ipc_paper/system/hybrid.py); inf as above."""
     _to_hybrid(x, out)
 
 
@@ -270,22 +270,22 @@ class AnalysisCoords:
     def system(self, name: str) -> System:
         """The closed loop in the coordinates ``name`` (what a certificate there is about)."""
         if name == "flat":
-            from roa.systems.ipc import transformed
+            from ipc_paper.system import transformed
 
             return transformed()
         if name == "hybrid":
-            from roa.systems.ipc.hybrid import hybrid
+            from ipc_paper.system.hybrid import hybrid
 
             return hybrid()
         raise KeyError(name)
 
     def __call__(self, name: str):
         if name == "flat":
-            from roa.systems.ipc.coordinates import physical_to_flat_or_inf
+            from ipc_paper.system.coordinates import physical_to_flat_or_inf
 
             return physical_to_flat_or_inf
         if name == "hybrid":
-            from roa.systems.ipc.hybrid import physical_to_hybrid_or_inf
+            from ipc_paper.system.hybrid import physical_to_hybrid_or_inf
 
             return physical_to_hybrid_or_inf
         raise KeyError(name)

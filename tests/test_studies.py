@@ -1,0 +1,68 @@
+"""Studies declare systems that load by name like the library's built-ins (roa.studies).
+
+A toy study is registered in place of the installed ones (``roa.studies.registered``): its system
+is the scalar decay x' = -k x, whose only parameter k must reach the factory.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from roa import System, load_system, studies
+from roa.errors import RoaInputError
+from roa.systems import BUILTIN, builtin_names, describe_builtins
+
+
+def decay(k: float = 1.0) -> System:
+    return System(
+        name=f"decay_{k:g}",
+        field=lambda t, x, xp: (-k * x[0],),
+        equilibrium=(0.0,),
+        state_names=("x",),
+    )
+
+
+def _study(name: str, systems: dict[str, str]) -> studies.Study:
+    return studies.Study(name, "tests", Path("."), "m:R", "m:r", systems=systems)
+
+
+@pytest.fixture
+def registry(monkeypatch):
+    """Replace the installed studies by the ones a test puts in the returned dict."""
+    found: dict[str, studies.Study] = {}
+    monkeypatch.setattr(studies, "registered", lambda: found)
+    return found
+
+
+def test_a_study_system_loads_by_name_with_parameters(registry):
+    registry["toy"] = _study("toy", {"decay": f"{__name__}:decay"})
+    assert load_system("decay").name == "decay_1"
+    assert load_system("decay:k=2.5").name == "decay_2.5"
+    with pytest.raises(RoaInputError, match="NAME=NUMBER"):
+        load_system("decay:k")
+    with pytest.raises(RoaInputError, match="unexpected keyword"):
+        load_system("decay:mu=2")
+    assert builtin_names() == {**dict.fromkeys(BUILTIN), "decay": "toy"}
+    assert describe_builtins() == "vanderpol; study toy: decay"
+
+
+def test_the_library_built_ins_come_first(registry):
+    registry["toy"] = _study("toy", {"vanderpol": f"{__name__}:decay"})
+    assert load_system("vanderpol").name == "vanderpol"
+    assert builtin_names()["vanderpol"] is None
+
+
+def test_a_name_declared_by_two_studies_is_an_error_when_loaded(registry):
+    registry["a"] = _study("a", {"decay": f"{__name__}:decay"})
+    registry["b"] = _study("b", {"decay": f"{__name__}:decay", "other": f"{__name__}:decay"})
+    with pytest.raises(RoaInputError, match="declared by several studies"):
+        load_system("decay")
+    assert load_system("other:k=3").name == "decay_3"
+
+
+def test_without_studies_only_the_library_built_ins_remain(registry):
+    assert builtin_names() == dict.fromkeys(BUILTIN)
+    with pytest.raises(RoaInputError, match=r"not a built-in system \(vanderpol\)"):
+        load_system("ipc")

@@ -12,9 +12,9 @@ and checks that the statuses of both modes agree with the baseline's. Targets (i
     python benchmarks/bench_montecarlo.py [--jobs 2] [--n 2000] [--n-engine 100000]
     python benchmarks/bench_montecarlo.py --memory [--n-memory 1000000]   # peak RSS, 10^6 streamed
 
-The engine takes the IPC's fast path (System.meta["numba_fast"]: njit functions compiled into a
+The engine takes the IPC's fast path (System.numba_fast: njit functions compiled into a
 kernel of their own, roa/montecarlo/integrator.py compile_kernel); --public adds both modes with the
-public cfunc protocol of user systems (meta["numba"]), same statuses bit for bit.
+public cfunc protocol of user systems (System.numba), same statuses bit for bit.
 
 Profile of the physical numba kernel (issue 14, item 2): one core of the 2-core machine, 20,000
 states of the box, thread CPU time, best of 9 (whole kernel), micro-benchmarks of 2e6 calls in a
@@ -178,7 +178,7 @@ def degree4_set(coords: str = "flat") -> TerminalSet:
 
     V = lyapunov_from_json(row["V"], np.zeros(4), name=row["V"]["lyapunov"])
     name = f"{row['V']['lyapunov']} <= {row['level']:.6g}"
-    analysis = ipc.closed_loop().meta["analysis_coords"].system(coords)
+    analysis = ipc.closed_loop().analysis_coords.system(coords)
     proof = reverify(analysis, V, row["level"])  # its frame; cached after the first run
     if not proof.certified:
         raise SystemExit(f"{DEGREES}: the {coords} degree-4 V did not re-verify: {proof.message}")
@@ -190,10 +190,8 @@ def terminal_set(which: str) -> TerminalSet:
 
 
 def _public(system):
-    """The system without its fast path: the kernel takes the public cfuncs (meta["numba"])."""
-    return dataclasses.replace(
-        system, meta={k: v for k, v in system.meta.items() if k != "numba_fast"}
-    )
+    """The system without its fast path: the kernel takes the public cfuncs (System.numba)."""
+    return dataclasses.replace(system, numba_fast=None)
 
 
 def _engine(system, smp, jobs, terminal=None, repeat=3):

@@ -191,7 +191,7 @@ def main() -> None:
     ap.add_argument("--t-final", type=float, default=5.0)
     args = ap.parse_args()
     system = ipc.closed_loop()
-    p = system.meta["numba_fast"]()[2]
+    p = system.numba_fast()[2]
     X = np.ascontiguousarray(box_sample(system, B.BOX, args.n, seed=0).points(0, args.n))
     h0 = 1e-3  # the same first step for both (the engine selects it as scipy does)
     Ys = [np.empty_like(X), np.empty_like(X)]

@@ -242,7 +242,7 @@ def terminal_set(
     if system.meta.get("saturation") is not None:
         return None, {**off, "reason": "the saturated loop: the sets of certified.json's "
                       "regions are of the loop without saturation"}  # fmt: skip
-    declared = getattr(system.meta.get("analysis_coords"), "systems", {}) or {}
+    declared = getattr(system.analysis_coords, "systems", {}) or {}
     if "ipc_flat" not in declared:
         return None, {**off, "reason": "the certificates are for the loop with the paper's gains"}
     path = Path(results) / "certify" / "certified.json"
@@ -255,7 +255,7 @@ def terminal_set(
     best = max(entries, key=lambda e: float(e.get("box_fraction") or 0.0))
     coords = str(best.get("coords", "flat"))
     center = coords_map(system, coords)(system.x_eq[None, :])[0]
-    analysis = system.meta["analysis_coords"].system(coords)
+    analysis = system.analysis_coords.system(coords)
     proof = reverify(analysis, QuadraticLyapunov(best["P"], analysis.x_eq), float(best["level"]))
     if not proof.certified:  # a stale or edited certified.json: never trusted as it stands
         return None, {**off, "reason": f"{path}: {best['name']} did not re-verify for "

@@ -1,9 +1,14 @@
-"""The system abstraction: a vector field written once for every array namespace."""
+"""The system abstraction: a vector field written once for every array namespace.
+
+A field is ``field(t, x, xp)``, or ``field(t, x, xp, p)`` for a system that declares parameters
+(``params``: name -> value; ``p`` is a read-only mapping with attribute access, ``p.mu`` or
+``p["mu"]``). :meth:`System.with_params` gives the same system with other parameter values.
+"""
 
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -12,8 +17,64 @@ import numpy as np
 from roa.backend import NP
 from roa.errors import RoaInputError
 
-Field = Callable[[Any, Any, Any], Sequence[Any]]
+Field = Callable[..., Sequence[Any]]
 Margin = Callable[[Any, Any], Any]
+
+#: Keys of ``meta`` that older systems used for what are now typed fields.
+_TYPED_META = ("numba", "numba_fast", "analysis_coords")
+
+
+class Params(Mapping[str, float]):
+    """A system's parameter values: a read-only mapping with attribute access (``p.mu``)."""
+
+    __slots__ = ("_values",)
+    _values: dict[str, float]
+
+    def __init__(self, values: Mapping[str, Any]) -> None:
+        object.__setattr__(self, "_values", dict(values))
+
+    def __getitem__(self, key: str) -> float:
+        return self._values[key]
+
+    def __getattr__(self, key: str) -> float:
+        try:
+            return self._values[key]
+        except KeyError:
+            raise AttributeError(
+                f"no parameter {key!r} (declared: {sorted(self._values)})"
+            ) from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._values)
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def __setattr__(self, key: str, value: Any) -> None:
+        raise AttributeError("parameters are read-only: use System.with_params")
+
+    def __repr__(self) -> str:
+        return f"Params({self._values!r})"
+
+    def __hash__(self) -> int:
+        return hash(tuple(sorted(self._values.items())))
+
+    def __eq__(self, other: object) -> bool:
+        return isinstance(other, Mapping) and dict(self._values) == dict(other)
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (Params, (self._values,))
+
+
+@dataclass(frozen=True)
+class _WithParams:
+    """The three-argument field of a system with parameters (picklable)."""
+
+    func: Callable[..., Sequence[Any]]
+    params: Params
+
+    def __call__(self, t: Any, x: Any, xp: Any) -> Sequence[Any]:
+        return self.func(t, x, xp, self.params)
 
 
 @dataclass(frozen=True)
@@ -46,8 +107,20 @@ class System:
     norm : n x n matrix, optional
         Positive-definite ``S`` of the system's natural norm ``(x - x_eq)' S (x - x_eq)``: the
         ``"ball"`` shape of :func:`roa.level_search` (default: the identity).
+    params : mapping, optional
+        Declared parameters (name -> float): the field is then ``field(t, x, xp, p)``.
+    numba : callable, optional
+        Factory of the batch integrator's compiled field (``() -> (field, margin, params)``,
+        the cfunc protocol of :mod:`roa.montecarlo.integrator`).
+    numba_fast : callable, optional
+        Factory of the njit fast path of the same field (:mod:`roa.montecarlo.integrator`).
+    analysis_coords : object, optional
+        Coordinates that certificates of this system may live in (terminal sets,
+        :mod:`roa.montecarlo.terminal`): ``names``, ``systems`` (certified system name ->
+        coordinates name), ``__call__(name)`` (the numpy map) and ``system(name)``.
     meta : dict
-        Anything else (e.g. a numba kernel under ``"numba"``); not compared.
+        Anything else (notes for reports); not compared. Older systems' ``"numba"``,
+        ``"numba_fast"`` and ``"analysis_coords"`` entries are taken as the typed fields.
     """
 
     name: str
@@ -60,9 +133,20 @@ class System:
     time_varying: bool = False
     lyapunov: Any = None  # stored as a tuple of rows
     norm: Any = None  # stored as a tuple of rows
+    params: Any = None  # stored as Params
+    numba: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
+    numba_fast: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
+    analysis_coords: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     meta: dict[str, Any] = dataclasses.field(default_factory=dict, compare=False, hash=False)
 
     def __post_init__(self) -> None:
+        self._bind_params()
+        if any(k in self.meta for k in _TYPED_META):
+            for key in _TYPED_META:
+                if key in self.meta and getattr(self, key) is None:
+                    object.__setattr__(self, key, self.meta[key])
+            rest = {k: v for k, v in self.meta.items() if k not in _TYPED_META}
+            object.__setattr__(self, "meta", rest)
         for name in ("lyapunov", "norm"):
             value = getattr(self, name)
             if value is not None:
@@ -73,6 +157,41 @@ class System:
                         f"{arr.shape}"
                     )
                 object.__setattr__(self, name, tuple(tuple(float(v) for v in row) for row in arr))
+
+    def _bind_params(self) -> None:
+        func = self.field.func if isinstance(self.field, _WithParams) else self.field
+        if self.params is None:
+            if func is not self.field:
+                object.__setattr__(self, "field", func)
+            return
+        if not isinstance(self.params, Mapping):
+            raise RoaInputError(
+                f"System.params must be a mapping name -> number, got {self.params!r}"
+            )
+        values: dict[str, float] = {}
+        for key, value in self.params.items():
+            if not isinstance(key, str) or not key.isidentifier():
+                raise RoaInputError(f"System.params: names must be identifiers, got {key!r}")
+            if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
+                raise RoaInputError(f"System.params[{key!r}] must be a number, got {value!r}")
+            if not np.isfinite(value):
+                raise RoaInputError(f"System.params[{key!r}] must be finite, got {value!r}")
+            values[key] = float(value)
+        bound = Params(values)
+        object.__setattr__(self, "params", bound)
+        object.__setattr__(self, "field", _WithParams(func, bound))
+
+    def with_params(self, **values: float) -> System:
+        """The same system with some parameters set to other values (names must be declared)."""
+        if self.params is None:
+            raise RoaInputError(f"system {self.name!r} declares no parameters")
+        unknown = sorted(set(values) - set(self.params))
+        if unknown:
+            raise RoaInputError(
+                f"system {self.name!r} has no parameter {unknown[0]!r} "
+                f"(declared: {', '.join(sorted(self.params))})"
+            )
+        return dataclasses.replace(self, params={**self.params, **values})
 
     @property
     def n(self) -> int:

@@ -30,7 +30,7 @@ from roa.status import StopRules
 from ipc_paper import system as ipc
 
 system = ipc.closed_loop()
-public = dataclasses.replace(system, meta={k: v for k, v in system.meta.items() if k != "numba_fast"})
+public = dataclasses.replace(system, numba_fast=None)
 E = np.eye(4, dtype=int) * 2
 V = PolynomialLyapunov(E.tolist(), [1.0] * 4, center=[0.0] * 4)
 T = TerminalSet.polynomial(V, 0.01, coords="flat", frame=np.eye(4), box=([-0.1] * 4, [0.1] * 4))

@@ -31,7 +31,7 @@ def test_numba_field_matches_system_f():
     rng = np.random.default_rng(3)
     for sat in (None, 0.7):
         system = ipc.closed_loop(delta=1.7, saturation=sat)
-        field, margin, params = system.meta["numba"]()
+        field, margin, params = system.numba()
         X = rng.uniform(-1, 1, (200, 4)) * [3, 3, 1.5, 4]
         out = np.empty(4)
         ref = system.f(X)
@@ -40,7 +40,7 @@ def test_numba_field_matches_system_f():
             np.testing.assert_allclose(out, r, rtol=1e-12, atol=1e-12)
             assert margin(x, params) == pytest.approx(np.pi / 2 - abs(x[2]))
     flat = ipc.transformed()
-    field, _, params = flat.meta["numba"]()
+    field, _, params = flat.numba()
     for x in rng.normal(size=(50, 4)) * 5:
         field(0.0, x, params, out)
         np.testing.assert_allclose(out, flat.f(x), rtol=1e-12, atol=1e-12)

@@ -1,8 +1,8 @@
 """The kernel's fast path and the certified early exit in the reproduction (issue 14).
 
-* ``System.meta["numba_fast"]`` (njit functions compiled into a kernel of their own, the field
+* ``System.numba_fast`` (njit functions compiled into a kernel of their own, the field
   fused with the map to the terminal set's coordinates) gives the same trajectories bit for bit
-  as the public ``meta["numba"]`` protocol (cfuncs) that user systems follow;
+  as the public ``System.numba`` protocol (cfuncs) that user systems follow;
 * the fused field writes exactly what the field and the coordinate map give on their own,
   inside, outside and on the edge of the maps' domain;
 * the basin experiments of the loop without saturation stop runs in the certified set of
@@ -40,8 +40,7 @@ PAPER_LEVEL = 2.28  # certified: 2.2806 (results/certify/certified.json)
 
 def _public(system):
     """The same system without its fast path: the kernel takes the public meta protocol."""
-    meta = {k: v for k, v in system.meta.items() if k != "numba_fast"}
-    return dataclasses.replace(system, meta=meta)
+    return dataclasses.replace(system, numba_fast=None)
 
 
 def _states(system, m=400, seed=5):
@@ -70,7 +69,7 @@ def _same(a, b):
 )
 def test_fast_path_is_bit_identical_to_the_public_protocol(terminal):
     system = ipc.closed_loop()
-    assert "numba_fast" in system.meta
+    assert system.numba_fast is not None
     X = _states(system)
     fast_run = I.integrate_batch(system, X, rules=RULES, terminal=terminal)
     public = I.integrate_batch(_public(system), X, rules=RULES, terminal=terminal)
@@ -120,7 +119,7 @@ def test_inlined_functions_key_the_disk_cache_by_their_source():
 
 @pytest.mark.parametrize("coords", ["flat", "hybrid"])
 def test_fused_field_writes_what_the_field_and_the_map_give(coords):
-    params = ipc.closed_loop(delta=1.7).meta["numba"]()[2]
+    params = ipc.closed_loop(delta=1.7).numba()[2]
     rng = np.random.default_rng(2)
     X = rng.uniform(-1, 1, (300, 4)) * [5, 5, 1.5707, 9]
     X[:8, 2] = [np.pi / 2, -np.pi / 2, 1.5707963267948966, 2.0, np.inf, np.nan, 1e-310, -0.0]

@@ -167,8 +167,8 @@ def closed_loop(
             "gains": gains.h,
             "reference": reference.description,
             "saturation": sat,
-            **_numba_meta("physical", reference, delta=delta, h=gains.h, saturation=sat),
         },
+        **_kernels("physical", reference, delta=delta, h=gains.h, saturation=sat),
     )
 
 
@@ -224,15 +224,15 @@ def transformed(
         meta={
             "gains": gains.h,
             "reference": reference.description,
-            # the batch kernels of fast.py are of the unsaturated flat loop (3.8)
-            **(_numba_meta("flat", reference, h=gains.h) if sat is None else {}),
             **({} if sat is None else {"saturation": sat, "delta": delta}),
         },
+        # the batch kernels of fast.py are of the unsaturated flat loop (3.8)
+        **(_kernels("flat", reference, h=gains.h) if sat is None else {}),
     )
 
 
-def _numba_meta(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
-    """``{"numba": factory, "numba_fast": factory}`` for the batch integrator (zero reference only;
+def _kernels(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
+    """The System fields ``numba`` and ``numba_fast`` (factories) for the batch integrator (zero reference only;
     the public array signatures and the pointer-only fast path, see fast.py), and for the
     physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
     coordinates, roa/montecarlo/terminal.py)."""

@@ -6,8 +6,8 @@ scalar code. ``tests/test_montecarlo.py`` checks them against ``System.f`` on ra
 Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
 
 Each function exists twice, from one body: as a ``numba.cfunc`` of the public signatures of
-roa/montecarlo/integrator.py (``System.meta["numba"]``, the protocol user systems follow) and as
-a ``numba.njit`` function for the fast path (``System.meta["numba_fast"]``, preferred by the
+roa/montecarlo/integrator.py (``System.numba``, the protocol user systems follow) and as
+a ``numba.njit`` function for the fast path (``System.numba_fast``, preferred by the
 engine: the kernel is compiled for these functions and calls them directly, no call through a
 pointer; :func:`roa.montecarlo.integrator.compile_kernel`). The fast path also fuses the field
 with the map to the coordinates of a terminal set, so the set test after each step reuses the
@@ -222,7 +222,7 @@ FAST_COORDS = {
 
 
 class PhysicalKernels:
-    """Picklable factory for ``System.meta["numba"]`` (physical coordinates).
+    """Picklable factory for ``System.numba`` (physical coordinates).
 
     ``kernels()`` returns ``(field, margin, params)``; ``kernels(coords=name)`` adds the compiled
     map ``coords(x, params, out)`` to the analysis coordinates ``name`` (:data:`COMPILED_COORDS`)
@@ -240,7 +240,7 @@ class PhysicalKernels:
 
 
 class PhysicalFastKernels(PhysicalKernels):
-    """Picklable factory for ``System.meta["numba_fast"]`` (physical coordinates): the functions of
+    """Picklable factory for ``System.numba_fast`` (physical coordinates): the functions of
     :class:`PhysicalKernels` as ``numba.njit`` functions, for
     :func:`roa.montecarlo.integrator.compile_kernel`. ``kernels()`` returns ``(field, margin,
     params)``; ``kernels(coords=name)`` adds the map to ``name`` and the field fused with it."""
@@ -253,7 +253,7 @@ class PhysicalFastKernels(PhysicalKernels):
 
 
 class AnalysisCoords:
-    """``System.meta["analysis_coords"]`` of the physical closed loop (roa/montecarlo/terminal.py).
+    """``System.analysis_coords`` of the physical closed loop (roa/montecarlo/terminal.py).
 
     ``coords(name)`` is the numpy map physical -> ``name`` (inf outside |theta| < pi/2);
     ``systems`` maps the names of certified systems (``roa certify --json``) to their coordinates.
@@ -292,7 +292,7 @@ class AnalysisCoords:
 
 
 class FlatKernels:
-    """Picklable zero-argument factory for ``System.meta["numba"]`` (flat coordinates)."""
+    """Picklable zero-argument factory for ``System.numba`` (flat coordinates)."""
 
     def __init__(self, h: Sequence[float]) -> None:
         self.params = np.array([1.0, *map(float, h), np.nan])
@@ -302,7 +302,7 @@ class FlatKernels:
 
 
 class FlatFastKernels(FlatKernels):
-    """Picklable factory for ``System.meta["numba_fast"]`` (flat coordinates, njit functions)."""
+    """Picklable factory for ``System.numba_fast`` (flat coordinates, njit functions)."""
 
     def __call__(self):
         return flat_field_njit, no_margin_njit, self.params

@@ -16,11 +16,11 @@ to machine precision) and the earliest wins, as in ``solve_ivp``. Step-size cont
 and the error norm follow scipy's ``RK45`` exactly, so classifications agree with it.
 
 Two back ends with identical semantics: a numba kernel (one trajectory at a time, compiled scalar
-code) used when ``system.meta["numba"]`` is a callable returning ``(field, margin, params)`` --
+code) used when ``system.numba`` is a callable returning ``(field, margin, params)`` --
 ``field(t, x, params, out)`` and ``margin(x, params) -> float``, both ``numba.cfunc`` compiled with
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
-``system.f``. Built-in systems add a fast path, ``system.meta["numba_fast"]``: the same functions
+``system.f``. Built-in systems add a fast path, ``system.numba_fast``: the same functions
 as ``numba.njit`` functions, compiled into a kernel of their own (:func:`compile_kernel`: no call
 through a pointer, the field fused with the map to a terminal set's coordinates), bit for bit the
 same trajectories. Measured on the IPC (20,000 states of the box q, q' in [-3, 3], theta in
@@ -110,7 +110,7 @@ def integrate_batch(
     margin_tol : float
         The domain is left when ``margin(x) <= margin_tol`` (default 0: the boundary itself).
     backend : {"auto", "numba", "numpy"}
-        ``auto`` uses the numba kernel when ``system.meta["numba"]`` exists.
+        ``auto`` uses the numba kernel when ``system.numba`` exists.
     terminal : TerminalSet, optional
         A certified set: runs entering it stop as ``converged`` (``entered`` marks them; see
         :mod:`roa.montecarlo.terminal`).
@@ -126,11 +126,11 @@ def integrate_batch(
         raise RoaInputError(f"x0 must have shape (m, {system.n}); got {x0.shape}")
     if backend not in ("auto", "numba", "numpy"):
         raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
-    use_numba = backend == "numba" or (backend == "auto" and "numba" in system.meta)
+    use_numba = backend == "numba" or (backend == "auto" and system.numba is not None)
     bound = None if terminal is None else terminal.bind(system)
     if use_numba:
-        if "numba" not in system.meta:
-            raise RoaInputError(f"system {system.name!r} provides no numba field (meta['numba'])")
+        if system.numba is None:
+            raise RoaInputError(f"system {system.name!r} provides no numba field (System.numba)")
         run, params = _numba_kernel(system, terminal)
         T = kernel_terminal(terminal, system.n)
         m = x0.shape[0]
@@ -173,13 +173,13 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
 
     It is called ``run(params, X0, x_eq, converge_tol, diverge_bound, margin_tol, t_final, rtol,
     atol, T, code, t_end, x_end, steps)`` with ``T`` from :func:`kernel_terminal`. The fast path
-    ``system.meta["numba_fast"]`` (njit functions compiled into a kernel of their own,
+    ``system.numba_fast`` (njit functions compiled into a kernel of their own,
     :func:`compile_kernel`) is used when the system provides it, with a terminal set in other
-    coordinates when it has a map to them; else the public ``system.meta["numba"]`` (cfuncs of
+    coordinates when it has a map to them; else the public ``system.numba`` (cfuncs of
     ``FIELD_SIGNATURE``, ...) with the shared kernel. Both give the same trajectories bit for bit
     (tests/test_terminal_fastpath.py).
     """
-    fast = system.meta.get("numba_fast")
+    fast = system.numba_fast
     name = None if terminal is None else terminal.coords
     if fast is not None:
         try:
@@ -191,7 +191,7 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
             field, margin, params, *more = fns
             coords, field_coords = more if more else (None, None)
             return compile_kernel(field, margin, coords, field_coords), params
-    factory = system.meta["numba"]
+    factory = system.numba
     if name is None:
         field, margin, params = factory()
         coords = identity_coords
@@ -624,7 +624,7 @@ def identity_coords(x: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
 
 
 # ----------------------------------------------------------------------------- fast path
-# njit functions for the fast path (system.meta["numba_fast"]): the same arguments as the
+# njit functions for the fast path (system.numba_fast): the same arguments as the
 # public signatures, compiled into the kernel by compile_kernel.
 
 

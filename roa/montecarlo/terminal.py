@@ -5,10 +5,10 @@ A :class:`TerminalSet` is a sublevel set ``{V <= level}`` of a quadratic ``V(y) 
 the region of attraction, so a trajectory that enters it converges. ``V`` may live in *analysis
 coordinates* ``y = coords(x)`` other than the simulated ones (the IPC is simulated in physical
 coordinates, its certified V lives in flat coordinates ``xi = to_flat(x)``): the system then
-declares them in ``system.meta["analysis_coords"]`` (a callable ``name -> numpy map`` with a
+declares them in ``system.analysis_coords`` (a callable ``name -> numpy map`` with a
 ``systems`` dict ``certified system name -> coordinates name``), and its numba factory
-``system.meta["numba"](coords=name)`` returns the compiled map as a fourth element (the fast path
-``system.meta["numba_fast"](coords=name)`` the map and the field fused with it, so the test after
+``system.numba(coords=name)`` returns the compiled map as a fourth element (the fast path
+``system.numba_fast(coords=name)`` the map and the field fused with it, so the test after
 each step costs only V; see ipc_paper/system/fast.py).
 
 Membership uses ``V(y) <= level (1 - REL_MARGIN)``: float error cannot let a point outside count.
@@ -70,7 +70,7 @@ class TerminalSet:
     level : float
         The certified level (> 0).
     coords : str, optional
-        Name of the analysis coordinates (``system.meta["analysis_coords"]``); None: the system's
+        Name of the analysis coordinates (``system.analysis_coords``); None: the system's
         own coordinates.
     name : str
         A description for reports.
@@ -291,7 +291,7 @@ class TerminalSet:
         if cert_system == system.name:
             coords = None
         else:
-            provider = system.meta.get("analysis_coords")
+            provider = system.analysis_coords
             declared = getattr(provider, "systems", {}) or {}
             if cert_system not in declared:
                 raise RoaInputError(
@@ -360,7 +360,7 @@ def coords_map(system: System, coords: str | None) -> Callable[[np.ndarray], np.
     """The numpy map ``(m, n) -> (m, n)`` of the named analysis coordinates of ``system``."""
     if coords is None:
         return lambda x: np.asarray(x, dtype=float)
-    provider = system.meta.get("analysis_coords")
+    provider = system.analysis_coords
     names = getattr(provider, "names", ())
     if provider is None or coords not in names:
         raise RoaInputError(

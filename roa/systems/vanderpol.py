@@ -26,9 +26,6 @@ def vanderpol(mu: float = 1.0) -> System:
     if not mu > 0:
         raise RoaInputError(f"mu must be > 0, got {mu!r}")
 
-    def field(t: Any, x: Any, xp: Any) -> tuple:
-        return (-x[1], x[0] + mu * (x[0] * x[0] - 1) * x[1])
-
     return System(
         name="vanderpol",
         field=field,
@@ -36,5 +33,10 @@ def vanderpol(mu: float = 1.0) -> System:
         state_names=("x1", "x2"),
         state_units=("1", "1"),
         lyapunov=P_BENCHMARK if mu == 1.0 else None,  # the published P is for mu = 1
-        meta={"mu": mu},
+        params={"mu": mu},
     )
+
+
+def field(t: Any, x: Any, xp: Any, p: Any) -> tuple:
+    """``x1' = -x2``, ``x2' = x1 + mu (x1^2 - 1) x2``."""
+    return (-x[1], x[0] + p.mu * (x[0] * x[0] - 1) * x[1])

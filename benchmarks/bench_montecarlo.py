@@ -167,7 +167,7 @@ def certified_set(which: str) -> TerminalSet:
 def degree4_set(coords: str = "flat") -> TerminalSet:
     """The IPC's certified degree-4 V in ``coords`` (flat or hybrid) of
     results/degrees/evidence.json, as a polynomial terminal set (its certified component,
-    roa/montecarlo/terminal_general.py)."""
+    roa/proof/component.py)."""
     from roa.lyapunov import from_json as lyapunov_from_json
 
     key = {"flat": "ipc", "hybrid": "ipc_hybrid"}[coords]

@@ -19,7 +19,7 @@ import roa
 from roa.cli import main
 from roa.errors import RoaInputError
 from roa.fingerprint import system_fingerprint
-from roa.montecarlo.terminal import TerminalSet
+from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.proof.reverify import content_key, reverify
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
@@ -65,15 +65,15 @@ TAMPERED = {
 def test_tampered_certificates_are_refused(certificate, edit):
     forged = TAMPERED[edit](certificate)
     with pytest.raises(RoaInputError, match="terminal set"):
-        TerminalSet.from_certificate(forged, vanderpol())
+        terminal_from_certificate(forged, vanderpol())
 
 
 def test_the_genuine_certificate_is_proved_again_and_remembered_by_content(certificate):
     system = vanderpol()
-    term = TerminalSet.from_certificate(certificate, system)
+    term = terminal_from_certificate(certificate, system)
     assert term.quadratic and term.level == LEVEL
     np.testing.assert_array_equal(term.P, P_BENCHMARK)
-    moved = TerminalSet.from_certificate({**certificate, "center": [5.0, 5.0]}, system)
+    moved = terminal_from_certificate({**certificate, "center": [5.0, 5.0]}, system)
     np.testing.assert_array_equal(moved.center, system.x_eq)  # the file cannot move the centre
     V = roa.default_lyapunov(system)
     again = reverify(system, V, LEVEL)
@@ -91,10 +91,10 @@ def test_a_certificate_of_another_parameter_is_refused(certificate):
     assert certificate["system_fingerprint"] == system_fingerprint(vanderpol())
     assert certificate["system_fingerprint"] != system_fingerprint(stiff)
     with pytest.raises(RoaInputError, match="another system"):
-        TerminalSet.from_certificate(certificate, stiff)
+        terminal_from_certificate(certificate, stiff)
     unstamped = {k: v for k, v in certificate.items() if k != "system_fingerprint"}
     with pytest.raises(RoaInputError, match="re-verification failed"):
-        TerminalSet.from_certificate(unstamped, stiff)
+        terminal_from_certificate(unstamped, stiff)
 
 
 def test_forged_terminal_set_leaves_basin_counts_as_without_it(certificate, tmp_path, capsys):
@@ -128,7 +128,7 @@ def test_polynomial_frame_comes_from_the_reverification_not_the_file():
     M = np.asarray(data["M"])
     assert not np.allclose(M, np.eye(2))
     for variant in ({k: v for k, v in data.items() if k != "M"}, {**data, "M": [[1, 0], [0, 1]]}):
-        term = TerminalSet.from_certificate(variant, vanderpol())
+        term = terminal_from_certificate(variant, vanderpol())
         np.testing.assert_array_equal(term.frame, M)
 
 

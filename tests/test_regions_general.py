@@ -22,6 +22,7 @@ from roa.cli import main
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov
 from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import grid_slice, region_sample
 from roa.montecarlo.terminal import TerminalSet
@@ -133,7 +134,7 @@ def test_cli_basin_draws_a_certified_polynomial_v(tmp_path, capsys, certificate)
 
 def test_terminal_set_from_polynomial_certificate_keeps_statuses(certificate):
     system = vanderpol()
-    term = TerminalSet.from_certificate(certificate, system)
+    term = terminal_from_certificate(certificate, system)
     assert not term.quadratic and term.degree == 4
     grid = grid_slice(system, ("x1", "x2"), [(-3, 3), (-3, 3)], (18, 18))
     X = grid.points(0, grid.n)
@@ -198,17 +199,17 @@ def test_polynomial_terminal_set_runs_in_the_numba_kernel_for_the_ipc():
 def test_polynomial_certificates_refused_or_reduced(certificate):
     system = vanderpol()
     with pytest.raises(RoaInputError, match="not 'certified'"):
-        TerminalSet.from_certificate({**certificate, "status": "refuted"}, system)
+        terminal_from_certificate({**certificate, "status": "refuted"}, system)
     with pytest.raises(RoaInputError, match="for system 'ipc_flat'"):
-        TerminalSet.from_certificate({**certificate, "system": "ipc_flat"}, system)
+        terminal_from_certificate({**certificate, "system": "ipc_flat"}, system)
     func = {**certificate, "candidate_kind": {"lyapunov": "log V", "kind": "FunctionLyapunov"}}
     with pytest.raises(RoaInputError, match="quadratic or polynomial V only"):
-        TerminalSet.from_certificate(func, system)
+        terminal_from_certificate(func, system)
     # a degree-2 polynomial is an ellipsoid: the quadratic fast path, with its matrix
     P = P_BENCHMARK
     quad = {"lyapunov": "q", "kind": "PolynomialLyapunov", "degree": 2,
             "monomials": [[2, 0], [1, 1], [0, 2]], "coefficients": [P[0, 0], 2 * P[0, 1], P[1, 1]]}  # fmt: skip
     cert = {"system": "vanderpol", "candidate_kind": quad, "level": 2.3, "status": "certified"}
-    term = TerminalSet.from_certificate(cert, system)
+    term = terminal_from_certificate(cert, system)
     assert term.quadratic
     np.testing.assert_array_equal(term.P, P)

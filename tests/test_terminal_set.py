@@ -16,6 +16,7 @@ import roa
 from ipc_paper import system as ipc
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample, grid_slice
 from roa.montecarlo.terminal import REASON, TerminalSet
@@ -140,24 +141,24 @@ def test_uncertified_or_foreign_certificates_are_refused(tmp_path):
     system = ipc.closed_loop()
     for status in ("refuted", "inconclusive"):
         with pytest.raises(RoaInputError, match="not 'certified'"):
-            TerminalSet.from_certificate(_certificate(status=status), system)
+            terminal_from_certificate(_certificate(status=status), system)
     with pytest.raises(RoaInputError, match="for system 'vanderpol'"):
-        TerminalSet.from_certificate(_certificate(system="vanderpol"), system)
+        terminal_from_certificate(_certificate(system="vanderpol"), system)
     with pytest.raises(RoaInputError, match="missing level"):
-        TerminalSet.from_certificate({"P": [[1]], "status": "certified", "system": "ipc"}, system)
+        terminal_from_certificate({"P": [[1]], "status": "certified", "system": "ipc"}, system)
     # the flat closed loop is the physical one only without saturation
     with pytest.raises(RoaInputError, match="not 'ipc'|for system"):
-        TerminalSet.from_certificate(_certificate(), ipc.closed_loop(saturation=2.0))
+        terminal_from_certificate(_certificate(), ipc.closed_loop(saturation=2.0))
     with pytest.raises(RoaInputError, match="no analysis coordinates"):
         I.integrate_batch(
             ipc.closed_loop(saturation=2.0), np.zeros((1, 4)), terminal=_ipc_terminal()
         )
     with pytest.raises(RoaInputError, match="positive definite"):
         TerminalSet(-np.eye(2), np.zeros(2), 1.0)
-    ok = TerminalSet.from_certificate(_certificate(), system)
+    ok = terminal_from_certificate(_certificate(), system)
     assert ok.coords == "flat" and ok.level == PAPER_LEVEL
     # Van der Pol's own certificate applies as is
-    vdp = TerminalSet.from_certificate(
+    vdp = terminal_from_certificate(
         {"system": "vanderpol", "P": P_BENCHMARK.tolist(), "level": 2.3, "status": "certified"},
         vanderpol(),
     )

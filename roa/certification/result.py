@@ -163,7 +163,8 @@ class Certificate:
         ):
             what = kind.get("kind") if isinstance(kind, dict) else type(kind).__name__
             raise RoaInputError(
-                f"{where}: V is a {what}; only a quadratic or polynomial V can be read back"
+                f"{where}: V is a {what}; a certificate file holds a quadratic or polynomial V "
+                "only (a function V cannot be read back from JSON)"
             )
         center = system.x_eq
         try:

@@ -280,10 +280,10 @@ def run(args: argparse.Namespace) -> int:
     regs = lyapunov_regions(args, system)
     terminal = None
     if args.terminal_set is not None:
-        from roa.montecarlo.terminal import TerminalSet
+        from roa.montecarlo.certified_set import terminal_from_certificate
 
         try:
-            terminal = TerminalSet.from_certificate(args.terminal_set, system)
+            terminal = terminal_from_certificate(args.terminal_set, system)
         except RoaInputError as exc:
             raise RoaInputError(str(exc).replace("terminal set ", "--terminal-set ", 1)) from None
     integrator, run_opts = C.options(

@@ -160,7 +160,9 @@ def basin(
                 f"roa.grid_slice or roa.box_sample), got {type(sampler).__name__}"
             )
     if terminal is not None and not isinstance(terminal, TerminalSet):
-        terminal = TerminalSet.from_certificate(terminal, system)
+        from roa.montecarlo.certified_set import terminal_from_certificate
+
+        terminal = terminal_from_certificate(terminal, system)
     res = run_basin(
         system,
         sampler,

@@ -16,7 +16,7 @@ Membership uses ``V(y) <= level (1 - REL_MARGIN)``: float error cannot let a poi
 A polynomial V (``roa certify --degree D``, ``candidate_kind`` in its JSON) is accepted too: a
 degree-2 one becomes the quadratic form above; for a higher degree the set is ``{V <= level}``
 inside a box proved to lie in the bounding box of the certified component of the level set (the
-one holding the equilibrium; :mod:`roa.montecarlo.terminal_general`), tested with the same
+one holding the equilibrium; :mod:`roa.proof.component`), tested with the same
 arithmetic in numpy and in the numba kernels (:mod:`roa.montecarlo.terminal_poly`, which also
 allows for the rounding error of V).
 Runs that enter are finished with status ``converged`` at the time of the accepted step that enters
@@ -26,18 +26,15 @@ initial conditions that start inside cost one evaluation of V.
 
 from __future__ import annotations
 
-import json
 from collections.abc import Callable
 from dataclasses import dataclass
-from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.fingerprint import system_fingerprint
 from roa.montecarlo.terminal_poly import PolyArrays, member_numpy, poly_arrays
-from roa.progress import step
+from roa.proof.component import component_box
 from roa.system import System
 
 if TYPE_CHECKING:
@@ -58,7 +55,7 @@ class TerminalSet:
     Quadratic (the fast path of the numba kernels): ``TerminalSet(P, center, level, coords, name)``
     with ``V(y) = (y - center)' P (y - center)``. Polynomial: :meth:`polynomial` with a
     :class:`~roa.lyapunov.PolynomialLyapunov` and the box (in the validation frame
-    ``z = M^-1 (y - center)``) of :func:`roa.montecarlo.terminal_general.component_box`: the set is
+    ``z = M^-1 (y - center)``) of :func:`roa.proof.component.component_box`: the set is
     ``{V <= level}`` inside that box (the certified component).
 
     Parameters
@@ -145,7 +142,7 @@ class TerminalSet:
         M y``; the ``"M"`` of its JSON, or :attr:`roa.proof.reverify.Reverified.frame`): the
         component box is sound in that frame only, so there is no default. ``box`` ``(lo, hi)``
         must lie in the bounding box of the component of ``{V <= level}`` holding the centre
-        (default: found and proved by :func:`~roa.montecarlo.terminal_general.component_box`)."""
+        (default: found and proved by :func:`roa.proof.component.component_box`)."""
 
         if V.terms is None:
             raise RoaInputError(
@@ -159,8 +156,6 @@ class TerminalSet:
         if M.shape != (n, n) or not np.isfinite(M).all() or abs(np.linalg.det(M)) == 0:
             raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix")
         if box is None:
-            from roa.montecarlo.terminal_general import component_box
-
             box = component_box(V, float(level), M)
         lo, hi = (np.array(b, dtype=float).reshape(-1) for b in box)
         if (
@@ -243,93 +238,6 @@ class TerminalSet:
         if self.poly is not None:  # the kernels' arithmetic (roa/montecarlo/terminal_poly.py)
             return member_numpy(y, self.center, self.poly, self.threshold)
         return self.value(y) <= self.threshold  # NaN compares False
-
-    @classmethod
-    def from_certificate(cls, source: str | Path | dict[str, Any], system: System) -> TerminalSet:
-        """The certified set of ``roa certify --json`` output (a file or its dict) for ``system``,
-        re-verified before it is used.
-
-        Nothing in the file is trusted: its ``V`` and ``level`` are validated again by interval
-        branch and bound on ``system`` as loaded (or on the analysis coordinates ``system``
-        declares for the certificate's system), cached by content
-        (:func:`roa.proof.reverify.reverify`); a polynomial V's frame is the re-verification's.
-        Refused (:class:`roa.errors.RoaInputError`, with the reason) unless its status is
-        ``certified``, it names ``system`` (or declared analysis coordinates), its
-        ``system_fingerprint`` (when present) is that system's, and the re-verification proves it.
-        """
-        where = "terminal set" if isinstance(source, dict) else f"terminal set {source}"
-        if isinstance(source, dict):
-            data = source
-        else:
-            path = Path(source)
-            if not path.is_file():
-                raise RoaInputError(
-                    f"{where}: no such file (give the JSON of `roa certify --json`)"
-                )
-            try:
-                data = json.loads(path.read_text())
-            except (OSError, ValueError, UnicodeDecodeError, RecursionError) as exc:
-                raise RoaInputError(f"{where}: not a readable JSON file ({exc})") from None
-        if not isinstance(data, dict):
-            raise RoaInputError(
-                f"{where}: expected the JSON object written by `roa certify --json`"
-            )
-        missing = [k for k in ("level", "status", "system") if k not in data]
-        if "P" not in data and "candidate_kind" not in data:
-            missing.insert(0, "P")
-        if missing:
-            raise RoaInputError(
-                f"{where}: missing {', '.join(missing)} (expected the JSON of `roa certify --json`)"
-            )
-        if data["status"] != "certified":
-            raise RoaInputError(
-                f"{where}: status {data['status']!r}, not 'certified': only an interval-validated "
-                "level set may finish trajectories"
-            )
-        cert_system = str(data["system"])
-        analysis = system  # the system the certificate's V and level are about
-        if cert_system == system.name:
-            coords = None
-        else:
-            provider = system.analysis_coords
-            declared = getattr(provider, "systems", {}) or {}
-            if cert_system not in declared:
-                raise RoaInputError(
-                    f"{where}: the certificate is for system {cert_system!r}, not {system.name!r}"
-                    + (f" (allowed: {', '.join([system.name, *declared])})" if declared else "")
-                )
-            coords = declared[cert_system]
-            assert provider is not None
-            analysis = provider.system(coords)
-        level = data["level"]
-        if isinstance(level, bool) or not isinstance(level, int | float):
-            raise RoaInputError(f"{where}: level must be a number, got {level!r}")
-        level = float(level)
-        if not (np.isfinite(level) and level > 0):
-            raise RoaInputError(f"{where}: level must be a finite number > 0, got {level!r}")
-        stamp = data.get("system_fingerprint")
-        if stamp is not None and stamp != system_fingerprint(analysis):
-            raise RoaInputError(
-                f"{where}: the certificate was made for another system than {analysis.name!r} "
-                "as loaded (its system_fingerprint differs: other parameters, field or "
-                "equilibrium)"
-            )
-        from roa.montecarlo.terminal_general import certificate_lyapunov, terminal_of
-        from roa.proof.reverify import reverify
-
-        V = certificate_lyapunov(data, analysis.x_eq, where)
-        with step(f"re-verifying the certificate ({V.name} <= {level:.6g}, {analysis.name})"):
-            proof = reverify(analysis, V, level)
-        if not proof.certified:
-            raise RoaInputError(
-                f"{where}: re-verification failed for system {analysis.name!r} at level "
-                f"{level:.6g}: {proof.status.value}"
-                + (f" ({proof.message})" if proof.message else "")
-                + "; only a level set proved for the system as loaded may finish trajectories"
-            )
-        center = coords_map(system, coords)(system.x_eq[None, :])[0]
-        name = f"{data.get('lyapunov', 'V')} <= {level:.6g} ({cert_system})"
-        return terminal_of(V, level, center, coords, name, frame=proof.frame)
 
     def bind(self, system: System) -> BoundTerminal:
         """Check the set against ``system`` and resolve its coordinate map."""

@@ -21,7 +21,7 @@ S`` for the second-order terms; Higham's model excludes underflow, whose absolut
 most 2^-1074 per operation are far below ``level REL_MARGIN``): a point counts only if V at the
 exact ``y - c`` is below ``thr``. The rounding of the final sum ``V + g S`` is covered by
 ``REL_MARGIN``, that of ``z`` by the box's own shrink
-(:data:`roa.montecarlo.terminal_general.BOX_MARGIN`). The coordinate map (the analysis
+(:data:`roa.proof.component.BOX_MARGIN`). The coordinate map (the analysis
 coordinates of a simulated state, e.g. ``z1 = q + arsinh(tan theta)``, which can cancel) is
 evaluated in floats as in the quadratic test: its rounding is part of the simulated state's own
 error, which no terminal set test bounds (nor does the baseline's integration).

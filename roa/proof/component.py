@@ -12,23 +12,15 @@ certified (other components of ``{V <= level}``, which no certificate covers, ar
 :func:`component_box` finds those points along rays from ``c`` (first exit of the level set,
 then :func:`roa.proof.validate_general.connected_to_center`: interval enclosures prove the segment
 from ``c`` lies in the set) and returns their bounding box in ``y``, shrunk by a relative
-``1e-9`` against rounding in ``y = M^-1 (x - c)``. :func:`terminal_of` builds the terminal set of
-a proved certificate (:func:`certificate_lyapunov` reads its V), in the frame of the validation
-that proved it.
+``1e-9`` against rounding in ``y = M^-1 (x - c)``.
 """
 
 from __future__ import annotations
-
-from typing import TYPE_CHECKING, Any, cast
 
 import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
-
-if TYPE_CHECKING:
-    from roa.lyapunov import PolynomialLyapunov
-    from roa.montecarlo.terminal import TerminalSet
 
 #: Relative shrink of the proved box (rounding of the frame map).
 BOX_MARGIN = 1e-9
@@ -103,60 +95,3 @@ def component_box(
                     break
     w = hi - lo
     return lo + BOX_MARGIN * w, hi - BOX_MARGIN * w
-
-
-def certificate_lyapunov(data: dict[str, Any], center: np.ndarray, where: str) -> Lyapunov:
-    """The V of a certificate (``P``, or a polynomial under ``candidate_kind``), centred at
-    ``center`` (the equilibrium of the system it is used for: a certificate cannot move it)."""
-    from roa.lyapunov import from_json as lyapunov_from_json
-
-    kind = data.get("candidate_kind") if "P" not in data else None
-    if kind is not None and (
-        not isinstance(kind, dict) or kind.get("kind") != "PolynomialLyapunov"
-    ):
-        what = kind.get("kind") if isinstance(kind, dict) else type(kind).__name__
-        raise RoaInputError(
-            f"{where}: V is a {what}; terminal sets take a quadratic or polynomial V only"
-        )
-    try:
-        V = lyapunov_from_json(
-            {"P": data["P"]} if kind is None else kind, center, name=str(data.get("lyapunov", "V"))
-        )
-    except RoaInputError as exc:
-        raise RoaInputError(f"{where}: {exc}") from None
-    except (TypeError, ValueError, IndexError, OverflowError) as exc:
-        raise RoaInputError(f"{where}: V cannot be read ({type(exc).__name__}: {exc})") from None
-    if V.n != center.shape[0] or not np.array_equal(V.center, center):
-        raise RoaInputError(
-            f"{where}: V has {V.n} variables centred at {V.center.tolist()}, the system's "
-            f"equilibrium is {center.tolist()}"
-        )
-    return V
-
-
-def terminal_of(
-    V: Lyapunov,
-    level: float,
-    center: np.ndarray,
-    coords: str | None,
-    name: str,
-    *,
-    frame: Any = None,
-) -> TerminalSet:
-    """The terminal set ``{V <= level}`` of a *proved* certificate: an ellipsoid for a quadratic
-    (or degree-2 polynomial) V, else the component box in the validation's ``frame``."""
-    from roa.montecarlo.terminal import TerminalSet
-
-    P = V.P
-    if P is None and V.degree == 2:  # an ellipsoid: the quadratic fast path (exactly H / 2)
-        P = 0.5 * V.hessian_at_center()
-    if P is not None:
-        return TerminalSet(P, center, level, coords, name)
-    if V.terms is None:
-        raise RoaInputError(f"terminal set: V is a {type(V).__name__}, not a polynomial")
-    if frame is None:
-        raise RoaInputError(
-            "terminal set: a polynomial V needs the frame of its validation (re-verify it)"
-        )
-    return TerminalSet.polynomial(cast("PolynomialLyapunov", V), float(level), coords, name,
-                                  frame=frame)  # fmt: skip

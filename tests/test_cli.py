@@ -169,3 +169,25 @@ def test_new_options_reject_bad_input_in_one_line(args, message, capsys):
     assert main(args) == 2
     err = capsys.readouterr().err
     assert message in err and "Traceback" not in err
+
+
+def test_basin_json_is_the_result_to_dict(capsys):
+    """The CLI prints the API result's to_dict() and nothing else (the same keys and counts)."""
+    import roa
+    from roa.cli import main
+
+    argv = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "6x5",
+            "--box", "x1=-3:3,x2=-2:2", "--jobs", "1", "--json"]  # fmt: skip
+    assert main(argv) == 0
+    printed = json.loads(capsys.readouterr().out)
+    system = roa.load_system("vanderpol")
+    grid = roa.grid_slice(system, ("x1", "x2"), [(-3, 3), (-2, 2)], (6, 5))
+    expected = json.loads(
+        roa.io.to_json(roa.basin(system, grid, run=roa.RunOptions(n_jobs=1)).to_dict())
+    )
+    for d in (printed, expected):
+        d.pop("seconds")
+    assert printed == expected
+    assert (
+        printed["mode"] == "slice" and printed["axes"] == ["x1", "x2"] and printed["grid"] == [6, 5]
+    )

@@ -6,13 +6,13 @@ import argparse
 import itertools
 import re
 from pathlib import Path
-from typing import Any
 
 import numpy as np
 
 from roa.commands import _common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, to_json
+from roa.montecarlo.sampling import GridSlice
 from roa.system import System
 
 EPILOG = """examples:
@@ -133,7 +133,7 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
 
 
 def build(args: argparse.Namespace):
-    """Validate everything and return ``(system, sampler, rules, mode)`` before any work."""
+    """Validate everything and return ``(system, sampler, rules)`` before any work."""
     from roa.montecarlo.sampling import box_sample, grid_slice
     from roa.status import StopRules
 
@@ -177,8 +177,6 @@ def build(args: argparse.Namespace):
             system,
             [rng(n) if n in axes else (b, b) for n, b in zip(names, sampler.base, strict=True)],
         )
-        mode = {"mode": "slice", "axes": axes, "grid": list(shape), "ranges": [rng(a) for a in axes],
-                "fixed": {n: float(sampler.base[i]) for i, n in enumerate(names) if n not in axes}}  # fmt: skip
     else:
         if args.grid is not None or fixed:
             raise RoaInputError("--grid and --fix apply to --slice runs, not to --samples")
@@ -187,12 +185,11 @@ def build(args: argparse.Namespace):
         ranges = [rng(n) for n in names]
         _check_box_in_domain(system, ranges)
         sampler = box_sample(system, ranges, args.samples, seed=args.seed)  # type: ignore[assignment]
-        mode = {"mode": "box", "box": dict(zip(names, ranges, strict=True)), "seed": args.seed}
     if args.chunk_size < 1:
         raise RoaInputError(f"--chunk-size must be >= 1, got {args.chunk_size}")
     if args.jobs == 0 or args.jobs < -1:
         raise RoaInputError(f"--jobs must be >= 1 or -1 (all cores), got {args.jobs}")
-    return system, sampler, rules, mode
+    return system, sampler, rules
 
 
 def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> None:
@@ -236,18 +233,6 @@ def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
     return out
 
 
-def region_entry(region: Any, grid: Any, code: np.ndarray) -> dict[str, Any]:
-    """What the JSON says of a drawn region: name, level, status, its V (``P`` or the polynomial's
-    kind, degree, monomials and coefficients) and the slice's grid points inside it."""
-    from roa.plotting.basin import slice_containment
-
-    v = region.describe_v()
-    inside = slice_containment(grid, code, region)
-    return {"name": region.name, "level": region.level, "status": region.status,
-            "label": region.meta.get("label"), "V": v,
-            "slice": {k: inside[k] for k in ("points_in_region", "converged", "all_converged")}}  # fmt: skip
-
-
 def _check_out_dir(out: str | None) -> None:
     """``--out`` must be empty, new, or a previous ``roa basin`` run: never an experiment's results."""
     if out is None:
@@ -269,11 +254,11 @@ def run(args: argparse.Namespace) -> int:
     import roa
 
     _check_out_dir(args.out)
-    system, sampler, rules, mode = build(args)
-    if args.plot and mode["mode"] != "slice":
+    system, sampler, rules = build(args)
+    if args.plot and not isinstance(sampler, GridSlice):
         raise RoaInputError("--plot draws a slice: use it with --slice")
     plot = args.plot or (
-        str(Path(args.out) / "basin.png") if args.out and mode["mode"] == "slice" else None
+        str(Path(args.out) / "basin.png") if args.out and isinstance(sampler, GridSlice) else None
     )
     if args.lyapunov_level and not plot:
         raise RoaInputError("--lyapunov-level draws level sets on the map: give --plot FILE")
@@ -296,15 +281,13 @@ def run(args: argparse.Namespace) -> int:
          "RunOptions.chunk_size": "--chunk-size", "RunOptions.n_jobs": "--jobs"},
     )  # fmt: skip
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
-                       terminal=terminal)  # fmt: skip
-    summary = {**result.to_dict(), **mode}
+                       terminal=terminal, regions=regs if plot else ())  # fmt: skip
+    summary = result.to_dict()
     if plot:
         from roa.plotting.basin import plot_slice
 
-        summary["regions"] = [region_entry(r, sampler, result.code) for r in regs]
         plot_slice(system, sampler, result.code, plot, regions=regs,
                    title=f"basin of {args.system}")  # fmt: skip
-        summary["plot"] = plot
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
     if args.json:

@@ -8,6 +8,7 @@ with its own status (converged, left_domain, diverged, undecided), never merged.
 from __future__ import annotations
 
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -64,6 +65,7 @@ class BasinResult:
     integrator: IntegratorOptions = field(default_factory=IntegratorOptions)
     entered_certified_set: int = 0
     terminal: TerminalSet | None = field(default=None, repr=False, compare=False)
+    regions: tuple[Any, ...] = field(default=(), repr=False, compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """What ``roa basin --json`` prints (with the command's description of the samples)."""
@@ -89,6 +91,10 @@ class BasinResult:
             else {"name": self.terminal.name, "level": self.terminal.level,
                   "coords": self.terminal.coords, "margin": "V <= level (1 - 1e-9)"},
             "seconds": round(self.seconds, 3),
+            **(self.sampler.describe(self.system.state_names)
+               if hasattr(self.sampler, "describe") else {}),
+            **({"regions": [region_entry(r, self.sampler, self.code) for r in self.regions]}
+               if self.regions else {}),
         }  # fmt: skip
 
     def plot(self, ax: Any = None, *, regions: Any = (), title: str | None = None) -> Any:
@@ -114,6 +120,7 @@ def basin(
     integrator: IntegratorOptions | None = None,
     run: RunOptions | None = None,
     terminal: TerminalSet | str | Path | dict | None = None,
+    regions: Sequence[Any] = (),
 ) -> BasinResult:
     """Integrate every initial condition of ``sampler`` and count the statuses.
 
@@ -133,6 +140,9 @@ def basin(
         A certified set ``{V <= level}`` (or the JSON of ``roa certify --json``, refused unless
         certified and for this system or its analysis coordinates): runs that enter it stop as
         converged, counted in ``entered_certified_set`` (:mod:`roa.montecarlo.terminal`).
+    regions : sequence of Region, optional
+        Estimates to compare with the basin on a :func:`grid_slice` (``regions`` of
+        :meth:`BasinResult.to_dict`: the grid points inside each and whether all converged).
 
     Examples
     --------
@@ -205,4 +215,18 @@ def basin(
         integrator,
         res.entered_certified_set,
         terminal,
+        tuple(regions),
     )
+
+
+def region_entry(region: Any, grid: Any, code: np.ndarray) -> dict[str, Any]:
+    """What the JSON says of a region: name, level, status, its V (``P`` or the polynomial's
+    kind, degree, monomials and coefficients) and the slice's grid points inside it."""
+    from roa.plotting.basin import slice_containment
+
+    out = {"name": region.name, "level": region.level, "status": region.status,
+           "label": region.meta.get("label"), "V": region.describe_v()}  # fmt: skip
+    if isinstance(grid, GridSlice):
+        inside = slice_containment(grid, code, region)
+        out["slice"] = {k: inside[k] for k in ("points_in_region", "converged", "all_converged")}
+    return out

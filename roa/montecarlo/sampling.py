@@ -104,6 +104,13 @@ class GridSlice:
     def fingerprint(self) -> dict[str, Any]:
         return {"kind": "grid", "axes": self.axes, "xs": self.xs, "ys": self.ys, "base": self.base}
 
+    def describe(self, names: Sequence[str]) -> dict[str, Any]:
+        """The samples in the states' names (what ``roa basin --json`` reports)."""
+        axes = [names[i] for i in self.axes]
+        return {"mode": "slice", "axes": axes, "grid": [len(self.xs), len(self.ys)],
+                "ranges": [[float(v[0]), float(v[-1])] for v in (self.xs, self.ys)],
+                "fixed": {n: float(self.base[i]) for i, n in enumerate(names) if i not in self.axes}}  # fmt: skip
+
 
 def grid_slice(
     system: System,
@@ -169,6 +176,11 @@ class BoxSample:
     def fingerprint(self) -> dict[str, Any]:
         return {"kind": "box", "low": self.low, "high": self.high, "n": self.n, "seed": self.seed,
                 "map": getattr(self.to_system, "__name__", None)}  # fmt: skip
+
+    def describe(self, names: Sequence[str]) -> dict[str, Any]:
+        """The samples in the states' names (what ``roa basin --json`` reports)."""
+        box = {n: [float(a), float(b)] for n, a, b in zip(names, self.low, self.high, strict=True)}
+        return {"mode": "box", "box": box, "seed": self.seed}
 
 
 def box_sample(

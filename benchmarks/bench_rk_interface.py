@@ -34,7 +34,7 @@ import numpy as np
 from ipc_paper import system as ipc
 from ipc_paper.system.fast import physical_field_njit as field
 from ipc_paper.system.fast import physical_scalar as f4
-from roa.montecarlo.dopri import _A, _B, _C, _E
+from roa.montecarlo.dopri import ERROR_E, TABLEAU_A, TABLEAU_B, TABLEAU_C
 from roa.montecarlo.sampling import box_sample
 
 S, MAXF, MINF = 0.9, 10.0, 0.2
@@ -75,20 +75,20 @@ def arrays(p, y0, t_final, rtol, atol, h0, y_out):
                 for i in range(n):
                     acc = 0.0
                     for j in range(s):
-                        acc += _A[s, j] * K[j, i]
+                        acc += TABLEAU_A[s, j] * K[j, i]
                     tmp[i] = y[i] + h * acc
-                field(t + _C[s] * h, tmp, p, K[s])
+                field(t + TABLEAU_C[s] * h, tmp, p, K[s])
             for i in range(n):
                 acc = 0.0
                 for j in range(6):
-                    acc += _B[j] * K[j, i]
+                    acc += TABLEAU_B[j] * K[j, i]
                 y_new[i] = y[i] + h * acc
             field(t + h, y_new, p, K[6])
             ss = 0.0
             for i in range(n):
                 acc = 0.0
                 for j in range(7):
-                    acc += _E[j] * K[j, i]
+                    acc += ERROR_E[j] * K[j, i]
                 e = h * acc / (atol + max(abs(y[i]), abs(y_new[i])) * rtol)
                 ss += e * e
             ok, h_abs = _control(np.sqrt(ss / n), h_abs, rejected)
@@ -127,7 +127,7 @@ def _f(x, p):
 
 @numba.njit(error_model="numpy")
 def scalars(p, y0, t_final, rtol, atol, h0, y_out):
-    a, b, e = _A, _B, _E
+    a, b, e = TABLEAU_A, TABLEAU_B, ERROR_E
     z = (0.0, 0.0, 0.0, 0.0)
     y = (y0[0], y0[1], y0[2], y0[3])
     k1 = _f(y, p)

@@ -1,10 +1,10 @@
-"""Basin-map experiments of the IPC (issue 4): slices, box and ball samples, Remark 3.1.
+"""Basin-map experiments of the IPC: slices, box and ball samples, Remark 3.1.
 
 Runners for ``roa run experiments/basin_*.toml``. Regions drawn and tested are those of
 :func:`regions`: every estimate of ``ipc_regions()`` and every certified set of the certify
 experiment.
 
-Certified early exit (issue 14): the slice and box runs of the loop without saturation stop a
+Certified early exit: the slice and box runs of the loop without saturation stop a
 trajectory when it enters the certified set of ``results/certify/certified.json`` with the largest
 reference-box share (:func:`terminal_set`; ``terminal_set = false`` in ``[params]`` switches it
 off). Such a run is ``converged`` (the set is invariant and inside the region of attraction, an

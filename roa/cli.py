@@ -14,7 +14,7 @@ COMMANDS = ("simulate", "khalil", "certify", "basin", "run", "reproduce", "repor
 
 def build_parser() -> argparse.ArgumentParser:
     from roa import studies
-    from roa.commands._common import Parser
+    from roa.commands.common import Parser
 
     parser = Parser(
         prog="roa",

@@ -59,7 +59,7 @@ class LevelSetResult:
 
 
 @dataclass(frozen=True)
-class _Problem:
+class Problem:
     system: System
     V: Lyapunov
     S: np.ndarray
@@ -99,7 +99,7 @@ class _Problem:
         return self.V.center + (r[..., None] * U) @ self.Linv_T.T
 
 
-def problem(system: System, V: Lyapunov, S: Any, shape: str) -> _Problem:
+def problem(system: System, V: Lyapunov, S: Any, shape: str) -> Problem:
     """The search problem; ``S=None`` (non-quadratic ``V``, shape "level") makes the shape V."""
     by_value = S is None
     if by_value:
@@ -119,12 +119,12 @@ def problem(system: System, V: Lyapunov, S: Any, shape: str) -> _Problem:
             f"got center {V.center.tolist()}"
         )
     L = np.linalg.cholesky(S)  # S = L L'
-    return _Problem(system, V, S, shape, np.linalg.inv(L.T), by_value)
+    return Problem(system, V, S, shape, np.linalg.inv(L.T), by_value)
 
 
 def start(
     system: System, V: Lyapunov, S: Any, shape: str, method: str
-) -> tuple[_Problem, LevelSetResult | None]:
+) -> tuple[Problem, LevelSetResult | None]:
     """The problem of one method, and its result already when V' is not negative near x_eq."""
     prob = problem(system, V, S, shape)
     ok, lam = locally_negative(system, V)
@@ -174,7 +174,7 @@ def inner_level(P_outer: Any, level: float, S_inner: Any) -> float:
     return float(level / lam[-1])
 
 
-def finish(prob: _Problem, x: np.ndarray, method: str, details: dict[str, Any]) -> LevelSetResult:
+def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -> LevelSetResult:
     """Put ``x`` exactly on V' = 0 along its ray (if it is a V' root), evaluate, wrap."""
     x = np.asarray(x, dtype=float)
     c = prob.V.center

@@ -13,14 +13,14 @@ from typing import Any
 
 import numpy as np
 
-from roa.levelset_core import LevelSetResult, _Problem, finish, start, unit
+from roa.levelset_core import LevelSetResult, Problem, finish, start, unit
 from roa.lyapunov import Lyapunov
 from roa.options import SampledOptions
 from roa.system import System
 
 
 def crossings(
-    prob: _Problem, U: np.ndarray, r_grid: np.ndarray, *, iters: int = 40, chunk: int = 4096
+    prob: Problem, U: np.ndarray, r_grid: np.ndarray, *, iters: int = 40, chunk: int = 4096
 ) -> np.ndarray:
     """Shape radius of the first violation along each direction (inf if none on the grid)."""
     out = np.full(len(U), np.inf)
@@ -156,7 +156,7 @@ def sampled_level(
     )
 
 
-def _keys(prob: _Problem, U: np.ndarray, r: np.ndarray) -> np.ndarray:
+def _keys(prob: Problem, U: np.ndarray, r: np.ndarray) -> np.ndarray:
     """What ranks the rays: the radius (quadratic shape), else the shape value V at the crossing."""
     if not prob.by_value:
         return r
@@ -169,7 +169,7 @@ def _keys(prob: _Problem, U: np.ndarray, r: np.ndarray) -> np.ndarray:
     return out
 
 
-def _top_value(prob: _Problem, U: np.ndarray, r_max: float) -> float:
+def _top_value(prob: Problem, U: np.ndarray, r_max: float) -> float:
     """The smallest V at radius ``r_max`` over the directions: a lower bound of the level."""
     with np.errstate(all="ignore"):
         vals = prob.shape_value(prob.points(U, np.full(len(U), r_max)))

@@ -169,7 +169,7 @@ def test_chunk_files_carry_a_binding(tmp_path, reference_run):
         code, t_end = z["code"], z["t_end"]
     run = json.loads((chunks / "run.json").read_text())["fingerprint"]
     assert binding["run"] == run and (binding["start"], binding["length"]) == (5, 5)
-    assert binding["sha256"] == engine._chunk_digest(run, 5, code, t_end)
+    assert binding["sha256"] == engine.chunk_digest(run, 5, code, t_end)
     np.testing.assert_array_equal(code, ref.code[5:10])
     again = _run(smp, tmp_path)
     assert (again.chunks_resumed, again.chunks_computed, again.meta["chunks_rejected"]) == (6, 0, 0)
@@ -206,7 +206,7 @@ def test_unknown_codes_never_counted(tmp_path, reference_run):
     chunks = _complete_dir(tmp_path, smp)
     run = json.loads((chunks / "run.json").read_text())["fingerprint"]
     # even with a correctly recomputed checksum, codes outside the known statuses are refused
-    engine._save_chunk(chunks / "chunk_000000000015.npz", run, 15, np.full(5, 7, np.int8),
+    engine.save_chunk(chunks / "chunk_000000000015.npz", run, 15, np.full(5, 7, np.int8),
                        np.ones(5, np.float32))  # fmt: skip
     res = _run(smp, tmp_path, expect_rejections=True)
     assert res.meta["chunks_rejected_reasons"] == {"unknown status codes": 1}

@@ -7,7 +7,7 @@ import argparse
 
 import numpy as np
 
-from roa.commands._common import floats
+from roa.commands.common import floats
 from roa.errors import RoaInputError
 from roa.io import to_json
 

@@ -170,7 +170,7 @@ def _to_flat(x, out):
         for i in range(4):
             out[i] = np.inf
         return
-    # as in physical_field: one sin, cos and log instead of tan, cos and arsinh (about 2x faster;
+    # as in physical_field: one sin, cos and log instead of tan, cos and arsinh (cheaper;
     # agrees with coordinates.to_flat to a few ulp, far inside the 1e-9 margin of the set test)
     s, c = np.sin(th), np.cos(th)
     sec = 1.0 / c

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from roa.commands import _common as C
+from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, to_json
 from roa.montecarlo.sampling import GridSlice

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from roa.commands import _common as C
+from roa.commands import common as C
 from roa.options import IntervalOptions, SosOptions, VsOptions
 
 

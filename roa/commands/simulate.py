@@ -6,7 +6,7 @@ import argparse
 
 import numpy as np
 
-from roa.commands import _common as C
+from roa.commands import common as C
 
 
 def register(sub: argparse._SubParsersAction) -> None:

@@ -34,11 +34,11 @@ class ChunkRejectedWarning(RuntimeWarning):
     """Chunk files of a resumed run were not used (bad binding or contents) and are recomputed."""
 
 
-def _chunk_path(d: Path, start: int) -> Path:
+def chunk_path(d: Path, start: int) -> Path:
     return d / f"chunk_{start:012d}.npz"
 
 
-def _chunk_digest(
+def chunk_digest(
     run: str, start: int, code: np.ndarray, t_end: np.ndarray, entered: int = 0
 ) -> str:
     """SHA-256 binding a chunk's arrays (and its count of runs that entered the terminal set) to
@@ -52,7 +52,7 @@ def _chunk_digest(
     return h.hexdigest()
 
 
-def _save_chunk(
+def save_chunk(
     path: Path, run: str, start: int, code: np.ndarray, t_end: np.ndarray, entered: int = 0
 ) -> None:
     code = np.ascontiguousarray(code, dtype=np.int8)
@@ -62,7 +62,7 @@ def _save_chunk(
         "run": run,
         "start": int(start),
         "length": int(code.size),
-        "sha256": _chunk_digest(run, start, code, t_end, entered),
+        "sha256": chunk_digest(run, start, code, t_end, entered),
     }
     if entered:
         binding["entered"] = int(entered)
@@ -107,7 +107,7 @@ def _read_chunk(path: Path, run: str, start: int, length: int) -> _ChunkCheck:
         return _ChunkCheck("wrong array types")
     if code.shape != t_end.shape or code.size != b_length:
         return _ChunkCheck("arrays do not match their recorded length")
-    if _chunk_digest(b_run, b_start, code, t_end, b_entered) != b_sha:
+    if chunk_digest(b_run, b_start, code, t_end, b_entered) != b_sha:
         return _ChunkCheck("checksum mismatch (contents changed)")
     if b_run != run:
         return _ChunkCheck("bound to another run", run=b_run)
@@ -155,7 +155,7 @@ def _chunk_files(chunk_dir: Path) -> list[Path]:
     return sorted(p for p in chunk_dir.glob("chunk_*.npz") if p.is_file())
 
 
-def _prepare_out_dir(
+def prepare_out_dir(
     out_dir: str | Path,
     digest: str,
     n: int,

@@ -54,7 +54,7 @@ def _probe_scheduler(address: str, timeout: float) -> None:
         )
 
 
-def _connect(address: str, timeout: float) -> Any:
+def connect(address: str, timeout: float) -> Any:
     """A Dask client of ``address`` with at least one worker, or a roa error within ~2 x timeout."""
     try:
         from dask.distributed import Client
@@ -74,7 +74,7 @@ def _connect(address: str, timeout: float) -> Any:
     try:
         client.wait_for_workers(1, timeout=timeout)
     except BaseException as exc:
-        _close_quietly(client)
+        close_quietly(client)
         if isinstance(exc, KeyboardInterrupt):
             raise
         raise SolverError(
@@ -84,7 +84,7 @@ def _connect(address: str, timeout: float) -> Any:
     return client
 
 
-def _close_quietly(client: Any, results: Any = None) -> None:
+def close_quietly(client: Any, results: Any = None) -> None:
     """Stop pending tasks and close a Dask client without tracebacks or log noise."""
     import logging
 

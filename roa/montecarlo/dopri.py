@@ -30,8 +30,8 @@ CODE_STATUS = {
 STATUS_NAMES = ("converged", "left_domain", "diverged", "undecided", "converged_elsewhere")
 
 # Dormand-Prince 5(4) tableau (as in scipy.integrate.RK45).
-_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1])
-_A = np.array(
+TABLEAU_C = np.array([0, 1 / 5, 3 / 10, 4 / 5, 8 / 9, 1])
+TABLEAU_A = np.array(
     [
         [0, 0, 0, 0, 0],
         [1 / 5, 0, 0, 0, 0],
@@ -41,9 +41,9 @@ _A = np.array(
         [9017 / 3168, -355 / 33, 46732 / 5247, 49 / 176, -5103 / 18656],
     ]
 )
-_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
-_E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
-_P = np.array(
+TABLEAU_B = np.array([35 / 384, 0, 500 / 1113, 125 / 192, -2187 / 6784, 11 / 84])
+ERROR_E = np.array([-71 / 57600, 0, 71 / 16695, -71 / 1920, 17253 / 339200, -22 / 525, 1 / 40])
+DENSE_P = np.array(
     [
         [1, -8048581381 / 2820520608, 8663915743 / 2820520608, -12715105075 / 11282082432],
         [0, 0, 0, 0],
@@ -54,8 +54,8 @@ _P = np.array(
         [0, 40617522 / 29380423, -110615467 / 29380423, 69997945 / 29380423],
     ]
 )
-_SAFETY, _MIN_FACTOR, _MAX_FACTOR = 0.9, 0.2, 10.0
-_EPS = np.finfo(float).eps
+SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+EPS = np.finfo(float).eps
 
 
 @dataclass(frozen=True)
@@ -74,8 +74,8 @@ class BatchResult:
 
 def check_tolerances(rtol: float, atol: float, margin_tol: float) -> None:
     """Validate integration tolerances (ValueError naming the field)."""
-    if not (100 * _EPS <= rtol < 1):
-        raise RoaInputError(f"rtol must be in [{100 * _EPS:.2g}, 1), got {rtol!r}")
+    if not (100 * EPS <= rtol < 1):
+        raise RoaInputError(f"rtol must be in [{100 * EPS:.2g}, 1), got {rtol!r}")
     if not (0 < atol < np.inf):
         raise RoaInputError(f"atol must be a finite number > 0, got {atol!r}")
     if not (0 <= margin_tol < np.inf):

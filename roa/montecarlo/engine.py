@@ -40,12 +40,12 @@ from roa.montecarlo.chunks import (  # noqa: F401  (re-exported)
     CHUNK_FORMAT,
     VALID_CODES,
     ChunkRejectedWarning,
-    _chunk_digest,
-    _chunk_path,
-    _prepare_out_dir,
-    _save_chunk,
+    chunk_digest,
+    chunk_path,
+    prepare_out_dir,
+    save_chunk,
 )
-from roa.montecarlo.dask_client import _close_quietly, _connect
+from roa.montecarlo.dask_client import close_quietly, connect
 from roa.montecarlo.sampling import MAX_SAMPLES
 from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
@@ -295,7 +295,7 @@ def run_basin(
     entered = [0]
     if out_dir is not None:
         digest = _fingerprint(system, sampler, opts, chunk_size)
-        chunk_dir, done, rejected = _prepare_out_dir(
+        chunk_dir, done, rejected = prepare_out_dir(
             out_dir, digest, n, chunk_size, code, t_end, fresh=fresh, replace_stale=replace_stale,
             entered=entered,
         )  # fmt: skip
@@ -312,7 +312,7 @@ def run_basin(
             for s in _pending(n, chunk_size, done)
         )
         if scheduler is not None:
-            client = _connect(scheduler, float(scheduler_timeout))
+            client = connect(scheduler, float(scheduler_timeout))
             ctx = joblib.parallel_config(backend="dask", n_jobs=-1, client=client,
                                          wait_for_workers_timeout=float(scheduler_timeout))  # fmt: skip
             jobs = -1
@@ -341,7 +341,7 @@ def run_basin(
                         )
                     code[s : s + length], t_end[s : s + length] = c, te
                     if chunk_dir is not None:
-                        _save_chunk(_chunk_path(chunk_dir, s), digest, s, c, te, k)
+                        save_chunk(chunk_path(chunk_dir, s), digest, s, c, te, k)
                     entered[0] += k
                     computed += 1
                     if bar is not None:
@@ -352,7 +352,7 @@ def run_basin(
             if bar is not None:
                 bar.close()
             if client is not None:
-                _close_quietly(client, results)
+                close_quietly(client, results)
     missing = int(np.count_nonzero(code < 0))
     if missing:
         raise ResultsError(f"internal error: {missing} of {n} initial conditions have no status")

@@ -49,22 +49,22 @@ from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
 from roa.montecarlo import dopri as _base
 from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tableau)
-    _A,
-    _B,
-    _C,
-    _E,
-    _EPS,
-    _MAX_FACTOR,
-    _MIN_FACTOR,
-    _P,
-    _SAFETY,
     CODE_STATUS,
     CONVERGED,
     CONVERGED_ELSEWHERE,
+    DENSE_P,
     DIVERGED,
+    EPS,
+    ERROR_E,
     LEFT_DOMAIN,
+    MAX_FACTOR,
+    MIN_FACTOR,
+    SAFETY,
     STATUS_NAMES,
     STEP_FAILURE,
+    TABLEAU_A,
+    TABLEAU_B,
+    TABLEAU_C,
     UNDECIDED,
     check_tolerances,
 )
@@ -400,7 +400,7 @@ def _one(
     T, coords, x_out, field_coords,
 ):  # fmt: skip
     n = y0.shape[0]
-    A, B, C, E, P = _A, _B, _C, _E, _P
+    A, B, C, E, P = TABLEAU_A, TABLEAU_B, TABLEAU_C, ERROR_E, DENSE_P
     K = np.empty((7, n))
     y = y0.copy()
     y_new = np.empty(n)
@@ -499,16 +499,16 @@ def _one(
             en = _rms(err)
             if en < 1.0:  # NaN compares False: rejected, as in scipy
                 if en == 0.0:
-                    factor = _MAX_FACTOR
+                    factor = MAX_FACTOR
                 else:
-                    factor = min(_MAX_FACTOR, _SAFETY * en ** (-0.2))
+                    factor = min(MAX_FACTOR, SAFETY * en ** (-0.2))
                 if step_rejected:
                     factor = min(1.0, factor)
                 h_abs *= factor
                 break
-            fac = _SAFETY * en ** (-0.2)
-            if not (fac > _MIN_FACTOR):
-                fac = _MIN_FACTOR
+            fac = SAFETY * en ** (-0.2)
+            if not (fac > MIN_FACTOR):
+                fac = MIN_FACTOR
             h_abs *= fac
             step_rejected = True
         steps += 1
@@ -539,7 +539,7 @@ def _one(
                         lo = mid
                     else:
                         hi = mid
-                    if (hi - lo) * h <= 4 * _EPS * max(1.0, abs(t)):
+                    if (hi - lo) * h <= 4 * EPS * max(1.0, abs(t)):
                         break
                 te = t + hi * h
                 if te < t_first:

@@ -110,19 +110,17 @@ def integrate_numpy(
         K = np.empty((7,) + y.shape)
         K[0] = K0
         for s in range(1, 6):
-            dy = np.tensordot(I._A[s, :s], K[:s], axes=(0, 0))
-            K[s] = f(t + I._C[s] * h, y + h[:, None] * dy)
-        y_new = y + h[:, None] * np.tensordot(I._B, K[:6], axes=(0, 0))
+            dy = np.tensordot(I.TABLEAU_A[s, :s], K[:s], axes=(0, 0))
+            K[s] = f(t + I.TABLEAU_C[s] * h, y + h[:, None] * dy)
+        y_new = y + h[:, None] * np.tensordot(I.TABLEAU_B, K[:6], axes=(0, 0))
         K[6] = f(t + h, y_new)
         with np.errstate(all="ignore"):
-            err = h[:, None] * np.tensordot(I._E, K, axes=(0, 0))
+            err = h[:, None] * np.tensordot(I.ERROR_E, K, axes=(0, 0))
             en = _rms(err / (atol + np.maximum(np.abs(y), np.abs(y_new)) * rtol))
             acc = (en < 1) & ~fail
-            grow = np.where(en == 0, I._MAX_FACTOR, np.minimum(I._MAX_FACTOR, I._SAFETY * en**-0.2))
+            grow = np.where(en == 0, I.MAX_FACTOR, np.minimum(I.MAX_FACTOR, I.SAFETY * en**-0.2))
             grow = np.where(rejected, np.minimum(1.0, grow), grow)
-            shrink = np.where(
-                I._SAFETY * en**-0.2 > I._MIN_FACTOR, I._SAFETY * en**-0.2, I._MIN_FACTOR
-            )
+            shrink = np.where(I.SAFETY * en**-0.2 > I.MIN_FACTOR, I.SAFETY * en**-0.2, I.MIN_FACTOR)
         h_abs = np.where(acc, h_abs * grow, h_abs * shrink)
         rejected = np.where(acc, False, True)
         fresh = acc.copy()
@@ -132,7 +130,7 @@ def integrate_numpy(
         ev_rows = np.flatnonzero(trig.any(axis=1))
         done = fail.copy()
         if ev_rows.size:
-            Q = np.einsum("kri,kj->rij", K[:, ev_rows], I._P)  # (r, n, 4)
+            Q = np.einsum("kri,kj->rij", K[:, ev_rows], I.DENSE_P)  # (r, n, 4)
             yy, hh = y[ev_rows], h[ev_rows]
             best_t = np.full(ev_rows.size, np.inf)
             best_e = np.full(ev_rows.size, -1)

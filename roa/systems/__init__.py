@@ -128,7 +128,7 @@ def load_system(spec: str) -> System:
         )
     path_str, name = spec.rsplit(":", 1)
     path = Path(path_str)
-    module = _user_module(path)
+    module = user_module(path)
     if not hasattr(module, name):
         raise SystemDefinitionError(f"system file {path} defines no {name!r}")
     obj = getattr(module, name)
@@ -170,7 +170,7 @@ def _where(path: Path, exc: BaseException) -> str:
     return f"system file {path}:{line}: {type(exc).__name__}: {msg}"
 
 
-def _user_module(path: Path) -> ModuleType:
+def user_module(path: Path) -> ModuleType:
     """Import a user's system file once per content (keyed by path and modification time)."""
     if not path.is_file():
         raise SystemDefinitionError(f"system file {path} does not exist")

@@ -99,10 +99,10 @@ def read_matrix(spec: str, *, what: str) -> Any:
     with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V), also
     when they are in its ``"candidate_kind"`` (the JSON of ``roa certify --degree D --json``)."""
     if spec.endswith(".py") or ".py:" in spec:
-        from roa.systems import _user_module
+        from roa.systems import user_module
 
         path_str, _, name = spec.rpartition(":") if ".py:" in spec else (spec, ":", "LYAPUNOV_P")
-        module = _user_module(Path(path_str))
+        module = user_module(Path(path_str))
         if not hasattr(module, name):
             raise RoaInputError(f"{what} {spec}: {path_str} defines no {name!r}")
         return getattr(module, name)

@@ -82,6 +82,14 @@ class Trajectory:
         return ax
 
 
+class _NonFiniteField(Exception):
+    """Raised by the right-hand side when the field is NaN or inf (ends the run)."""
+
+    def __init__(self, t: float, x: np.ndarray) -> None:
+        super().__init__(t)
+        self.t, self.x = t, np.array(x, dtype=float)
+
+
 def simulate(
     system: System,
     x0: Any,
@@ -144,7 +152,10 @@ def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, 
     x_eq = system.x_eq if track_convergence else None
 
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
-        return system.f(x, t)
+        f = system.f(x, t)
+        if not np.all(np.isfinite(f)):  # solve_ivp would loop forever on a NaN step size
+            raise _NonFiniteField(t, x)
+        return f
 
     events = []
     names = []
@@ -182,14 +193,26 @@ def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, 
         )
 
     with np.errstate(all="ignore"):
-        sol = solve_ivp(
-            rhs,
-            (0.0, rules.t_final),
-            x0,
-            events=events,
-            dense_output=False,
-            **ivp,
-        )
+        try:
+            sol = solve_ivp(
+                rhs,
+                (0.0, rules.t_final),
+                x0,
+                events=events,
+                dense_output=False,
+                **ivp,
+            )
+        except _NonFiniteField as stop:
+            xs = np.asarray(stop.x, dtype=float)
+            return Trajectory(
+                RunStatus.UNDECIDED,
+                np.array([float(stop.t)]),
+                xs[None, :],
+                f"the field is not finite at t = {stop.t:.6g}, x = "
+                f"{np.array2string(xs, precision=6)}: the run cannot go on",
+                system.name,
+                meta={"reason": "non_finite_field", "t": float(stop.t), "x": xs.tolist()},
+            )
     t, x = sol.t, sol.y.T
     finite = np.all(np.isfinite(x), axis=1)
     if not finite.all():

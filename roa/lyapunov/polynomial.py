@@ -23,6 +23,11 @@ from roa.errors import RoaInputError
 from roa.lyapunov.base import Lyapunov, center_vector, check_positive_definite
 from roa.system import System
 
+#: Largest total degree of a term of a polynomial V (higher ones are refused before any work).
+MAX_DEGREE = 40
+#: Most terms of a polynomial V.
+MAX_TERMS = 100_000
+
 
 class PolynomialLyapunov(Lyapunov):
     """``V(x) = sum_k coefficients[k] * prod_i d_i^monomials[k][i]``, ``d = x - center``.
@@ -56,6 +61,16 @@ class PolynomialLyapunov(Lyapunov):
             )
         if not np.all((a >= 0) & (a == np.round(a))):
             raise RoaInputError("monomials: exponents must be non-negative integers")
+        if a.shape[0] > MAX_TERMS:
+            raise RoaInputError(
+                f"monomials: at most {MAX_TERMS} terms, got {a.shape[0]} (allowed range 1 to "
+                f"{MAX_TERMS})"
+            )
+        top = float(a.sum(axis=1).max())
+        if top > MAX_DEGREE:
+            raise RoaInputError(
+                f"monomials: the degree of a term must be at most {MAX_DEGREE}, got {top:.6g}"
+            )
         c = np.asarray(coefficients, dtype=float).reshape(-1)
         if c.shape[0] != a.shape[0]:
             raise RoaInputError(

@@ -466,7 +466,7 @@ def _one(
             h_abs = min_step
         step_rejected = False
         while True:
-            if h_abs < min_step:
+            if not (h_abs >= min_step):  # NaN (a field not finite here) fails too: never loops
                 x_out[:] = y
                 return STEP_FAILURE, t, steps
             h = h_abs

@@ -101,7 +101,7 @@ def integrate_numpy(
     while idx.size:
         min_step = 10 * np.abs(np.nextafter(t, np.inf) - t)
         h_abs = np.where(fresh & (h_abs < min_step), min_step, h_abs)
-        fail = h_abs < min_step
+        fail = ~(h_abs >= min_step)  # NaN (a field not finite here) fails too: never loops
         if fail.any():
             finish(fail, I.STEP_FAILURE, t[fail], y[fail])
         t_new = np.minimum(t + h_abs, rules.t_final)

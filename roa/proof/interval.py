@@ -247,9 +247,12 @@ class Interval:
                 return self
             if k % 2 == 0:
                 return self.square() ** (k // 2) if k > 2 else self.square()
-            out = self
-            for _ in range(k - 1):
-                out = out * self  # odd power: monotone, product bound is exact enough
+            if k <= 64:
+                out = self
+                for _ in range(k - 1):
+                    out = out * self  # odd power: monotone, product bound is exact enough
+            else:  # x * (x^2)^((k-1)/2): an enclosure in O(log k) products
+                out = self * (self.square() ** ((k - 1) // 2))
             with np.errstate(over="ignore"):
                 lo, hi = self.lo**k, self.hi**k
             # intersected with the (libm pow) endpoint values; NaN bounds stay open

@@ -1,0 +1,72 @@
+"""Bounded work (reliability issue, item 3): a field that is NaN at the start ends the run instead
+of looping forever, and a polynomial V too large to evaluate is refused before any work.
+
+Each run happens in a subprocess with a time limit: on a hang the test fails (it does not hang).
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+import pytest
+
+import roa
+from roa.errors import RoaInputError
+
+NAN_FIELD = textwrap.dedent(
+    """
+    import dataclasses, json
+    import roa
+    from roa.systems.vanderpol import vanderpol
+
+    def field(t, x, xp):  # sqrt of a negative number: NaN wherever x1 < -2
+        return (-x[1] + 0.0 * xp.sqrt(x[0] + 2.0), x[0] + (x[0] ** 2 - 1) * x[1])
+
+    s = dataclasses.replace(vanderpol(), field=field, params=None, name="nan-field")
+    run = roa.simulate(s, [-3.0, 0.5])
+    grid = roa.grid_slice(s, ("x1", "x2"), [(-3.0, -2.5), (-1.0, 1.0)], (3, 3))
+    res = roa.basin(s, grid, run=roa.RunOptions(n_jobs=1))
+    print(json.dumps({"status": run.status.value, "message": run.message,
+                      "counts": res.counts, "failures": res.step_size_failures}))
+    """
+)
+
+
+def test_a_field_nan_at_the_start_ends_the_run():
+    out = subprocess.run([sys.executable, "-c", NAN_FIELD], capture_output=True, text=True,
+                         timeout=120)  # fmt: skip
+    assert out.returncode == 0, out.stderr[-2000:]
+    import json
+
+    data = json.loads(out.stdout.strip().splitlines()[-1])
+    assert data["status"] == "undecided" and "not finite" in data["message"]
+    assert data["counts"]["undecided"] == 9 and data["failures"] == 9
+
+
+@pytest.mark.parametrize(
+    "monomials, match",
+    [([[2**62, 0]], "at most 40"), ([[10**6, 0]], "at most 40"), ([[1e20, 0]], "at most 40")],
+)
+def test_huge_exponents_are_refused_before_work(monomials, match):
+    with pytest.raises(RoaInputError, match=match):
+        roa.PolynomialLyapunov(monomials, [1.0], [0.0, 0.0])
+
+
+def test_too_many_terms_are_refused():
+    with pytest.raises(RoaInputError, match="at most 100000 terms"):
+        roa.PolynomialLyapunov([[2, 0]] * 100_001, [1.0] * 100_001, [0.0, 0.0])
+
+
+def test_a_high_odd_interval_power_is_an_enclosure_in_few_steps():
+    import numpy as np
+
+    from roa.proof.interval import Interval
+
+    x = Interval(np.array([-1.5, 0.5, -0.9]), np.array([-1.0, 1.1, 1.01]))
+    k = 1001
+    y = x**k
+    for a, lo, hi in zip((-1.25, 0.8, 1.0), y.lo, y.hi, strict=True):
+        assert lo <= a**k <= hi or (np.isinf(lo) and lo < 0) or np.isinf(hi)
+    assert np.all(y.lo <= y.hi)

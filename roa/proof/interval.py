@@ -404,3 +404,22 @@ INTERVAL = SimpleNamespace(
     clip=iclip,
 )
 """Interval namespace: ``system.field(t, x, INTERVAL)`` encloses the field over boxes."""
+
+
+def box_offsets(lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> list[Interval]:
+    """Intervals enclosing ``x - mid`` for ``x`` in the boxes ``[lo, hi]``, one per coordinate.
+
+    ``lo - mid`` and ``hi - mid`` are rounded outward (at least one ulp), so the centred and
+    Taylor forms built on them are strict enclosures even when rounding to nearest would move
+    them inward. (Their coefficients, the jet gradients and Hessians, are enclosures too.)
+
+    Parameters
+    ----------
+    lo, hi : numpy.ndarray
+        Box corners, shape ``(m, n)``.
+    mid : numpy.ndarray
+        Expansion points (any floats inside the boxes), shape ``(m, n)``.
+    """
+    return [
+        Interval(_down(lo[:, i] - mid[:, i]), _up(hi[:, i] - mid[:, i])) for i in range(lo.shape[1])
+    ]

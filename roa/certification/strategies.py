@@ -48,8 +48,8 @@ class Validator(Protocol):
 class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
-    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (a
-    non-quadratic V only) is a box holding the level set, proved by ``V > level`` on its faces.
+    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
+    V) is a box holding the level set, proved by ``V > level`` on its faces.
     """
 
     options: IntervalOptions = field(default_factory=IntervalOptions)

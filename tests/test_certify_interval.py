@@ -17,9 +17,10 @@ from scipy.optimize import minimize
 
 from ipc_paper.system import phi0, transformed
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.interval import INTERVAL, Interval
+from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet
-from roa.proof.validate import box_offsets, local_proof, validate_level
+from roa.proof.local import local_box, local_box_proof
+from roa.proof.validate import validate_level
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 finite = st.floats(-5, 5, allow_nan=False)
@@ -137,7 +138,11 @@ def test_local_proof_fails_for_an_unstable_candidate():
     # V = x1^2 + x2^2 is not a Lyapunov function of the linearisation (V' = 2 mu (x1^2 - 1) x2^2
     # is only <= 0, never negative definite): the local proof must not succeed
     V = QuadraticLyapunov.for_system(system, np.eye(2))
-    assert not local_proof(system, V, 1e-3)
+    r = np.full(2, np.sqrt(1e-3))  # the box of {V <= 1e-3}
+    assert not local_box_proof(system, V, -r, r)
+    # nor on any box of the one loop's search (2^-k of the cover), nor by the lowest-order part
+    # (-2 mu x2^2 vanishes on the x1 axis)
+    assert local_box(system, V, np.full(2, -1.0), np.full(2, 1.0)) is None
     # (a budget of 2e5 boxes: the branch and bound ends inconclusive, never certified)
     assert validate_level(system, V, 0.5, max_boxes=200_000).status != "certified"
 
@@ -323,7 +328,7 @@ def _jet_and_mp_derivatives(fn, x, lo, hi):
     """Interval jet (order 2) of ``fn`` on the box [lo, hi] and 40-digit mpmath derivatives at x."""
     import mpmath as mp
 
-    from roa.proof.validate import _mp_namespace
+    from roa.backend import namespace
 
     n = len(x)
     J = fn(Jet.variables(lo[None, :], hi[None, :], order=2), JET)
@@ -331,7 +336,7 @@ def _jet_and_mp_derivatives(fn, x, lo, hi):
         xs = [mp.mpf(float(v)) for v in x]
 
         def f(*args):
-            return fn(list(args), _mp_namespace())
+            return fn(list(args), namespace("mpmath"))
 
         g = [mp.diff(f, xs, tuple(int(k == i) for k in range(n))) for i in range(n)]
         H = [
@@ -359,7 +364,7 @@ offset = st.floats(0, 0.05)
 @settings(max_examples=80, deadline=None)
 @given(coord, coord, offset, offset)
 def test_jet_gradient_and_hessian_enclose_mpmath_derivatives(a, b, r1, r2):
-    """local_proof and the Taylor form rely on jet enclosures of the gradient and Hessian: the
+    """The local proof and the Taylor forms rely on jet enclosures of the gradient and Hessian: the
     enclosure on a box around x must contain the derivatives at x (mpmath.diff: finite
     differences at 40 digits)."""
     x = np.array([a, b])
@@ -372,13 +377,19 @@ def test_jet_gradient_and_hessian_enclose_mpmath_derivatives(a, b, r1, r2):
 @settings(max_examples=40, deadline=None)
 @given(coord, coord, coord, coord, offset)
 def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
-    """The same for V' of the IPC closed loop (3.8) with the paper's V, as local_proof uses it."""
-    from roa.proof.validate import _vdot
+    """The same for V' of the IPC closed loop (3.8) with the paper's V, as the validation uses it:
+    in x (jets of ``grad V . f``), and in the whitened y of the one loop (jets from the exact
+    expansions in y; mpmath through the composition with ``x = M y``)."""
+    from roa.proof.whiten import Whitened, whitened_system, whitening_for
 
     system = transformed()
     V = QuadraticLyapunov.for_system(system, _paper_V())
     x = np.array([a, b, c, d])
-    J, g, H = _jet_and_mp_derivatives(lambda y, xp: _vdot(system, V, y, xp), x, x - r, x + r)
+    J, g, H = _jet_and_mp_derivatives(lambda y, xp: V.vdot_expr(system, y, xp), x, x - r, x + r)
+    _assert_jet_encloses(J, g, H)
+    W = Whitened(V, system, whitening_for(V))
+    Sw = whitened_system(system, W)
+    J, g, H = _jet_and_mp_derivatives(lambda y, xp: W.vdot_expr(Sw, y, xp), x, x - r, x + r)
     _assert_jet_encloses(J, g, H)
 
 

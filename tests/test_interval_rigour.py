@@ -368,11 +368,11 @@ def test_constants_entering_jets_and_intervals_are_enclosed():
 
 def test_outward_rounding_never_tightens():
     """The fast outward rounding is at least one ulp wide, also at 0, subnormals and huge values."""
-    from roa.proof.interval import LIBM_ULPS, _down, _up
+    from roa.proof.interval import LIBM_ULPS, round_down, round_up
 
     v = np.array([0.0, 5e-324, -5e-324, 2.0**-1022, 1.0, -1.0, 0.1, 1e300, -1e300, 1.7e308, 3.0])
     for k in (1, LIBM_ULPS):
-        lo, hi = _down(v, k), _up(v, k)
+        lo, hi = round_down(v, k), round_up(v, k)
         step_lo, step_hi = v.copy(), v.copy()
         for _ in range(k):
             step_lo, step_hi = np.nextafter(step_lo, -np.inf), np.nextafter(step_hi, np.inf)
@@ -409,16 +409,23 @@ def _systems():
 @pytest.mark.parametrize("name", list(_systems()))
 def test_hessian_of_vdot_at_the_equilibrium_is_enclosed_exactly(name):
     """Issue 15: the exact Hessian 2 M'(PA + A'P)M of V'(c + M y) at y = 0 (rationals from the
-    float P, M and the exact Jacobian A) lies in the jet enclosure used by local_proof."""
+    float P, M and the exact Jacobian A) lies in the jet enclosures of the one loop's local proof:
+    at y = 0 and on the local box it proves (the whitened V of the loop, jets from the exact
+    expansions in y, the cover of {V <= 2})."""
     import roa
-    from roa.proof.validate import _frame, _to_x, _vdot, find_eps
+    from roa.proof.cover import prove_cover
+    from roa.proof.local import local_box
+    from roa.proof.whiten import Whitened, whitened_system, whitening_for
 
     system = _systems()[name]()
     V = roa.default_lyapunov(system)
     n = V.n
     A = _exact_jacobian(system)
-    fr = _frame(V, 1.0)
-    M = [[Fraction(float(fr.M[i, j])) for j in range(n)] for i in range(n)]
+    Mf = whitening_for(V)
+    assert Mf is not None  # the loop runs whitened for these V
+    W = Whitened(V, system, Mf)
+    Sw = whitened_system(system, W)
+    M = [[Fraction(float(Mf[i, j])) for j in range(n)] for i in range(n)]
     P = [[Fraction(float(V.P[i, j])) for j in range(n)] for i in range(n)]
 
     def mat(X, Y):
@@ -429,16 +436,12 @@ def test_hessian_of_vdot_at_the_equilibrium_is_enclosed_exactly(name):
     S = [[2 * (PA[i][j] + PA[j][i]) for j in range(n)] for i in range(n)]
     H = mat(T(M), mat(S, M))
     zero = np.zeros((1, n))
-    eps = find_eps(system, V, 2.0)
-    assert eps is not None
-    r = np.full((1, n), _frame(V, eps).radius)
-    for lo, hi in ((zero, zero), (-r, r)):
-        vd = _vdot(
-            system,
-            V,
-            _to_x(V, fr if lo is zero else _frame(V, eps), Jet.variables(lo, hi, order=2)),
-            JET,
-        )
+    box, _, _ = prove_cover(W, 2.0, None)
+    assert box is not None
+    found = local_box(Sw, W, *box)
+    assert found is not None and found[2]["local_proof"] == "hessian"
+    for lo, hi in ((zero, zero), (found[0][None, :], found[1][None, :])):
+        vd = W.vdot_expr(Sw, Jet.variables(lo, hi, order=2), JET)
         for i in range(n):
             for j in range(i, n):
                 assert _encloses(vd.h[i][j], H[i][j]), (name, i, j, vd.h[i][j], float(H[i][j]))

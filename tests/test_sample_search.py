@@ -145,9 +145,9 @@ def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
     assert cert.above is not None and cert.above.status.value == "refuted"
     assert cert.above.level == pytest.approx(1.001 * cert.candidate, rel=1e-12)
     # the refutation's witness: V <= its level and V' >= 0, re-checked here at 50 digits
-    from roa.proof.validate_general import recheck_general
+    from roa.proof.witness import recheck_witness
 
     w = np.asarray(cert.above.witness)
-    assert recheck_general(vdp, cert.V, w, cert.above.level)["confirmed"]
+    assert recheck_witness(vdp, cert.V, w, cert.above.level)["confirmed"]
     with pytest.raises(RoaInputError, match="retries"):
         roa.certify(vdp, roa.CuttingPlanes(FAST), retries=-1)

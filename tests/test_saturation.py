@@ -12,9 +12,8 @@ from hypothesis import strategies as st
 
 from ipc_paper import system as ipc
 from roa.backend import FUNCTIONS, PIECEWISE, namespace
-from roa.proof.interval import INTERVAL, Interval, iabs, iclip, imaximum, iminimum
+from roa.proof.interval import INTERVAL, Interval, box_offsets, iabs, iclip, imaximum, iminimum
 from roa.proof.jet import JET, Jet
-from roa.proof.validate import box_offsets
 
 finite = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)
 
@@ -216,7 +215,7 @@ def test_clip_derivative_is_zero_one_or_the_hull():
 def test_kink_box_fails_the_hessian_test():
     """A box across the saturation gives an interval Hessian with infinite entries: the
     negative-definiteness test (local proof) refuses it instead of trusting a kinked V'."""
-    from roa.proof.validate import hessian_negative_definite
+    from roa.proof.local import hessian_negative_definite
 
     x, y = Jet.variables(np.array([[0.5, -0.1]]), np.array([[1.5, 0.1]]), order=2)
     vd = -(x * x) - y * y + JET.clip(x + y, -1.0, 1.0) * x * 0.1  # x + y crosses 1

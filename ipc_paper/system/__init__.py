@@ -105,7 +105,7 @@ def control_force(
 
 def _saturate(u: Any, limit: float, xp: Any) -> Any:
     """``xp.clip(u, -limit, limit)``; Python's min/max for a namespace of scalars without ``clip``
-    (e.g. the mpmath namespace of roa.proof.validate's 50-digit re-checks)."""
+    (e.g. the mpmath namespace of roa.proof.witness's 50-digit re-checks)."""
     clip = getattr(xp, "clip", None)
     return clip(u, -limit, limit) if clip is not None else min(max(u, -limit), limit)
 

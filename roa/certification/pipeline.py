@@ -46,7 +46,7 @@ from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
-from roa.proof.validate import Validation
+from roa.proof.validation import Validation
 from roa.status import Verdict
 from roa.system import System
 
@@ -97,7 +97,7 @@ def certify(
     check_above : float, optional
         Also refute ``check_above`` x the optimum (> 1, e.g. 1.001); its verdict is ``.above``.
     bounding_box : array, optional
-        Non-quadratic ``V``: a box holding the level set (see :func:`roa.proof.validate.validate_level`).
+        A box holding the level set, any ``V`` (see :func:`roa.proof.validate.validate_level`).
     degree : {2, 4, 6, 8}, optional
         Shorthand for ``V=roa.VsIteration(degree, vs)`` (``vs.method="sampled"``:
         ``roa.CuttingPlanes``), seeded by ``V`` (quadratic).

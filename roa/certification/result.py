@@ -20,7 +20,7 @@ from roa.levelset import LevelSearchResult
 from roa.lyapunov import Lyapunov, certificate_fields
 from roa.options import IntervalOptions
 from roa.progress import step
-from roa.proof.validate import Validation
+from roa.proof.validation import Validation
 from roa.search.sos import SOSResult
 from roa.status import Verdict
 from roa.system import System

@@ -25,7 +25,8 @@ from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov
 from roa.options import IntervalOptions, SampledOptions, SampleSearchOptions, SosOptions, VsOptions
 from roa.progress import step
-from roa.proof.validate import Validation, validate_level
+from roa.proof.validate import validate_level
+from roa.proof.validation import Validation
 from roa.status import LevelStatus, SosStatus
 from roa.system import System
 
@@ -48,8 +49,8 @@ class Validator(Protocol):
 class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
-    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (a
-    non-quadratic V only) is a box holding the level set, proved by ``V > level`` on its faces.
+    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
+    V) is a box holding the level set, proved by ``V > level`` on its faces.
     """
 
     options: IntervalOptions = field(default_factory=IntervalOptions)

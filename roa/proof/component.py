@@ -1,7 +1,7 @@
 """The certified part of ``{V <= level}`` for a non-quadratic V, for terminal sets.
 
 For a quadratic V the level set is an ellipsoid and all of it is certified. For any other V the
-interval validation (:func:`roa.proof.validate_general.validate_general`) proves ``V' < 0`` on
+interval validation (:func:`roa.proof.validate.validate_level`) proves ``V' < 0`` on
 ``{V <= level} ∩ B`` for a box ``B`` of its frame ``y`` (``x = c + M y``, ``M`` the whitening in
 the certificate, else the identity) with ``V > level`` on the faces of ``B``, so ``B`` holds the
 connected component ``C0`` of ``{V <= level}`` that contains the equilibrium ``c``. The box ``B``
@@ -10,7 +10,7 @@ box of points *proved* to lie in ``C0`` lies in ``B``, and ``{V <= level}`` insi
 certified (other components of ``{V <= level}``, which no certificate covers, are left out).
 
 :func:`component_box` finds those points along rays from ``c`` (first exit of the level set,
-then :func:`roa.proof.validate_general.connected_to_center`: interval enclosures prove the segment
+then :func:`roa.proof.cover.connected_to_center`: interval enclosures prove the segment
 from ``c`` lies in the set) and returns their bounding box in ``y``, shrunk by a relative
 ``1e-9`` against rounding in ``y = M^-1 (x - c)``.
 """
@@ -60,7 +60,7 @@ def component_box(
     Per side of the box: exits along ``n_dirs`` random directions, the axes and the extreme
     directions of V's quadratic part, the best refined by random perturbations; the most extreme
     exit point proved connected to ``c`` (of the ``tries`` best) gives the side (0 if none)."""
-    from roa.proof.validate_general import connected_to_center
+    from roa.proof.cover import connected_to_center
 
     n = V.n
     M = np.eye(n) if M is None else np.asarray(M, dtype=float)

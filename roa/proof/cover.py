@@ -15,6 +15,9 @@ A box ``B`` *covers* ``{V <= level}`` in one of two ways:
   branch and bound with the mean-value form), so the connected component of ``{V <= level}``
   holding the equilibrium lies inside ``B``. The box is either given or found along rays
   (:func:`ray_box`).
+
+:func:`prove_cover` tries them in that order (the validation's and the containment's cover);
+:func:`connected_to_center` proves a point to lie in the equilibrium's component of the set.
 """
 
 from __future__ import annotations
@@ -25,9 +28,10 @@ from typing import Any
 
 import numpy as np
 
+from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 from roa.proof.exact import exact_positive_definite
-from roa.proof.interval import INTERVAL, Interval, _up
+from roa.proof.interval import INTERVAL, Interval, round_up
 
 
 def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]] | None:
@@ -74,11 +78,11 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
             break
     else:
         return None
-    half = float(_up(np.sqrt(float(Fraction(level) / lam)), 4))
+    half = float(round_up(np.sqrt(float(Fraction(level) / lam)), 4))
     return np.full(n, half), {"cover": "global (Gram lower bound)", "lambda": float(lam)}
 
 
-def _interval_V(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
+def interval_value(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
     """Enclosure of V on boxes: natural extension intersected with the mean-value form."""
     n = lyap.n
     X = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
@@ -110,7 +114,7 @@ def prove_boundary(
             boxes += len(flo)
             if boxes > budget:
                 return False, boxes
-            V = _interval_V(lyap, flo, fhi)
+            V = interval_value(lyap, flo, fhi)
             und = ~(V.lo > level)
             flo, fhi = flo[und], fhi[und]
             if not len(flo):
@@ -164,3 +168,70 @@ def ray_exits(
             b = ~(value(c + mid[:, None] * U) <= level)
         hi, lo = np.where(b, mid, hi), np.where(b, lo, mid)
     return lo, hi, above.any(axis=1)
+
+
+def prove_cover(
+    lyap: Lyapunov, level: float, bounding_box: Any, budget: int = 400_000
+) -> tuple[Any, dict[str, Any], str]:
+    """(lo, hi) of a proved cover, its description, or (None, info, why not); ``budget``: boxes
+    of the face proofs (:func:`roa.proof.cover.prove_boundary`) over all the boxes tried."""
+    c = lyap.center
+    found = gram_cover(lyap, level)
+    if found is not None:
+        return (c - found[0], c + found[0]), found[1], ""
+    if bounding_box is not None:
+        b = np.asarray(bounding_box, dtype=float)
+        if b.shape == (lyap.n,):
+            lo, hi = c - b, c + b
+        elif b.shape == (2, lyap.n):
+            lo, hi = b[0], b[1]
+        else:
+            raise RoaInputError(
+                f"bounding_box must be {lyap.n} half-widths or a (lo, hi) pair of {lyap.n}-vectors"
+            )
+        if not (np.all(np.isfinite(b)) and np.all(lo < c) and np.all(c < hi)):
+            raise RoaInputError("bounding_box must be finite and hold the equilibrium inside")
+        ok, nb = prove_boundary(lyap, lo, hi, level, budget=budget)
+        info = {"cover": "given box, V > level on its faces (component of x_eq)", "cover_boxes": nb}
+        return ((lo, hi), info, "") if ok else (None, info, "V > level not proved on its faces")
+    w = ray_box(lyap, level)
+    if w is None:
+        return None, {}, "V stays below the level along some ray: the sublevel set is unbounded"
+    total = 0
+    for k in range(6):
+        half = w * 1.05 * 1.3**k + 1e-12 * (1 + np.abs(c))
+        ok, nb = prove_boundary(lyap, c - half, c + half, level, budget=budget - total)
+        total += nb
+        if ok:
+            info = {"cover": "box from rays, V > level on its faces (component of x_eq)",
+                    "cover_boxes": total}  # fmt: skip
+            return (c - half, c + half), info, ""
+        if total >= budget:
+            break
+    return None, {"cover_boxes": total}, (f"V > level could not be proved on the faces of a box "
+                                          f"({total} boxes, budget {budget})")  # fmt: skip
+
+
+def connected_to_center(lyap: Lyapunov, w: np.ndarray, level: float, *, rounds: int = 40) -> bool:
+    """Prove that the segment from the equilibrium to ``w`` lies in ``{V <= level}`` (so ``w`` is
+    in the connected component of the equilibrium): interval enclosures of V on boxes covering
+    pieces of the segment, pieces split until proved (False if not proved)."""
+    c = np.asarray(lyap.center, dtype=float)
+    w = np.asarray(w, dtype=float)
+    t = np.linspace(0.0, 1.0, 65)
+    t0, t1 = t[:-1], t[1:]
+    for _ in range(rounds):
+        a = c + t0[:, None] * (w - c)
+        b = c + t1[:, None] * (w - c)
+        V = interval_value(lyap, np.minimum(a, b), np.maximum(a, b))
+        if np.any(V.lo > level):
+            return False  # the segment leaves the set: no proof along it
+        todo = ~(V.hi <= level)
+        if not todo.any():
+            return True
+        mid = 0.5 * (t0[todo] + t1[todo])
+        t0 = np.concatenate([t0[todo], mid])
+        t1 = np.concatenate([mid, t1[todo]])
+        if len(t0) > 100_000:
+            return False
+    return False

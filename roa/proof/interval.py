@@ -1,7 +1,7 @@
 """Vectorised interval arithmetic with outward rounding, an interval namespace, and Taylor jets.
 
 :class:`Interval` holds arrays ``lo <= hi`` (one interval per box, evaluated for many boxes at
-once). Every arithmetic result is rounded outward (:func:`_down`, :func:`_up`: ``r -+ (|r| (u + 1)
+once). Every arithmetic result is rounded outward (:func:`round_down`, :func:`round_up`: ``r -+ (|r| (u + 1)
 2^-52 + (u + 1) 2^-1022)`` for a result ``r`` within ``u`` ulps of the exact value, one rounded
 operation in round-to-nearest; ``u = 1`` covers the correctly rounded IEEE ``+ - * / sqrt``).
 Library functions that are not correctly rounded (exp, log, sin, arctan, pow, ...) are assumed
@@ -36,14 +36,14 @@ _TINY = 2.0**-1022  # smallest normal number
 
 
 def _widening(x: np.ndarray, ulps: float) -> np.ndarray:
-    """``|x| (ulps + 1) 2^-52 + (ulps + 1) 2^-1022`` as a fresh float array (see :func:`_down`)."""
+    """``|x| (ulps + 1) 2^-52 + (ulps + 1) 2^-1022`` as a fresh float array (see :func:`round_down`)."""
     d = np.abs(x, out=np.empty(np.shape(x)))
     d *= (ulps + 1) * _EPS
     d += (ulps + 1) * _TINY
     return d
 
 
-def _down(x: Any, ulps: float = 1) -> np.ndarray:
+def round_down(x: Any, ulps: float = 1) -> np.ndarray:
     """A float ``<=`` every real number within ``ulps`` ulps of ``x`` (a rounded result).
 
     ``x - (|x| (u + 1) 2^-52 + (u + 1) 2^-1022)`` computed in round-to-nearest: the ``+1`` absorbs
@@ -60,8 +60,8 @@ def _down(x: Any, ulps: float = 1) -> np.ndarray:
         return np.asarray(x - d)
 
 
-def _up(x: Any, ulps: float = 1) -> np.ndarray:
-    """A float ``>=`` every real number within ``ulps`` ulps of ``x`` (mirror of :func:`_down`)."""
+def round_up(x: Any, ulps: float = 1) -> np.ndarray:
+    """A float ``>=`` every real number within ``ulps`` ulps of ``x`` (mirror of :func:`round_down`)."""
     x = np.asarray(x, dtype=float)
     d = _widening(x, ulps)
     with np.errstate(invalid="ignore"):
@@ -70,7 +70,7 @@ def _up(x: Any, ulps: float = 1) -> np.ndarray:
         return np.asarray(x + d)
 
 
-def _enclose_constant(c: Any) -> Interval:
+def enclose_constant(c: Any) -> Interval:
     """The point interval of a constant, widened when the constant is not exactly a double.
 
     Python and numpy floats are doubles (taken exactly); integers beyond 2^53, Fractions, long
@@ -90,7 +90,7 @@ def _enclose_constant(c: Any) -> Interval:
             )
         if Fraction(f) == q:
             return Interval(f)
-        return Interval(_down(f), _up(f))  # round-to-nearest: half an ulp away at most
+        return Interval(round_down(f), round_up(f))  # round-to-nearest: half an ulp away at most
     a = np.asarray(c)
     if a.dtype == np.float64:
         return Interval(a)
@@ -99,7 +99,7 @@ def _enclose_constant(c: Any) -> Interval:
         a.dtype.kind in "biu" and np.all(np.abs(fa) <= 2.0**53)
     ):
         return Interval(fa)  # exactly representable in a double
-    return Interval(_down(fa), _up(fa))
+    return Interval(round_down(fa), round_up(fa))
 
 
 class Interval:
@@ -138,7 +138,7 @@ class Interval:
             return x
         if type(x) is float:
             return Interval(x)
-        return _enclose_constant(x)
+        return enclose_constant(x)
 
     @property
     def mid(self) -> np.ndarray:
@@ -166,7 +166,7 @@ class Interval:
         if type(other) is float and other == 0.0:
             return self  # exact
         o = Interval.of(other)
-        return Interval(_down(self.lo + o.lo), _up(self.hi + o.hi))
+        return Interval(round_down(self.lo + o.lo), round_up(self.hi + o.hi))
 
     __radd__ = __add__
 
@@ -174,7 +174,7 @@ class Interval:
         if type(other) is float and other == 0.0:
             return self
         o = Interval.of(other)
-        return Interval(_down(self.lo - o.hi), _up(self.hi - o.lo))
+        return Interval(round_down(self.lo - o.hi), round_up(self.hi - o.lo))
 
     def __rsub__(self, other: Any) -> Interval:
         return Interval.of(other) - self
@@ -182,8 +182,8 @@ class Interval:
     def square(self) -> Interval:
         """``x^2`` as one operation: never negative, 0 included when the interval straddles 0."""
         a, b = self.lo * self.lo, self.hi * self.hi
-        hi = _up(np.maximum(a, b))
-        lo = np.where((self.lo <= 0) & (self.hi >= 0), 0.0, _down(np.minimum(a, b)))
+        hi = round_up(np.maximum(a, b))
+        lo = np.where((self.lo <= 0) & (self.hi >= 0), 0.0, round_down(np.minimum(a, b)))
         return Interval(np.maximum(lo, 0.0), hi)
 
     def __mul__(self, other: Any) -> Interval:
@@ -202,7 +202,7 @@ class Interval:
         with np.errstate(invalid="ignore"):
             p = np.stack([self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi])
         p = np.where(np.isnan(p), 0.0, p)  # 0 * inf: the product's factor is exactly 0
-        return Interval(_down(p.min(axis=0)), _up(p.max(axis=0)))
+        return Interval(round_down(p.min(axis=0)), round_up(p.max(axis=0)))
 
     __rmul__ = __mul__
 
@@ -220,14 +220,14 @@ class Interval:
             else:
                 lo = self.hi * a if a == b else np.minimum(self.hi * a, self.hi * b)
                 hi = self.lo * a if a == b else np.maximum(self.lo * a, self.lo * b)
-        return Interval(_down(lo), _up(hi))
+        return Interval(round_down(lo), round_up(hi))
 
     def reciprocal(self) -> Interval:
         """``1 / x``; the whole line where the interval contains 0."""
         zero = (self.lo <= 0) & (self.hi >= 0)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            lo = np.where(zero, -_INF, _down(1.0 / self.hi))
-            hi = np.where(zero, _INF, _up(1.0 / self.lo))
+            lo = np.where(zero, -_INF, round_down(1.0 / self.hi))
+            hi = np.where(zero, _INF, round_up(1.0 / self.lo))
         return Interval(lo, hi)
 
     def __truediv__(self, other: Any) -> Interval:
@@ -256,15 +256,15 @@ class Interval:
             with np.errstate(over="ignore"):
                 lo, hi = self.lo**k, self.hi**k
             # intersected with the (libm pow) endpoint values; NaN bounds stay open
-            lo = np.fmax(out.lo, _down(lo, LIBM_ULPS))
-            hi = np.fmin(out.hi, _up(hi, LIBM_ULPS))
+            lo = np.fmax(out.lo, round_down(lo, LIBM_ULPS))
+            hi = np.fmin(out.hi, round_up(hi, LIBM_ULPS))
             return Interval(lo, hi)
         p = float(p)
         base_lo, base_hi = np.maximum(self.lo, 0.0), np.maximum(self.hi, 0.0)  # domain x >= 0
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             a, b = base_lo**p, base_hi**p
         lo, hi = (a, b) if p > 0 else (b, a)
-        lo, hi = _down(lo, LIBM_ULPS), _up(hi, LIBM_ULPS)
+        lo, hi = round_down(lo, LIBM_ULPS), round_up(hi, LIBM_ULPS)
         lo = np.where(self.lo < 0, -_INF, lo)  # partly outside the domain: no information
         hi = np.where(self.hi < 0, _INF, hi)  # wholly outside: the whole line, as for NaN
         return Interval(lo, hi)
@@ -275,14 +275,14 @@ def _monotone(fn: Any, x: Any, *, increasing: bool = True) -> Interval:
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         a, b = fn(x.lo), fn(x.hi)
     lo, hi = (a, b) if increasing else (b, a)
-    return Interval(_down(lo, LIBM_ULPS), _up(hi, LIBM_ULPS))
+    return Interval(round_down(lo, LIBM_ULPS), round_up(hi, LIBM_ULPS))
 
 
 def isqrt(x: Any) -> Interval:
     """Enclosure of ``sqrt(x)``; the lower bound is ``-inf`` where ``x`` reaches below 0."""
     x = Interval.of(x)
-    lo = _down(np.sqrt(np.maximum(x.lo, 0.0)))
-    hi = _up(np.sqrt(np.maximum(x.hi, 0.0)))
+    lo = round_down(np.sqrt(np.maximum(x.lo, 0.0)))
+    hi = round_up(np.sqrt(np.maximum(x.hi, 0.0)))
     return Interval(np.where(x.lo < 0, -_INF, np.maximum(lo, 0.0)), hi)
 
 
@@ -329,8 +329,8 @@ def _periodic(fn: Any, x: Any, peak: float) -> Interval:
             (x.lo - trough) / two_pi - tol
         )
     has_max, has_min = has_max | far, has_min | far
-    hi = np.where(has_max, 1.0, np.fmin(_up(hi, LIBM_ULPS), 1.0))
-    lo = np.where(has_min, -1.0, np.fmax(_down(lo, LIBM_ULPS), -1.0))
+    hi = np.where(has_max, 1.0, np.fmin(round_up(hi, LIBM_ULPS), 1.0))
+    lo = np.where(has_min, -1.0, np.fmax(round_down(lo, LIBM_ULPS), -1.0))
     return Interval(lo, hi)
 
 
@@ -357,8 +357,8 @@ def itan(x: Any) -> Interval:
     pole = (c.lo <= 0) & (c.hi >= 0)
     with np.errstate(invalid="ignore"):
         a, b = np.tan(x.lo), np.tan(x.hi)
-    lo = np.where(pole, -_INF, _down(a, LIBM_ULPS))
-    hi = np.where(pole, _INF, _up(b, LIBM_ULPS))
+    lo = np.where(pole, -_INF, round_down(a, LIBM_ULPS))
+    hi = np.where(pole, _INF, round_up(b, LIBM_ULPS))
     return Interval(lo, hi)
 
 
@@ -407,3 +407,23 @@ INTERVAL = SimpleNamespace(
     clip=iclip,
 )
 """Interval namespace: ``system.field(t, x, INTERVAL)`` encloses the field over boxes."""
+
+
+def box_offsets(lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> list[Interval]:
+    """Intervals enclosing ``x - mid`` for ``x`` in the boxes ``[lo, hi]``, one per coordinate.
+
+    ``lo - mid`` and ``hi - mid`` are rounded outward (at least one ulp), so the centred and
+    Taylor forms built on them are strict enclosures even when rounding to nearest would move
+    them inward. (Their coefficients, the jet gradients and Hessians, are enclosures too.)
+
+    Parameters
+    ----------
+    lo, hi : numpy.ndarray
+        Box corners, shape ``(m, n)``.
+    mid : numpy.ndarray
+        Expansion points (any floats inside the boxes), shape ``(m, n)``.
+    """
+    return [
+        Interval(round_down(lo[:, i] - mid[:, i]), round_up(hi[:, i] - mid[:, i]))
+        for i in range(lo.shape[1])
+    ]

@@ -21,9 +21,7 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.proof.interval import (  # noqa: F401
     Interval,
-    _down,
-    _enclose_constant,
-    _up,
+    enclose_constant,
     iabs,
     iarcsinh,
     iarctan,
@@ -37,6 +35,8 @@ from roa.proof.interval import (  # noqa: F401
     isin,
     isqrt,
     itan,
+    round_down,
+    round_up,
 )
 
 
@@ -51,7 +51,7 @@ def _coef(c: Any) -> Any:
         return c
     if isinstance(c, np.float64 | np.float32 | np.float16):
         return float(c)
-    iv = _enclose_constant(c)
+    iv = enclose_constant(c)
     if iv.lo.ndim == 0 and iv.lo == iv.hi:
         return float(iv.lo)
     return iv
@@ -65,7 +65,7 @@ def _fmul(a: float, b: float) -> Any:
     return Interval(a) * b
 
 
-def _fadd(a: float, b: float) -> Any:
+def add_exact(a: float, b: float) -> Any:
     """``a + b`` of two exact float coefficients: the float if exact (TwoSum), else an enclosure."""
     s = a + b
     if math.isfinite(s):
@@ -103,7 +103,7 @@ def _a(a: Any, b: Any) -> Any:
         if a == 0.0:
             return b
         if type(b) is float:
-            return a if b == 0.0 else _fadd(a, b)
+            return a if b == 0.0 else add_exact(a, b)
         return b + a
     if type(b) is float and b == 0.0:
         return a
@@ -130,7 +130,7 @@ def _real_power(v: Interval, e: Fraction) -> Interval:
     f = float(e)
     if Fraction(f) == e:
         return v**f
-    a, b = v ** float(_down(f)), v ** float(_up(f))
+    a, b = v ** float(round_down(f)), v ** float(round_up(f))
     return Interval(np.minimum(a.lo, b.lo), np.maximum(a.hi, b.hi))
 
 
@@ -200,8 +200,8 @@ class Jet:
             return out
         with np.errstate(invalid="ignore", over="ignore"):
             mid = np.clip(0.5 * lo + 0.5 * hi, lo, hi)
-            d = [Interval(np.fmin(_down(lo[..., i] - mid[..., i]), 0.0),
-                          np.fmax(_up(hi[..., i] - mid[..., i]), 0.0)) for i in range(n)]  # fmt: skip
+            d = [Interval(np.fmin(round_down(lo[..., i] - mid[..., i]), 0.0),
+                          np.fmax(round_up(hi[..., i] - mid[..., i]), 0.0)) for i in range(n)]  # fmt: skip
         out = []
         for i in range(n):
             g = [1.0 if j == i else 0.0 for j in range(n)]

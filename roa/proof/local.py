@@ -1,21 +1,30 @@
-"""Local negativity of V' at a degenerate equilibrium, from its lowest-order homogeneous part.
+"""Proofs that ``V' < 0`` near the equilibrium (minus the point itself), for any candidate.
 
-When the linearisation is degenerate (e.g. a zero Jacobian), the Hessian of V' at the equilibrium is
-not negative definite and the second-order proof of :func:`roa.proof.validate.local_proof` fails.
-For a field whose V' is a polynomial in ``d = x - x_eq``, write ``V'(d) = h_m(d) + R(d)`` with
-``h_m`` homogeneous of the lowest (even) degree ``m`` and ``R`` the terms of degree > m. Then, with
-``|d| = max_i |d_i|``:
+The validation (:func:`roa.proof.validate.validate_level`) discards the boxes inside a box ``L``
+around the equilibrium ``x_eq`` proved here (:func:`local_box`), by one of two arguments:
 
-* ``h_m(d) = |d|^m h_m(d / |d|) <= -mu |d|^m`` where ``-mu`` bounds ``h_m`` on the faces of the cube
-  ``[-1, 1]^n`` (interval branch and bound, outward rounding);
-* ``|R(d)| <= |d|^(m+1) K`` for ``|d| <= rho0 <= 1`` with ``K = sum |r_a| rho0^(|a| - m - 1)``
-  (exact rationals);
+1. **Hessian** (:func:`local_box_proof`): with ``f(x_eq) = 0`` exactly
+   (:func:`roa.proof.exact.exact_equilibrium`) and ``grad V(x_eq) = 0`` (:func:`gradient_vanishes`),
+   ``V'(x_eq) = 0`` and ``grad V'(x_eq) = 0``, so by Taylor with integral remainder
+   ``V'(x) = d' H~ d`` on ``L`` with ``d = x - x_eq`` and ``H~`` in the convex hull of the Hessians
+   of ``V'`` on ``L``. Their enclosure ``[H]`` comes from second-order interval jets; every matrix in
+   it is negative definite (:func:`hessian_negative_definite`: ``-H_mid - t I`` positive definite
+   with ``t >= ||rad H||_F``, exact rationals), so ``V' < 0`` on ``L \\ {x_eq}``. ``L`` is the
+   largest ``x_eq + 2^-k (B - x_eq)`` of the cover ``B`` that passes.
+2. **Lowest-order homogeneous part** (:func:`higher_order_cube`), when the linearisation is
+   degenerate (e.g. a zero Jacobian) and the Hessian of ``V'`` at the equilibrium is not negative
+   definite. For a field whose V' is a polynomial in ``d = x - x_eq``, write
+   ``V'(d) = h_m(d) + R(d)`` with ``h_m`` homogeneous of the lowest (even) degree ``m`` and ``R``
+   the terms of degree > m. Then, with ``|d| = max_i |d_i|``:
 
-so ``V' < 0`` for ``0 < |d| < min(rho0, mu / K)``, and ``{V <= eps}`` lies in that cube when
-``eps <= rho^2 / max_i (P^-1)_ii`` (exact rationals). Coefficients are the exact rationals of the
-float data (sympy), so the argument is a proof, not an estimate. For a non-quadratic candidate
-(:func:`higher_order_cube`) ``V' = grad V . f`` is formed from the exact sympy gradient and the
-cube itself is returned (the validation then discards the boxes inside it).
+   * ``h_m(d) = |d|^m h_m(d / |d|) <= -mu |d|^m`` where ``-mu`` bounds ``h_m`` on the faces of the
+     cube ``[-1, 1]^n`` (interval branch and bound, outward rounding);
+   * ``|R(d)| <= |d|^(m+1) K`` for ``|d| <= rho0 <= 1`` with ``K = sum |r_a| rho0^(|a| - m - 1)``
+     (exact rationals);
+
+   so ``V' < 0`` for ``0 < |d| < min(rho0, mu / K)``: that cube is ``L``. ``V' = grad V . f`` is
+   formed from the exact sympy gradient (``2 P d`` for a quadratic V) and the coefficients are the
+   exact rationals of the float data (sympy), so the argument is a proof, not an estimate.
 """
 
 from __future__ import annotations
@@ -26,9 +35,78 @@ from typing import Any
 
 import numpy as np
 
-from roa.lyapunov import Lyapunov, QuadraticLyapunov
+from roa.errors import RoaInputError
+from roa.lyapunov import Lyapunov
+from roa.proof.exact import exact_equilibrium, interval_negative_definite
 from roa.proof.interval import Interval
+from roa.proof.jet import JET, Jet
 from roa.system import System
+
+
+def hessian_negative_definite(vd: Jet, n: int) -> bool:
+    """Every matrix in the interval Hessian of the second-order jet ``vd`` (one box) is negative
+    definite (exact rationals)."""
+    h = vd.h
+    assert h is not None, "a second-order jet is needed"
+
+    def bound(e: Any, side: str) -> float:
+        return float(np.atleast_1d(getattr(Interval.of(e), side))[0])
+
+    H_lo = np.array([[bound(h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
+    H_hi = np.array([[bound(h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
+    return interval_negative_definite(H_lo, H_hi)
+
+
+def gradient_vanishes(lyap: Lyapunov) -> bool:
+    """``grad V(x_eq) = 0`` exactly (sympy, the float centre and constants as exact rationals)."""
+    cached = getattr(lyap, "_gradient_vanishes", None)
+    if cached is not None:
+        return bool(cached)
+    import sympy as sp
+
+    from roa.backend import namespace
+    from roa.lyapunov import exact_rationals
+
+    if lyap.terms is not None:
+        ok = True  # every term has degree >= 2 in d = x - x_eq
+    else:
+        x = [sp.Rational(float(c)) for c in lyap.center]
+        try:
+            g = lyap.gradient_expr(x, namespace("sympy"))
+            ok = all(sp.simplify(exact_rationals(sp.sympify(gi))) == 0 for gi in g)
+        except (TypeError, ValueError, RoaInputError):
+            ok = False
+    try:
+        object.__setattr__(lyap, "_gradient_vanishes", ok)
+    except AttributeError:
+        pass
+    return ok
+
+
+def local_box_proof(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> bool:
+    """Prove ``V' < 0`` on the box ``[lo, hi]`` (holding ``x_eq``) minus the equilibrium."""
+    if not gradient_vanishes(lyap) or not exact_equilibrium(system, lyap.center):
+        return False
+    vd = lyap.vdot_expr(system, Jet.variables(lo[None, :], hi[None, :], order=2), JET)
+    return hessian_negative_definite(vd, lyap.n)
+
+
+def local_box(
+    system: System, lyap: Lyapunov, lo0: np.ndarray, hi0: np.ndarray
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
+    """``(lo, hi, info)``: a box around the equilibrium inside ``[lo0, hi0]`` (or the cube of the
+    lowest-order part, which may reach past it) on which ``V' < 0`` is proved minus the
+    equilibrium (module doc), or None. ``info`` names the proof (``local_proof``)."""
+    c = np.asarray(lyap.center, dtype=float)
+    for k in range(1, 41):
+        a, b = c + (lo0 - c) / 2.0**k, c + (hi0 - c) / 2.0**k
+        if local_box_proof(system, lyap, a, b):
+            return a, b, {"local_proof": "hessian", "local_scale": 2.0**-k}
+    found = higher_order_cube(system, lyap)
+    if found is None:
+        return None
+    rho, info = found
+    return c - rho, c + rho, {"local_proof": "lowest-order homogeneous part", **info}
 
 
 def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
@@ -140,26 +218,3 @@ def _cube(
     K = sum((abs(c) * r0 ** (sum(a) - m - 1) for a, c in high), Fraction(0))
     rho = r0 if K == 0 else min(r0, mu / (2 * K))
     return rho, {"degree": m, "mu": float(mu), "K": float(K), "cube_radius": float(rho)}
-
-
-def higher_order_eps(
-    system: System, lyap: QuadraticLyapunov, *, rho0: float = 0.5, budget: int = 20000
-) -> tuple[float, dict[str, Any]] | None:
-    """An ``eps > 0`` with ``V' < 0`` proved on ``{V <= eps}`` minus the equilibrium, or None.
-
-    Returns ``(eps, info)``; ``info`` records the degree ``m``, ``mu``, ``K`` and the cube radius.
-    """
-    found = _cube(system, lyap, rho0=rho0, budget=budget)
-    if found is None:
-        return None
-    rho, info = found
-    import sympy as sp
-
-    P = sp.Matrix(lyap.n, lyap.n, lambda i, j: sp.Rational(float(lyap.P[i, j])))
-    Pinv = P.inv()
-    diag = max(Fraction(int(v.p), int(v.q)) for v in (Pinv[i, i] for i in range(lyap.n)))
-    eps_exact = rho**2 / diag
-    eps = float(eps_exact)
-    if Fraction(eps) > eps_exact:  # round down
-        eps = float(np.nextafter(eps, 0.0))
-    return eps, info

@@ -19,11 +19,11 @@ from typing import Any
 import numpy as np
 
 from roa.errors import require
-from roa.proof.interval import INTERVAL, Interval, _down
-from roa.proof.jet import _fadd
+from roa.proof.interval import INTERVAL, Interval, round_down
+from roa.proof.jet import add_exact
 
 #: ``180 / pi`` rounded down with margin: the exact value is within one ulp of the float.
-_DEG_PER_RAD_LOWER = float(_down(180.0 / np.pi))
+_DEG_PER_RAD_LOWER = float(round_down(180.0 / np.pi))
 
 
 def quadratic_form(
@@ -42,7 +42,7 @@ def quadratic_form(
     )
     n = P.shape[0]
     pairs = {
-        (i, j): _fadd(float(P[i, j]), float(P[j, i])) for i in range(n) for j in range(i + 1, n)
+        (i, j): add_exact(float(P[i, j]), float(P[j, i])) for i in range(n) for j in range(i + 1, n)
     }
 
     def form(x: Sequence[Any], xp: Any) -> Any:
@@ -155,4 +155,4 @@ def degrees_lower(t: float) -> float:
     require(t >= 0 or t == -np.inf, f"t must be >= 0, got {t!r}")
     if not np.isfinite(t):
         return t
-    return float(_down(t * _DEG_PER_RAD_LOWER))
+    return float(round_down(t * _DEG_PER_RAD_LOWER))

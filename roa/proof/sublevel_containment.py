@@ -2,7 +2,7 @@
 
 Claim proved: the connected component holding the centre of ``{inner <= a}`` (all of it when a
 global cover is proved, see :mod:`roa.proof.cover`) lies in ``{outer <= b}``. Steps: a proved box
-cover of the inner set (the same as the validation's, :func:`roa.proof.validate_general._cover`),
+cover of the inner set (the same as the validation's, :func:`roa.proof.cover.prove_cover`),
 then boxes are discarded when the interval ``inner > a`` or ``outer <= b`` on them, and split
 otherwise. A box centre with ``inner <= a < outer > b`` in floats is reported as a counterexample
 (re-checked at 50 digits). Boxes are in whitened coordinates of ``inner`` when its Hessian at the
@@ -17,9 +17,10 @@ from typing import Any
 
 import numpy as np
 
+from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
-from roa.proof.cover import _interval_V
+from roa.proof.cover import interval_value, prove_cover
 from roa.proof.whiten import Whitened, whitening_for
 
 
@@ -29,9 +30,6 @@ def sublevel_contains(
     """Decide ``{inner <= a} subset {outer <= b}`` (module docstring); a dict with ``status``
     (``proved`` / ``refuted`` / ``inconclusive``), ``boxes``, ``seconds``, ``witness``."""
     import mpmath as mp
-
-    from roa.proof.validate import _mp_namespace
-    from roa.proof.validate_general import _cover
 
     t0 = time.perf_counter()
     if not np.allclose(inner.center, outer.center, rtol=0, atol=0):
@@ -46,7 +44,7 @@ def sublevel_contains(
         return {"status": status, "boxes": boxes, "seconds": round(time.perf_counter() - t0, 3),
                 "coordinates": "whitened" if M is not None else "x", **kw}  # fmt: skip
 
-    box, info, why = _cover(inner, a, None, budget=max_boxes)
+    box, info, why = prove_cover(inner, a, None, budget=max_boxes)
     if box is None:
         return out("inconclusive", info.get("cover_boxes", 0), message=f"no cover: {why}")
     lo, hi = box[0][None, :], box[1][None, :]
@@ -55,7 +53,7 @@ def sublevel_contains(
         boxes += len(lo)
         if boxes > max_boxes:
             return out("inconclusive", boxes, message=f"box budget {max_boxes} exhausted")
-        Vi, Vo = _interval_V(inner, lo, hi), _interval_V(outer, lo, hi)
+        Vi, Vo = interval_value(inner, lo, hi), interval_value(outer, lo, hi)
         und = ~((Vi.lo > a) | (Vo.hi <= b))
         lo, hi = lo[und], hi[und]
         if not len(lo):
@@ -65,7 +63,7 @@ def sublevel_contains(
         if bad.any():
             w = mid[np.argmax(bad)]
             x = w if M is None else inner.to_x(w)  # type: ignore[attr-defined]
-            ns = _mp_namespace()
+            ns = namespace("mpmath")
             with mp.workdps(50):
                 ys = [mp.mpf(float(v)) for v in w]
                 vi, vo = inner.expr(ys, ns), outer.expr(ys, ns)

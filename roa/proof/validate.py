@@ -1,331 +1,328 @@
-"""Rigorous validation of a level: V' < 0 on {V <= rho} minus the equilibrium, by interval B&B.
+"""Rigorous validation of a level: V' < 0 on {V <= level} minus the equilibrium, by interval B&B.
 
-Two proofs, both independent of any optimisation solver:
+One branch and bound for every candidate (quadratic, polynomial, any function ``V(x, xp)``),
+independent of any optimisation solver. The claim proved is ``V' < 0`` on ``Omega \\ {x_eq}``
+with ``Omega`` the sublevel set ``{V <= level}`` (all of it when a global cover is proved,
+:func:`roa.proof.cover.gram_cover`, e.g. for every quadratic V) or its connected component
+holding the equilibrium (a box with ``V > level`` on its faces,
+:func:`roa.proof.cover.prove_boundary`). ``Omega`` is then compact and positively invariant and
+every trajectory from it converges to ``x_eq`` (LaSalle). Steps, all in interval arithmetic with
+outward rounding:
 
-1. **Near the equilibrium** (:func:`local_proof`): on the bounding box ``B`` of ``{V <= eps}``,
-   ``V'(x) = d' H~ d`` with ``d = x - x_eq`` and ``H~`` in the convex hull of ``{H(xi)/2 : xi in B}``
-   (Taylor with integral remainder, since ``V'(x_eq) = 0`` and ``grad V'(x_eq) = 0``, both checked in
-   interval arithmetic). The interval Hessian ``[H]`` comes from second-order interval jets; every
-   matrix in it is negative definite if ``-H_mid - t I`` is positive definite with
-   ``t >= ||rad H||_F``, checked exactly in rational arithmetic. So ``V' < 0`` on ``B \\ {x_eq}``.
-2. **On the shell** ``{eps <= V <= rho}``: branch and bound over boxes. A box is discarded when its
-   interval ``V > rho``, or ``V < eps`` or the interval ``V' < 0`` (natural extension
-   intersected with the centred form ``V'(c) + [grad V'] (X - c)``) *and*, for a system with a
-   domain, the interval ``system.margin > 0`` on the box; else it is split along the coordinate
-   with the largest ``|grad| * width``. A point of ``{V <= rho}`` outside the domain (confirmed at
-   50 digits) ends the run ``inconclusive``: the level set reaches the domain boundary. Box
-   centres of undecided boxes, scaled radially to the level surface, are tried as
-   counterexamples; a witness is re-checked at 50 digits with mpmath.
+1. **Cover** (:func:`roa.proof.cover.prove_cover`): a box ``B`` around ``x_eq`` proved to hold
+   ``Omega``; the face proofs share the caller's ``max_boxes`` as their budget.
+2. **Near the equilibrium** (:func:`roa.proof.local.local_box`): the box
+   ``x_eq + 2^-k (B - x_eq)`` (largest ``k`` passing) on which the Hessian of ``V'``
+   (second-order jets of ``V' = grad V . f``) is negative definite (exact rational check), with
+   ``f(x_eq) = 0`` exactly and ``grad V(x_eq) = 0``; else the lowest-order homogeneous part of a
+   polynomial ``V'``.
+3. **Branch and bound** over ``B``. A box ``X`` is discarded when
 
-Verdicts are values (:class:`Validation` with a :class:`roa.status.Verdict`): ``certified`` (boxes, time), ``refuted`` (witness),
-``inconclusive`` (box budget exhausted, or the level set leaves the domain).
+   * the interval ``V > level`` (natural extension, centred form and second-order Taylor form
+     ``V(m) + grad V(m) . d + d' [H_V](X) d / 2`` intersected, ``d = x - m``, ``m`` the centre;
+     each holds by Taylor's theorem with ``[H_V](X)`` enclosing the Hessian on ``X``);
+   * it lies in the local box of step 2;
+   * it is inside the domain (the interval ``system.margin > 0``) and ``V' < 0`` on it (the same
+     three forms for ``V'``);
+   * it is inside the domain and, on a box reaching past the level surface, the **multiplier
+     test** holds: ``F = V' + lambda (level - V) < 0`` on ``X`` for a number ``lambda >= 0``
+     (the three forms of ``F``, whose jets are those of ``V'`` and ``V`` combined in interval
+     arithmetic). Then every ``x`` of ``X`` with ``V(x) <= level`` has
+     ``V'(x) <= V'(x) + lambda (level - V(x)) = F(x) < 0``, whatever ``lambda >= 0`` is; the
+     float ``lambda = max(0, grad V' . grad V / |grad V|^2)`` at ``m`` (the Lagrange multiplier of
+     ``max V'`` on the level surface, where the two gradients are parallel) only makes ``F`` flat
+     there. Near the point where ``V' = 0`` first touches a level surface, ``V'`` changes sign
+     just outside the set, so ``V' < 0`` on whole boxes needs boxes as thin as the margin to the
+     optimal level; ``F`` has a strict maximum there instead.
 
-A candidate that is not a :class:`~roa.lyapunov.QuadraticLyapunov` (a polynomial or any function
-``V(x, xp)``) is validated by :func:`roa.proof.validate_general.validate_general`: a proved box
-cover of the level set, the same Hessian (or lowest-order) proof near the equilibrium, the same
-branch and bound with interval jets of ``V' = grad V . f``.
+   Else the box is split along the coordinate with the largest ``|grad| * width`` (of ``F``
+   where it was tried).
+4. **Witnesses** (a search; every candidate re-checked at 50 digits with mpmath,
+   :mod:`roa.proof.witness`): undecided box centres inside the set, and at most
+   :data:`WITNESS_RAYS` of them moved onto the level surface along their ray from the
+   equilibrium. A point with ``V' >= 0`` refutes the level; a point of the set *outside the
+   domain* ends the run ``inconclusive`` (the level set reaches the domain boundary: no
+   certificate for this level). With a component cover, a point counts only once proved to lie
+   in the equilibrium's component (:func:`roa.proof.cover.connected_to_center`).
+
+**Coordinates.** When the Hessian of V at the equilibrium is definite and not diagonal, the
+branch and bound runs on boxes in ``y`` with ``x = x_eq + M y`` (:mod:`roa.proof.whiten`); a
+polynomial V (a quadratic one included) is then evaluated from exact expansions in ``y``.
+Witnesses are reported in ``x``.
+
+**Evaluation strategies for V.** A candidate whose exact terms are all of degree 2 in
+``d = x - x_eq`` (every quadratic V, whitened or not) is evaluated in closed form
+(:class:`QuadraticForm`: ``V = sum c_a d^a`` with the square of an interval tight, gradient
+``2 G d``, constant Hessian ``2 G``; no jets of V); any other V through second-order interval
+jets of its expression. Both are enclosures of the same function, so the test above is the
+same.
+
+Verdicts are values (:class:`Validation` with a :class:`roa.status.Verdict`): ``certified``
+(boxes, time), ``refuted`` (witness), ``inconclusive`` (box budget exhausted, no proved cover, no
+local proof, or the level set leaves the domain).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov import Lyapunov, QuadraticLyapunov
-from roa.proof.exact import exact_equilibrium, interval_negative_definite
-from roa.proof.interval import INTERVAL, Interval, _down, _up
+from roa.lyapunov import Lyapunov
+from roa.proof.cover import connected_to_center, prove_cover
+from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet
+from roa.proof.local import local_box
+from roa.proof.validation import Validation
+from roa.proof.whiten import Whitened, whitened_system, whitening_for
+from roa.proof.witness import recheck_domain_witness, recheck_witness
 from roa.status import Verdict
 from roa.system import System
 
 
-@dataclass(frozen=True)
-class Validation:
-    """Outcome of an interval validation of ``V' < 0`` on ``{V <= level} \\ {x_eq}``."""
-
-    status: Verdict
-    level: float
-    boxes: int
-    seconds: float
-    eps: float | None = None
-    witness: list[float] | None = None
-    witness_check: dict[str, Any] | None = None
-    message: str = ""
-    meta: dict[str, Any] = field(default_factory=dict)
-
-    def to_json(self) -> dict[str, Any]:
-        out = {
-            "status": self.status.value,
-            "level": self.level,
-            "method": "interval",
-            "boxes": self.boxes,
-            "seconds": round(self.seconds, 3),
-            "eps": self.eps,
-            "message": self.message,
-            **self.meta,
-        }
-        if self.witness is not None:
-            out["witness"] = self.witness
-            out["witness_check"] = self.witness_check
-        return out
-
-
-# -- evaluation of V and V' ---------------------------------------------------------------------------
-def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
-    """V' = 2 (x - c)' P f(x), written once for floats, intervals, jets and mpmath numbers."""
-    n = lyap.n
-    d = [x[i] - float(lyap.center[i]) for i in range(n)]
-    f = system.field(0.0, x, xp)
-    out = 0.0
-    for i in range(n):
-        pd = 0.0
-        for j in range(n):
-            if lyap.P[i, j] != 0.0:
-                pd = d[j] * float(lyap.P[i, j]) + pd
-        out = pd * f[i] + out
-    return out * 2.0
-
-
-def _mp_namespace() -> Any:
-    """The mpmath namespace of :mod:`roa.backend` (every function, saturation included)."""
-    from roa.backend import namespace
-
-    return namespace("mpmath")
-
-
-def recheck_witness(
-    system: System, lyap: Lyapunov, x: np.ndarray, level: float, *, digits: int = 50
-) -> dict[str, Any]:
-    """Evaluate ``V(x)`` and ``V'(x)`` at ``digits`` decimal digits (the float ``x`` taken exactly)."""
-    import mpmath as mp
-
-    quad = lyap.as_quadratic()
-    if quad is None:
-        from roa.proof.validate_general import recheck_general
-
-        return recheck_general(system, lyap, x, level, digits=digits)
-    lyap = quad
-
-    with mp.workdps(digits):
-        xs = [mp.mpf(float(v)) for v in x]
-        d = [xs[i] - mp.mpf(float(lyap.center[i])) for i in range(lyap.n)]
-        V = mp.fsum(
-            d[i] * mp.mpf(float(lyap.P[i, j])) * d[j] for i in range(lyap.n) for j in range(lyap.n)
-        )
-        Vd = _vdot(system, lyap, xs, _mp_namespace())
-        nonzero = any(v != 0 for v in d)
-        inside = system.margin is None or system.margin(xs, _mp_namespace()) > 0
-        return {
-            "digits": digits,
-            "V": mp.nstr(V, 20),
-            "Vdot": mp.nstr(Vd, 20),
-            "confirmed": bool(nonzero and inside and V <= mp.mpf(float(level)) and Vd >= 0),
-        }
-
-
-def recheck_domain_witness(
-    system: System, lyap: QuadraticLyapunov, x: np.ndarray, level: float, *, digits: int = 50
-) -> dict[str, Any]:
-    """Confirm at ``digits`` digits that ``x`` has ``V(x) <= level`` and ``margin(x) <= 0``."""
-    import mpmath as mp
-
-    if system.margin is None:
-        raise RoaInputError(f"system {system.name!r} has no domain margin")
-    with mp.workdps(digits):
-        xs = [mp.mpf(float(v)) for v in x]
-        d = [xs[i] - mp.mpf(float(lyap.center[i])) for i in range(lyap.n)]
-        V = mp.fsum(
-            d[i] * mp.mpf(float(lyap.P[i, j])) * d[j] for i in range(lyap.n) for j in range(lyap.n)
-        )
-        m = system.margin(xs, _mp_namespace())
-        return {
-            "digits": digits,
-            "V": mp.nstr(V, 20),
-            "margin": mp.nstr(m, 20),
-            "confirmed": bool(V <= mp.mpf(float(level)) and m <= 0),
-        }
-
-
-# -- proof near the equilibrium -------------------------------------------------------------------------
-def local_proof(system: System, lyap: QuadraticLyapunov, eps: float) -> bool:
-    """Prove ``V' < 0`` on ``{V <= eps}`` minus the equilibrium (see module doc).
-
-    Works in the whitening frame ``x = c + M y`` of :func:`_frame`: the cube ``|y_i| <= r`` covers
-    ``{V <= eps}``, and the Taylor argument is applied to ``V'(c + M y)`` as a function of ``y``.
-    """
-    n = lyap.n
-    if not exact_equilibrium(system, lyap.center):
-        return False
-    fr = _frame(lyap, eps)
-    r = np.full((1, n), fr.radius)
-    vd = _vdot(system, lyap, _to_x(lyap, fr, Jet.variables(-r, r, order=2)), JET)
-    return hessian_negative_definite(vd, n)
-
-
-def hessian_negative_definite(vd: Jet, n: int) -> bool:
-    """Every matrix in the interval Hessian of the second-order jet ``vd`` (one box) is negative
-    definite (exact rationals)."""
-    h = vd.h
-    assert h is not None, "a second-order jet is needed"
-
-    def bound(e: Any, side: str) -> float:
-        return float(np.atleast_1d(getattr(Interval.of(e), side))[0])
-
-    H_lo = np.array([[bound(h[min(i, j)][max(i, j)], "lo") for j in range(n)] for i in range(n)])
-    H_hi = np.array([[bound(h[min(i, j)][max(i, j)], "hi") for j in range(n)] for i in range(n)])
-    return interval_negative_definite(H_lo, H_hi)
-
-
-def find_eps(
-    system: System, lyap: QuadraticLyapunov, level: float, *, tries: int = 40
-) -> float | None:
-    """Largest ``eps = level / 2^k`` (k = 1..tries) with a successful :func:`local_proof`."""
-    for k in range(1, tries + 1):
-        eps = level / 2.0**k
-        if local_proof(system, lyap, eps):
-            return eps
-    return None
-
-
-# -- branch and bound ----------------------------------------------------------------------------------
-@dataclass(frozen=True)
-class _Frame:
-    """Whitening coordinates ``x = c + M y`` with ``V = y' G y``, ``G = M' P M ~ I`` enclosed."""
-
-    M: np.ndarray
-    G: list  # G[i][j] Interval scalars (rigorous enclosure of M' P M)
-    radius: float  # |y_i| <= radius covers {V <= level}
-
-
-def _frame(lyap: QuadraticLyapunov, level: float) -> _Frame:
-    L = np.linalg.cholesky(lyap.P)
-    M = np.linalg.inv(L.T)
-    n = lyap.n
-    PM = [
-        [sum((Interval(lyap.P[i, k]) * M[k, j] for k in range(n)), Interval(0.0)) for j in range(n)]
-        for i in range(n)
-    ]
-    G = [
-        [sum((PM[k][j] * M[k, i] for k in range(n)), Interval(0.0)) for j in range(n)]
-        for i in range(n)
-    ]
-    # Gershgorin: lambda_min(G) >= min_i (G_ii - sum_j |G_ij|) for every G in the enclosure.
-    lam = min(
-        float(G[i][i].lo)
-        - sum(float(max(abs(G[i][j].lo), abs(G[i][j].hi))) for j in range(n) if j != i)
-        for i in range(n)
-    )
-    if lam <= 0.5:
-        raise RoaInputError(
-            "whitening failed: P is too ill-conditioned for the interval validation"
-        )
-    return _Frame(M, G, float(np.sqrt(level / lam)) * (1 + 1e-9))
-
-
+# -- evaluation on boxes ---------------------------------------------------------------------------
 def _full(e: Any, m: int) -> Interval:
     return Interval(np.full(m, e)) if isinstance(e, float) else Interval.of(e)
 
 
-def _to_x(lyap: QuadraticLyapunov, fr: _Frame, y: list) -> list:
-    n = lyap.n
-    return [
-        sum((y[j] * float(fr.M[i, j]) for j in range(n) if fr.M[i, j] != 0.0), 0.0)
-        + float(lyap.center[i])
-        for i in range(n)
-    ]
+def _rows(e: Any, idx: np.ndarray) -> Any:
+    """The boxes ``idx`` of a jet coefficient (an exact float, or an Interval per box or scalar)."""
+    if type(e) is float:
+        return e
+    iv = Interval.of(e)
+    return iv if iv.lo.ndim == 0 else Interval(iv.lo[idx], iv.hi[idx])
 
 
-def box_offsets(lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> list[Interval]:
-    """Intervals enclosing ``x - mid`` for ``x`` in the boxes ``[lo, hi]``, one per coordinate.
-
-    ``lo - mid`` and ``hi - mid`` are rounded outward (at least one ulp), so the centred and
-    Taylor forms built on them are strict enclosures even when rounding to nearest would move
-    them inward. (Their coefficients, the jet gradients and Hessians, are enclosures too.)
-
-    Parameters
-    ----------
-    lo, hi : numpy.ndarray
-        Box corners, shape ``(m, n)``.
-    mid : numpy.ndarray
-        Expansion points (any floats inside the boxes), shape ``(m, n)``.
-    """
-    return [
-        Interval(_down(lo[:, i] - mid[:, i]), _up(hi[:, i] - mid[:, i])) for i in range(lo.shape[1])
-    ]
+def _forms(v_mid: Any, g_mid: list, g_box: list, h_box: list, delta: list, m: int):
+    """Centred form ``f(mid) + sum_i [g_i](box) d_i`` and second-order Taylor form
+    ``f(mid) + sum_i g_i(mid) d_i + 1/2 sum_ij [h_ij](box) d_i d_j`` (``d = x - mid``)."""
+    n = len(delta)
+    cen = tay = _full(v_mid, m)
+    for i in range(n):
+        cen = cen + _full(g_box[i], m) * delta[i]
+        tay = tay + _full(g_mid[i], m) * delta[i]
+        for j in range(i, n):
+            hij = _full(h_box[i][j], m)
+            tay = tay + (hij * 0.5 * delta[i].square() if j == i else hij * (delta[i] * delta[j]))
+    return cen, tay
 
 
-def _evaluate(system: System, lyap: QuadraticLyapunov, fr: _Frame, lo: np.ndarray, hi: np.ndarray):
-    """Interval V, interval V' (natural ∩ centred form), |grad V'| * width and the interval
-    domain margin (``None`` without a domain) on boxes in y."""
-    n = lyap.n
+def _meet(*ivs: Interval) -> Interval:
+    """The intersection of enclosures of the same values (one per box)."""
+    m = max(np.shape(iv.lo)[0] if np.ndim(iv.lo) else 1 for iv in ivs)
+    lo = np.maximum.reduce([np.broadcast_to(iv.lo, (m,)) for iv in ivs])
+    hi = np.minimum.reduce([np.broadcast_to(iv.hi, (m,)) for iv in ivs])
+    return Interval(lo, hi)
 
-    def to_x(y: list) -> list:
-        return _to_x(lyap, fr, y)
 
-    vd = _vdot(system, lyap, to_x(Jet.variables(lo, hi, order=2)), JET)
+def _midpoints(e: Any, m: int) -> np.ndarray:
+    if type(e) is float:
+        return np.full(m, e)
+    iv = Interval.of(e)
+    return np.broadcast_to(0.5 * iv.lo + 0.5 * iv.hi, (m,))
+
+
+@dataclass(frozen=True)
+class Enclosure:
+    """Value ``v``, gradient ``g`` and (upper triangle of the) Hessian ``h`` enclosed on boxes:
+    each a float (exact) or an Interval (per box or scalar), as in a :class:`~roa.proof.jet.Jet`."""
+
+    v: Any
+    g: list[Any]
+    h: list[list[Any]] | None = None
+
+
+class QuadraticForm:
+    """Closed-form evaluation of a V whose exact terms are all of degree 2 in ``d = x - c``:
+    ``V = sum_{i <= j} c_ij d_i d_j`` (each ``c_ij`` a double when it is exactly one, else its
+    outward enclosure), so on a box ``V = sum c_ii [d_i]^2 + sum c_ij [d_i][d_j]`` (the square of
+    an interval is tight), ``grad V = 2 G d`` and the Hessian is the constant ``2 G``
+    (``G_ii = c_ii``, ``G_ij = c_ij / 2``). The same function as ``V.expr``, without jets."""
+
+    def __init__(self, lyap: Lyapunov) -> None:
+        self.n = lyap.n
+        self.center = np.asarray(lyap.center, dtype=float)
+        self.coef: dict[tuple[int, int], Any] = {}
+        for a, q in (lyap.terms or {}).items():
+            idx = [i for i, k in enumerate(a) for _ in range(k)]
+            f = float(q)
+            exact = Fraction(f) == (q if isinstance(q, Fraction) else Fraction(f))
+            self.coef[idx[0], idx[1]] = f if exact else Interval.of(q)
+
+    @classmethod
+    def of(cls, lyap: Lyapunov) -> QuadraticForm | None:
+        """The closed form of ``lyap``, or None when its exact terms are not all of degree 2."""
+        terms = getattr(lyap, "terms", None)
+        if not terms or any(sum(a) != 2 for a in terms):
+            return None
+        return cls(lyap)
+
+    def _hessian(self) -> list[list[Any]]:
+        n = self.n
+        h: list[list[Any]] = [[0.0] * n for _ in range(n)]
+        for (i, j), c in self.coef.items():
+            h[i][j] = c * 2.0 if i == j else c  # 2 c is exact (or an enclosure of 2 q)
+        return h
+
+    def on(self, d: list[Interval], order: int) -> Enclosure:
+        """Value and gradient (and the Hessian for ``order`` 2) on the offsets ``d = x - c``."""
+        n = self.n
+        v: Any = 0.0
+        g: list[Any] = [0.0] * n
+        for (i, j), c in self.coef.items():
+            if i == j:
+                v = d[i].square() * c + v
+                g[i] = d[i] * (c * 2.0) + g[i]
+            else:
+                v = (d[i] * d[j]) * c + v
+                g[i] = d[j] * c + g[i]
+                g[j] = d[i] * c + g[j]
+        return Enclosure(v, g, self._hessian() if order >= 2 else None)
+
+    def boxes(self, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray) -> tuple[Enclosure, Enclosure]:
+        """``(on the boxes, at the points mid)``, offsets from the centre rounded outward."""
+        c = np.broadcast_to(self.center, lo.shape)
+        return self.on(box_offsets(lo, hi, c), 2), self.on(box_offsets(mid, mid, c), 1)
+
+
+def _v_enclosures(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray):
+    """V on the boxes (order 2) and at their centres (order 1): closed form or jets."""
+    quad = QuadraticForm.of(lyap)
+    if quad is not None:
+        return quad.boxes(lo, hi, mid)
+    return (lyap.expr(Jet.variables(lo, hi, order=2), JET),
+            lyap.expr(Jet.variables(mid, mid, order=1), JET))  # fmt: skip
+
+
+def evaluate_boxes(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float):
+    """Enclosures on the boxes ``[lo, hi]`` (shape ``(m, n)``): ``V`` and ``V'`` (natural
+    extension, centred and second-order Taylor forms intersected), the upper bound of
+    ``F = V' + lambda (level - V)`` on the boxes that reach past the level surface (``inf``
+    elsewhere, step 3 of the module doc), the split scores and the domain margin (None without a
+    domain). Returns ``(V, V', F_hi, score, margin)``."""
+    n, m = lyap.n, len(lo)
     mid = 0.5 * (lo + hi)
-    at = _vdot(system, lyap, to_x(Jet.variables(mid, mid, order=1)), JET)
     delta = box_offsets(lo, hi, mid)
-    vc = Interval.of(at.v)
-    cen, tay = vc, vc  # first-order centred form and second-order Taylor form
+    vd = lyap.vdot_expr(system, Jet.variables(lo, hi, order=2), JET)
+    at = lyap.vdot_expr(system, Jet.variables(mid, mid, order=1), JET)
+    cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
+    vdot = _meet(_full(vd.v, m), cen, tay)
+    Vb, Vm = _v_enclosures(lyap, lo, hi, mid)
+    V = _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m))
     score = np.zeros_like(lo)
     for i in range(n):
-        g = _full(vd.g[i], len(lo))
-        cen = cen + g * delta[i]
-        tay = tay + _full(at.g[i], len(lo)) * delta[i]
-        for j in range(i, n):
-            hij = _full(vd.h[i][j], len(lo))
-            tay = tay + (hij * 0.5 * delta[i].square() if j == i else hij * (delta[i] * delta[j]))
+        g = _full(vd.g[i], m)
         score[:, i] = np.maximum(np.abs(g.lo), np.abs(g.hi)) * (hi[:, i] - lo[:, i])
-    nat = Interval.of(vd.v)
-    lo_b = np.maximum(np.maximum(nat.lo, cen.lo), tay.lo)
-    hi_b = np.minimum(np.minimum(nat.hi, cen.hi), tay.hi)
-    vdot = Interval(lo_b, hi_b)
-    Y = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
-    V: Any = 0.0
-    for i in range(n):
-        V = Y[i].square() * fr.G[i][i] + V
-        for j in range(i + 1, n):
-            V = (Y[i] * Y[j]) * (fr.G[i][j] * 2.0) + V
+    F_hi = np.full(m, np.inf)
+    idx = np.flatnonzero(~(V.lo > level) & ~(vdot.hi < 0) & (V.hi > level))
+    if len(idx):
+        k = len(idx)
+        gd = np.stack([_midpoints(_rows(at.g[i], idx), k) for i in range(n)], axis=1)
+        gv = np.stack([_midpoints(_rows(Vm.g[i], idx), k) for i in range(n)], axis=1)
+        with np.errstate(all="ignore"):
+            lam = np.sum(gd * gv, axis=1) / np.sum(gv * gv, axis=1)
+        lam = Interval(np.where(np.isfinite(lam) & (lam > 0), lam, 0.0))  # any lambda >= 0
+        rest = Interval(level) - _full(_rows(Vm.v, idx), k)
+
+        def comb(a: Any, b: Any) -> Interval:  # a - lambda b
+            return _full(_rows(a, idx), k) - lam * _full(_rows(b, idx), k)
+
+        f_mid = _full(_rows(at.v, idx), k) + lam * rest
+        f_nat = _full(_rows(vd.v, idx), k) + lam * (Interval(level) - _full(_rows(Vb.v, idx), k))
+        g_mid = [comb(at.g[i], Vm.g[i]) for i in range(n)]
+        g_box = [comb(vd.g[i], Vb.g[i]) for i in range(n)]
+        h_box = [[comb(vd.h[i][j], Vb.h[i][j]) if j >= i else 0.0 for j in range(n)]
+                 for i in range(n)]  # fmt: skip
+        d_idx = [Interval(d.lo[idx], d.hi[idx]) for d in delta]
+        f_cen, f_tay = _forms(f_mid, g_mid, g_box, h_box, d_idx, k)
+        F_hi[idx] = np.minimum(np.minimum(f_nat.hi, f_cen.hi), f_tay.hi)
+        w = hi[idx] - lo[idx]
+        score[idx] = np.stack(
+            [np.maximum(np.abs(g_box[i].lo), np.abs(g_box[i].hi)) * w[:, i] for i in range(n)],
+            axis=1,
+        )
     margin = None
     if system.margin is not None:
-        margin = _full(system.margin(to_x(Y), INTERVAL), len(lo))
-    return V, vdot, score, margin
+        X = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
+        margin = _full(system.margin(X, INTERVAL), m)
+    return V, vdot, F_hi, score, margin
 
 
-def _try_witnesses(system, lyap, pts, level):
-    """Float check of candidate points scaled to just inside the level surface; first violator."""
-    V = lyap.value(pts)
-    ok = V > 0
-    if not np.any(ok):
-        return None
-    d = pts[ok] - lyap.center
-    cand = np.concatenate([pts[ok], lyap.center + d * np.sqrt(level / V[ok])[:, None] * (1 - 1e-9)])
+# -- witness search (floats; every candidate is re-checked) ---------------------------------------
+#: Box centres moved onto the level surface along their ray per batch.
+WITNESS_RAYS = 4096
+
+
+def _on_level_set(lyap: Lyapunov, pts: np.ndarray, ray: np.ndarray, level: float) -> np.ndarray:
+    """``pts`` inside ``{V <= level}`` and the moves of ``pts[ray]`` onto the level surface along
+    their ray from the equilibrium (inward for those outside, outward for those inside: near a
+    critical level ``V' >= 0`` first appears at the surface), just inside the set."""
+    c = lyap.center
     with np.errstate(all="ignore"):
-        Vd = lyap.derivative(system, cand)
-        Vc = lyap.value(cand)
-    bad = (Vd >= 0) & (Vc <= level) & np.isfinite(Vd)
+        Vp = lyap.value(pts)
+        inner = pts[Vp <= level]
+        pts, t_hi = pts[ray], np.ones(len(ray))
+        t_lo = np.where(Vp[ray] <= level, 1.0, 0.0)
+        for _ in range(60):  # inside: double t until V > level (bounded sets; else dropped)
+            grow = (t_lo == t_hi) & (t_hi < 2.0**59)
+            if not grow.any():
+                break
+            t_hi[grow] *= 2.0
+            ok = lyap.value(c + t_hi[grow, None] * (pts[grow] - c)) <= level
+            t_lo[np.flatnonzero(grow)[ok]] = t_hi[grow][ok]
+        keep = t_lo < t_hi
+        pts, t_lo, t_hi = pts[keep], t_lo[keep], t_hi[keep]
+        for _ in range(45):  # along each ray: a t with V <= level, V > level a little further
+            mid = 0.5 * (t_lo + t_hi)
+            ok = lyap.value(c + mid[:, None] * (pts - c)) <= level
+            t_lo, t_hi = np.where(ok, mid, t_lo), np.where(ok, t_hi, mid)
+    # just inside the level set (1 - 1e-6 of the way): a witness there is provably in the
+    # equilibrium's component with short interval pieces (connected_to_center)
+    moved = c + (t_lo * (1 - 1e-6))[:, None] * (pts - c)
+    return np.concatenate([inner, moved[t_lo > 0]])
+
+
+def _witness(system: System, lyap: Lyapunov, pts: np.ndarray, level: float) -> np.ndarray | None:
+    """A point of ``{V <= level}`` with V' >= 0 inside the domain among ``pts`` inside the set and
+    the moves onto the level surface of the :data:`WITNESS_RAYS` of ``pts`` with the largest
+    float V'."""
+    c = lyap.center
+    ray = np.flatnonzero(np.any(pts != c, axis=1))
+    with np.errstate(all="ignore"):
+        if len(ray) > WITNESS_RAYS:
+            Vd_ray = np.nan_to_num(lyap.derivative(system, pts[ray]), nan=-np.inf)
+            ray = ray[np.argsort(-Vd_ray, kind="stable")[:WITNESS_RAYS]]
+        cand = _on_level_set(lyap, pts, ray, level)
+        if not len(cand):
+            return None
+        Vd, Vc = lyap.derivative(system, cand), lyap.value(cand)
+    bad = (Vd >= 0) & (Vc <= level) & np.isfinite(Vd) & np.any(cand != c, axis=1)
     if system.margin is not None:
         bad &= system.inside(cand)
-    bad = np.flatnonzero(bad)
-    return None if bad.size == 0 else cand[bad[np.argmax(Vd[bad])]]
+    idx = np.flatnonzero(bad)
+    return None if idx.size == 0 else cand[idx[np.argmax(Vd[idx])]]
 
 
-def _try_domain_witness(system, lyap, pts, level):
-    """A candidate point (or its scaling to the level surface) with V <= level outside the domain."""
-    V = lyap.value(pts)
-    ok = V > 0
-    d = pts[ok] - lyap.center
-    cand = np.concatenate([pts, lyap.center + d * np.sqrt(level / V[ok])[:, None] * (1 - 1e-9)])
+def _domain_witness(
+    system: System, lyap: Lyapunov, pts: np.ndarray, level: float
+) -> np.ndarray | None:
+    """A point of ``{V <= level}`` outside the domain among ``pts`` inside the set and the moves
+    of (at most :data:`WITNESS_RAYS` of) ``pts`` onto the level surface."""
+    ray = np.flatnonzero(np.any(pts != lyap.center, axis=1))[:WITNESS_RAYS]
     with np.errstate(all="ignore"):
+        cand = _on_level_set(lyap, pts, ray, level)
+        if not len(cand):
+            return None
         bad = np.flatnonzero(~system.inside(cand) & (lyap.value(cand) <= level))
     return None if bad.size == 0 else cand[bad[0]]
 
 
+# -- the branch and bound ---------------------------------------------------------------------------
 def validate_level(
     system: System,
     lyap: Lyapunov,
@@ -333,7 +330,6 @@ def validate_level(
     *,
     max_boxes: int = 3_000_000,
     batch: int = 100_000,
-    eps: float | None = None,
     bounding_box: Any = None,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
@@ -343,147 +339,163 @@ def validate_level(
     system : System
         Autonomous system whose field runs on the interval namespace.
     lyap : Lyapunov
-        The candidate, centred at the equilibrium: a ``QuadraticLyapunov`` (whitened boxes), or
-        any other candidate (:func:`roa.proof.validate_general.validate_general`).
+        The candidate, centred at the equilibrium: quadratic, polynomial or any function.
     level : float
-        The level rho > 0 to validate.
+        The level > 0 to validate.
     max_boxes : int
-        Budget of box evaluations; exhausted -> ``inconclusive``.
+        Budget of box evaluations (the cover's face proofs included); exhausted ->
+        ``inconclusive``.
     batch : int
         Boxes evaluated per vectorised step.
-    eps : float, optional
-        Inner level covered by :func:`local_proof`; found automatically by default (quadratic V).
     bounding_box : array, optional
-        A non-quadratic V only: ``n`` half-widths around the equilibrium, or a ``(lo, hi)`` pair,
-        of a box holding the level set (``V > level`` is proved on its faces). Default: a global
-        bound from V's Gram matrix when there is one, else a box found along rays and proved.
+        ``n`` half-widths around the equilibrium, or a ``(lo, hi)`` pair, of a box holding the
+        level set (``V > level`` is proved on its faces; the run is then in ``x``). Default: a
+        global bound from V's Gram matrix when there is one (every quadratic V), else a box found
+        along rays and proved.
     """
     level = float(level)
     if not (np.isfinite(level) and level > 0):
         raise RoaInputError(f"level must be a finite number > 0, got {level!r}")
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
-    quad = lyap.as_quadratic()
-    if quad is None:
-        from roa.proof.validate_general import validate_general
+    if not np.allclose(system.x_eq, lyap.center):
+        raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
+    return _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
+                             bounding_box=bounding_box)  # fmt: skip
 
-        return validate_general(
-            system, lyap, level, max_boxes=max_boxes, batch=batch, bounding_box=bounding_box
-        )
-    lyap = quad
-    if bounding_box is not None:
-        raise RoaInputError("bounding_box applies to non-quadratic V only (V' box is whitened)")
+
+def _branch_and_bound(
+    system: System,
+    lyap: Lyapunov,
+    level: float,
+    *,
+    max_boxes: int,
+    batch: int,
+    bounding_box: Any = None,
+    whiten: bool = True,
+) -> Validation:
+    """The loop of the module doc. ``whiten``: run it on boxes in ``y`` with ``x = x_eq + M y``
+    and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
+    that Hessian is diagonal or not definite, or a ``bounding_box`` is given)."""
     t0 = time.perf_counter()
-    if eps is None:
-        eps = find_eps(system, lyap, level)
-    elif not local_proof(system, lyap, eps):
-        eps = None
-    local_info: dict[str, Any] = {"local_proof": "hessian"}
-    if eps is None:  # degenerate linearisation: the lowest-order homogeneous part of V' decides
-        from roa.proof.local import higher_order_eps
+    if whiten and bounding_box is None and not isinstance(lyap, Whitened):
+        M = whitening_for(lyap)
+        if M is not None:
+            W = Whitened(lyap, system, M)
+            res = _branch_and_bound(whitened_system(system, W), W, level, max_boxes=max_boxes,
+                                    batch=batch, whiten=False)  # fmt: skip
+            return _in_x(res, system, lyap, W)
 
-        found = higher_order_eps(system, lyap)
-        if found is not None:
-            eps, info = min(found[0], level / 2), found[1]
-            local_info = {"local_proof": "lowest-order homogeneous part", **info}
-    no_local = eps is None
-    if eps is None:
-        # no local proof: the shell is still searched for a counterexample (a refutation needs
-        # none), but the verdict can be at best inconclusive
-        eps = level * 1e-6
-        local_info = {"local_proof": "none"}
-    fr = _frame(lyap, level)
-    queue_lo = [np.full((1, lyap.n), -fr.radius)]
-    queue_hi = [np.full((1, lyap.n), fr.radius)]
-    boxes = proved = outside = 0
+    def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
+        return Validation(status, level, boxes, time.perf_counter() - t0, message=message, **kw)
+
+    box, info, why = prove_cover(lyap, level, bounding_box, budget=max_boxes)
+    if box is None:
+        return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
+                   f"no proved box cover of the level set: {why}", meta=info)  # fmt: skip
+    lo0, hi0 = box
+    c = lyap.center
+    component = "component" in str(info.get("cover", ""))
+    found = local_box(system, lyap, lo0, hi0)
+    if (
+        found is None
+    ):  # not proved: only ends the search there (the verdict is at best inconclusive)
+        loc_lo, loc_hi = c + 1e-6 * (lo0 - c), c + 1e-6 * (hi0 - c)
+        local: dict[str, Any] = {"local_proof": "none"}
+    else:
+        loc_lo, loc_hi, local = found
+    queue_lo, queue_hi = [lo0[None, :]], [hi0[None, :]]
+    boxes = proved = proved_F = outside = 0
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
-        queue_lo, queue_hi = (
-            [lo[batch:]] if len(lo) > batch else [],
-            [hi[batch:]] if len(hi) > batch else [],
-        )
+        queue_lo = [lo[batch:]] if len(lo) > batch else []
+        queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, score, margin = _evaluate(system, lyap, fr, lo, hi)
+        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level)
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
-        undecided = ~((V.lo > level) | (((V.hi < eps) | (Vd.hi < 0)) & inside))
-        proved += int(np.count_nonzero((Vd.hi < 0) & inside))
+        in_local = np.all((lo >= loc_lo) & (hi <= loc_hi), axis=1)
+        decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside
+        undecided = ~((V.lo > level) | in_local | decreasing)
+        proved += int(np.count_nonzero(decreasing))
+        proved_F += int(np.count_nonzero(decreasing & ~(Vd.hi < 0)))
         lo, hi, score = lo[undecided], hi[undecided], score[undecided]
-        outside += int(np.count_nonzero(~inside[undecided]))
-        if len(lo) and margin is not None and not np.all(inside[undecided]):
-            pts = lyap.center + 0.5 * (lo + hi) @ fr.M.T
-            w = _try_domain_witness(system, lyap, pts, level)
+        not_in = ~inside[undecided]
+        outside += int(np.count_nonzero(not_in))
+        if len(lo) and not_in.any():
+            w = _domain_witness(system, lyap, 0.5 * (lo[not_in] + hi[not_in]), level)
             if w is not None:
                 check = recheck_domain_witness(system, lyap, w, level)
-                if check["confirmed"]:
-                    return Validation(
-                        Verdict.INCONCLUSIVE,
-                        level,
-                        boxes,
-                        time.perf_counter() - t0,
-                        eps,
-                        message="the level set reaches the domain boundary "
-                        f"({system.domain_description}): V <= level at a point outside the "
-                        "domain (float and 50 digits); no certificate for this level",
-                        meta={"domain_witness": [float(v) for v in w], "domain_check": check},
-                    )
+                if check["confirmed"] and (not component or connected_to_center(lyap, w, level)):
+                    return out(Verdict.INCONCLUSIVE, boxes,
+                               "the level set reaches the domain boundary "
+                               f"({system.domain_description}): V <= level at a point outside "
+                               "the domain (float and 50 digits); no certificate for this level",
+                               meta={**info, **local, "domain_witness": [float(v) for v in w],
+                                     "domain_check": check})  # fmt: skip
         if len(lo):
-            w = _try_witnesses(system, lyap, lyap.center + 0.5 * (lo + hi) @ fr.M.T, level)
+            w = _witness(system, lyap, 0.5 * (lo + hi), level)
             if w is not None:
                 check = recheck_witness(system, lyap, w, level)
+                if check["confirmed"] and component and not connected_to_center(lyap, w, level):
+                    return out(Verdict.INCONCLUSIVE, boxes,
+                               "V' >= 0 at a point of {V <= level} (float and 50 digits), but it "
+                               "was not proved to lie in the equilibrium's component of the set",
+                               witness=[float(v) for v in w], witness_check=check,
+                               meta={**info, **local})  # fmt: skip
                 if check["confirmed"]:
-                    return Validation(
-                        Verdict.REFUTED,
-                        level,
-                        boxes,
-                        time.perf_counter() - t0,
-                        eps,
-                        witness=[float(v) for v in w],
-                        witness_check=check,
-                        message="V' >= 0 at a point of the level set (float and 50 digits)",
-                    )
-        if boxes + 2 * len(lo) > max_boxes and len(lo):
-            return Validation(
-                Verdict.INCONCLUSIVE,
-                level,
-                boxes,
-                time.perf_counter() - t0,
-                eps,
-                message=f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided"
-                + (
-                    f" ({outside} box evaluations not provably inside the domain "
-                    f"{system.domain_description}: the level set may reach its boundary)"
-                    if outside
-                    else ""
-                ),
-            )
+                    return out(Verdict.REFUTED, boxes,
+                               "V' >= 0 at a point of the level set in the cover (float and 50 "
+                               "digits)", witness=[float(v) for v in w], witness_check=check,
+                               meta={**info, **local})  # fmt: skip
+        if len(lo) and boxes + 2 * len(lo) > max_boxes:
+            return out(Verdict.INCONCLUSIVE, boxes,
+                       f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided"
+                       + (f" ({outside} box evaluations not provably inside the domain "
+                          f"{system.domain_description}: the level set may reach its boundary)"
+                          if outside else ""),
+                       meta={**info, **local})  # fmt: skip
         if len(lo):
-            k = np.argmax(score * (hi - lo > 0), axis=1)
+            width = hi - lo
+            sc = np.where(np.isnan(score), np.inf, score) * (width > 0)
+            k = np.argmax(sc, axis=1)
+            unbounded = np.isinf(sc).any(axis=1)  # no finite gradient bound: split the widest side
+            k[unbounded] = np.argmax(
+                np.where(np.isinf(sc[unbounded]), width[unbounded], -1.0), axis=1
+            )
             rows = np.arange(len(lo))
-            m = 0.5 * (lo[rows, k] + hi[rows, k])
+            mid = 0.5 * (lo[rows, k] + hi[rows, k])
             lo2, hi1 = lo.copy(), hi.copy()
-            hi1[rows, k] = m
-            lo2[rows, k] = m
+            hi1[rows, k] = mid
+            lo2[rows, k] = mid
             queue_lo = [lo, lo2, *queue_lo]
             queue_hi = [hi1, hi, *queue_hi]
-    if no_local:
-        return Validation(
-            Verdict.INCONCLUSIVE,
-            level,
-            boxes,
-            time.perf_counter() - t0,
-            None,
-            message=f"V' < 0 proved on the shell {eps:.3g} <= V <= {level:g} ({proved} boxes), "
-            "but not near the equilibrium: neither the Hessian of V' (negative definite) nor "
-            "its lowest-order homogeneous part (polynomial V') proves V' < 0 there",
-            meta=local_info,
-        )
-    return Validation(
-        Verdict.CERTIFIED,
-        level,
-        boxes,
-        time.perf_counter() - t0,
-        eps,
-        message=f"V' < 0 proved on {proved} boxes of the shell; local proof on V <= {eps:.3g}",
-        meta={"proved_boxes": proved, **local_info},
-    )
+    if local["local_proof"] == "none":
+        return out(Verdict.INCONCLUSIVE, boxes,
+                   "V' < 0 proved away from the equilibrium but not near it (neither the Hessian "
+                   "of V' nor its lowest-order homogeneous part proves it)", meta={**info, **local})  # fmt: skip
+    return out(Verdict.CERTIFIED, boxes,
+               f"V' < 0 proved on {proved} boxes of the cover; local proof on a box around x_eq",
+               meta={"proved_boxes": proved, "proved_by_multiplier": proved_F, **info,
+                     **local})  # fmt: skip
+
+
+def _in_x(res: Validation, system: System, lyap: Lyapunov, W: Whitened) -> Validation:
+    """A whitened validation reported in the system's coordinates (witnesses mapped and
+    re-checked in ``x``; where the float ``x`` fails, the exact point ``x_eq + M y`` is the
+    witness and the check in ``y`` is kept)."""
+    meta = {**res.meta, "coordinates": "whitened: boxes in y, x = x_eq + M y", "M": W.M.tolist()}
+    if "domain_witness" in meta:
+        wy = list(meta["domain_witness"])
+        wx = W.to_x(np.asarray(wy, dtype=float))
+        check = recheck_domain_witness(system, lyap, wx, res.level)
+        if not check["confirmed"]:
+            check = {**check, "confirmed_in_y": meta["domain_check"], "y": wy}
+        meta.update(domain_witness=[float(v) for v in wx], domain_check=check)
+    if res.witness is None:
+        return dataclasses.replace(res, meta=meta)
+    wx = W.to_x(np.asarray(res.witness, dtype=float))
+    check = recheck_witness(system, lyap, wx, res.level)
+    if not check["confirmed"]:
+        check = {**check, "confirmed_in_y": res.witness_check, "y": list(res.witness)}
+    return dataclasses.replace(res, witness=[float(v) for v in wx], witness_check=check, meta=meta)

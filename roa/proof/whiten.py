@@ -2,7 +2,7 @@
 
 A candidate whose Hessian at the equilibrium is badly conditioned (the IPC's flat V: condition
 number ~ 10^3) makes axis-aligned boxes in ``x`` a poor fit for its level sets. The branch and bound
-of :mod:`roa.proof.validate_general` then runs on boxes in ``y`` instead: :class:`Whitened` is the
+of :mod:`roa.proof.validate` then runs on boxes in ``y`` instead: :class:`Whitened` is the
 candidate ``W(y) = V(x_eq + M y)`` and :func:`whitened_system` the system seen through the same
 map. ``x(y)`` is evaluated in the namespace at hand (interval, jet, mpmath), so every enclosure is
 of the exact composition, and the derivative proved negative is ``V'(x(y)) = grad V(x) . f(x)`` at

@@ -1,4 +1,8 @@
-"""Refutation witnesses moved to where they bound the optimum, and refutations built from them.
+"""Witnesses re-checked at 50 digits, moved to where they bound the optimum, and refutations.
+
+A float point found by a search is believed only once :func:`recheck_witness` (``V' >= 0`` inside
+``{V <= level}`` and the domain) or :func:`recheck_domain_witness` (``V <= level`` outside the
+domain) confirms it with mpmath at 50 digits, the float coordinates taken exactly.
 
 A refuted validation returns a point ``w`` with ``V'(w) >= 0`` inside ``{V <= level}``. The lowest
 such point of its neighbourhood (a local minimum of V on ``{V' >= 0}``, by SLSQP: a proposal) is
@@ -13,9 +17,57 @@ from typing import Any
 
 import numpy as np
 
-from roa.proof.validate import Validation
+from roa.backend import namespace
+from roa.errors import RoaInputError
+from roa.lyapunov import Lyapunov
+from roa.proof.cover import connected_to_center
+from roa.proof.validation import Validation
 from roa.status import Verdict
 from roa.system import System
+
+
+def recheck_witness(
+    system: System, lyap: Lyapunov, x: np.ndarray, level: float, *, digits: int = 50
+) -> dict[str, Any]:
+    """``V(x)`` and ``V'(x)`` at ``digits`` digits (``x`` taken exactly) for any candidate:
+    ``confirmed`` when ``x != x_eq``, ``x`` is inside the domain, ``V(x) <= level`` and
+    ``V'(x) >= 0``."""
+    import mpmath as mp
+
+    ns = namespace("mpmath")  # every function of roa.backend, also minimum, maximum, clip
+    with mp.workdps(digits):
+        xs = [mp.mpf(float(v)) for v in x]
+        V = lyap.expr(xs, ns)
+        Vd = lyap.vdot_expr(system, xs, ns)
+        nonzero = any(xs[i] != mp.mpf(float(lyap.center[i])) for i in range(lyap.n))
+        inside = system.margin is None or system.margin(xs, ns) > 0
+        return {
+            "digits": digits,
+            "V": mp.nstr(V, 20),
+            "Vdot": mp.nstr(Vd, 20),
+            "confirmed": bool(nonzero and inside and V <= mp.mpf(float(level)) and Vd >= 0),
+        }
+
+
+def recheck_domain_witness(
+    system: System, lyap: Lyapunov, x: np.ndarray, level: float, *, digits: int = 50
+) -> dict[str, Any]:
+    """Confirm at ``digits`` digits that ``x`` has ``V(x) <= level`` and ``margin(x) <= 0``."""
+    import mpmath as mp
+
+    if system.margin is None:
+        raise RoaInputError(f"system {system.name!r} has no domain margin")
+    ns = namespace("mpmath")
+    with mp.workdps(digits):
+        xs = [mp.mpf(float(v)) for v in x]
+        V = lyap.expr(xs, ns)
+        m = system.margin(xs, ns)
+        return {
+            "digits": digits,
+            "V": mp.nstr(V, 20),
+            "margin": mp.nstr(m, 20),
+            "confirmed": bool(V <= mp.mpf(float(level)) and m <= 0),
+        }
 
 
 def lowest_confirmed_witness(
@@ -24,15 +76,13 @@ def lowest_confirmed_witness(
     """``(value, x, check)``: a local minimum ``x`` of V on ``{V' >= delta}`` from ``w`` (SLSQP)
     whose ``V' >= 0`` holds at 50 digits (``check``) and that is proved to lie in the
     equilibrium's component of ``{V <= V(x)}``
-    (:func:`roa.proof.validate_general.connected_to_center`); ``(V(w), None, None)`` when none is
+    (:func:`roa.proof.cover.connected_to_center`); ``(V(w), None, None)`` when none is
     found at most ``V(w) (1 + 1e-6)`` (SLSQP may end a hair above a ``w`` that is already a
     local minimum; a confirmed ``x`` is a valid bound whatever its value). A confirmed ``x``
     bounds the true optimum of V by ``V(x)`` (the validation's witness sits on the level it
     refuted, the level search's near the touching point; the minimum is where V' = 0 first
     touches a level surface)."""
     from scipy.optimize import minimize
-
-    from roa.proof.validate_general import connected_to_center, recheck_general
 
     with np.errstate(all="ignore"):
         best = float(V.value(w[None])[0])
@@ -52,7 +102,7 @@ def lowest_confirmed_witness(
         if system.margin is not None and not system.inside(x[None])[0]:
             continue
         top = v * (1 + 1e-12)
-        check = recheck_general(system, V, x, top)
+        check = recheck_witness(system, V, x, top)
         if check["confirmed"] and connected_to_center(V, x, top):
             return v, x, check
     return best, None, None
@@ -60,6 +110,7 @@ def lowest_confirmed_witness(
 
 def refuted_by(x: np.ndarray, check: dict[str, Any], level: float, how: str) -> Any:
     """A refutation of ``level`` by a confirmed witness ``x`` with ``V(x) <= level``."""
+
     return Validation(Verdict.REFUTED, level, 0, 0.0, witness=[float(v) for v in x],
                       witness_check=check,
                       message=f"V' >= 0 at a point of {{V <= level}} in the equilibrium's "

@@ -1,6 +1,7 @@
-"""The validation of a general (polynomial) candidate: exact expansions in the whitened frame, the
-multiplier test on boxes reaching past the level surface, the face budget, and the IPC's degree-4
-V certified just below its true optimum (and refuted just above it)."""
+"""The one validation (any candidate): exact expansions in the whitened frame, the closed-form
+strategy for a quadratic V, the multiplier test on boxes reaching past the level surface, the face
+budget, and the IPC's degree-4 V certified just below its true optimum (and refuted just above
+it)."""
 
 from __future__ import annotations
 
@@ -12,9 +13,10 @@ import roa
 from roa import System
 from roa.backend import namespace
 from roa.lyapunov import PolynomialLyapunov
+from roa.proof.cover import connected_to_center
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
-from roa.proof.validate_general import _evaluate, connected_to_center, validate_general
+from roa.proof.validate import QuadraticForm, evaluate_boxes, validate_level
 from roa.proof.whiten import Whitened, affine_components, whitening_for
 
 C = (0.5, -0.25, 1.0)
@@ -58,7 +60,7 @@ def test_affine_components_are_found_and_kinks_are_not_affine():
 
 
 def test_whitened_expansions_enclose_the_composition_at_50_digits():
-    """W, grad W (intervals), V' (second-order jets) and the enclosures of ``_evaluate`` on boxes
+    """W, grad W (intervals), V' (second-order jets) and the enclosures of ``evaluate_boxes`` on boxes
     in y hold V(c + M y), its y-gradient and V' computed at 50 digits through x (mpmath, the
     composition: independent of the expansions)."""
     system, V = _system3(), _quartic3()
@@ -75,7 +77,7 @@ def test_whitened_expansions_enclose_the_composition_at_50_digits():
     gi = [Interval.of(g) for g in W.gradient_expr(Y, INTERVAL)]
     jet = W.vdot_expr(None, Jet.variables(lo, hi, order=2), JET)
     vd_lo, vd_hi = _iv(jet.v, m)
-    Vb, Vdb, _, _, _ = _evaluate(system, W, lo, hi, 1e9)
+    Vb, Vdb, _, _, _ = evaluate_boxes(system, W, lo, hi, 1e9)
     ns = namespace("mpmath")
     with mp.workdps(50):
         for k in range(m):
@@ -106,7 +108,7 @@ def test_multiplier_test_proves_a_box_across_the_level_surface():
     """Level 0.9801 (x = 0.99), box [0.985, 1.01]: V'(1.01) = 2 * 1.0201 * 0.0201 > 0, so V' < 0
     on the whole box is false, but V' < 0 on its part with V <= level (x <= 0.99)."""
     s, V = _cubic()
-    _, Vd, F_hi, _, _ = _evaluate(s, V, np.array([[0.985]]), np.array([[1.01]]), 0.9801)
+    _, Vd, F_hi, _, _ = evaluate_boxes(s, V, np.array([[0.985]]), np.array([[1.01]]), 0.9801)
     assert Vd.hi[0] >= 2 * 1.0201 * 0.0201
     assert F_hi[0] < 0
 
@@ -124,7 +126,7 @@ def test_multiplier_test_refuses_when_vdot_is_positive_inside():
     V = 0.9216 <= level and V' = 0.08 * 0.9216 = 0.073728, so F = V' + lambda (level - V) >= V'
     there for every lambda >= 0 (a negative lambda would make F < 0 on the whole box)."""
     s, V = _bump()
-    _, Vd, F_hi, _, _ = _evaluate(s, V, np.array([[0.955]]), np.array([[0.995]]), 0.9801)
+    _, Vd, F_hi, _, _ = evaluate_boxes(s, V, np.array([[0.955]]), np.array([[0.995]]), 0.9801)
     assert Vd.hi[0] >= 0.073728 and F_hi[0] >= 0.073728
 
 
@@ -132,9 +134,9 @@ def test_multiplier_test_refuses_when_vdot_is_positive_inside():
 @pytest.mark.parametrize(("make", "top"), [(_cubic, 1.0), (_bump, 0.9025)])
 def test_certified_just_below_and_refuted_just_above_closed_form(make, top, gap):
     s, V = make()
-    below = validate_general(s, V, top * (1 - gap))
+    below = validate_level(s, V, top * (1 - gap))
     assert below.status is roa.Verdict.CERTIFIED
-    above = validate_general(s, V, top * (1 + gap))
+    above = validate_level(s, V, top * (1 + gap))
     assert above.status is roa.Verdict.REFUTED and above.witness_check["confirmed"]
 
 
@@ -143,10 +145,10 @@ def test_face_budget_is_the_callers_max_boxes():
     s = System(name="lin", field=lambda t, x, xp: (-x[0],), equilibrium=(0.0,),
                state_names=("x",))  # fmt: skip
     V = PolynomialLyapunov([[2], [4]], [1.0, 1.0], [0.0])
-    short = validate_general(s, V, 2.0, max_boxes=1)
+    short = validate_level(s, V, 2.0, max_boxes=1)
     assert short.status is roa.Verdict.INCONCLUSIVE and "faces" in short.message
     assert "budget 1" in short.message
-    assert validate_general(s, V, 2.0, max_boxes=100).status is roa.Verdict.CERTIFIED
+    assert validate_level(s, V, 2.0, max_boxes=100).status is roa.Verdict.CERTIFIED
 
 
 # The IPC's degree-4 V of the degrees experiment (flat coordinates, sampled cutting planes, round
@@ -216,7 +218,8 @@ def test_ipc_degree4_certified_below_and_refuted_above_its_optimum(ipc_v):
 
 def test_whitened_gram_quadratic_gets_the_global_cover():
     """A quadratic written as a Gram polynomial keeps its proved global cover through the whitening
-    (no face proofs, no component check) and matches the quadratic loop's verdicts."""
+    (no face proofs, no component check) and keeps the quadratic loop's verdicts (Van der Pol
+    2.30 certified, 2.31 refuted)."""
     from roa.proof.cover import gram_cover
     from roa.systems.vanderpol import vanderpol
 
@@ -228,6 +231,58 @@ def test_whitened_gram_quadratic_gets_the_global_cover():
     y = np.random.default_rng(0).standard_normal((2000, 2))
     y *= np.sqrt(2.3 / W.value(y))[:, None]  # points of the level surface in y
     assert info["cover"].startswith("global") and np.all(np.abs(y) <= half)
-    ok, bad = validate_general(s, V, 2.30), validate_general(s, V, 2.31)
+    ok, bad = validate_level(s, V, 2.30), validate_level(s, V, 2.31)
     assert ok.status.value == "certified" and ok.meta["cover"].startswith("global")
     assert bad.status.value == "refuted" and bad.witness_check["confirmed"]
+
+
+@pytest.mark.parametrize("whiten", [True, False])
+def test_quadratic_closed_form_encloses_v_its_gradient_and_hessian_at_50_digits(whiten):
+    """The closed-form strategy for a quadratic V (value, gradient ``2 G d``, constant Hessian
+    ``2 G``) holds V, its gradient and Hessian computed at 50 digits at points of the boxes, in x
+    (float coefficients, an off-centre equilibrium) and in the whitened y (exact rational
+    coefficients, some enclosed), and is never wider than the jets of V."""
+    from roa.lyapunov import QuadraticLyapunov
+
+    P = np.array([[2.0, 0.7, -0.3], [0.7, 1.1, 0.2], [-0.3, 0.2, 0.9]])
+    V = QuadraticLyapunov(P, C)
+    W = Whitened(V, _system3(), whitening_for(V)) if whiten else V
+    q = QuadraticForm.of(W)
+    assert q is not None and QuadraticForm.of(_quartic3()) is None
+    c = np.asarray(W.center)
+    rng = np.random.default_rng(5)
+    m = 30
+    lo = c + rng.uniform(-2, 2, (m, 3))
+    hi = lo + rng.uniform(0.0, 0.5, (m, 3))
+    box, at = q.boxes(lo, hi, lo)
+    jet = W.expr(Jet.variables(lo, hi, order=2), JET)
+    v_lo, v_hi = _iv(box.v, m)
+    j_lo, j_hi = _iv(jet.v, m)
+    assert np.all(v_lo >= j_lo - 1e-12 * np.abs(j_lo)) and np.all(
+        v_hi <= j_hi + 1e-12 * np.abs(j_hi)
+    )
+    ns = namespace("mpmath")
+    with mp.workdps(50):
+        for k in range(m):
+            for t in [*rng.random((3, 3)), np.zeros(3)]:
+                y = lo[k] + t * (hi[k] - lo[k])
+                ys = [mp.mpf(float(v)) for v in y]
+                v = W.expr(ys, ns)
+                g = [mp.diff(lambda *a: W.expr(list(a), ns), ys, tuple(int(i == j) for i in range(3)))
+                     for j in range(3)]  # fmt: skip
+                assert v_lo[k] <= v <= v_hi[k]
+                for j in range(3):
+                    g_lo, g_hi = _iv(box.g[j], m)
+                    assert g_lo[k] - 1e-30 <= g[j] <= g_hi[k] + 1e-30
+                if t.any():
+                    continue
+                a_lo, a_hi = _iv(at.v, m)  # at the point lo[k] itself
+                assert a_lo[k] <= v <= a_hi[k]
+    with mp.workdps(50):
+        y0 = [mp.mpf(0.3), mp.mpf(-0.2), mp.mpf(0.1)]
+        for i in range(3):
+            for j in range(i, 3):
+                order = tuple(int(r == i) + int(r == j) for r in range(3))
+                h = mp.diff(lambda *a: W.expr(list(a), ns), y0, order)
+                h_lo, h_hi = _iv(box.h[i][j], 1)
+                assert h_lo[0] - 1e-30 <= h <= h_hi[0] + 1e-30, (i, j)

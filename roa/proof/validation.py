@@ -1,0 +1,37 @@
+"""The verdict of an interval validation, with its evidence (what every prover returns)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+from roa.status import Verdict
+
+
+@dataclass(frozen=True)
+class Validation:
+    """Outcome of an interval validation of ``V' < 0`` on ``{V <= level} \\ {x_eq}``."""
+
+    status: Verdict
+    level: float
+    boxes: int
+    seconds: float
+    witness: list[float] | None = None
+    witness_check: dict[str, Any] | None = None
+    message: str = ""
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def to_json(self) -> dict[str, Any]:
+        out = {
+            "status": self.status.value,
+            "level": self.level,
+            "method": "interval",
+            "boxes": self.boxes,
+            "seconds": round(self.seconds, 3),
+            "message": self.message,
+            **self.meta,
+        }
+        if self.witness is not None:
+            out["witness"] = self.witness
+            out["witness_check"] = self.witness_check
+        return out

@@ -91,10 +91,34 @@ def atomic_write_json(path: str | Path, obj: Any) -> Path:
     return atomic_write_text(path, to_json(obj) + "\n")
 
 
+#: Figure formats :func:`atomic_savefig` writes (by the file's extension).
+FIGURE_FORMATS = ("png", "pdf", "svg", "jpg", "jpeg", "eps", "ps", "tif", "tiff", "webp")
+
+
+def check_figure_path(path: str | Path, what: str = "--plot") -> Path:
+    """``path`` as a figure file to (over)write: a regular file or a new name in an existing
+    directory, with a known extension; else an input error naming ``what``."""
+    from roa.errors import RoaInputError
+
+    p = Path(path)
+    ext = p.suffix.lstrip(".").lower()
+    if ext not in FIGURE_FORMATS:
+        raise RoaInputError(
+            f"{what} {path}: the extension must be one of {', '.join(FIGURE_FORMATS)}, got "
+            f"{p.suffix or 'none'}"
+        )
+    if p.exists() and not p.is_file():
+        raise RoaInputError(f"{what} {path}: exists and is not a regular file (never replaced)")
+    if not p.parent.is_dir() and p.parent.exists():
+        raise RoaInputError(f"{what} {path}: {p.parent} is not a directory")
+    return p
+
+
 def atomic_savefig(fig: Any, path: str | Path, **kwargs: Any) -> Path:
-    """Save a matplotlib figure atomically (PNG by default)."""
+    """Save a matplotlib figure atomically (PNG by default); never replaces a non-regular file."""
     import io
 
+    check_figure_path(path, "figure")
     buf = io.BytesIO()
     kwargs.setdefault("dpi", 130)
     kwargs.setdefault("bbox_inches", "tight")

@@ -11,7 +11,7 @@ import numpy as np
 
 from roa.commands import common as C
 from roa.errors import RoaInputError
-from roa.io import atomic_write_json, to_json
+from roa.io import atomic_write_json, check_figure_path, to_json
 from roa.montecarlo.sampling import GridSlice
 from roa.system import System
 
@@ -257,6 +257,8 @@ def run(args: argparse.Namespace) -> int:
     system, sampler, rules = build(args)
     if args.plot and not isinstance(sampler, GridSlice):
         raise RoaInputError("--plot draws a slice: use it with --slice")
+    if args.plot:
+        check_figure_path(args.plot)
     plot = args.plot or (
         str(Path(args.out) / "basin.png") if args.out and isinstance(sampler, GridSlice) else None
     )

@@ -84,6 +84,11 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
             )
         except RoaInputError as exc:
             raise RoaInputError(f"--lyapunov {spec}: {exc}") from None
+        except (TypeError, ValueError, OverflowError):
+            raise RoaInputError(
+                f"--lyapunov {spec}: monomials must be lists of non-negative integers and "
+                "coefficients finite numbers"
+            ) from None
     if isinstance(obj, Lyapunov):
         if obj.n != sys_.n:
             raise RoaInputError(f"--lyapunov {spec}: V has {obj.n} states, the system {sys_.n}")
@@ -110,11 +115,26 @@ def read_matrix(spec: str, *, what: str) -> Any:
     if not path.is_file():
         raise RoaInputError(f"{what} {spec!r}: no such file (expected .json, .npy or file.py:NAME)")
     if path.suffix == ".npy":
-        return np.load(path, allow_pickle=False)
+        try:
+            arr = np.load(path, allow_pickle=False)
+        except (ValueError, OSError, EOFError) as exc:
+            raise RoaInputError(
+                f"{what} {spec}: not a readable .npy array of numbers ({type(exc).__name__})"
+            ) from None
+        if not isinstance(arr, np.ndarray) or arr.dtype.kind not in "iuf":
+            raise RoaInputError(
+                f"{what} {spec}: the .npy array must hold numbers, got dtype "
+                f"{getattr(arr, 'dtype', type(arr).__name__)}"
+            )
+        return arr
     try:
         data = json.loads(path.read_text())
     except json.JSONDecodeError as exc:
         raise RoaInputError(f"{what} {spec}: invalid JSON ({exc})") from None
+    except (UnicodeDecodeError, RecursionError, OSError) as exc:
+        raise RoaInputError(
+            f"{what} {spec}: not a readable JSON file ({type(exc).__name__})"
+        ) from None
     if isinstance(data, dict):
         kind = data.get("candidate_kind")
         if "P" not in data and isinstance(kind, dict):  # `roa certify --json` of a polynomial V

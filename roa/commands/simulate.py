@@ -45,6 +45,10 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.plot:
+        from roa.io import check_figure_path
+
+        check_figure_path(args.plot)
     traj = compute(args)
     out = traj.to_dict()
     if args.plot:

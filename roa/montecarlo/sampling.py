@@ -192,6 +192,8 @@ def box_sample(
             f"box: needs {system.n} ranges ({', '.join(system.state_names)}), got {len(box)}"
         )
     arr = np.asarray(box, dtype=float)
+    if isinstance(seed, bool) or not isinstance(seed, int | np.integer) or not 0 <= seed < 2**63:
+        raise RoaInputError(f"seed must be an integer in [0, 2^63), got {seed!r}")
     return BoxSample(arr[:, 0], arr[:, 1], _as_count(n), int(seed))
 
 

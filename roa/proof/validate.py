@@ -360,8 +360,9 @@ def validate_level(
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     if not np.allclose(system.x_eq, lyap.center):
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
-    return _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
-                             bounding_box=bounding_box)  # fmt: skip
+    with np.errstate(over="ignore"):  # an interval bound that overflows is +-inf: still sound
+        return _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
+                                 bounding_box=bounding_box)  # fmt: skip
 
 
 def _branch_and_bound(

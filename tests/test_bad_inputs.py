@@ -1,0 +1,95 @@
+"""No traceback for any input (reliability issue, item 7, the inputs this module covers): each bad
+input exits 2 with a message naming it; a Hypothesis fuzz of the certificate reader asserts
+"valid result or RoaInputError" for any JSON-like object.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+import roa
+from roa.certification import Certificate
+from roa.cli import main
+from roa.errors import RoaInputError
+from roa.systems.vanderpol import vanderpol
+
+
+def _files(tmp_path):
+    files = {
+        "badcoef.json": json.dumps({"monomials": [[2, 0], [0, 2]], "coefficients": ["a", 1]}),
+        "nested.json": "[" * 100_000 + "]" * 100_000,
+        "nonutf.json": b"\xff\xfe{",
+        "truncated.npy": b"X",
+    }
+    for name, data in files.items():
+        path = tmp_path / name
+        path.write_bytes(data if isinstance(data, bytes) else data.encode())
+    np.save(tmp_path / "str.npy", np.array(["a", "b"]))
+    np.save(tmp_path / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
+    return tmp_path
+
+
+CASES = [
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/badcoef.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/nested.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/nonutf.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/str.npy", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/obj.npy", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/truncated.npy", "--level", "1"], "--lyapunov"),
+    (["basin", "--system", "vanderpol", "--samples", "10", "--box", "x1=-1:1,x2=-1:1", "--seed", "-1"], "seed"),
+    (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--plot", "{d}"], "--plot"),
+    (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--plot", "{d}/a.xyz"], "--plot"),
+    (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--terminal-set", "{d}/nested.json"], "--terminal-set"),
+    (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--terminal-set", "{d}/nonutf.json"], "--terminal-set"),
+    (["simulate", "--system", "vanderpol", "--x0", "0.1,0.1", "--plot", "{d}/dir.png"], "--plot"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("argv, names", CASES, ids=[" ".join(c[0][:1] + c[0][-2:]) for c in CASES])
+def test_bad_input_exits_2_naming_it(tmp_path, capsys, argv, names):
+    d = _files(tmp_path)
+    (d / "dir.png").mkdir()
+    assert main([a.format(d=d) for a in argv]) == 2
+    err = capsys.readouterr().err
+    assert names in err and "Traceback" not in err
+
+
+def test_a_plot_never_replaces_a_non_regular_file(tmp_path):
+    target = tmp_path / "fifo.png"
+    import os
+
+    os.mkfifo(target)
+    with pytest.raises(RoaInputError, match="not a regular file"):
+        roa.io.check_figure_path(target)
+    assert target.exists() and not target.is_file()
+
+
+JSON = st.recursive(
+    st.none() | st.booleans() | st.integers() | st.floats(allow_nan=True) | st.text(max_size=5),
+    lambda inner: st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=12), inner, max_size=5),
+    max_leaves=20,
+)  # fmt: skip
+KEYS = st.fixed_dictionaries(
+    {},
+    optional={"status": st.sampled_from(["certified", "refuted", "x"]) | JSON,
+              "level": st.floats(allow_nan=True, allow_infinity=True) | JSON,
+              "system": st.just("vanderpol") | JSON,
+              "P": st.just([[1.5, -0.5], [-0.5, 1.0]]) | JSON,
+              "candidate_kind": JSON, "system_fingerprint": JSON, "lyapunov": JSON},
+)  # fmt: skip
+
+
+@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(KEYS)
+def test_certificate_reader_gives_a_claim_or_an_input_error(data):
+    try:
+        claim = Certificate.from_dict(data, vanderpol())
+    except RoaInputError:
+        return
+    assert claim.level is not None and np.isfinite(claim.level) and claim.level > 0
+    assert claim.V is not None and claim.V.n == 2

@@ -248,3 +248,19 @@ def test_resumable_chunks_are_scratch_not_results(tmp_path):
     assert verify_outputs(out, {"outputs": old}) == [
         f"{out}/summary.json was modified after its run"
     ]
+
+
+def test_a_report_with_an_experiment_missing_fails_naming_it(tmp_path, capsys):
+    """Reliability issue item 5: deleting an experiment's folder must not drop its claims from the
+    report silently (33 of 37 claims, exit 0, before)."""
+    import shutil
+
+    from roa.cli import main
+
+    results = tmp_path / "r"
+    shutil.copytree(ROOT / "results", results)
+    shutil.rmtree(results / "figure2")
+    assert main(["report", "--results", str(results), "--out", str(tmp_path / "rep.md")]) == 1
+    err = capsys.readouterr().err
+    assert "figure2" in err and "no results" in err
+    assert not (tmp_path / "rep.md").exists()

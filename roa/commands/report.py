@@ -47,6 +47,14 @@ def run(args: argparse.Namespace) -> int:
             + ("" if len(problems) <= 8 else f" (and {len(problems) - 8} more)")
             + "; re-run those experiments (roa run CONFIG --force)"
         )
+    ran = {p.parent.name for p in Path(args.results).glob("*/summary.json")}
+    missing = sorted(c.stem for c in study.experiments.glob("*.toml") if c.stem not in ran)
+    if missing:  # a report without them would silently drop their claims
+        raise ResultsError(
+            f"{len(missing)} experiment(s) of study {study.name!r} have no results in "
+            f"{args.results}: {', '.join(missing)}; run them (roa run experiments/NAME.toml, or "
+            "roa reproduce) before the report"
+        )
     if args.check:
         text = study.render_report(args.results, out)
         current = Path(out).read_text() if Path(out).is_file() else ""

@@ -83,6 +83,7 @@ class SosStatus(_Status):
     INFEASIBLE = "infeasible", "the SOS program is infeasible at this degree"
     FAILED = "failed", "the solver failed (iterations, time limit, numerical trouble)"
     NOT_POLYNOMIAL = "not_polynomial", "V' is not polynomial after recasting: SOS does not apply"
+    TOO_LARGE = "too_large", "the program's Gram blocks exceed the size solved here: not built"
 
 
 class RegionStatus(_Status):

@@ -70,3 +70,25 @@ def test_a_high_odd_interval_power_is_an_enclosure_in_few_steps():
     for a, lo, hi in zip((-1.25, 0.8, 1.0), y.lo, y.hi, strict=True):
         assert lo <= a**k <= hi or (np.isinf(lo) and lo < 0) or np.isinf(hi)
     assert np.all(y.lo <= y.hi)
+
+
+def test_an_sos_program_too_large_is_refused_before_it_is_built():
+    """Reliability issue item 4: a 50-state system made Clarabel request terabytes and abort. The
+    Gram basis of a quadratic V's program holds every monomial of degree <= 2: C(n + 2, 2) = 496
+    for n = 30, above the 400 built here, so the program is refused with a message (at once)."""
+    import time
+
+    from roa.search.sos import MAX_GRAM_BLOCK
+
+    n = 30
+
+    def field(t, x, xp):
+        return tuple(-x[i] + 0.1 * x[(i + 1) % n] * x[(i + 2) % n] for i in range(n))
+
+    system = roa.System("ring30", field, (0.0,) * n, tuple(f"x{i}" for i in range(n)))
+    t0 = time.perf_counter()
+    cert = roa.certify(system, level=roa.SosLevel())
+    assert cert.status is roa.Verdict.INCONCLUSIVE and cert.level is None
+    assert cert.sos is not None and cert.sos.status is roa.SosStatus.TOO_LARGE
+    assert cert.sos.sizes["gram_block"] == 496 > MAX_GRAM_BLOCK
+    assert "not built" in cert.message and time.perf_counter() - t0 < 30

@@ -26,6 +26,7 @@ The result is a value with the solver's status; ``rho`` is a *candidate* until c
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -251,6 +252,19 @@ def _sparse(parts: tuple, nrows: int, ncols: int) -> sps.csr_matrix:
     return sps.csr_matrix((v, (r, c)), shape=(nrows, ncols))
 
 
+#: Largest Gram block the SOS program is built with (beyond it the interior-point solver's memory
+#: grows past this machine's; a larger program is refused before it is built).
+MAX_GRAM_BLOCK = 400
+
+
+def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
+    return SOSResult(SosStatus.TOO_LARGE, None, "not built", time.perf_counter() - t0, "",
+                     sizes={"gram_block": block, "variables": nvars},
+                     message=f"the SOS program needs a Gram block of {block} monomials in "
+                     f"{nvars} variables (at most {MAX_GRAM_BLOCK} here): not built; the level "
+                     "comes from the sampled search instead")  # fmt: skip
+
+
 def sos_level(
     system: System,
     lyap: QuadraticLyapunov,
@@ -290,6 +304,11 @@ def sos_level(
     t0 = time.perf_counter()
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
+    least = math.comb(
+        system.n + 2, 2
+    )  # V' has degree >= 2: the Gram basis holds all of degree <= 2
+    if least > MAX_GRAM_BLOCK:
+        return _too_large(least, system.n, t0)
     try:
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
@@ -339,6 +358,9 @@ def sos_level(
             return [basis]
         return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
 
+    biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
+    if biggest > MAX_GRAM_BLOCK:
+        return _too_large(biggest, nv, t0)
     asm = _Assembler()
     lam_basis = keep(monomials(nv, multiplier_degree))
     parts: dict[str, Any] = {"lambda": asm.multiplier(Vd, lam_basis)}

@@ -166,8 +166,13 @@ def load_config(path: str | Path) -> dict[str, Any]:
         cfg = tomllib.loads(path.read_text())
     except tomllib.TOMLDecodeError as exc:
         raise RoaInputError(f"experiment config {path}: invalid TOML: {exc}") from exc
+    except (UnicodeDecodeError, RecursionError) as exc:
+        raise RoaInputError(
+            f"experiment config {path}: not readable ({type(exc).__name__})"
+        ) from None
     runner = cfg.get("runner")
-    if not isinstance(runner, str) or not re.fullmatch(r"[A-Za-z_][\w.]*:[A-Za-z_]\w*", runner):
+    module_re = r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*"
+    if not isinstance(runner, str) or not re.fullmatch(module_re + r":[A-Za-z_]\w*", runner):
         raise RoaInputError(
             f"experiment config {path}: runner must be 'module:function', got {runner!r}"
         )
@@ -255,8 +260,11 @@ def run_experiment(
     if quick:
         params.update(cfg.get("quick", {}))
     module, func = cfg["runner"].split(":")
-    runner = getattr(importlib.import_module(module), func, None)
-    if runner is None:
+    try:
+        runner = getattr(importlib.import_module(module), func, None)
+    except ImportError as exc:
+        raise RoaInputError(f"experiment {cfg['name']}: runner module {module!r}: {exc}") from None
+    if runner is None or not callable(runner):
         raise RoaInputError(f"experiment {cfg['name']}: {module} has no runner {func!r}")
     params = check_params(cfg["name"], runner, params)
     out.mkdir(parents=True, exist_ok=True)

@@ -67,7 +67,7 @@ class Params(Mapping[str, float]):
 
 
 @dataclass(frozen=True)
-class _WithParams:
+class BoundField:
     """The three-argument field of a system with parameters (picklable)."""
 
     func: Callable[..., Sequence[Any]]
@@ -159,7 +159,7 @@ class System:
                 object.__setattr__(self, name, tuple(tuple(float(v) for v in row) for row in arr))
 
     def _bind_params(self) -> None:
-        func = self.field.func if isinstance(self.field, _WithParams) else self.field
+        func = self.field.func if isinstance(self.field, BoundField) else self.field
         if self.params is None:
             if func is not self.field:
                 object.__setattr__(self, "field", func)
@@ -179,7 +179,7 @@ class System:
             values[key] = float(value)
         bound = Params(values)
         object.__setattr__(self, "params", bound)
-        object.__setattr__(self, "field", _WithParams(func, bound))
+        object.__setattr__(self, "field", BoundField(func, bound))
 
     def with_params(self, **values: float) -> System:
         """The same system with some parameters set to other values (names must be declared)."""

@@ -29,6 +29,24 @@ def _files(tmp_path):
     for name, data in files.items():
         path = tmp_path / name
         path.write_bytes(data if isinstance(data, bytes) else data.encode())
+    (tmp_path / "npsin.py").write_text(
+        "import numpy as np\nfrom roa import System\n"
+        "def field(t, x, xp):\n    return (-x[1], np.sin(x[0]) + (x[0] ** 2 - 1) * x[1])\n"
+        "SYSTEM = System(name='npsin', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'))\n"
+    )
+    (tmp_path / "raiser.py").write_text(
+        "import numpy as np\nfrom roa import System\n"
+        "def field(t, x, xp):\n"
+        "    if np.any(np.abs(np.asarray(x[0], dtype=float)) > 1.0):\n"
+        "        raise ValueError('boom')\n"
+        "    return (-x[1], x[0] + (x[0] ** 2 - 1) * x[1])\n"
+        "SYSTEM = System(name='raiser', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'))\n"
+    )
+    for name, runner in (
+        ("missing", "ipc_paper.nonexistent:run"),
+        ("dots", "ipc_paper..figures:run_figure1"),
+    ):
+        (tmp_path / f"{name}.toml").write_text(f'runner = "{runner}"\n')
     np.save(tmp_path / "str.npy", np.array(["a", "b"]))
     np.save(tmp_path / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
     return tmp_path
@@ -47,6 +65,11 @@ CASES = [
     (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--terminal-set", "{d}/nested.json"], "--terminal-set"),
     (["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--terminal-set", "{d}/nonutf.json"], "--terminal-set"),
     (["simulate", "--system", "vanderpol", "--x0", "0.1,0.1", "--plot", "{d}/dir.png"], "--plot"),
+    (["certify", "--system", "{d}/npsin.py:SYSTEM", "--level", "1"], "npsin.py:4"),
+    (["simulate", "--system", "{d}/raiser.py:SYSTEM", "--x0", "2,0"], "raiser.py:5"),
+    (["basin", "--system", "{d}/raiser.py:SYSTEM", "--slice", "x1,x2", "--grid", "4x4", "--box", "x1=-3:3,x2=-3:3", "--jobs", "1"], "raiser.py:5"),
+    (["run", "{d}/missing.toml"], "ipc_paper.nonexistent"),
+    (["run", "{d}/dots.toml"], "runner must be"),
 ]  # fmt: skip
 
 

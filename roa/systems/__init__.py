@@ -21,8 +21,9 @@ import traceback
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
+from typing import Any
 
-from roa.errors import RoaInputError, SystemDefinitionError
+from roa.errors import RoaError, RoaInputError, SystemDefinitionError
 from roa.system import System
 
 #: The library's built-in systems: name -> "module:factory"; factories take keyword parameters
@@ -146,6 +147,7 @@ def load_system(spec: str) -> System:
             system = dataclasses.replace(system, lyapunov=P)
         except RoaInputError as exc:
             raise SystemDefinitionError(f"{path}: LYAPUNOV_P: {exc}") from None
+    system = _guarded(system, path)
     from roa.checks import check_system
 
     try:
@@ -155,6 +157,43 @@ def load_system(spec: str) -> System:
     except Exception as exc:  # the user's field raised: report where, in one line
         raise SystemDefinitionError(_where(path, exc)) from None
     return system
+
+
+@dataclasses.dataclass(frozen=True)
+class UserField:
+    """A user file's field: what it raises becomes a :class:`SystemDefinitionError` naming the
+    file, the line and the namespace it was evaluated in (picklable for the workers)."""
+
+    func: Callable[..., Any]
+    path: str
+
+    def __call__(self, t: Any, x: Any, xp: Any, *p: Any) -> Any:
+        try:
+            return self.func(t, x, xp, *p)
+        except RoaError:
+            raise
+        except Exception as exc:  # the user's code: one line naming where, no traceback
+            hint = (
+                "; write the field with xp.sin, xp.cos, ... (not numpy's) so that it runs on "
+                "every namespace"
+                if isinstance(exc, TypeError | AttributeError)
+                else ""
+            )
+            raise SystemDefinitionError(
+                f"{_where(Path(self.path), exc)} (evaluating the field with the "
+                f"{getattr(xp, 'name', type(xp).__name__)} namespace){hint}"
+            ) from None
+
+
+def _guarded(system: System, path: Path) -> System:
+    """``system`` with its field wrapped in :class:`UserField` (the innermost function, so that
+    declared parameters are still bound)."""
+    from roa.system import BoundField
+
+    inner = system.field.func if isinstance(system.field, BoundField) else system.field
+    if isinstance(inner, UserField):
+        return system
+    return dataclasses.replace(system, field=UserField(inner, str(path)))
 
 
 def _where(path: Path, exc: BaseException) -> str:

@@ -188,6 +188,11 @@ def load_config(path: str | Path) -> dict[str, Any]:
     depends = cfg.get("depends", [])
     if not isinstance(depends, list) or not all(isinstance(d, str) for d in depends):
         raise RoaInputError(f"experiment config {path}: depends must be a list of experiment names")
+    order = cfg.get("order", 100)
+    if isinstance(order, bool) or not isinstance(order, int) or not -(10**6) <= order <= 10**6:
+        raise RoaInputError(
+            f"experiment config {path}: order must be an integer in [-1e6, 1e6], got {order!r}"
+        )
     unknown = set(cfg) - {"runner", "title", "params", "quick", "order", "depends"}
     if unknown:
         raise RoaInputError(f"experiment config {path}: unknown keys {sorted(unknown)}")
@@ -240,7 +245,9 @@ def run_experiment(
     if manifest_path.is_file():
         try:
             old = json.loads(manifest_path.read_text())
-        except json.JSONDecodeError:
+        except (ValueError, RecursionError):  # bad JSON or not UTF-8: an unusable manifest
+            old = {}
+        if not isinstance(old, dict):
             old = {}
     source = str(Path(path).resolve())
     if old and not force and old.get("config_path") not in (None, source):
@@ -322,8 +329,10 @@ def verify_outputs(out: Path, manifest: dict[str, Any] | None = None) -> list[st
     if manifest is None:
         try:
             manifest = json.loads((out / "manifest.json").read_text())
-        except (OSError, json.JSONDecodeError):
+        except (OSError, ValueError, RecursionError):  # ValueError: bad JSON or not UTF-8
             return [f"{out}/manifest.json is missing or unreadable"]
+    if not isinstance(manifest, dict):
+        return [f"{out}/manifest.json is not a manifest (a JSON object): re-run the experiment"]
     recorded = manifest.get("outputs")
     if not isinstance(recorded, dict):
         return [f"{out}/manifest.json records no output hashes: re-run the experiment"]
@@ -347,8 +356,8 @@ def list_experiments(directory: str | Path = "experiments") -> list[Path]:
     def key(p: Path) -> tuple[int, str]:
         try:
             return (int(tomllib.loads(p.read_text()).get("order", 100)), p.name)
-        except tomllib.TOMLDecodeError:
-            return (100, p.name)
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError, TypeError, ValueError, OverflowError):
+            return (100, p.name)  # load_config names the problem when the config is run
 
     return sorted(paths, key=key)
 

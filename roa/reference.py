@@ -60,9 +60,14 @@ def load(path: str | Path, *, must_exist: bool = False) -> dict[str, Any]:
             )
         return {}
     try:
-        return json.loads(path.read_text())
-    except json.JSONDecodeError as exc:
-        raise ResultsError(f"{path}: invalid JSON: {exc}") from exc
+        data = json.loads(path.read_text())
+    except (ValueError, RecursionError) as exc:  # bad JSON, not UTF-8, nested too deep
+        raise ResultsError(f"{path}: not a readable JSON file ({type(exc).__name__})") from None
+    if not isinstance(data, dict):
+        raise ResultsError(
+            f"{path}: expected a JSON object of stored values, got {type(data).__name__}"
+        )
+    return data
 
 
 def _select(registry: Registry, keys: list[str] | None) -> list[str]:
@@ -99,7 +104,14 @@ def check(
         if key not in stored:
             rows.append({**row, "status": "missing"})
             continue
-        ref = float(stored[key]["value"])
+        stored_entry = stored[key]
+        raw = stored_entry.get("value") if isinstance(stored_entry, dict) else None
+        if isinstance(raw, bool) or not isinstance(raw, int | float) or not math.isfinite(raw):
+            rows.append({**row, "status": "error",
+                         "error": f"the stored value of {key} in {path} is not a finite number "
+                                  f"({raw!r}): restore the file (git) or roa check --update"})  # fmt: skip
+            continue
+        ref = float(raw)
         row["stored"] = ref
         ok = math.isclose(value, ref, rel_tol=entry.rtol, abs_tol=entry.atol)
         row["status"] = "ok" if ok else "drift"

@@ -6,6 +6,7 @@ input exits 2 with a message naming it; a Hypothesis fuzz of the certificate rea
 from __future__ import annotations
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -17,6 +18,8 @@ from roa.certification import Certificate
 from roa.cli import main
 from roa.errors import RoaInputError
 from roa.systems.vanderpol import vanderpol
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _files(tmp_path):
@@ -116,3 +119,42 @@ def test_certificate_reader_gives_a_claim_or_an_input_error(data):
         return
     assert claim.level is not None and np.isfinite(claim.level) and claim.level > 0
     assert claim.V is not None and claim.V.n == 2
+
+
+def test_an_order_that_is_no_integer_names_itself(tmp_path, capsys):
+    cfg = tmp_path / "ord.toml"
+    runner = next(
+        line.split('"')[1]
+        for line in (ROOT / "experiments" / "bound.toml").read_text().splitlines()
+        if line.startswith("runner")
+    )
+    cfg.write_text(f'runner = "{runner}"\norder = "abc"\n')
+    assert main(["run", str(cfg), "--results", str(tmp_path / "r")]) == 2
+    assert "order must be an integer" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("content", [b"\xff", b"[]", b"[" * 50_000])
+def test_a_broken_manifest_is_named_not_a_traceback(tmp_path, capsys, content):
+    import shutil
+
+    results = tmp_path / "r"
+    shutil.copytree(ROOT / "results", results)
+    (results / "bound" / "manifest.json").write_bytes(content)
+    assert main(["report", "--results", str(results), "--out", str(tmp_path / "x.md")]) == 1
+    err = capsys.readouterr().err
+    assert "bound/manifest.json" in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize("value", ["x", None, "missing"])
+def test_a_stored_reference_value_that_is_no_number_is_named(tmp_path, capsys, value):
+    data = json.loads((ROOT / "results" / "reference.json").read_text())
+    key = "vanderpol.level.casadi"
+    if value == "missing":
+        del data[key]["value"]
+    else:
+        data[key]["value"] = value
+    ref = tmp_path / "reference.json"
+    ref.write_text(json.dumps(data))
+    assert main(["check", "--only", key, "--reference", str(ref)]) == 1
+    out = capsys.readouterr()
+    assert key in out.out + out.err and "Traceback" not in out.err

@@ -274,9 +274,15 @@ def run_experiment(
     if runner is None or not callable(runner):
         raise RoaInputError(f"experiment {cfg['name']}: {module} has no runner {func!r}")
     params = check_params(cfg["name"], runner, params)
+    created = not out.exists()
     out.mkdir(parents=True, exist_ok=True)
     t0 = time.perf_counter()
-    summary = runner(params, out, quick=quick)
+    try:
+        summary = runner(params, out, quick=quick)
+    except BaseException:
+        if created and not any(out.iterdir()):  # a failed run leaves no empty results folder
+            out.rmdir()
+        raise
     elapsed = time.perf_counter() - t0
     for claim in summary.get("claims", []):
         if claim.get("verdict") not in VERDICTS:

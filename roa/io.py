@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import os
@@ -9,6 +10,7 @@ import platform
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterator
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -89,6 +91,35 @@ def atomic_write_text(path: str | Path, text: str) -> Path:
 
 def atomic_write_json(path: str | Path, obj: Any) -> Path:
     return atomic_write_text(path, to_json(obj) + "\n")
+
+
+@contextlib.contextmanager
+def folder_lock(folder: str | Path, what: str) -> Iterator[None]:
+    """Hold an exclusive lock on ``folder`` (its ``.lock`` file, flock) for the block; another
+    process holding it is an input error naming ``what`` (never two runs mixing one folder)."""
+    import fcntl
+
+    from roa.errors import RoaInputError
+
+    folder = Path(folder)
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        fd = os.open(folder / ".lock", os.O_RDWR | os.O_CREAT, 0o666 & ~_umask())
+    except OSError as exc:
+        raise RoaInputError(
+            f"{what}: cannot create {folder}: {exc.strerror or exc}; give a writable directory"
+        ) from None
+    try:
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            raise RoaInputError(
+                f"{what} {folder.parent}: in use by another run (lock {folder / '.lock'}); wait "
+                "for it to end or choose another folder"
+            ) from None
+        yield
+    finally:
+        os.close(fd)  # closing releases the lock
 
 
 #: Figure formats :func:`atomic_savefig` writes (by the file's extension).

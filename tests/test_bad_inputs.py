@@ -158,3 +158,39 @@ def test_a_stored_reference_value_that_is_no_number_is_named(tmp_path, capsys, v
     assert main(["check", "--only", key, "--reference", str(ref)]) == 1
     out = capsys.readouterr()
     assert key in out.out + out.err and "Traceback" not in out.err
+
+
+def test_out_is_refused_inside_or_above_experiment_results(tmp_path, capsys):
+    import shutil
+
+    results = tmp_path / "results"
+    shutil.copytree(ROOT / "results" / "bound", results / "bound")
+    base = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "3x3", "--jobs", "1"]
+    for out in (results / "bound" / "sub", results / "bound" / "chunks" / "x", results):
+        assert main([*base, "--out", str(out)]) == 2
+        assert "--out" in capsys.readouterr().err
+        assert not (results / "bound" / "sub").exists()
+
+
+def test_one_run_per_out_folder(tmp_path):
+    from roa.io import folder_lock
+
+    system = vanderpol()
+    grid = roa.grid_slice(system, ("x1", "x2"), [(-1, 1), (-1, 1)], (3, 3))
+    out = tmp_path / "run"
+    with folder_lock(out / "chunks", "out_dir"):  # another run holds the folder
+        with pytest.raises(RoaInputError, match="in use by another run"):
+            roa.basin(system, grid, run=roa.RunOptions(n_jobs=1, out_dir=str(out)))
+    res = roa.basin(system, grid, run=roa.RunOptions(n_jobs=1, out_dir=str(out)))
+    assert res.n == 9  # free again once the other run ends
+
+
+def test_a_failed_experiment_leaves_no_empty_results_folder(tmp_path):
+    from roa.experiment import run_experiment
+
+    cfg = tmp_path / "bound.toml"
+    text = (ROOT / "experiments" / "bound.toml").read_text()
+    cfg.write_text(text.replace("[params]", "[params]\nbogus_param = 1", 1))
+    with pytest.raises(RoaInputError):
+        run_experiment(cfg, results=tmp_path / "r", quick=True)
+    assert not (tmp_path / "r" / "bound").exists()

@@ -238,6 +238,17 @@ def _check_out_dir(out: str | None) -> None:
     if out is None:
         return
     d = Path(out)
+    for parent in d.resolve().parents:  # inside an experiment's folder, at any depth
+        if (parent / "manifest.json").is_file():
+            raise RoaInputError(
+                f"--out {out}: it lies inside {parent}, the results of an experiment "
+                "(manifest.json): choose a folder outside every experiment's results"
+            )
+    if d.is_dir() and any(d.glob("*/manifest.json")):
+        raise RoaInputError(
+            f"--out {out}: the directory holds the results of experiments (*/manifest.json): "
+            "choose another --out directory"
+        )
     if (d / "manifest.json").is_file():
         raise RoaInputError(
             f"--out {out}: this directory holds the results of an experiment (manifest.json); "

@@ -199,7 +199,23 @@ def _pending(n: int, chunk_size: int, done: set[int]) -> Iterator[int]:
     return (s for s in range(0, n, chunk_size) if s not in done)
 
 
-def run_basin(
+#: Seconds an idle worker process waits for work before it exits.
+IDLE_WORKERS = 30
+
+
+def run_basin(system: System, sampler: Any, *, out_dir: str | Path | None = None,
+              **kw: Any) -> BasinRun:  # fmt: skip
+    """Integrate every initial condition of ``sampler`` (see :func:`_run_basin` for the
+    parameters); with ``out_dir`` the folder is locked for the run (one run per folder)."""
+    if out_dir is None:
+        return _run_basin(system, sampler, **kw)
+    from roa.io import folder_lock
+
+    with folder_lock(Path(out_dir) / "chunks", "out_dir"):
+        return _run_basin(system, sampler, out_dir=out_dir, **kw)
+
+
+def _run_basin(
     system: System,
     sampler: Any,
     *,
@@ -323,7 +339,9 @@ def run_basin(
             if n_jobs == -1 and n_todo * chunk_size < SMALL_RUN:
                 jobs = 1
             jobs = max(1, min(jobs, n_todo))  # never more workers than tasks
-            ctx = joblib.parallel_config(n_jobs=jobs)
+            # idle workers exit after IDLE_WORKERS s: none outlive a killed parent for long
+            ctx = joblib.parallel_config(backend="loky", n_jobs=jobs,
+                                         idle_worker_timeout=IDLE_WORKERS)  # fmt: skip
         results = None
         bar = None
         try:

@@ -9,7 +9,17 @@ import sys
 from roa.errors import RoaError, RoaInputError
 
 #: Subcommand modules under roa.commands, in --help order (studies add their own after these).
-COMMANDS = ("simulate", "khalil", "certify", "basin", "run", "reproduce", "report", "check")
+COMMANDS = (
+    "simulate",
+    "khalil",
+    "certify",
+    "verify",
+    "basin",
+    "run",
+    "reproduce",
+    "report",
+    "check",
+)
 
 
 def build_parser() -> argparse.ArgumentParser:

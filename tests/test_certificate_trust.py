@@ -145,3 +145,18 @@ def test_a_field_using_t_undeclared_is_an_input_error(tmp_path, capsys):
     assert main(["certify", "--system", f"{src}:SYSTEM", "--level", "2.3", "--json"]) == 2
     err = capsys.readouterr().err
     assert "depends on t" in err and "time_varying=True" in err and "Traceback" not in err
+
+
+def test_roa_verify_proves_a_file_again_or_refuses_it(certificate, tmp_path, capsys):
+    """``roa verify`` (the README's answer to deliberate edits): the genuine file is certified
+    again (exit 0), the edited one is not (exit 1), whatever status the file claims."""
+    good, forged = tmp_path / "good.json", tmp_path / "forged.json"
+    good.write_text(json.dumps(certificate))
+    forged.write_text(json.dumps({**certificate, "level": 2.31}))
+    assert main(["verify", str(good), "--system", "vanderpol", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "certified" and out["claimed_status"] == "certified"
+    assert main(["verify", str(forged), "--system", "vanderpol", "--json"]) == 1
+    assert json.loads(capsys.readouterr().out)["status"] == "refuted"
+    assert main(["verify", str(good), "--system", "vanderpol:mu=15"]) == 2
+    assert "another system" in capsys.readouterr().err

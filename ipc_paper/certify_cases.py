@@ -164,13 +164,10 @@ def _slice_coverage(sat: float, P: np.ndarray, level: float, p: dict[str, Any]) 
 
 
 def _fresh(progress: bool) -> None:
-    """Every case starts from the same process state (progress lines on or off; jets not centred
-    until a nonsmooth function is seen: :mod:`roa.proof.jet`)."""
+    """Every case starts with progress lines on or off."""
     from roa import progress as prog
-    from roa.proof import jet
 
     prog.enable(progress)
-    jet.reset_centring()
 
 
 def case_vanderpol(p: dict[str, Any], progress: bool) -> dict[str, Any]:

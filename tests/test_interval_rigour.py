@@ -538,3 +538,16 @@ def test_interval_namespace_sector_matches_float_form():
         for j in range(2)
     )
     assert iv.lo <= exact <= iv.hi
+
+
+def test_jet_centring_is_decided_per_expression_not_by_process_history():
+    """No process-global state: meeting a kink once no longer centres every later jet (box counts
+    of a validation do not depend on what ran before it in the process)."""
+    from roa.proof.jet import jabs, nonsmooth
+
+    lo, hi = np.array([[-1.0, 0.5]]), np.array([[1.0, 2.0]])
+    assert nonsmooth(lambda: jabs(Jet.variables(lo, hi)[0]))
+    assert not nonsmooth(lambda: Jet.variables(lo, hi)[0] * 2.0 + 1.0)
+    jabs(Jet.variables(lo, hi)[0])  # a kink outside any probe leaves no trace either
+    assert all(x.c is None for x in Jet.variables(lo, hi, order=2))
+    assert all(x.c is not None for x in Jet.variables(lo, hi, order=2, centred=True))

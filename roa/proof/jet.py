@@ -11,7 +11,9 @@ such floats, checked in rational arithmetic); constants entering a jet are enclo
 
 from __future__ import annotations
 
+import contextvars
 import math
+from collections.abc import Callable
 from fractions import Fraction
 from types import SimpleNamespace
 from typing import Any
@@ -148,9 +150,8 @@ class Jet:
     The nonsmooth functions (:func:`jminimum`, ...) decide their branch on the tighter range ``v``
     intersected with the centred form ``c + sum_i g_i d_i`` (:meth:`range`): the natural extension
     alone puts many boxes across a kink that their argument never reaches (on the saturated IPC,
-    most undecided boxes). ``c`` costs about 40 % more per evaluation and changes nothing for
-    smooth expressions, so by default jets are centred only once a nonsmooth function has been
-    evaluated on a jet in this process (:data:`_CENTRE`).
+    most undecided boxes). ``c`` costs more per evaluation and changes nothing for smooth
+    expressions, so callers centre the jets of an expression that :func:`nonsmooth` finds kinked.
     """
 
     __slots__ = ("v", "g", "h", "c", "d")
@@ -180,17 +181,14 @@ class Jet:
         return Interval(lo, hi)
 
     @classmethod
-    def variables(
-        cls, lo: Any, hi: Any, *, order: int = 1, centred: bool | None = None
-    ) -> list[Jet]:
+    def variables(cls, lo: Any, hi: Any, *, order: int = 1, centred: bool = False) -> list[Jet]:
         """Coordinate jets on the boxes ``[lo, hi]`` (shape ``(m, n)``), up to ``order`` (1 or 2).
 
-        ``centred``: carry midpoint values (see the class doc); default: once a nonsmooth
-        function has met a jet in this process.
+        ``centred``: carry midpoint values (see the class doc; for a kinked expression).
         """
         lo, hi = np.asarray(lo, dtype=float), np.asarray(hi, dtype=float)
         n = lo.shape[-1]
-        centre = _CENTRE["on"] if centred is None else centred
+        centre = centred
         if not (centre and np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):  # finite boxes
             out = []
             for i in range(n):
@@ -381,15 +379,26 @@ def _hull(a: Any, b: Any) -> Any:
 
 
 _WHOLE_LINE = Interval(-np.inf, np.inf)
-#: ``on``: :meth:`Jet.variables` carries midpoint values by default. Set by the first nonsmooth
-#: function evaluated on a jet (a field with kinks); only speed and box counts depend on it, so a
-#: runner that wants the same counts whatever ran before in its process calls reset_centring().
-_CENTRE = {"on": False}
+#: The kinks met while :func:`nonsmooth` evaluates an expression (None outside it).
+_KINKS: contextvars.ContextVar[list[str] | None] = contextvars.ContextVar("kinks", default=None)
 
 
-def reset_centring() -> None:
-    """Back to the initial state: jets not centred until a nonsmooth function is seen."""
-    _CENTRE["on"] = False
+def _kink(name: str) -> None:
+    seen = _KINKS.get()
+    if seen is not None:
+        seen.append(name)
+
+
+def nonsmooth(expression: Callable[[], Any]) -> bool:
+    """Whether evaluating ``expression()`` (on jets) meets a nonsmooth function (min, max, clip,
+    abs): its jets are then worth centring (:meth:`Jet.variables`). No state outlives the call."""
+    seen: list[str] = []
+    token = _KINKS.set(seen)
+    try:
+        expression()
+    finally:
+        _KINKS.reset(token)
+    return bool(seen)
 
 
 def _zero(e: Any) -> bool:
@@ -422,7 +431,7 @@ def _branch(
 
 
 def _as_jets(a: Any, b: Any) -> tuple[Jet, Jet]:
-    _CENTRE["on"] = True
+    _kink("min/max")
     if isinstance(a, Jet):
         return a, a._const(b)
     return b._const(a), b
@@ -460,7 +469,7 @@ def jabs(x: Any) -> Any:
     """``|x|`` for jets: ``x`` where ``x >= 0`` on the box, ``-x`` where ``x <= 0``, else the kink."""
     if not isinstance(x, Jet):
         return iabs(x)
-    _CENTRE["on"] = True
+    _kink("abs")
     r = x.range()
     c = None if x.c is None else iabs(x.c)
     return _branch(x, -x, r.lo >= 0, r.hi <= 0, iabs(r), c)

@@ -76,7 +76,7 @@ from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import JET, Jet, nonsmooth
 from roa.proof.local import local_box
 from roa.proof.validation import Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
@@ -195,8 +195,9 @@ def _v_enclosures(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, mid: np.ndarra
     quad = QuadraticForm.of(lyap)
     if quad is not None:
         return quad.boxes(lo, hi, mid)
-    return (lyap.expr(Jet.variables(lo, hi, order=2), JET),
-            lyap.expr(Jet.variables(mid, mid, order=1), JET))  # fmt: skip
+    kinked = nonsmooth(lambda: lyap.expr(Jet.variables(lo[:1], hi[:1]), JET))
+    return (lyap.expr(Jet.variables(lo, hi, order=2, centred=kinked), JET),
+            lyap.expr(Jet.variables(mid, mid, order=1, centred=kinked), JET))  # fmt: skip
 
 
 def evaluate_boxes(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float):
@@ -208,8 +209,9 @@ def evaluate_boxes(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarra
     n, m = lyap.n, len(lo)
     mid = 0.5 * (lo + hi)
     delta = box_offsets(lo, hi, mid)
-    vd = lyap.vdot_expr(system, Jet.variables(lo, hi, order=2), JET)
-    at = lyap.vdot_expr(system, Jet.variables(mid, mid, order=1), JET)
+    kinked = nonsmooth(lambda: lyap.vdot_expr(system, Jet.variables(lo[:1], hi[:1]), JET))
+    vd = lyap.vdot_expr(system, Jet.variables(lo, hi, order=2, centred=kinked), JET)
+    at = lyap.vdot_expr(system, Jet.variables(mid, mid, order=1, centred=kinked), JET)
     cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
     vdot = _meet(_full(vd.v, m), cen, tay)
     Vb, Vm = _v_enclosures(lyap, lo, hi, mid)

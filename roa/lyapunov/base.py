@@ -71,6 +71,8 @@ class Lyapunov:
     terms: dict[tuple[int, ...], float] | None = None
     #: The degree of a polynomial V, else None.
     degree: int | None = None
+    #: Whether V is already written in a whitened frame (``roa.proof.whiten``).
+    whitened: bool = False
 
     def as_quadratic(self) -> QuadraticLyapunov | None:
         """This V as a :class:`~roa.lyapunov.QuadraticLyapunov` (its closed-form paths) when it is

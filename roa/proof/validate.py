@@ -381,7 +381,7 @@ def _branch_and_bound(
     and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
     that Hessian is diagonal or not definite, or a ``bounding_box`` is given)."""
     t0 = time.perf_counter()
-    if whiten and bounding_box is None and not isinstance(lyap, Whitened):
+    if whiten and bounding_box is None and not lyap.whitened:
         M = whitening_for(lyap)
         if M is not None:
             W = Whitened(lyap, system, M)

@@ -252,6 +252,8 @@ def _scalar(g: Any) -> Any:
 class Whitened(Lyapunov):
     """``W(y) = V(c + M y)`` with ``W' = grad V . f`` evaluated at ``x = c + M y``."""
 
+    whitened = True
+
     def __init__(self, base: Lyapunov, system: System, M: np.ndarray) -> None:
 
         self.base, self.system = base, system

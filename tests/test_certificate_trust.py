@@ -160,3 +160,47 @@ def test_roa_verify_proves_a_file_again_or_refuses_it(certificate, tmp_path, cap
     assert json.loads(capsys.readouterr().out)["status"] == "refuted"
     assert main(["verify", str(good), "--system", "vanderpol:mu=15"]) == 2
     assert "another system" in capsys.readouterr().err
+
+
+def _kx13(t, x, xp, p):  # differs from -x only away from the fingerprint's trace points
+    return (-x[0] + p.k * x[0] ** 13, -x[1])
+
+
+def test_a_proof_is_never_served_for_another_parameter_value():
+    """Review finding: the re-verification cache was keyed by the fingerprint's trace, which does
+    not see k x^13 near the equilibrium: the proof for k = 0 was served for k = 10, whose level 1
+    is false (x0' = -0.9 + 10 0.9^13 > 0 at (0.9, 0), inside {V <= 1})."""
+    A = roa.System("toy", _kx13, (0.0, 0.0), ("a", "b"), params={"k": 0.0})
+    B = A.with_params(k=10.0)
+    V = roa.QuadraticLyapunov(np.eye(2), [0.0, 0.0])
+    assert system_fingerprint(A) == system_fingerprint(B)  # the trace alone cannot tell them
+    assert reverify(A, V, 1.0).certified
+    assert reverify(B, V, 1.0).status is roa.Verdict.REFUTED
+    assert content_key(A, V, 1.0) != content_key(B, V, 1.0)
+    with pytest.raises(RoaInputError, match="re-verification failed"):
+        terminal_from_certificate(roa.certify(A, V, level=1.0).to_dict(), B)
+
+
+def test_function_candidates_are_proved_every_time():
+    """Review finding: two function V of the same name shared a cache entry."""
+    system = roa.System(
+        "cubic", lambda t, x, xp: (-x[0] + x[0] ** 3, -x[1]), (0.0, 0.0), ("a", "b")
+    )
+    Va = roa.FunctionLyapunov(lambda x, xp: x[0] ** 2 + x[1] ** 2, [0.0, 0.0], "V")
+    Vb = roa.FunctionLyapunov(lambda x, xp: 0.25 * x[0] ** 2 + x[1] ** 2, [0.0, 0.0], "V")
+    assert content_key(system, Va, 0.5) is None
+    assert roa.certify(system, Va, level=0.5).reverify().certified
+    again = roa.certify(system, Vb, level=0.5)
+    assert again.status is roa.Verdict.REFUTED
+    assert again.reverify().status is roa.Verdict.REFUTED
+
+
+def test_a_polynomial_proved_without_whitening_is_a_terminal_set():
+    """Review finding: a validation run in x recorded no frame, so its certificate could not be
+    used; the frame of such a run is the identity, and it is recorded."""
+    system = roa.System("lin", lambda t, x, xp: (-x[0], -x[1]), (0.0, 0.0), ("a", "b"))
+    V = roa.PolynomialLyapunov([[2, 0], [0, 2], [4, 0]], [1.0, 1.0, 1.0], [0.0, 0.0])
+    cert = roa.certify(system, V, level=1.0)
+    assert cert.certified and cert.to_dict()["M"] == [[1.0, 0.0], [0.0, 1.0]]
+    term = terminal_from_certificate(cert.to_dict(), system)
+    np.testing.assert_array_equal(term.frame, np.eye(2))

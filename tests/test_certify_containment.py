@@ -90,3 +90,15 @@ def test_certified_regions_use_their_stored_coordinates(tmp_path):
     assert f.contains(x).tolist() == [False, False]
     with pytest.raises(ValueError, match="allowed flat, hybrid"):
         coords_map("physical")
+
+
+def test_exact_positive_definite_is_sylvester_on_symmetric_matrices_only():
+    """Leading minors decide definiteness only for a symmetric matrix: [[1, 3], [-3, 1]] has
+    positive minors (1 and 10) but is no symmetric positive-definite matrix, so it is refused."""
+    from fractions import Fraction
+
+    from roa.proof.exact import exact_positive_definite
+
+    assert exact_positive_definite([[2, 1], [1, 2]]) == (True, [Fraction(2), Fraction(3, 2)])
+    assert exact_positive_definite([[1, 3], [-3, 1]])[0] is False
+    assert exact_positive_definite([[1, 2], [2, 1]]) == (False, [Fraction(1), Fraction(-3)])

@@ -19,7 +19,7 @@ from roa.certification.files import read_certificate_json
 from roa.certification.result import Certificate
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov, PolynomialLyapunov
-from roa.montecarlo.terminal import TerminalSet, coords_map
+from roa.montecarlo.terminal import TerminalSet
 from roa.status import Verdict
 from roa.system import System
 
@@ -60,7 +60,7 @@ def terminal_from_certificate(source: str | Path | dict[str, Any], system: Syste
             + "; only a level set proved for the system as loaded may finish trajectories"
         )
     assert claim.V is not None and claim.level is not None and proof.validation is not None
-    center = coords_map(system, coords)(system.x_eq[None, :])[0]
+    center = claim.V.center  # the centre proved (bind() checks the mapped equilibrium is inside)
     name = f"{data.get('lyapunov', 'V')} <= {claim.level:.6g} ({cert_system})"
     return terminal_of(claim.V, claim.level, center, coords, name,
                        frame=proof.validation.meta.get("M"))  # fmt: skip

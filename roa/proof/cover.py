@@ -46,6 +46,9 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
         return None
     m = len(basis)
     Qx = [[Fraction(float(Q[i, j])) for j in range(m)] for i in range(m)]
+    for i in range(m):  # exactly symmetric (a whitened T'QT is so only up to rounding)
+        for j in range(i + 1, m):
+            Qx[i][j] = Qx[j][i] = (Qx[i][j] + Qx[j][i]) / 2
     pairs: dict[tuple[int, ...], list[tuple[int, int]]] = {}
     for i, j in itertools.product(range(m), range(m)):
         key = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))

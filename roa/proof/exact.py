@@ -26,6 +26,10 @@ def exact_positive_definite(A: Any) -> tuple[bool, list[Fraction]]:
     exactly) is positive definite, and the LDL' pivots up to the first that is not positive."""
     rows = [[_fmpq(v) for v in row] for row in A]
     n = len(rows)
+    if any(len(r) != n for r in rows) or any(
+        rows[i][j] != rows[j][i] for i in range(n) for j in range(i + 1, n)
+    ):
+        return False, []  # Sylvester's criterion holds for symmetric matrices only
     pivots: list[Fraction] = []
     prev = flint.fmpq(1)
     for k in range(1, n + 1):

@@ -127,9 +127,9 @@ def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
         else:
             from roa.lyapunov import exact_rationals
 
-            g = lyap.gradient_expr(x, namespace("sympy"))
-            vd = sum(exact_rationals(sp.sympify(g[i])) * f[i] for i in range(n))
-            vd = exact_rationals(sp.sympify(vd))
+            # V' as the candidate writes it (a whitened V: grad V . f at x = c + M y with the
+            # system's own field, never the float inverse of M)
+            vd = exact_rationals(sp.sympify(lyap.vdot_expr(system, x, namespace("sympy"))))
         poly = sp.Poly(sp.expand(vd), *d)
     except (sp.PolynomialError, TypeError, ValueError):
         return None

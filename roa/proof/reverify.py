@@ -8,9 +8,12 @@ with the validation's reason (its refutation witness, re-checked at 50 digits, w
 one). What a terminal set, an overlay or a report row then uses is what was proved here,
 including the validation's own frame ``M`` (never the file's).
 
-Proved results are cached by content: the key is the SHA-256 of the system's fingerprint
-(:func:`roa.fingerprint.system_fingerprint`), ``V``'s exact description, the level's exact value
-and the hash of the library's code, so a change of any of them re-runs the validation. The cache
+Proved results are cached by content: the key is the SHA-256 of the system's exact identity
+(:func:`roa.fingerprint.system_identity`: states, equilibrium, parameters, the code and captured
+values of its field and margin and the sources they may call), ``V``'s exact description, the
+level's exact value and the hash of the library's code, so a change of any of them re-runs the
+validation. A system or V that cannot be identified exactly (a function V, a field closing over
+an object of unknown kind) is proved every time, never served from the cache. The cache
 lives in ``$ROA_CACHE_DIR`` (default ``~/.cache/roa``) under ``verified/``; it trusts whoever can
 write there (as a compiler cache does), which is the user running ``roa``.
 """
@@ -26,7 +29,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from roa.fingerprint import system_fingerprint
+from roa.fingerprint import system_identity
 from roa.lyapunov import Lyapunov
 from roa.options import IntervalOptions
 from roa.status import Verdict
@@ -68,10 +71,15 @@ def _code_stamp() -> str:
     return code_hash("roa")
 
 
-def content_key(system: System, V: Lyapunov, level: float) -> str:
-    """SHA-256 of what a re-verification depends on (see module doc)."""
+def content_key(system: System, V: Lyapunov, level: float) -> str | None:
+    """SHA-256 of what a re-verification depends on (see module doc), or None when it cannot be
+    pinned down exactly: a system without an exact identity (:func:`system_identity`) or a V whose
+    description does not determine it (a function V)."""
+    identity = system_identity(system)
+    if identity is None or (V.P is None and V.terms is None):
+        return None
     data = {
-        "system": system_fingerprint(system),
+        "system": identity,
         "V": V.describe(),
         "center": [float(c).hex() for c in V.center],
         "level": float(level).hex(),
@@ -117,8 +125,8 @@ def reverify(
 
     t0 = time.perf_counter()
     lvl = float(level)
-    key = content_key(system, V, lvl) if use_cache else ""
-    hit = _read(key) if use_cache else None
+    key = content_key(system, V, lvl) if use_cache else None
+    hit = _read(key) if key is not None else None
     if hit is not None:
         return Reverified(Verdict.CERTIFIED, lvl, "proved earlier for this exact content",
                           time.perf_counter() - t0, True, hit.get("validation", {}))  # fmt: skip
@@ -131,6 +139,6 @@ def reverify(
                           time.perf_counter() - t0)  # fmt: skip
     record = v.to_json()
     out = Reverified(v.status, lvl, v.message, time.perf_counter() - t0, False, record)
-    if use_cache and out.certified:
+    if key is not None and out.certified:
         _write(key, {"status": "certified", "validation": record})
     return out

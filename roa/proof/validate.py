@@ -363,8 +363,12 @@ def validate_level(
     if not np.allclose(system.x_eq, lyap.center):
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
     with np.errstate(over="ignore"):  # an interval bound that overflows is +-inf: still sound
-        return _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
-                                 bounding_box=bounding_box)  # fmt: skip
+        res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
+                                bounding_box=bounding_box)  # fmt: skip
+    if "M" not in res.meta:  # boxes in x: the frame (of the component box argument) is I
+        meta = {**res.meta, "coordinates": "x", "M": np.eye(lyap.n).tolist()}
+        res = dataclasses.replace(res, meta=meta)
+    return res
 
 
 def _branch_and_bound(

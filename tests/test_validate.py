@@ -286,3 +286,25 @@ def test_quadratic_closed_form_encloses_v_its_gradient_and_hessian_at_50_digits(
                 h = mp.diff(lambda *a: W.expr(list(a), ns), y0, order)
                 h_lo, h_hi = _iv(box.h[i][j], 1)
                 assert h_lo[0] - 1e-30 <= h <= h_hi[0] + 1e-30, (i, j)
+
+
+def test_a_whitened_degree_4_gram_v_takes_the_cover_from_rays():
+    """The global Gram cube serves quadratic V only: for the IPC's degree-4 V of the cutting-plane
+    search (a Gram V) it was so loose that the branch and bound ran out of its 6 M boxes
+    (inconclusive) where the box from rays certifies the level (results/degrees: 789619 boxes).
+    The whitened quadratic keeps its Gram cover."""
+    from ipc_paper.system import transformed
+    from roa.proof.cover import gram_cover
+    from roa.proof.whiten import Whitened, whitening_for
+
+    system = transformed()
+    V2 = roa.default_lyapunov(system)
+    basis = [tuple(int(i == j) for j in range(4)) for i in range(4)] + [(2, 0, 0, 0)]
+    Q = np.zeros((5, 5))
+    Q[:4, :4], Q[4, 4] = V2.P, 0.01
+    V4 = roa.PolynomialLyapunov.from_gram(basis, Q, np.zeros(4), "paper V + 0.01 z1^4")
+    assert V4.gram is not None and V4.degree == 4 and gram_cover(V4, 1.0) is not None
+    W4 = Whitened(V4, system, whitening_for(V4))
+    assert W4.gram is None and gram_cover(W4, 1.0) is None
+    W2 = Whitened(V2, system, whitening_for(V2))
+    assert W2.gram is not None and gram_cover(W2, 2.28) is not None

@@ -266,7 +266,12 @@ class Whitened(Lyapunov):
         #: ``(basis, T' Q T)`` and the exact coefficients of ``W`` for a global cover
         #: (:func:`roa.proof.cover.gram_cover`), when V has a Gram matrix ``Q`` over a basis
         #: ``m`` with ``m(M y) = T m(y)`` (each degree's monomials all in it, e.g. quadratic V)
-        self.gram = None if self.expanded is None else _gram_in_y(base, self.expanded)
+        #: Only for a quadratic V: for a higher degree the Gram bound's cube is far larger than
+        #: the level set, and the box found along rays (proved on its faces) is the cover
+        quadratic = base.degree == 2
+        self.gram = (
+            _gram_in_y(base, self.expanded) if quadratic and self.expanded is not None else None
+        )
         exact = None if self.gram is None or self.expanded is None else self.expanded.W.terms
         self.terms = None if exact is None else cast(dict[tuple[int, ...], float], dict(exact))
 

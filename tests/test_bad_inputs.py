@@ -194,3 +194,67 @@ def test_a_failed_experiment_leaves_no_empty_results_folder(tmp_path):
     with pytest.raises(RoaInputError):
         run_experiment(cfg, results=tmp_path / "r", quick=True)
     assert not (tmp_path / "r" / "bound").exists()
+
+
+V_KEYS = st.fixed_dictionaries(
+    {},
+    optional={"P": JSON | st.just([[2.0, 0.5], [0.5, 1.0]]),
+              "monomials": JSON | st.just([[2, 0], [0, 2], [4, 0]]),
+              "coefficients": JSON | st.just([1.0, 1.0, 0.5]),
+              "center": JSON, "lyapunov": JSON, "kind": JSON},
+)  # fmt: skip
+
+
+@settings(max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(JSON | V_KEYS | V_KEYS.map(lambda d: {"candidate_kind": d}) | V_KEYS.map(lambda d: {"V": d}))
+def test_lyapunov_json_reader_gives_a_candidate_or_an_input_error(data):
+    from roa.lyapunov import from_json
+
+    try:
+        V = from_json(data, [0.0, 0.0])
+    except RoaInputError:
+        return
+    assert V.n >= 1 and np.all(np.isfinite(V.center))
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.binary(max_size=300) | st.text(max_size=300).map(str.encode))
+def test_config_reader_gives_a_config_or_an_input_error(tmp_path_factory, content):
+    from roa.experiment import load_config
+
+    path = tmp_path_factory.mktemp("cfg") / "x.toml"
+    path.write_bytes(content)
+    try:
+        cfg = load_config(path)
+    except RoaInputError:
+        return
+    assert isinstance(cfg["runner"], str) and ":" in cfg["runner"]
+
+
+@settings(max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(JSON.map(json.dumps).map(str.encode) | st.binary(max_size=200))
+def test_reference_reader_gives_values_or_a_results_error(tmp_path_factory, content):
+    from roa.errors import ResultsError
+    from roa.reference import load
+
+    path = tmp_path_factory.mktemp("ref") / "reference.json"
+    path.write_bytes(content)
+    try:
+        data = load(path)
+    except ResultsError:
+        return
+    assert isinstance(data, dict)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.binary(max_size=400))
+def test_npy_reader_gives_numbers_or_an_input_error(tmp_path_factory, content):
+    from roa.commands.common import read_matrix
+
+    path = tmp_path_factory.mktemp("npy") / "P.npy"
+    path.write_bytes(b"\x93NUMPY" + content if content[:1] == b"\x01" else content)
+    try:
+        arr = read_matrix(str(path), what="--lyapunov")
+    except RoaInputError:
+        return
+    assert arr.dtype.kind in "iuf"

@@ -160,6 +160,12 @@ def test_roa_verify_proves_a_file_again_or_refuses_it(certificate, tmp_path, cap
     assert json.loads(capsys.readouterr().out)["status"] == "refuted"
     assert main(["verify", str(good), "--system", "vanderpol:mu=15"]) == 2
     assert "another system" in capsys.readouterr().err
+    for bad, why in ((tmp_path / "none.json", "no such file"), (tmp_path, "no such file")):
+        assert main(["verify", str(bad), "--system", "vanderpol"]) == 2
+        assert why in capsys.readouterr().err
+    (tmp_path / "list.json").write_text("[1, 2]")
+    assert main(["verify", str(tmp_path / "list.json"), "--system", "vanderpol"]) == 2
+    assert "expected the JSON object" in capsys.readouterr().err
 
 
 def _kx13(t, x, xp, p):  # differs from -x only away from the fingerprint's trace points

@@ -82,6 +82,14 @@ class Trajectory:
         return ax
 
 
+class _TimeLimit(Exception):
+    """Raised by the right-hand side when the run's wall-clock budget is spent."""
+
+    def __init__(self, t: float, x: np.ndarray) -> None:
+        super().__init__(t)
+        self.t, self.x = t, np.array(x, dtype=float)
+
+
 class _NonFiniteField(Exception):
     """Raised by the right-hand side when the field is NaN or inf (ends the run)."""
 
@@ -100,6 +108,7 @@ def simulate(
     method: str = "DOP853",
     t_eval: np.ndarray | None = None,
     max_step: float = np.inf,
+    time_limit: float | None = None,
 ) -> Trajectory:
     """Integrate ``system`` from ``x0`` until an event or ``rules.t_final``.
 
@@ -117,6 +126,9 @@ def simulate(
         ``t_final``, ``converge_tol``, ``diverge_bound``.
     rtol, atol, method, t_eval, max_step
         Passed to :func:`scipy.integrate.solve_ivp`.
+    time_limit : float, optional
+        Wall-clock budget in seconds (> 0): a run still going then ends ``undecided`` with the
+        reason ``time_limit`` (a slow field cannot hold the caller forever).
 
     Returns
     -------
@@ -131,16 +143,25 @@ def simulate(
     <RunStatus.CONVERGED: 'converged'>
     """
     t_start = time.perf_counter()
+    if time_limit is not None and not (
+        isinstance(time_limit, int | float) and 0 < time_limit < np.inf
+    ):
+        raise RoaInputError(
+            f"time_limit must be a finite number of seconds > 0, got {time_limit!r}"
+        )
     from roa.checks import check_system
 
     check_system(system)
     traj = _integrate(system, x0, rules, dict(rtol=rtol, atol=atol, method=method,
-                                              t_eval=t_eval, max_step=max_step))  # fmt: skip
+                                              t_eval=t_eval, max_step=max_step),
+                      time_limit=time_limit)  # fmt: skip
     return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
 
 
-def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any]) -> Trajectory:
+def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any],
+               time_limit: float | None = None) -> Trajectory:  # fmt: skip
     """The run of :func:`simulate` (``ivp``: its solve_ivp options), without the timing."""
+    deadline = None if time_limit is None else time.perf_counter() + float(time_limit)
     rules = StopRules() if rules is None else rules
     t_eval = ivp["t_eval"]
     x0 = system.check_state(x0, what="initial state")
@@ -152,6 +173,8 @@ def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, 
     x_eq = system.x_eq if track_convergence else None
 
     def rhs(t: float, x: np.ndarray) -> np.ndarray:
+        if deadline is not None and time.perf_counter() > deadline:
+            raise _TimeLimit(t, x)
         f = system.f(x, t)
         if not np.all(np.isfinite(f)):  # solve_ivp would loop forever on a NaN step size
             raise _NonFiniteField(t, x)
@@ -201,6 +224,17 @@ def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, 
                 events=events,
                 dense_output=False,
                 **ivp,
+            )
+        except _TimeLimit as stop:
+            xs = np.asarray(stop.x, dtype=float)
+            return Trajectory(
+                RunStatus.UNDECIDED,
+                np.array([float(stop.t)]),
+                xs[None, :],
+                f"the wall-clock budget of {time_limit:g} s ran out at t = {stop.t:.6g}: no "
+                "verdict for this run (raise --time-limit)",
+                system.name,
+                meta={"reason": "time_limit", "t": float(stop.t), "x": xs.tolist()},
             )
         except _NonFiniteField as stop:
             xs = np.asarray(stop.x, dtype=float)

@@ -92,3 +92,30 @@ def test_an_sos_program_too_large_is_refused_before_it_is_built():
     assert cert.sos is not None and cert.sos.status is roa.SosStatus.TOO_LARGE
     assert cert.sos.sizes["gram_block"] == 496 > MAX_GRAM_BLOCK
     assert "not built" in cert.message and time.perf_counter() - t0 < 30
+
+
+def test_a_slow_field_ends_at_the_time_limit(tmp_path, capsys):
+    """A field that sleeps held roa simulate forever; with --time-limit the run ends undecided,
+    naming the reason, within about the budget."""
+    import time
+
+    from roa.cli import main
+
+    src = tmp_path / "slow.py"
+    src.write_text(
+        "import time\nfrom roa import System\n"
+        "def field(t, x, xp):\n"
+        "    if getattr(xp, 'name', '') == 'numpy':\n        time.sleep(0.02)\n"
+        "    return (-x[1], x[0] + (x[0] ** 2 - 1) * x[1])\n"
+        "SYSTEM = System(name='slow', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'))\n"
+    )
+    t0 = time.perf_counter()
+    assert main(["simulate", "--system", f"{src}:SYSTEM", "--x0", "0.5,0.5", "--time-limit", "0.5",
+                 "--json"]) == 0  # fmt: skip
+    assert time.perf_counter() - t0 < 10
+    import json
+
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "undecided" and "wall-clock budget" in out["message"]
+    assert main(["simulate", "--system", "vanderpol", "--x0", "0.5,0.5", "--time-limit", "-1"]) == 2
+    assert "time_limit" in capsys.readouterr().err

@@ -23,6 +23,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--converge-tol", type=float, default=1e-3,
                    help="radius of the ball around the equilibrium that counts as converged "
                    "(default 1e-3)")  # fmt: skip
+    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                   help="wall-clock budget of the run (> 0); then it ends undecided")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")
     p.set_defaults(func=run)
@@ -39,7 +41,7 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
             raise RoaInputError(f"{flag} must be a finite number > 0, got {value}")
     rules = roa.StopRules(t_final=args.t_final, converge_tol=args.converge_tol)
     try:
-        return roa.simulate(system, x0, rules=rules)
+        return roa.simulate(system, x0, rules=rules, time_limit=args.time_limit)
     except RoaInputError as exc:
         raise RoaInputError(f"--x0: {exc}") from None
 

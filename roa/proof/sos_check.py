@@ -90,20 +90,24 @@ def exact_data(system: Any, V: Any) -> ExactData:
     x = [d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)]
     try:
         f = system.field(0.0, x, namespace("sympy"))
-        f = [exact_rationals(sp.expand(sp.sympify(fi))) for fi in f]
+        f = [exact_rationals(sp.sympify(fi)) for fi in f]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
-    if len(f) != n or not all(fi.is_polynomial(*d) for fi in f):
+    if len(f) != n:
+        raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
+    try:  # polynomial arithmetic over QQ (exact, and much faster than expanding expressions)
+        fp = [sp.Poly(fi, *d, domain="QQ") for fi in f]
+    except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:
         raise NotPolynomial(
-            "the field is not polynomial in the state (no recasting in the SOS check)"
-        )
+            f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
+        ) from None
     Vq: QPoly = {tuple(int(k) for k in a): _fraction(c) for a, c in terms.items() if c != 0}
-    Vexpr = sum(
-        sp.Rational(c.numerator, c.denominator) * sp.Mul(*[d[i] ** k for i, k in enumerate(a)])
-        for a, c in Vq.items()
+    Vp = sp.Poly.from_dict(
+        {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
     )
-    Vdot = sp.expand(sum(sp.diff(Vexpr, d[i]) * f[i] for i in range(n)))
-    poly = sp.Poly(Vdot, *d, domain="QQ")
+    poly = sp.Poly(0, *d, domain="QQ")
+    for i in range(n):
+        poly = poly + Vp.diff(d[i]) * fp[i]
     Vd: QPoly = {tuple(m): _fraction(c) for m, c in poly.terms() if c != 0}
     if any(sum(m) == 0 for m in Vd):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")  # cannot happen, grad V(0)=0

@@ -24,6 +24,7 @@ from roa.certification import (
     IntervalValidator,
     SampledLevel,
     SosLevel,
+    SosValidator,
     VsIteration,
     certify,
 )
@@ -69,6 +70,7 @@ __all__ = [
     "IntervalValidator",
     "SampledLevel",
     "SosLevel",
+    "SosValidator",
     "VsIteration",
     "BasinStatus",
     "CasadiOptions",

@@ -1,7 +1,7 @@
 """``roa.certify``: find a level of a Lyapunov candidate and prove it, as a pipeline of strategies.
 
 :func:`certify` returns a :class:`Certificate`. The strategies (:mod:`.strategies`) are objects:
-validators (:class:`IntervalValidator`), level proposers (:class:`GivenLevel`,
+validators (:class:`IntervalValidator`, :class:`SosValidator`), level proposers (:class:`GivenLevel`,
 :class:`CandidateLevel`, :class:`SosLevel`, :class:`SampledLevel`) and sources of V
 (:class:`VsIteration`, :class:`CuttingPlanes`); :mod:`.pipeline` chains them.
 """
@@ -17,6 +17,7 @@ from roa.certification.strategies import (
     Proposal,
     SampledLevel,
     SosLevel,
+    SosValidator,
     Validator,
     VsIteration,
     VSource,
@@ -33,6 +34,7 @@ __all__ = [
     "Proposal",
     "SampledLevel",
     "SosLevel",
+    "SosValidator",
     "Validator",
     "VSource",
     "VsIteration",

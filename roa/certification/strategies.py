@@ -3,7 +3,8 @@
 Each is a small object with ``accepts(system, V)`` and one action, as cvxpy's reductions are:
 
 * **Validators** decide a level (:class:`Validator`): :class:`IntervalValidator`, the interval
-  branch and bound of :func:`roa.proof.validate.validate_level`, is the one that certifies.
+  branch and bound of :func:`roa.proof.validate.validate_level`, and :class:`SosValidator`, an
+  SOS certificate checked in exact rationals (polynomial fields and V, any dimension).
 * **Level proposers** find a candidate level and own the safety factor it is validated at
   (:class:`LevelProposer`): :class:`GivenLevel`, :class:`CandidateLevel` (a level found
   elsewhere), :class:`SosLevel` (quadratic V), :class:`SampledLevel` (any V).
@@ -27,7 +28,7 @@ from roa.options import IntervalOptions, SampledOptions, SampleSearchOptions, So
 from roa.progress import step
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
-from roa.status import LevelStatus, SosStatus
+from roa.status import LevelStatus, SosStatus, Verdict
 from roa.system import System
 
 
@@ -65,6 +66,91 @@ class IntervalValidator:
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch,
                                   bounding_box=self.bounding_box)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class SosValidator:
+    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial fields and V.
+
+    The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
+    Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
+    ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
+    reason). It never refutes. Its cost grows polynomially with the dimension (the Gram basis),
+    not exponentially as the branch and bound's boxes do.
+
+    Examples
+    --------
+    >>> import roa
+    >>> from roa.systems.vanderpol import vanderpol
+    >>> roa.certify(vanderpol(), level=2.3, validator=roa.SosValidator()).status.value
+    'certified'
+    """
+
+    multiplier_degree: int | None = None
+    eps: float = 1e-6  # x the largest coefficient of V's lowest-degree part
+    solver_options: Any = None
+    name: str = "sos-exact"
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        from roa.proof.sos_check import NotPolynomial, exact_data
+
+        if getattr(V, "terms", None) is None or system.equilibrium is None:
+            return False
+        if system.time_varying:
+            return False
+        try:
+            exact_data(system, V)
+        except NotPolynomial:
+            return False
+        return True
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        import time
+
+        from roa.proof.cover import gram_cover
+        from roa.proof.exact import exact_equilibrium
+        from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data
+        from roa.search.sos_certificate import default_eps, propose_certificate
+
+        t0 = time.perf_counter()
+
+        def out(status: Verdict, message: str, **meta: Any) -> Validation:
+            return Validation(status, float(level), 0, time.perf_counter() - t0,
+                              message=message, meta={"method": self.name, **meta})  # fmt: skip
+
+        with step(f"SOS exact validation of level {level:.6g}"):
+            try:
+                data = exact_data(system, V)
+            except NotPolynomial as exc:
+                return out(Verdict.INCONCLUSIVE, f"not polynomial: {exc}")
+            if not exact_equilibrium(system, np.asarray(V.center, dtype=float)):
+                return out(Verdict.INCONCLUSIVE, "V's centre is not an exact equilibrium")
+            if gram_cover(V, level) is None:
+                return out(Verdict.INCONCLUSIVE, "V >= mu |d|^2 not proved (no positive definite "
+                           "Gram matrix over the linear monomials): {V <= level} may be "
+                           "unbounded")  # fmt: skip
+            if data.low % 2:
+                return out(Verdict.INCONCLUSIVE, "the lowest degree of V' is odd")
+            eps = default_eps(data, self.eps)
+            cand = propose_certificate(data, level, eps=eps,
+                                       multiplier_degree=self.multiplier_degree,
+                                       solver_options=self.solver_options)  # fmt: skip
+            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
+                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps)}  # fmt: skip
+            if cand.Q0 is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
+                           **figures)  # fmt: skip
+            res = check_certificate(data, level, eps, cand.basis0, cand.Q0, cand.basis1, cand.Q1)
+            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
+            if not res.ok:
+                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
+            assert res.Q0 is not None and res.Q1 is not None
+            cert = {"basis0": [list(b) for b in cand.basis0],
+                    "basis1": [list(b) for b in cand.basis1],
+                    "Q0": [[str(v) for v in row] for row in res.Q0],
+                    "Q1": [[str(v) for v in row] for row in res.Q1]}  # fmt: skip
+            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
+                       certificate=cert, **figures)  # fmt: skip
 
 
 # -- level proposers --------------------------------------------------------------------------------

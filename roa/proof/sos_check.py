@@ -1,0 +1,280 @@
+"""Exact check of an SOS certificate of a level (Peyrl-Parrilo rounding and projection).
+
+**Claim.** For a polynomial field ``f``, a polynomial ``V`` (``V.terms`` in ``d = x - x_eq``,
+``x_eq = V.center``) and a level ``c > 0``, the checker proves, in exact rational arithmetic, the
+polynomial identity (coefficient by coefficient)::
+
+    -V'(d) - eps |d|^(2k) - lambda(d) (c - V(d)) = sigma0(d),
+    sigma0 = m0(d)' Q0 m0(d),   lambda = m1(d)' Q1 m1(d)   (or lambda = 0),
+
+with ``Q0`` and ``Q1`` positive definite (exact leading minors, python-flint) and ``eps > 0``.
+Then on ``{V <= c}``: ``-V' >= eps |d|^(2k) + lambda (c - V) >= eps |d|^(2k) > 0`` for ``d != 0``,
+i.e. ``V' < 0`` on ``{V <= c}`` minus ``x_eq``.
+
+**Assumptions, each checked exactly** (else the verdict is inconclusive with the reason):
+
+* the field, evaluated in sympy at ``x_eq + d`` with every float taken as the exact rational of
+  the double, is polynomial in ``d`` (no recasting here); ``f(x_eq) = 0`` exactly;
+* ``V``'s coefficients and centre are the exact rationals of its doubles (the same V the interval
+  validation reads), and ``V`` has a Gram matrix ``V.gram`` over a basis holding the linear
+  monomials that is positive definite after the exact reproduction of the coefficients
+  (:func:`roa.proof.cover.gram_cover`): ``V >= mu |d|^2`` globally, so ``{V <= c}`` is compact.
+  With ``V' < 0`` on it (minus ``x_eq``) it is positively invariant and every trajectory from it
+  converges to ``x_eq`` (LaSalle): ``{V <= c}`` lies in the region of attraction.
+
+**Rounding and projection.** The float Gram matrices of the numerical solver
+(:mod:`roa.search.sos_certificate`) are rounded to dyadic rationals; ``lambda`` is fixed at its
+rounded Gram ``Q1``, and ``Q0`` is projected orthogonally (Frobenius norm, exact rationals) onto the
+affine space where ``m0' Q0 m0`` equals the exact residual ``-V' - eps|d|^2k - lambda (c - V)``:
+the constraints of distinct monomials touch disjoint entries, so the projection adds
+``(r_a - s_a) / N_a`` to each of the ``N_a`` entries ``(i, j)`` with ``m0_i m0_j = d^a``.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from roa.errors import RoaInputError
+
+Mono = tuple[int, ...]
+QPoly = dict[Mono, Fraction]
+
+
+class NotPolynomial(RoaInputError):
+    """The field or V is not polynomial: the SOS check does not apply."""
+
+
+@dataclass(frozen=True)
+class ExactData:
+    """Exact rational data of the check: ``V`` and ``V'`` as polynomials in ``d = x - x_eq``."""
+
+    n: int
+    center: tuple[Fraction, ...]
+    V: QPoly
+    Vdot: QPoly
+    low: int  # lowest total degree of V' (2k)
+
+
+def _fraction(x: Any) -> Fraction:
+    if isinstance(x, Fraction):
+        return x
+    import sympy as sp
+
+    if isinstance(x, sp.Rational):
+        return Fraction(int(x.p), int(x.q))
+    return Fraction(float(x))
+
+
+def exact_data(system: Any, V: Any) -> ExactData:
+    """``V`` and ``V'`` expanded exactly (sympy over the rationals); raises :class:`NotPolynomial`
+    for a field that is not polynomial or a V without ``terms``."""
+    import sympy as sp
+
+    from roa.backend import namespace
+    from roa.lyapunov.symbolic import exact_rationals
+
+    terms = getattr(V, "terms", None)
+    if terms is None:
+        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
+    if getattr(system, "time_varying", False) or system.equilibrium is None:
+        raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
+    n = int(V.n)
+    center = tuple(Fraction(float(c)) for c in V.center)
+    d = list(sp.symbols(f"d0:{n}", real=True))
+    x = [d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)]
+    try:
+        f = system.field(0.0, x, namespace("sympy"))
+        f = [exact_rationals(sp.sympify(fi)) for fi in f]
+    except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
+        raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
+    if len(f) != n:
+        raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
+    try:  # polynomial arithmetic over QQ (exact, and much faster than expanding expressions)
+        fp = [sp.Poly(fi, *d, domain="QQ") for fi in f]
+    except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:
+        raise NotPolynomial(
+            f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
+        ) from None
+    Vq: QPoly = {tuple(int(k) for k in a): _fraction(c) for a, c in terms.items() if c != 0}
+    Vp = sp.Poly.from_dict(
+        {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
+    )
+    poly = sp.Poly(0, *d, domain="QQ")
+    for i in range(n):
+        poly = poly + Vp.diff(d[i]) * fp[i]
+    Vd: QPoly = {tuple(m): _fraction(c) for m, c in poly.terms() if c != 0}
+    if any(sum(m) == 0 for m in Vd):
+        raise NotPolynomial("f(x_eq) != 0: V' has a constant term")  # cannot happen, grad V(0)=0
+    low = min((sum(m) for m in Vd), default=2)
+    return ExactData(n, center, Vq, Vd, low)
+
+
+# -- exact polynomial arithmetic ---------------------------------------------------------------------
+def _add(a: Mono, b: Mono) -> Mono:
+    return tuple(x + y for x, y in zip(a, b, strict=True))
+
+
+def gram_poly(basis: list[Mono], Q: Any) -> QPoly:
+    """``m' Q m`` for a rational (or float, taken exactly) symmetric ``Q``."""
+    out: QPoly = {}
+    for (i, bi), (j, bj) in itertools.product(enumerate(basis), enumerate(basis)):
+        q = Q[i][j]
+        if q:
+            key = _add(bi, bj)
+            out[key] = out.get(key, Fraction(0)) + _fraction(q)
+    return {m: c for m, c in out.items() if c}
+
+
+def poly_mul(a: QPoly, b: QPoly) -> QPoly:
+    out: QPoly = {}
+    for (ma, ca), (mb, cb) in itertools.product(a.items(), b.items()):
+        key = _add(ma, mb)
+        out[key] = out.get(key, Fraction(0)) + ca * cb
+    return {m: c for m, c in out.items() if c}
+
+
+def poly_lin(*pairs: tuple[Fraction, QPoly]) -> QPoly:
+    """``sum_k w_k p_k``."""
+    out: QPoly = {}
+    for w, p in pairs:
+        for m, c in p.items():
+            out[m] = out.get(m, Fraction(0)) + w * c
+    return {m: c for m, c in out.items() if c}
+
+
+def norm_power(n: int, k: int) -> QPoly:
+    """``|d|^(2k) = (d_1^2 + ... + d_n^2)^k``."""
+    sq: QPoly = {tuple(2 * (j == i) for j in range(n)): Fraction(1) for i in range(n)}
+    out: QPoly = {tuple([0] * n): Fraction(1)}
+    for _ in range(k):
+        out = poly_mul(out, sq)
+    return out
+
+
+def round_matrix(Q: Any, bits: int = 30) -> list[list[Fraction]]:
+    """Symmetric dyadic rounding of a float matrix: entries on the grid ``2^(e - bits)`` with
+    ``2^e >= max |Q_ij|`` (upper triangle, mirrored)."""
+    A = np.asarray(Q, dtype=float)
+    top = float(np.max(np.abs(A))) if A.size else 0.0
+    e = int(np.ceil(np.log2(top))) if top > 0 else 0
+    grid = Fraction(2) ** (e - bits)
+    m = A.shape[0]
+    out = [[Fraction(0)] * m for _ in range(m)]
+    for i in range(m):
+        for j in range(i, m):
+            v = Fraction(round(Fraction(float(0.5 * (A[i, j] + A[j, i]))) / grid)) * grid
+            out[i][j] = out[j][i] = v
+    return out
+
+
+def exact_psd_pivots(A: list[list[Fraction]]) -> tuple[bool, list[Fraction]]:
+    """Positive definiteness of a symmetric rational matrix by exact leading minors (python-flint);
+    an empty matrix is trivially so."""
+    from roa.proof.exact import exact_positive_definite
+
+    if not A:
+        return True, []
+    return exact_positive_definite(A)
+
+
+def matrix_digest(*mats: list[list[Fraction]]) -> str:
+    h = hashlib.sha256()
+    for M in mats:
+        h.update(repr([[str(v) for v in row] for row in M]).encode())
+        h.update(b";")
+    return h.hexdigest()
+
+
+@dataclass(frozen=True)
+class SosCheck:
+    """Outcome of :func:`check_certificate`: ``ok`` only if every exact check passed."""
+
+    ok: bool
+    reason: str
+    residual: float | None = None  # max |coefficient| of the identity before projection
+    min_pivot: float | None = None  # least LDL' pivot of the projected Q0 (and of Q1)
+    Q0: list[list[Fraction]] | None = None
+    Q1: list[list[Fraction]] | None = None
+    meta: dict[str, Any] = field(default_factory=dict)
+
+
+def check_certificate(
+    data: ExactData,
+    level: Any,
+    eps: Any,
+    basis0: list[Mono],
+    Q0: Any,
+    basis1: list[Mono] | None,
+    Q1: Any,
+    *,
+    rounded: bool = False,
+) -> SosCheck:
+    """Exact Peyrl-Parrilo check of ``-V' - eps|d|^2k - lambda (c - V) = m0' Q0 m0``.
+
+    ``Q0``, ``Q1``: float Gram matrices (rounded here) or, with ``rounded=True``, rational ones
+    taken as they are (``Q0`` is projected in both cases; ``Q1`` is never changed). ``basis1`` None
+    or empty: ``lambda = 0``. Returns ``ok`` True only if the projected ``Q0`` and ``Q1`` are
+    positive definite exactly and ``eps``, ``level`` > 0.
+    """
+    c, e = Fraction(level), Fraction(eps)
+    if not (c > 0 and e > 0):
+        return SosCheck(False, f"level and eps must be > 0 (got {float(c)}, {float(e)})")
+    k, rem = divmod(data.low, 2)
+    if rem or k < 1:
+        return SosCheck(False, f"the lowest degree of V' is {data.low}, not even: V' is not "
+                        "negative definite near x_eq")  # fmt: skip
+    n = data.n
+    if any(len(b) != n for b in basis0) or len(Q0) != len(basis0):
+        return SosCheck(False, "basis0 and Q0 do not match")
+    R0 = [[_fraction(v) for v in row] for row in Q0] if rounded else round_matrix(Q0)
+    if any(R0[i][j] != R0[j][i] for i in range(len(R0)) for j in range(i)):
+        return SosCheck(False, "Q0 is not symmetric")
+    target = poly_lin((Fraction(-1), data.Vdot), (-e, norm_power(n, k)))
+    R1: list[list[Fraction]] = []
+    if basis1:
+        if len(Q1) != len(basis1) or any(len(b) != n for b in basis1):
+            return SosCheck(False, "basis1 and Q1 do not match")
+        R1 = [[_fraction(v) for v in row] for row in Q1] if rounded else round_matrix(Q1)
+        if any(R1[i][j] != R1[j][i] for i in range(len(R1)) for j in range(i)):
+            return SosCheck(False, "Q1 is not symmetric")
+        lam = gram_poly(basis1, R1)
+        c_minus_V = poly_lin((Fraction(-1), data.V), (c, {tuple([0] * n): Fraction(1)}))
+        target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(lam, c_minus_V)))
+    ok1, piv1 = exact_psd_pivots(R1)
+    if not ok1:
+        return SosCheck(False, "the multiplier's Gram matrix Q1 is not positive definite (exact)",
+                        min_pivot=float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
+    pairs: dict[Mono, list[tuple[int, int]]] = {}
+    for (i, bi), (j, bj) in itertools.product(enumerate(basis0), enumerate(basis0)):
+        pairs.setdefault(_add(bi, bj), []).append((i, j))
+    outside = [m for m in target if m not in pairs]
+    if outside:
+        return SosCheck(False, f"the identity cannot hold: monomial {outside[0]} of the residual "
+                        "is outside the Gram basis")  # fmt: skip
+    P = [row[:] for row in R0]
+    residual = Fraction(0)
+    for m, idx in pairs.items():
+        diff = target.get(m, Fraction(0)) - sum((R0[i][j] for i, j in idx), Fraction(0))
+        residual = max(residual, abs(diff))
+        if diff:
+            share = diff / len(idx)
+            for i, j in idx:
+                P[i][j] += share
+    if gram_poly(basis0, P) != target:  # the identity must now hold exactly
+        return SosCheck(False, "the projection did not reproduce the identity exactly",
+                        float(residual))  # fmt: skip
+    ok0, piv0 = exact_psd_pivots(P)
+    pivots = piv0 + piv1
+    mp = float(min(pivots)) if pivots else None
+    meta = {"digest": matrix_digest(P, R1), "eps": str(e), "k": k}
+    if not ok0:
+        return SosCheck(False, "the projected Gram matrix Q0 is not positive definite (exact)",
+                        float(residual), mp, P, R1, meta)  # fmt: skip
+    return SosCheck(True, "identity exact, Q0 and Q1 positive definite (exact)",
+                    float(residual), mp, P, R1, meta)  # fmt: skip

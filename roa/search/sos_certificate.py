@@ -1,0 +1,139 @@
+"""Numerical SOS certificate of a fixed level (proposes only; :mod:`roa.proof.sos_check` proves).
+
+For a polynomial field, a polynomial ``V`` (``d = x - x_eq``) and a level ``c``, one semidefinite
+program (cvxpy, Clarabel) finds Gram matrices ``Q0``, ``Q1`` with, coefficient by coefficient::
+
+    -V'(d) - eps |d|^(2k) - lambda(d) (c - V(d)) = m0(d)' Q0 m0(d),   lambda = m1(d)' Q1 m1(d),
+
+maximising the least eigenvalue ``t`` of both (``Q0, Q1 >= t I``, ``t <= 1``): the margin the
+exact rounding and projection need. ``2k`` is the lowest degree of ``V'``; ``m0`` holds the
+monomials of degree ``k..D`` (``2D`` the degree of the identity, the least even number >= the
+degree of ``V'`` and of ``lambda V``), ``m1`` those of degree ``1..L`` (``lambda(0) = 0`` is forced
+by the constant term; ``2L`` the multiplier's degree, default the least with ``2L + deg V >=
+deg V'``). The float Grams are a candidate: only :func:`roa.proof.sos_check.check_certificate`
+decides.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sps
+
+from roa.proof.sos_check import ExactData, norm_power
+from roa.search.polysdp import monomials
+
+Mono = tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class SosCandidate:
+    """Bases and float Gram matrices of a numerical certificate (``Q1`` None: ``lambda = 0``)."""
+
+    basis0: list[Mono]
+    Q0: np.ndarray | None
+    basis1: list[Mono]
+    Q1: np.ndarray | None
+    eps: Fraction
+    margin: float | None  # the solver's least eigenvalue t
+    solver_status: str
+    seconds: float
+
+
+def default_eps(data: ExactData, scale: float = 1e-6) -> Fraction:
+    """``scale`` x the largest |coefficient| of the lowest-degree part of ``V'`` (a dyadic)."""
+    top = max((abs(float(c)) for m, c in data.Vdot.items() if sum(m) == data.low), default=1.0)
+    return Fraction(2.0 ** round(np.log2(scale * top)))
+
+
+def _gram_columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
+                  ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
+    r, c, v = [], [], []
+    nb = len(basis)
+    for i, j in itertools.product(range(nb), range(nb)):
+        bij = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
+        for m, coef in times.items():
+            key = tuple(p + q for p, q in zip(bij, m, strict=True))
+            r.append(rows.setdefault(key, len(rows)))
+            c.append(i * nb + j)
+            v.append(coef)
+    return r, c, v
+
+
+def propose_certificate(
+    data: ExactData,
+    level: float,
+    *,
+    eps: Fraction | None = None,
+    multiplier_degree: int | None = None,
+    solver_options: dict[str, Any] | None = None,
+) -> SosCandidate:
+    """Solve the SOS program for the level ``level`` (see the module docstring)."""
+    import cvxpy as cp
+
+    t0 = time.perf_counter()
+    n = data.n
+    eps = default_eps(data) if eps is None else Fraction(eps)
+    k = data.low // 2
+    degV = max(sum(m) for m in data.V)
+    degVd = max((sum(m) for m in data.Vdot), default=2)
+    if multiplier_degree is None:
+        multiplier_degree = max(2, degVd - degV + (degVd - degV) % 2)
+    L = multiplier_degree // 2
+    top = max(degVd, 2 * L + degV)
+    D = (top + 1) // 2
+    basis0 = monomials(n, D, max(k, 1))
+    basis1 = monomials(n, L, 1) if L >= 1 else []
+    target: dict[Mono, float] = {}
+    for m, c in data.Vdot.items():
+        target[m] = target.get(m, 0.0) - float(c)
+    for m, c in norm_power(n, k).items():
+        target[m] = target.get(m, 0.0) - float(eps * c)
+    rows: dict[Mono, int] = {}
+    for m in target:
+        rows.setdefault(m, len(rows))
+    zero = tuple([0] * n)
+    parts = [_gram_columns(rows, basis0, {zero: 1.0})]
+    c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
+    c_minus_V[zero] = float(level)
+    if basis1:
+        parts.append(_gram_columns(rows, basis1, c_minus_V))
+    nrow = len(rows)
+    b = np.zeros(nrow)
+    for m, value in target.items():
+        b[rows[m]] = value
+    n0, n1 = len(basis0), len(basis1)
+    Q0 = cp.Variable((n0, n0), symmetric=True)
+    t = cp.Variable()
+    A0 = sps.csr_matrix((parts[0][2], (parts[0][0], parts[0][1])), shape=(nrow, n0 * n0))
+    expr = A0 @ cp.vec(Q0, order="C")
+    cons = [Q0 - t * np.eye(n0) >> 0, t <= 1]
+    Q1 = None
+    if basis1:
+        Q1 = cp.Variable((n1, n1), symmetric=True)
+        A1 = sps.csr_matrix((parts[1][2], (parts[1][0], parts[1][1])), shape=(nrow, n1 * n1))
+        expr = expr + A1 @ cp.vec(Q1, order="C")
+        cons.append(Q1 - t * np.eye(n1) >> 0)
+    cons.append(expr == b)
+    prob = cp.Problem(cp.Maximize(t), cons)
+    try:
+        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
+        status = str(prob.status)
+    except cp.error.SolverError as exc:
+        status = f"solver error: {exc}"
+    ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Q0.value is not None
+    return SosCandidate(
+        basis0,
+        np.asarray(Q0.value) if ok else None,
+        basis1,
+        np.asarray(Q1.value) if ok and Q1 is not None else None,
+        eps,
+        float(t.value) if ok and t.value is not None else None,
+        status,
+        time.perf_counter() - t0,
+    )

@@ -1,0 +1,139 @@
+"""The exact SOS validator (``roa.SosValidator``, :mod:`roa.proof.sos_check`).
+
+Van der Pol with the benchmark P has largest level 2.3045: the SOS certificate, checked in exact
+rationals, certifies 2.30 and can never certify 2.31 (a point of ``{V <= 2.31}`` has ``V' = 0``).
+"""
+
+from __future__ import annotations
+
+import time
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+import roa
+from roa.lyapunov import QuadraticLyapunov
+from roa.proof.sos_check import check_certificate, exact_data
+from roa.search.sos_certificate import propose_certificate
+from roa.systems.vanderpol import vanderpol
+
+
+def test_vanderpol_certified_at_2_30_not_at_2_31():
+    system = vanderpol()
+    t0 = time.perf_counter()
+    cert = roa.certify(system, level=2.30, validator=roa.SosValidator())
+    assert time.perf_counter() - t0 < 20
+    assert cert.status is roa.Verdict.CERTIFIED
+    meta = cert.validation.meta
+    assert meta["method"] == "sos-exact" and meta["min_pivot"] > 0
+    assert len(meta["digest"]) == 64 and meta["certificate"]["Q0"]
+    above = roa.certify(system, level=2.31, validator=roa.SosValidator())
+    assert above.status is roa.Verdict.INCONCLUSIVE
+    assert "not positive definite" in above.validation.message
+
+
+# x' = H g(H x) + S x, g_i(y) = -y_i + y_i^3, H = I - (1/3) 1 1' (a rational Householder
+# reflection: H = H' = H^-1), S skew-symmetric (a rotation in the planes (x0, x1), (x2, x3)).
+H = np.eye(6) - np.ones((6, 6)) / 3.0
+
+
+def _field(t, x, xp):
+    y = [sum(H[i][j] * x[j] for j in range(6)) for i in range(6)]
+    g = [-yi + yi * yi * yi for yi in y]
+    out = [sum(H[i][j] * g[j] for j in range(6)) for i in range(6)]
+    out[0] = out[0] + x[1]
+    out[1] = out[1] - x[0]
+    out[2] = out[2] + 2 * x[3]
+    out[3] = out[3] - 2 * x[2]
+    return tuple(out)
+
+
+def coupled_cubic() -> roa.System:
+    """Six coupled cubic states with largest level 1 for ``V = |x|^2``.
+
+    With ``y = H x`` (``H`` orthogonal and symmetric, so ``|y| = |x|``) and ``x'Sx = 0``:
+    ``V' = 2 x' H g(y) = 2 y' g(y) = -2 sum_i y_i^2 (1 - y_i^2)``. On ``{|x|^2 <= c}`` with
+    ``c < 1`` every ``|y_i| < 1``, so ``V' < 0`` off the origin; at ``c = 1`` the point
+    ``y = e_1`` (``x = H e_1``) has ``V = 1`` and ``V' = 0``. The largest level is exactly 1.
+    (The entries of ``H`` are floats: 1 - 1/3 and -1/3 rounded; the exact field then has
+    ``H`` only approximately orthogonal, so the test certifies 0.95, well inside.)
+    """
+    return roa.System("coupled-cubic-6", _field, tuple([0.0] * 6),
+                      tuple(f"x{i}" for i in range(6)), lyapunov=np.eye(6))  # fmt: skip
+
+
+def test_six_states_certified_at_095_of_the_optimum_in_seconds():
+    system = coupled_cubic()
+    V = QuadraticLyapunov.for_system(system, np.eye(6))
+    x = H[:, 0]  # V = 1, V' = 0: the optimum is 1
+    assert V.value(x) == pytest.approx(1.0)
+    assert V.derivative(system, x) == pytest.approx(0, abs=1e-12)
+    t0 = time.perf_counter()
+    cert = roa.certify(system, V, level=0.95, validator=roa.SosValidator())
+    seconds = time.perf_counter() - t0
+    assert cert.status is roa.Verdict.CERTIFIED, cert.message
+    assert seconds < 20
+    assert roa.certify(system, V, level=1.01, validator=roa.SosValidator()).status is (
+        roa.Verdict.INCONCLUSIVE
+    )
+
+
+def _vdp_certificate(level: float = 2.3):
+    system = vanderpol()
+    V = QuadraticLyapunov.for_system(system, system.lyapunov)
+    data = exact_data(system, V)
+    cand = propose_certificate(data, level)
+    res = check_certificate(data, level, cand.eps, cand.basis0, cand.Q0, cand.basis1, cand.Q1)
+    assert res.ok
+    return data, cand, res
+
+
+def test_tampered_certificates_are_refused():
+    data, cand, res = _vdp_certificate()
+    Q0, Q1 = res.Q0, res.Q1
+    again = check_certificate(data, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    assert again.ok and again.residual == 0  # the exact certificate passes as it is
+    # an indefinite Q0 with the identity still exact: +a on the (d1^2, d2^2) pair and -2a on
+    # (d1 d2, d1 d2) leave every coefficient unchanged (the projection does not move it)
+    i11, i12, i22 = (cand.basis0.index(m) for m in ((2, 0), (1, 1), (0, 2)))
+    bad = [row[:] for row in Q0]
+    a = abs(Q0[i12][i12]) + 1
+    bad[i11][i22] += a
+    bad[i22][i11] += a
+    bad[i12][i12] -= 2 * a
+    r = check_certificate(data, 2.3, cand.eps, cand.basis0, bad, cand.basis1, Q1, rounded=True)
+    assert not r.ok and r.residual == 0 and "Q0 is not positive definite" in r.reason
+    # an indefinite multiplier
+    bad1 = [row[:] for row in Q1]
+    bad1[1][1] = Fraction(-1, 10**6)
+    r = check_certificate(data, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, bad1, rounded=True)
+    assert not r.ok and "Q1 is not positive definite" in r.reason
+    # an identity off by one coefficient: V' with its d1^2 coefficient -1 made 0 (V' is then not
+    # negative definite): the projection must move Q0 by the mismatch and no certificate remains
+    Vdot = dict(data.Vdot)
+    Vdot[(2, 0)] += 1
+    wrong = type(data)(data.n, data.center, data.V, Vdot, data.low)
+    r = check_certificate(wrong, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    assert r.residual == 1 and not r.ok and "not positive definite" in r.reason
+    # a coefficient outside the Gram basis cannot be matched at all
+    Vdot = dict(data.Vdot)
+    Vdot[(5, 1)] = Fraction(1)
+    wrong = type(data)(data.n, data.center, data.V, Vdot, data.low)
+    r = check_certificate(wrong, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    assert not r.ok and "outside the Gram basis" in r.reason
+    # eps = 0 proves nothing strict
+    r = check_certificate(data, 2.3, 0, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    assert not r.ok
+
+
+def test_non_polynomial_fields_are_refused():
+    system = roa.System("pendulum", lambda t, x, xp: (x[1], -xp.sin(x[0]) - x[1]), (0.0, 0.0),
+                        ("a", "b"))  # fmt: skip
+    V = QuadraticLyapunov([[1.5, 0.5], [0.5, 1.0]], [0.0, 0.0])
+    v = roa.SosValidator()
+    assert not v.accepts(system, V)
+    res = v.check(system, V, 0.5)
+    assert res.status is roa.Verdict.INCONCLUSIVE and "not polynomial" in res.message
+    with pytest.raises(roa.RoaInputError, match="does not accept"):
+        roa.certify(system, V, level=0.5, validator=v)

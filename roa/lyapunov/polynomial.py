@@ -71,7 +71,10 @@ class PolynomialLyapunov(Lyapunov):
             raise RoaInputError(
                 f"monomials: the degree of a term must be at most {MAX_DEGREE}, got {top:.6g}"
             )
-        c = np.asarray(coefficients, dtype=float).reshape(-1)
+        try:
+            c = np.asarray(coefficients, dtype=float).reshape(-1)
+        except (TypeError, ValueError, OverflowError):
+            raise RoaInputError("coefficients must be a list of finite numbers") from None
         if c.shape[0] != a.shape[0]:
             raise RoaInputError(
                 f"coefficients must have one number per monomial ({a.shape[0]}), got {c.shape[0]}"

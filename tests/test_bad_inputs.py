@@ -110,7 +110,9 @@ KEYS = st.fixed_dictionaries(
 )  # fmt: skip
 
 
-@settings(derandomize=True, max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    derandomize=True, max_examples=150, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(KEYS)
 def test_certificate_reader_gives_a_claim_or_an_input_error(data):
     try:
@@ -205,7 +207,9 @@ V_KEYS = st.fixed_dictionaries(
 )  # fmt: skip
 
 
-@settings(derandomize=True, max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    derandomize=True, max_examples=200, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(JSON | V_KEYS | V_KEYS.map(lambda d: {"candidate_kind": d}) | V_KEYS.map(lambda d: {"V": d}))
 def test_lyapunov_json_reader_gives_a_candidate_or_an_input_error(data):
     from roa.lyapunov import from_json
@@ -217,7 +221,9 @@ def test_lyapunov_json_reader_gives_a_candidate_or_an_input_error(data):
     assert V.n >= 1 and np.all(np.isfinite(V.center))
 
 
-@settings(derandomize=True, max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    derandomize=True, max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(st.binary(max_size=300) | st.text(max_size=300).map(str.encode))
 def test_config_reader_gives_a_config_or_an_input_error(tmp_path_factory, content):
     from roa.experiment import load_config
@@ -231,7 +237,9 @@ def test_config_reader_gives_a_config_or_an_input_error(tmp_path_factory, conten
     assert isinstance(cfg["runner"], str) and ":" in cfg["runner"]
 
 
-@settings(derandomize=True, max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    derandomize=True, max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(JSON.map(json.dumps).map(str.encode) | st.binary(max_size=200))
 def test_reference_reader_gives_values_or_a_results_error(tmp_path_factory, content):
     from roa.errors import ResultsError
@@ -246,7 +254,9 @@ def test_reference_reader_gives_values_or_a_results_error(tmp_path_factory, cont
     assert isinstance(data, dict)
 
 
-@settings(derandomize=True, max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@settings(
+    derandomize=True, max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 @given(st.binary(max_size=400))
 def test_npy_reader_gives_numbers_or_an_input_error(tmp_path_factory, content):
     from roa.commands.common import read_matrix

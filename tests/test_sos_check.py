@@ -137,3 +137,53 @@ def test_non_polynomial_fields_are_refused():
     assert res.status is roa.Verdict.INCONCLUSIVE and "not polynomial" in res.message
     with pytest.raises(roa.RoaInputError, match="does not accept"):
         roa.certify(system, V, level=0.5, validator=v)
+
+
+def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
+    tmp_path, monkeypatch, capsys
+):
+    """`roa verify` re-checks an exact SOS certificate from its stored Gram matrices alone (the
+    solver is not called), and refuses it when the file is edited into a false claim: a level
+    raised to 2.31 (above the true optimum 2.3045, where no certificate can exist) or the
+    multiplier's Gram matrix made negative definite (it is never projected). An edit that the
+    exact projection turns back into a valid certificate (one diagonal entry of Q0 alone on its
+    monomial) is accepted: the proof stands on the projected matrices, not on the file."""
+    import json
+
+    import roa.search.sos_certificate as proposer
+    from roa.cli import main
+    from roa.montecarlo.certified_set import terminal_from_certificate
+
+    cert = roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator())
+    assert cert.certified and cert.method == "sos-exact"
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    assert data["method"] == "sos-exact" and data["certificate"]["Q0"]
+
+    def no_solver(*a, **k):
+        raise AssertionError("the re-check must not solve anything")
+
+    monkeypatch.setattr(proposer, "propose_certificate", no_solver)
+    good = tmp_path / "good.json"
+    good.write_text(json.dumps(data))
+    assert main(["verify", str(good), "--system", "vanderpol", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "certified" and "re-checked exactly" in out["message"]
+    term = terminal_from_certificate(data, vanderpol())  # a terminal set from it, no solver
+    assert term.quadratic and term.level == 2.30
+    raised = {**data, "level": 2.31}
+    bad_q = json.loads(json.dumps(data))
+    bad_q["certificate"]["Q1"] = [[f"-{v}" if not v.startswith("-") else v[1:] for v in row]
+                                  for row in bad_q["certificate"]["Q1"]]  # fmt: skip
+    assert bad_q["certificate"]["Q1"], "the certificate has a multiplier"
+    repaired = json.loads(json.dumps(data))
+    repaired["certificate"]["Q0"][0][0] = "-1"  # d0^2 has only this entry: projected back
+    path = tmp_path / "repaired.json"
+    path.write_text(json.dumps(repaired))
+    assert main(["verify", str(path), "--system", "vanderpol"]) == 0
+    capsys.readouterr()
+    for forged in (raised, bad_q):
+        path = tmp_path / "forged.json"
+        path.write_text(json.dumps(forged))
+        assert main(["verify", str(path), "--system", "vanderpol", "--json"]) == 1
+        out = json.loads(capsys.readouterr().out)
+        assert out["status"] == "inconclusive" and "refused" in out["message"]

@@ -288,10 +288,10 @@ def run(
         message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
                    f"sampled search, checked by interval validation. {message}")  # fmt: skip
     if given and not fresh:
-        return done(status=v.status, level=value, method="interval", level_source="given",
+        return done(status=v.status, level=value, method=validator.name, level_source="given",
                     message=message, validation=v, above=above, candidate=value)  # fmt: skip
     source = "witness" if notes else prop.source
-    return done(status=v.status, level=value, method="interval", level_source=source,
+    return done(status=v.status, level=value, method=validator.name, level_source=source,
                 message=message, candidate=opt,
                 safety_factor=None if choose is not None else factor, validation=v,
                 above=above, sos=sos_res, search=prop.search)  # fmt: skip

@@ -26,6 +26,8 @@ from roa.status import Verdict
 from roa.system import System
 
 METHODS = ("sos", "interval", "both")
+#: The method name of an exact SOS certificate (``roa.SosValidator``).
+SOS_EXACT = "sos-exact"
 
 
 @dataclass(frozen=True)
@@ -184,17 +186,35 @@ class Certificate:
                 f"{where}: V has {V.n} variables centred at {V.center.tolist()}, the system's "
                 f"equilibrium is {center.tolist()}"
             )
-        return cls(status=status, level=level, method=str(data.get("method", "interval")),
-                   level_source="file", seconds=0.0, message=str(data.get("message", "")),
-                   system=system, V=V)  # fmt: skip
+        method = str(data.get("method", "interval"))
+        stored = None
+        if method == SOS_EXACT:  # the exact SOS certificate travels with the claim
+            stored = Validation(status, level, 0, 0.0, meta={
+                "method": method, "certificate": data.get("certificate"), "eps": data.get("eps")})  # fmt: skip
+        return cls(status=status, level=level, method=method, level_source="file", seconds=0.0,
+                   message=str(data.get("message", "")), validation=stored, system=system,
+                   V=V)  # fmt: skip
 
     def reverify(self, interval: IntervalOptions | None = None) -> Certificate:
-        """This claim proved again by interval validation on its system (cached by content,
-        :func:`roa.proof.reverify.reverify`): ``certified`` only if proved here."""
+        """This claim proved again on its system: an exact SOS certificate (``method``
+        ``"sos-exact"``) by re-checking its stored Gram matrices in exact arithmetic, without any
+        solver (:func:`roa.proof.sos_check.recheck_stored`); any other by interval validation
+        (cached by content, :func:`roa.proof.reverify.reverify`). ``certified`` only if proved
+        here."""
         from roa.proof.reverify import reverify
 
         if self.system is None or self.V is None or self.level is None:
             raise RoaInputError("reverify: the certificate has no system, V or level")
+        if self.method == SOS_EXACT and self.validation is not None:
+            from roa.proof.sos_check import recheck_stored
+
+            with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
+                v = recheck_stored(self.system, self.V, self.level, self.validation.meta)
+            return Certificate(status=v.status, level=self.level, method=SOS_EXACT,
+                               level_source="reverified", seconds=v.seconds, message=v.message,
+                               validation=v, trace=({"stage": "reverify", "by": SOS_EXACT,
+                                                     "status": v.status.value},),
+                               system=self.system, V=self.V)  # fmt: skip
         with step(f"re-verifying {self.V.name} <= {self.level:.6g} ({self.system.name})"):
             proof = reverify(self.system, self.V, self.level, interval=interval)
         record = dict(proof.validation)

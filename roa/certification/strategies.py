@@ -149,8 +149,9 @@ class SosValidator:
                     "basis1": [list(b) for b in cand.basis1],
                     "Q0": [[str(v) for v in row] for row in res.Q0],
                     "Q1": [[str(v) for v in row] for row in res.Q1]}  # fmt: skip
+            # the whole of {V <= level} is proved (not one component): any frame bounds it
             return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
-                       certificate=cert, **figures)  # fmt: skip
+                       certificate=cert, M=np.eye(V.n).tolist(), **figures)  # fmt: skip
 
 
 # -- level proposers --------------------------------------------------------------------------------

@@ -278,3 +278,73 @@ def check_certificate(
                         float(residual), mp, P, R1, meta)  # fmt: skip
     return SosCheck(True, "identity exact, Q0 and Q1 positive definite (exact)",
                     float(residual), mp, P, R1, meta)  # fmt: skip
+
+
+def _parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
+    if not isinstance(raw, list):
+        raise ValueError(f"{what} must be a list of exponent lists")
+    out = []
+    for b in raw:
+        if not (isinstance(b, list) and len(b) == n and all(isinstance(k, int) and 0 <= k <= 64
+                                                            for k in b)):  # fmt: skip
+            raise ValueError(f"{what}: every monomial must be {n} non-negative integers")
+        out.append(tuple(b))
+    return out
+
+
+def _parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
+    if not (isinstance(raw, list) and len(raw) == m and all(isinstance(r, list) and len(r) == m
+                                                            for r in raw)):  # fmt: skip
+        raise ValueError(f"{what} must be a {m}x{m} matrix of rationals")
+    try:
+        return [[Fraction(str(v)) for v in row] for row in raw]
+    except (ValueError, ZeroDivisionError):
+        raise ValueError(f"{what}: entries must be rationals like '3/4'") from None
+
+
+def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
+    """Re-check a stored exact SOS certificate (``meta``: ``certificate`` with ``basis0``,
+    ``basis1``, ``Q0``, ``Q1`` as rationals, and ``eps``) for ``system`` and ``V`` at ``level``,
+    in exact arithmetic and without any solver: ``certified`` only if every check of
+    :func:`check_certificate` passes on the stored matrices (plus the exact equilibrium and the
+    bounded sublevel set that :class:`roa.certification.SosValidator` requires)."""
+    import time
+
+    from roa.proof.cover import gram_cover
+    from roa.proof.exact import exact_equilibrium
+    from roa.proof.validation import Validation
+    from roa.status import Verdict
+
+    t0 = time.perf_counter()
+
+    def out(status: Verdict, message: str, **extra: Any) -> Validation:
+        m = {"method": "sos-exact", "M": np.eye(int(V.n)).tolist(), **extra}
+        return Validation(status, float(level), 0, time.perf_counter() - t0, message=message,
+                          meta=m)  # fmt: skip
+
+    cert = meta.get("certificate")
+    try:
+        if not isinstance(cert, dict):
+            raise ValueError("no certificate (bases and Gram matrices) in the file")
+        n = int(V.n)
+        basis0 = _parse_basis(cert.get("basis0"), n, "basis0")
+        basis1 = _parse_basis(cert.get("basis1") or [], n, "basis1")
+        Q0 = _parse_matrix(cert.get("Q0"), len(basis0), "Q0")
+        Q1 = _parse_matrix(cert.get("Q1") or [], len(basis1), "Q1")
+        eps = Fraction(str(meta.get("eps")))
+    except (ValueError, TypeError, ZeroDivisionError) as exc:
+        return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
+    try:
+        data = exact_data(system, V)
+    except NotPolynomial as exc:
+        return out(Verdict.INCONCLUSIVE, f"not polynomial: {exc}")
+    if not exact_equilibrium(system, np.asarray(V.center, dtype=float)):
+        return out(Verdict.INCONCLUSIVE, "V's centre is not an exact equilibrium")
+    if gram_cover(V, level) is None:
+        return out(Verdict.INCONCLUSIVE, "V >= mu |d|^2 not proved: {V <= level} may be unbounded")
+    res = check_certificate(data, level, eps, basis0, Q0, basis1, Q1, rounded=True)
+    if not res.ok:
+        return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {res.reason}",
+                   residual=res.residual, min_pivot=res.min_pivot)  # fmt: skip
+    return out(Verdict.CERTIFIED, f"stored SOS certificate re-checked exactly: {res.reason}",
+               residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip

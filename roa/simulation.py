@@ -82,20 +82,20 @@ class Trajectory:
         return ax
 
 
-class _TimeLimit(Exception):
-    """Raised by the right-hand side when the run's wall-clock budget is spent."""
+class _RunEnds(Exception):
+    """Raised by the right-hand side to end the run at ``(t, x)``."""
 
     def __init__(self, t: float, x: np.ndarray) -> None:
         super().__init__(t)
         self.t, self.x = t, np.array(x, dtype=float)
 
 
-class _NonFiniteField(Exception):
-    """Raised by the right-hand side when the field is NaN or inf (ends the run)."""
+class _TimeLimit(_RunEnds):
+    """The run's wall-clock budget is spent."""
 
-    def __init__(self, t: float, x: np.ndarray) -> None:
-        super().__init__(t)
-        self.t, self.x = t, np.array(x, dtype=float)
+
+class _NonFiniteField(_RunEnds):
+    """The field is NaN or inf."""
 
 
 def simulate(
@@ -225,28 +225,19 @@ def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, 
                 dense_output=False,
                 **ivp,
             )
-        except _TimeLimit as stop:
+        except _RunEnds as stop:  # the run ends here, undecided
             xs = np.asarray(stop.x, dtype=float)
-            return Trajectory(
-                RunStatus.UNDECIDED,
-                np.array([float(stop.t)]),
-                xs[None, :],
-                f"the wall-clock budget of {time_limit:g} s ran out at t = {stop.t:.6g}: no "
-                "verdict for this run (raise --time-limit)",
-                system.name,
-                meta={"reason": "time_limit", "t": float(stop.t), "x": xs.tolist()},
-            )
-        except _NonFiniteField as stop:
-            xs = np.asarray(stop.x, dtype=float)
-            return Trajectory(
-                RunStatus.UNDECIDED,
-                np.array([float(stop.t)]),
-                xs[None, :],
-                f"the field is not finite at t = {stop.t:.6g}, x = "
-                f"{np.array2string(xs, precision=6)}: the run cannot go on",
-                system.name,
-                meta={"reason": "non_finite_field", "t": float(stop.t), "x": xs.tolist()},
-            )
+            if isinstance(stop, _TimeLimit):
+                reason = "time_limit"
+                message = (f"the wall-clock budget of {time_limit:g} s ran out at t = "
+                           f"{stop.t:.6g}: no verdict for this run (raise --time-limit)")  # fmt: skip
+            else:
+                reason = "non_finite_field"
+                message = (f"the field is not finite at t = {stop.t:.6g}, x = "
+                           f"{np.array2string(xs, precision=6)}: the run cannot go on")  # fmt: skip
+            return Trajectory(RunStatus.UNDECIDED, np.array([float(stop.t)]), xs[None, :],
+                              message, system.name,
+                              meta={"reason": reason, "t": float(stop.t), "x": xs.tolist()})  # fmt: skip
     t, x = sol.t, sol.y.T
     finite = np.all(np.isfinite(x), axis=1)
     if not finite.all():

@@ -107,9 +107,7 @@ class SosValidator:
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         import time
 
-        from roa.proof.cover import gram_cover
-        from roa.proof.exact import exact_equilibrium
-        from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data
+        from roa.proof.sos_check import check_certificate, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
 
         t0 = time.perf_counter()
@@ -119,18 +117,9 @@ class SosValidator:
                               message=message, meta={"method": self.name, **meta})  # fmt: skip
 
         with step(f"SOS exact validation of level {level:.6g}"):
-            try:
-                data = exact_data(system, V)
-            except NotPolynomial as exc:
-                return out(Verdict.INCONCLUSIVE, f"not polynomial: {exc}")
-            if not exact_equilibrium(system, np.asarray(V.center, dtype=float)):
-                return out(Verdict.INCONCLUSIVE, "V's centre is not an exact equilibrium")
-            if gram_cover(V, level) is None:
-                return out(Verdict.INCONCLUSIVE, "V >= mu |d|^2 not proved (no positive definite "
-                           "Gram matrix over the linear monomials): {V <= level} may be "
-                           "unbounded")  # fmt: skip
-            if data.low % 2:
-                return out(Verdict.INCONCLUSIVE, "the lowest degree of V' is odd")
+            data, why = preconditions(system, V, level)
+            if data is None:
+                return out(Verdict.INCONCLUSIVE, why)
             eps = default_eps(data, self.eps)
             cand = propose_certificate(data, level, eps=eps,
                                        multiplier_degree=self.multiplier_degree,

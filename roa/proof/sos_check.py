@@ -280,6 +280,28 @@ def check_certificate(
                     float(residual), mp, P, R1, meta)  # fmt: skip
 
 
+def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, str]:
+    """The exact data of the check, or None and why the check does not apply: the field or V
+    not polynomial, V's centre not an exact equilibrium, ``{V <= level}`` not proved bounded
+    (V >= mu |d|^2 from its Gram matrix, :func:`roa.proof.cover.gram_cover`), or V' starting
+    at an odd degree."""
+    from roa.proof.cover import gram_cover
+    from roa.proof.exact import exact_equilibrium
+
+    try:
+        data = exact_data(system, V)
+    except NotPolynomial as exc:
+        return None, f"not polynomial: {exc}"
+    if not exact_equilibrium(system, np.asarray(V.center, dtype=float)):
+        return None, "V's centre is not an exact equilibrium"
+    if gram_cover(V, level) is None:
+        return None, ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the "
+                      "linear monomials): {V <= level} may be unbounded")  # fmt: skip
+    if data.low % 2:
+        return None, "the lowest degree of V' is odd"
+    return data, ""
+
+
 def _parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
     if not isinstance(raw, list):
         raise ValueError(f"{what} must be a list of exponent lists")
@@ -310,8 +332,6 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
     bounded sublevel set that :class:`roa.certification.SosValidator` requires)."""
     import time
 
-    from roa.proof.cover import gram_cover
-    from roa.proof.exact import exact_equilibrium
     from roa.proof.validation import Validation
     from roa.status import Verdict
 
@@ -334,14 +354,9 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
         eps = Fraction(str(meta.get("eps")))
     except (ValueError, TypeError, ZeroDivisionError) as exc:
         return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
-    try:
-        data = exact_data(system, V)
-    except NotPolynomial as exc:
-        return out(Verdict.INCONCLUSIVE, f"not polynomial: {exc}")
-    if not exact_equilibrium(system, np.asarray(V.center, dtype=float)):
-        return out(Verdict.INCONCLUSIVE, "V's centre is not an exact equilibrium")
-    if gram_cover(V, level) is None:
-        return out(Verdict.INCONCLUSIVE, "V >= mu |d|^2 not proved: {V <= level} may be unbounded")
+    data, why = preconditions(system, V, level)
+    if data is None:
+        return out(Verdict.INCONCLUSIVE, why)
     res = check_certificate(data, level, eps, basis0, Q0, basis1, Q1, rounded=True)
     if not res.ok:
         return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {res.reason}",

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -72,9 +73,10 @@ class _Unidentified(Exception):
     """Something in the system's definition cannot be identified exactly."""
 
 
-def _source_digest(module_name: str, filename: str | None = None) -> str:
-    """SHA-256 of the code a function may call: its top-level package's sources when it is an
-    installed package, else its own file (a user's system file)."""
+def _package_digest(module_name: str) -> str:
+    """SHA-256 of the sources of the installed package that holds ``module_name`` (the code a
+    function of it may call); a module outside an installed package (a user's file, a test
+    module) has no exact identity here: its globals and the files it imports are not pinned."""
     import importlib.util
 
     from roa.io import code_hash
@@ -84,17 +86,19 @@ def _source_digest(module_name: str, filename: str | None = None) -> str:
         spec = importlib.util.find_spec(top)
     except (ImportError, ValueError):
         spec = None
-    if spec is not None and spec.submodule_search_locations:
-        return code_hash(top)
-    if filename is None:
-        raise _Unidentified(module_name)
-    from pathlib import Path
+    if spec is None or not spec.submodule_search_locations or spec.origin is None:
+        raise _Unidentified(f"{module_name} is not in an installed package")
+    return code_hash(top)
 
-    return hashlib.sha256(Path(filename).read_bytes()).hexdigest()
+
+def _code_identity(code: Any) -> list[Any]:
+    consts = [_code_identity(c) if hasattr(c, "co_code") else repr(c) for c in code.co_consts]
+    return [hashlib.sha256(code.co_code).hexdigest(), consts, list(code.co_names)]
 
 
 def _identity(obj: Any, depth: int = 0) -> Any:
-    """An exact, JSON-able identity of a value a field depends on (raises _Unidentified)."""
+    """An exact, JSON-able, type-tagged identity of a value a field depends on; raises
+    _Unidentified for anything not positively understood (then nothing is cached)."""
     import dataclasses
     import types
 
@@ -102,45 +106,40 @@ def _identity(obj: Any, depth: int = 0) -> Any:
 
     if depth > 8:
         raise _Unidentified("nested too deep")
-    if obj is None or isinstance(obj, bool | str):
-        return obj
-    if isinstance(obj, int):
-        return str(obj)
-    if isinstance(obj, float | np.floating):
-        return float(obj).hex()
-    if isinstance(obj, np.ndarray):
-        return [str(obj.dtype), list(obj.shape), hashlib.sha256(obj.tobytes()).hexdigest()]
-    if isinstance(obj, tuple | list):
-        return [_identity(v, depth + 1) for v in obj]
-    if isinstance(obj, dict) or hasattr(obj, "items") and hasattr(obj, "keys"):
-        return {str(k): _identity(v, depth + 1) for k, v in obj.items()}
-    if isinstance(obj, types.FunctionType):
-        code = obj.__code__
+    if obj is None or isinstance(obj, bool):
+        return ["const", repr(obj)]
+    if type(obj) is str:
+        return ["str", obj]
+    if type(obj) is int:
+        return ["int", str(obj)]
+    if type(obj) is float or isinstance(obj, np.floating):
+        return ["float", float(obj).hex()]
+    if type(obj) is np.ndarray:
+        digest = hashlib.sha256(np.ascontiguousarray(obj).tobytes()).hexdigest()
+        return ["ndarray", str(obj.dtype), list(obj.shape), digest]
+    if type(obj) in (tuple, list):
+        return [type(obj).__name__, [_identity(v, depth + 1) for v in obj]]
+    if type(obj) is dict or isinstance(obj, Mapping) and type(obj).__module__ == "roa.system":
+        items = sorted(((repr(k), _identity(v, depth + 1)) for k, v in obj.items()), key=str)
+        return ["mapping", items]
+    if type(obj) is types.FunctionType:
         cells = [c.cell_contents for c in (obj.__closure__ or ())]
-        return {
-            "function": f"{obj.__module__}.{obj.__qualname__}",
-            "code": hashlib.sha256(code.co_code + repr(code.co_consts).encode()).hexdigest(),
-            "source": _source_digest(obj.__module__, code.co_filename),
-            "closure": _identity(cells, depth + 1),
-            "defaults": _identity(obj.__defaults__, depth + 1),
-        }
+        return ["function", f"{obj.__module__}.{obj.__qualname__}",
+                _code_identity(obj.__code__), _package_digest(obj.__module__),
+                _identity(cells, depth + 1), _identity(obj.__defaults__, depth + 1),
+                _identity(obj.__kwdefaults__, depth + 1), _identity(dict(obj.__dict__), depth + 1)]  # fmt: skip
+    cls = type(obj)
     if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
         fields = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj)}
-        return {"type": type(obj).__qualname__, "fields": _identity(fields, depth + 1)}
-    cls = type(obj)
+        return ["dataclass", f"{cls.__module__}.{cls.__qualname__}", _package_digest(cls.__module__),
+                _identity(fields, depth + 1)]  # fmt: skip
     slots = [n for c in cls.__mro__ for n in getattr(c, "__slots__", ()) if hasattr(obj, n)]
-    if cls.__module__ != "builtins" and (hasattr(obj, "__dict__") or slots):
-        import inspect
-
-        try:
-            filename = inspect.getsourcefile(cls)
-        except TypeError:
-            filename = None
+    if hasattr(obj, "__dict__") or slots:  # an instance of a class of an installed package
+        digest = _package_digest(cls.__module__)  # raises for builtins, functools, user files
         state = dict(vars(obj)) if hasattr(obj, "__dict__") else {}
         state.update({n: getattr(obj, n) for n in slots})
-        return {"type": f"{cls.__module__}.{cls.__qualname__}",
-                "source": _source_digest(cls.__module__, filename),
-                "state": _identity(state, depth + 1)}  # fmt: skip
+        return ["object", f"{cls.__module__}.{cls.__qualname__}", digest,
+                _identity(state, depth + 1)]  # fmt: skip
     raise _Unidentified(cls.__name__)
 
 

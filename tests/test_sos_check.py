@@ -187,3 +187,28 @@ def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
         assert main(["verify", str(path), "--system", "vanderpol", "--json"]) == 1
         out = json.loads(capsys.readouterr().out)
         assert out["status"] == "inconclusive" and "refused" in out["message"]
+
+
+def test_review_findings_on_the_sos_route():
+    """Second review: V centred at another equilibrium is not certified for this system (x' =
+    -x (x - 1)(x - 2): {(x - 2)^2 <= 0.5} is no region of attraction of 0); a float constant that
+    leaves f(x_eq) != 0 in exact arithmetic is refused (f = -(0.1 x - 0.03), x_eq = 0.3 in
+    doubles); stored numbers too large to check are refused before any arithmetic."""
+    import json
+
+    from roa.certification import Certificate
+
+    cubic = roa.System("three", lambda t, x, xp: (-x[0] * (x[0] - 1) * (x[0] - 2),), (0.0,), ("x",))
+    V2 = roa.QuadraticLyapunov([[1.0]], [2.0])
+    v = roa.SosValidator().check(cubic, V2, 0.5)
+    assert v.status is roa.Verdict.INCONCLUSIVE and "centred" in v.message
+    lin = roa.System("lin", lambda t, x, xp: (-(0.1 * x[0] - 0.03),), (0.3,), ("x",))
+    v = roa.SosValidator().check(lin, roa.QuadraticLyapunov([[1.0]], [0.3]), 0.01)
+    assert v.status is roa.Verdict.INCONCLUSIVE and "f(x_eq) != 0" in v.message
+    data = json.loads(roa.io.to_json(
+        roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator()).to_dict()))  # fmt: skip
+    for edit in ({"eps": "1e400"}, {"eps": "0"}):
+        assert not Certificate.from_dict({**data, **edit}, vanderpol()).reverify().certified
+    huge = json.loads(json.dumps(data))
+    huge["certificate"]["Q0"][0][0] = "1" + "0" * 3000
+    assert "at most" in Certificate.from_dict(huge, vanderpol()).reverify().message

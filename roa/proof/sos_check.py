@@ -86,11 +86,15 @@ def exact_data(system: Any, V: Any) -> ExactData:
         raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
     n = int(V.n)
     center = tuple(Fraction(float(c)) for c in V.center)
+    xs = list(sp.symbols(f"x0:{n}", real=True))
     d = list(sp.symbols(f"d0:{n}", real=True))
-    x = [d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)]
-    try:
-        f = system.field(0.0, x, namespace("sympy"))
-        f = [exact_rationals(sp.sympify(fi)) for fi in f]
+    try:  # unevaluated, so that no float is rounded against a rational before it is made exact
+        with sp.evaluate(False):
+            f = system.field(0.0, xs, namespace("sympy"))
+        shift = {
+            xs[i]: d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)
+        }
+        f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
@@ -101,6 +105,8 @@ def exact_data(system: Any, V: Any) -> ExactData:
         raise NotPolynomial(
             f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
         ) from None
+    if any(p.coeff_monomial(1) != 0 for p in fp):
+        raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
     Vq: QPoly = {tuple(int(k) for k in a): _fraction(c) for a, c in terms.items() if c != 0}
     Vp = sp.Poly.from_dict(
         {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
@@ -224,7 +230,7 @@ def check_certificate(
     """
     c, e = Fraction(level), Fraction(eps)
     if not (c > 0 and e > 0):
-        return SosCheck(False, f"level and eps must be > 0 (got {float(c)}, {float(e)})")
+        return SosCheck(False, f"level and eps must be > 0 (got {_float(c)}, {_float(e)})")
     k, rem = divmod(data.low, 2)
     if rem or k < 1:
         return SosCheck(False, f"the lowest degree of V' is {data.low}, not even: V' is not "
@@ -249,7 +255,7 @@ def check_certificate(
     ok1, piv1 = exact_psd_pivots(R1)
     if not ok1:
         return SosCheck(False, "the multiplier's Gram matrix Q1 is not positive definite (exact)",
-                        min_pivot=float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
+                        min_pivot=_float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
     pairs: dict[Mono, list[tuple[int, int]]] = {}
     for (i, bi), (j, bj) in itertools.product(enumerate(basis0), enumerate(basis0)):
         pairs.setdefault(_add(bi, bj), []).append((i, j))
@@ -268,16 +274,16 @@ def check_certificate(
                 P[i][j] += share
     if gram_poly(basis0, P) != target:  # the identity must now hold exactly
         return SosCheck(False, "the projection did not reproduce the identity exactly",
-                        float(residual))  # fmt: skip
+                        _float(residual))  # fmt: skip
     ok0, piv0 = exact_psd_pivots(P)
     pivots = piv0 + piv1
-    mp = float(min(pivots)) if pivots else None
+    mp = _float(min(pivots)) if pivots else None
     meta = {"digest": matrix_digest(P, R1), "eps": str(e), "k": k}
     if not ok0:
         return SosCheck(False, "the projected Gram matrix Q0 is not positive definite (exact)",
-                        float(residual), mp, P, R1, meta)  # fmt: skip
+                        _float(residual), mp, P, R1, meta)  # fmt: skip
     return SosCheck(True, "identity exact, Q0 and Q1 positive definite (exact)",
-                    float(residual), mp, P, R1, meta)  # fmt: skip
+                    _float(residual), mp, P, R1, meta)  # fmt: skip
 
 
 def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, str]:
@@ -286,14 +292,13 @@ def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, 
     (V >= mu |d|^2 from its Gram matrix, :func:`roa.proof.cover.gram_cover`), or V' starting
     at an odd degree."""
     from roa.proof.cover import gram_cover
-    from roa.proof.exact import exact_equilibrium
 
+    if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
+        return None, "V must be centred at the system's equilibrium"
     try:
-        data = exact_data(system, V)
+        data = exact_data(system, V)  # refuses f(x_eq) != 0 (exact constant terms)
     except NotPolynomial as exc:
         return None, f"not polynomial: {exc}"
-    if not exact_equilibrium(system, np.asarray(V.center, dtype=float)):
-        return None, "V's centre is not an exact equilibrium"
     if gram_cover(V, level) is None:
         return None, ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the "
                       "linear monomials): {V <= level} may be unbounded")  # fmt: skip
@@ -302,13 +307,26 @@ def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, 
     return data, ""
 
 
+#: Bounds on a stored certificate (beyond them it is refused before any arithmetic).
+MAX_BASIS = 5000
+MAX_DIGITS = 2000
+
+
+def _float(x: Fraction) -> float:
+    """``x`` as a float for reports (+-inf beyond the float range)."""
+    try:
+        return float(x)
+    except OverflowError:
+        return float("inf") if x > 0 else float("-inf")
+
+
 def _parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
-    if not isinstance(raw, list):
-        raise ValueError(f"{what} must be a list of exponent lists")
+    if not isinstance(raw, list) or len(raw) > MAX_BASIS:
+        raise ValueError(f"{what} must be a list of at most {MAX_BASIS} exponent lists")
     out = []
     for b in raw:
-        if not (isinstance(b, list) and len(b) == n and all(isinstance(k, int) and 0 <= k <= 64
-                                                            for k in b)):  # fmt: skip
+        if not (isinstance(b, list) and len(b) == n and all(
+            type(k) is int and 0 <= k <= 64 for k in b)):  # fmt: skip
             raise ValueError(f"{what}: every monomial must be {n} non-negative integers")
         out.append(tuple(b))
     return out
@@ -318,6 +336,8 @@ def _parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
     if not (isinstance(raw, list) and len(raw) == m and all(isinstance(r, list) and len(r) == m
                                                             for r in raw)):  # fmt: skip
         raise ValueError(f"{what} must be a {m}x{m} matrix of rationals")
+    if any(len(str(v)) > MAX_DIGITS for row in raw for v in row):
+        raise ValueError(f"{what}: entries must have at most {MAX_DIGITS} characters")
     try:
         return [[Fraction(str(v)) for v in row] for row in raw]
     except (ValueError, ZeroDivisionError):
@@ -351,7 +371,10 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
         basis1 = _parse_basis(cert.get("basis1") or [], n, "basis1")
         Q0 = _parse_matrix(cert.get("Q0"), len(basis0), "Q0")
         Q1 = _parse_matrix(cert.get("Q1") or [], len(basis1), "Q1")
-        eps = Fraction(str(meta.get("eps")))
+        raw_eps = str(meta.get("eps"))
+        if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
+            raise ValueError("eps must be a rational like '1/1048576'")
+        eps = Fraction(raw_eps)
     except (ValueError, TypeError, ZeroDivisionError) as exc:
         return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
     data, why = preconditions(system, V, level)

@@ -205,6 +205,10 @@ def test_review_findings_on_the_sos_route():
     lin = roa.System("lin", lambda t, x, xp: (-(0.1 * x[0] - 0.03),), (0.3,), ("x",))
     v = roa.SosValidator().check(lin, roa.QuadraticLyapunov([[1.0]], [0.3]), 0.01)
     assert v.status is roa.Verdict.INCONCLUSIVE and "f(x_eq) != 0" in v.message
+    from roa.proof.exact import exact_equilibrium
+
+    assert not exact_equilibrium(lin, lin.x_eq)  # the interval route's local proof sees it too
+    assert exact_equilibrium(vanderpol(), vanderpol().x_eq)
     data = json.loads(roa.io.to_json(
         roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator()).to_dict()))  # fmt: skip
     for edit in ({"eps": "1e400"}, {"eps": "0"}):

@@ -72,11 +72,15 @@ def interval_negative_definite(lo: np.ndarray, hi: np.ndarray) -> bool:
 
 
 def exact_equilibrium(system: System, center: np.ndarray) -> bool:
-    """``f(center) == 0`` exactly (sympy, the float centre taken as an exact rational)."""
+    """``f(center) == 0`` exactly: the field written unevaluated in sympy, its floats and the
+    centre taken as the exact rationals of the doubles, then evaluated."""
     import sympy as sp
 
     from roa.backend import namespace
+    from roa.lyapunov.symbolic import exact_rationals
 
-    x = [sp.Rational(float(c)) for c in center]
-    f = system.field(0.0, x, namespace("sympy"))
-    return all(sp.nsimplify(sp.sympify(fi)) == 0 for fi in f)
+    xs = list(sp.symbols(f"x0:{len(center)}", real=True))
+    with sp.evaluate(False):  # no float is rounded against a rational before it is made exact
+        f = system.field(0.0, xs, namespace("sympy"))
+    at = {xs[i]: sp.Rational(float(c)) for i, c in enumerate(center)}
+    return all(sp.simplify(exact_rationals(sp.sympify(fi)).xreplace(at)) == 0 for fi in f)

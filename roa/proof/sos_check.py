@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.proof.exact import exact_positive_definite
 
 Mono = tuple[int, ...]
 QPoly = dict[Mono, Fraction]
@@ -179,16 +180,6 @@ def round_matrix(Q: Any, bits: int = 30) -> list[list[Fraction]]:
     return out
 
 
-def exact_psd_pivots(A: list[list[Fraction]]) -> tuple[bool, list[Fraction]]:
-    """Positive definiteness of a symmetric rational matrix by exact leading minors (python-flint);
-    an empty matrix is trivially so."""
-    from roa.proof.exact import exact_positive_definite
-
-    if not A:
-        return True, []
-    return exact_positive_definite(A)
-
-
 def matrix_digest(*mats: list[list[Fraction]]) -> str:
     h = hashlib.sha256()
     for M in mats:
@@ -252,7 +243,7 @@ def check_certificate(
         lam = gram_poly(basis1, R1)
         c_minus_V = poly_lin((Fraction(-1), data.V), (c, {tuple([0] * n): Fraction(1)}))
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(lam, c_minus_V)))
-    ok1, piv1 = exact_psd_pivots(R1)
+    ok1, piv1 = exact_positive_definite(R1)
     if not ok1:
         return SosCheck(False, "the multiplier's Gram matrix Q1 is not positive definite (exact)",
                         min_pivot=_float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
@@ -275,7 +266,7 @@ def check_certificate(
     if gram_poly(basis0, P) != target:  # the identity must now hold exactly
         return SosCheck(False, "the projection did not reproduce the identity exactly",
                         _float(residual))  # fmt: skip
-    ok0, piv0 = exact_psd_pivots(P)
+    ok0, piv0 = exact_positive_definite(P)
     pivots = piv0 + piv1
     mp = _float(min(pivots)) if pivots else None
     meta = {"digest": matrix_digest(P, R1), "eps": str(e), "k": k}

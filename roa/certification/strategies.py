@@ -16,6 +16,7 @@ Proposers and sources prove nothing; only a validator's verdict reaches ``certif
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -51,7 +52,9 @@ class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
     Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
-    V) is a box holding the level set, proved by ``V > level`` on its faces.
+    V) is a box holding the level set, proved by ``V > level`` on its faces. For a system with
+    uncertain parameters the level is proved for every parameter of the box
+    (:func:`roa.proof.robust.validate_robust`).
     """
 
     options: IntervalOptions = field(default_factory=IntervalOptions)
@@ -62,6 +65,13 @@ class IntervalValidator:
         return system.equilibrium is not None and not system.time_varying
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        if system.parameters:
+            from roa.proof.robust import validate_robust
+
+            with step(f"robust interval validation of level {level:.6g}"):
+                return validate_robust(system, V, level, max_boxes=self.options.max_boxes,
+                                       batch=self.options.batch,
+                                       bounding_box=self.bounding_box)  # fmt: skip
         with step(f"interval validation of level {level:.6g}"):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch,
@@ -95,6 +105,8 @@ class SosValidator:
         from roa.proof.sos_check import NotPolynomial, exact_data
 
         if getattr(V, "terms", None) is None or system.equilibrium is None:
+            return False
+        if system.parameters:  # parameters as indeterminates: not yet
             return False
         if system.time_varying:
             return False
@@ -156,6 +168,7 @@ class Proposal:
     sos: Any = None
     search: LevelSearchResult | None = None
     final: bool = False  # a proposal that is the answer itself (SOS only, never certified)
+    parameters: dict[str, float] | None = None  # the parameter values it was found at
 
     @property
     def level(self) -> float | None:
@@ -275,6 +288,36 @@ class SampledLevel:
                 msg += "; give level= to validate a level of your choice"
             return Proposal("sampled", None, None, msg, search=search)
         return Proposal("sampled", float(search.level), self.safety, search=search)
+
+
+@dataclass(frozen=True)
+class WorstCase:
+    """A proposer run at each sample point of an uncertain system's parameter box
+    (:func:`roa.parameters.sample_points`: nominal value and vertices); the lowest level wins.
+    A proposal only: the robust validator decides for every parameter of the box."""
+
+    inner: LevelProposer
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return self.inner.accepts(system.nominal(), V)
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        from roa.parameters import describe_point, sample_points
+
+        best: Proposal | None = None
+        for p in sample_points(system):
+            prop = dataclasses.replace(self.inner.propose(system.at(**p), V), parameters=p)
+            if prop.level is None:
+                if prop.final or best is None:
+                    best = best or prop
+                continue
+            if best is None or best.level is None or prop.level < best.level:
+                best = prop
+        assert best is not None
+        if best.level is not None and best.parameters is not None:
+            note = f"lowest over the box's sample points at {describe_point(best.parameters)}"
+            best = dataclasses.replace(best, message=f"{best.message}; {note}".lstrip("; "))
+        return best
 
 
 # -- sources of V ------------------------------------------------------------------------------------

@@ -30,6 +30,11 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.system import Params, System
 
+#: Namespaces of enclosures: they see every uncertain parameter as its interval.
+PROOF_NAMESPACES = ("interval", "interval-jet")
+#: Float namespaces: they see the uncertain parameters at the piece's point (searches only).
+POINT_NAMESPACES = ("numpy", "mpmath", "casadi")
+
 #: At most this many vertices are sampled (2^4: all vertices up to 4 uncertain parameters).
 MAX_VERTICES = 16
 
@@ -117,8 +122,11 @@ class RangeField:
     point: Params
 
     def params_for(self, xp: Any) -> Params:
-        name = getattr(xp, "name", "")
-        if name in ("interval", "jet"):
+        """The parameters seen by namespace ``xp``: the piece's intervals for the interval and
+        jet namespaces, real symbols for sympy, the point for the float namespaces; any other
+        namespace is refused (a proof must never see a point where it needs the box)."""
+        name = getattr(xp, "name", None)
+        if name in PROOF_NAMESPACES:
             from roa.proof.interval import Interval
 
             ranges = {k: Interval(a, b) for k, a, b in zip(self.box.names, self.box.lo,
@@ -128,7 +136,12 @@ class RangeField:
             import sympy as sp
 
             return Params({**self.fixed, **{k: sp.Symbol(k, real=True) for k in self.box.names}})
-        return Params({**self.fixed, **self.point})
+        if name in POINT_NAMESPACES:
+            return Params({**self.fixed, **self.point})
+        raise RoaInputError(
+            f"a field over a parameter box cannot be evaluated in namespace {name!r} (known: "
+            f"{', '.join(PROOF_NAMESPACES + POINT_NAMESPACES)}, sympy)"
+        )
 
     def __call__(self, t: Any, x: Any, xp: Any) -> Sequence[Any]:
         return self.func(t, x, xp, self.params_for(xp))

@@ -19,9 +19,11 @@ for a family of fields. Here:
 
 from __future__ import annotations
 
+import contextlib
+import contextvars
 import dataclasses
 import itertools
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -110,6 +112,26 @@ def describe_point(values: Mapping[str, float]) -> str:
     return ", ".join(f"{k} = {v:.10g}" for k, v in values.items())
 
 
+#: Enclosures of the uncertain parameters set by a branch and bound over states *and* parameters
+#: (jets whose variables include the parameters, or Intervals per box), read by RangeField.
+_VALUES: contextvars.ContextVar[Sequence[Any] | None] = contextvars.ContextVar(
+    "roa_parameter_values", default=None
+)
+
+
+@contextlib.contextmanager
+def parameter_values(values: Sequence[Any] | None) -> Iterator[None]:
+    """Within the block, a :class:`RangeField` gives the proof namespaces ``values`` (one per
+    uncertain parameter, in the box's order: jets or Intervals, each enclosing the parameter on
+    the boxes evaluated) instead of its box's intervals. The caller vouches that each holds the
+    parameter's values on the boxes it evaluates; nothing outlives the block."""
+    token = _VALUES.set(values)
+    try:
+        yield
+    finally:
+        _VALUES.reset(token)
+
+
 @dataclass(frozen=True)
 class RangeField:
     """A parametric field over a parameter box (see the module doc): ``fixed`` holds the values of
@@ -129,6 +151,16 @@ class RangeField:
         if name in PROOF_NAMESPACES:
             from roa.proof.interval import Interval
 
+            given = _VALUES.get()
+            if given is not None:
+                if len(given) != len(self.box.names):
+                    raise RoaInputError(
+                        f"{len(given)} parameter enclosures for {len(self.box.names)} parameters"
+                    )
+                vals = list(given)
+                if name == "interval":  # the value enclosure of a jet
+                    vals = [v if isinstance(v, Interval) else v.v for v in vals]
+                return Params({**self.fixed, **dict(zip(self.box.names, vals, strict=True))})
             ranges = {k: Interval(a, b) for k, a, b in zip(self.box.names, self.box.lo,
                                                             self.box.hi, strict=True)}  # fmt: skip
             return Params({**self.fixed, **ranges})

@@ -142,15 +142,16 @@ def test_nominal_level_refuted_for_the_box(worst):
     assert json.loads(json.dumps(cert.to_dict()))["witness_parameters"] == {"mu": mu}
 
 
-def test_pieces_of_the_box_are_all_proved():
-    """A wide box: certified below the worst case, never above it even with one piece."""
+def test_wide_box_certified_below_and_refuted_above_the_worst_case():
+    """A wide box (the local proof needs pieces of it): certified below the worst case, refuted
+    above it at the worst end."""
     s = vdp_box(0.7, 1.5)
     V = as_lyapunov(s, P)
     lo = min(slsqp_optimum(0.7), slsqp_optimum(1.5))
     res = validate_robust(s, V, 0.99 * lo)
     assert res.status is Verdict.CERTIFIED
-    assert res.meta["pieces"] >= 1
-    above = validate_robust(s, V, 1.01 * lo, max_pieces=1)
+    assert res.meta["local_parameter_pieces"] >= 1
+    above = validate_robust(s, V, 1.01 * lo)
     assert above.status is Verdict.REFUTED and above.witness_parameters["mu"] == 0.7
 
 

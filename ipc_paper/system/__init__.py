@@ -285,8 +285,11 @@ def transformed_uncertain(
         state_units=("-", "1/s", "-", "1/s"),
         domain_description="R^4 (w1 = tan(theta) covers |theta| < pi/2)",
         parameters={"delta_plant": (lo, delta, hi)},
-        meta={"gains": gains.h, "design_delta": delta,
-              **({} if sat is None else {"saturation": sat})},  # fmt: skip
+        meta={
+            "gains": gains.h,
+            "design_delta": delta,
+            **({} if sat is None else {"saturation": sat}),
+        },  # fmt: skip
     )
 
 

@@ -229,3 +229,22 @@ def test_every_proof_namespace_sees_the_box():
     with pytest.raises(roa.RoaInputError, match="cannot be evaluated in namespace 'other'"):
         s.field(0.0, [1.0, 1.0], SimpleNamespace(name="other"))
     assert NP.name == "numpy"
+
+
+def test_level_search_and_simulation_over_a_box(capsys):
+    """The level search reports the worst sample point with every point's level; a trajectory
+    needs one parameter value (no silent nominal)."""
+    s = vdp_box()
+    res = roa.level_search(s, P, method="sampled")
+    per = res.details["per_parameter"]
+    assert {tuple(r["parameters"].items()) for r in per} == {(("mu", v),) for v in (0.8, 1.0, 1.2)}
+    assert res.level == min(r["level"] for r in per)
+    assert res.details["parameters"] == {"mu": 0.8}
+    assert res.level == pytest.approx(slsqp_optimum(0.8), rel=1e-3)
+    with pytest.raises(roa.RoaInputError, match=r"uncertain parameters \(mu in \[0.8, 1.2\]\)"):
+        roa.simulate(s, [0.5, 0.5])
+    assert roa.simulate(s.at(mu=1.2), [0.5, 0.5]).status.value == "converged"
+    rc = main(["khalil", "--system", "vanderpol", "--param", "mu=0.8..1.2", "--shape", "level",
+               "--method", "sampled", "--json"])  # fmt: skip
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["parameters"] == {"mu": 0.8} and len(out["per_parameter"]) == 3

@@ -284,7 +284,7 @@ class System:
         rest = {k: v for k, v in box.items() if k not in values}
         params = {k: v for k, v in (self.params or {}).items() if k not in rest}
         params.update({k: float(v) for k, v in values.items()})
-        return dataclasses.replace(self, params=params, parameters=rest or None)
+        return self._rekernel(dataclasses.replace(self, params=params, parameters=rest or None))
 
     def with_ranges(self, **ranges: Sequence[float]) -> System:
         """The same system with declared parameters made uncertain: ``name=(low, high)`` (the
@@ -303,7 +303,7 @@ class System:
                 values = (values[0], declared[key], values[1])
             box[key] = values
         params = {k: v for k, v in declared.items() if k not in box}
-        return dataclasses.replace(self, params=params or None, parameters=box)
+        return self._rekernel(dataclasses.replace(self, params=params or None, parameters=box))
 
     def nominal(self) -> System:
         """The system with every uncertain parameter fixed at its nominal value."""
@@ -326,7 +326,27 @@ class System:
                 f"system {self.name!r} has no parameter {unknown[0]!r} "
                 f"(declared: {', '.join(sorted(self.params))})"
             )
-        return dataclasses.replace(self, params={**self.params, **values})
+        return self._rekernel(dataclasses.replace(self, params={**self.params, **values}))
+
+    def _rekernel(self, other: System) -> System:
+        """``other`` (this system with other parameter values) with compiled-field factories
+        that are for *its* values.
+
+        A factory (``numba``, ``numba_fast``) is built for the parameter values of the system it
+        came with. When the values change, a factory that can be rebuilt for them
+        (``factory.with_params(values) -> factory``, ``values`` every parameter by name) is
+        rebuilt; any other is dropped, so the batch integrator falls back to the numpy backend
+        rather than integrate the field of other parameter values.
+        """
+        if dict(other.params or {}) == dict(self.params or {}):
+            return other
+        values = dict(other.params or {})
+        kernels = {}
+        for key in ("numba", "numba_fast"):
+            factory = getattr(other, key)
+            rebuild = getattr(factory, "with_params", None)
+            kernels[key] = rebuild(values) if callable(rebuild) else None
+        return dataclasses.replace(other, **kernels)
 
     @property
     def n(self) -> int:

@@ -154,7 +154,11 @@ class System:
         Proofs hold for the whole box; :meth:`at` fixes values.
     numba : callable, optional
         Factory of the batch integrator's compiled field (``() -> (field, margin, params)``,
-        the cfunc protocol of :mod:`roa.montecarlo.integrator`).
+        the cfunc protocol of :mod:`roa.montecarlo.integrator`), for this system's parameter
+        values: :meth:`at`, :meth:`with_params` and :meth:`with_ranges` rebuild it for other values
+        with ``factory.with_params(values)`` when it has that method, else drop it (the numpy
+        backend then runs). ``dataclasses.replace(system, params=...)`` does neither: use those
+        methods.
     numba_fast : callable, optional
         Factory of the njit fast path of the same field (:mod:`roa.montecarlo.integrator`).
     analysis_coords : object, optional
@@ -341,12 +345,11 @@ class System:
         if dict(other.params or {}) == dict(self.params or {}):
             return other
         values = dict(other.params or {})
-        kernels = {}
-        for key in ("numba", "numba_fast"):
-            factory = getattr(other, key)
+        kernels: list[Any] = []
+        for factory in (other.numba, other.numba_fast):
             rebuild = getattr(factory, "with_params", None)
-            kernels[key] = rebuild(values) if callable(rebuild) else None
-        return dataclasses.replace(other, **kernels)
+            kernels.append(rebuild(values) if callable(rebuild) else None)
+        return dataclasses.replace(other, numba=kernels[0], numba_fast=kernels[1])
 
     @property
     def n(self) -> int:

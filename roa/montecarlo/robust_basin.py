@@ -71,7 +71,11 @@ class ParameterSample:
 
 
 def _check_int(value: Any, what: str, low: int, high: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int | np.integer) or not low <= value <= high:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | np.integer)
+        or not low <= value <= high
+    ):
         raise RoaInputError(f"{what} must be an integer in [{low}, {high}], got {value!r}")
     return int(value)
 
@@ -95,7 +99,9 @@ def parameter_samples(
         u = rng.random((n_random, len(box.names)))
         lo, hi = np.array(box.lo), np.array(box.hi)
         for row in lo + u * (hi - lo):
-            candidates.append(("random", {k: float(v) for k, v in zip(box.names, row, strict=True)}))
+            candidates.append(
+                ("random", {k: float(v) for k, v in zip(box.names, row, strict=True)})
+            )
     out: list[ParameterSample] = []
     seen: set[tuple[float, ...]] = set()
     for kind, values in candidates:
@@ -299,4 +305,3 @@ def robust_basin(
     return RobustBasinResult(status, tuple(samples), tuple(runs), time.perf_counter() - t0,
                              system, sampler, int(param_seed), int(param_samples),
                              terminal, tuple(regions))  # fmt: skip
-

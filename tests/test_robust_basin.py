@@ -78,6 +78,8 @@ def test_bad_param_samples_name_the_option_and_range(bad):
     with pytest.raises(roa.RoaInputError, match=rf"param_samples must be an integer in \[0, "
                        rf"{MAX_PARAM_SAMPLES}\]"):  # fmt: skip
         parameter_samples(cubic_box(), bad)
+    with pytest.raises(roa.RoaInputError, match=r"param_seed must be an integer in \[0, "):
+        parameter_samples(cubic_box(), 1, seed=-1)
     with pytest.raises(roa.RoaInputError, match="no uncertain parameters"):
         robust_basin(cubic_box().nominal(), cubic_grid(cubic_box()))
 
@@ -263,3 +265,9 @@ def test_cli_robust_basin_json_plot_and_bad_input(tmp_path, capsys):
     assert main(args[:5] + ["--param-samples", "-1"] + args[7:]) == 2
     err = capsys.readouterr().err
     assert "--param-samples must be an integer in [0, 1000]" in err
+    assert main(args[:5] + ["--seed", "-3"] + args[5:]) == 2
+    assert "--seed must be an integer in [0, 2^63)" in capsys.readouterr().err
+    assert main(args[:3] + args[5:]) == 2  # vanderpol with mu fixed: no parameter box
+    assert "--param-samples applies to a system with uncertain parameters" in (
+        capsys.readouterr().err
+    )

@@ -91,7 +91,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "entering {V <= level} stop as converged",
     )
     p.add_argument(
-        "--param-samples", type=int, default=DEFAULT_PARAM_SAMPLES, metavar="N",
+        "--param-samples", type=int, default=None, metavar="N",
         help="for a system with uncertain parameters: seeded uniform samples of the parameter box "
         f"on top of the nominal values and the vertices, in [0, {MAX_PARAM_SAMPLES}] (default "
         f"{DEFAULT_PARAM_SAMPLES}; seed --seed)",
@@ -160,11 +160,20 @@ def build(args: argparse.Namespace):
     if getattr(args, "nominal", False):
         system = system.nominal()
     if system.parameters:
+        if args.param_samples is None:
+            args.param_samples = DEFAULT_PARAM_SAMPLES
         n = args.param_samples
-        if isinstance(n, bool) or not isinstance(n, int) or not 0 <= n <= MAX_PARAM_SAMPLES:
+        if not 0 <= n <= MAX_PARAM_SAMPLES:
             raise RoaInputError(
                 f"--param-samples must be an integer in [0, {MAX_PARAM_SAMPLES}], got {n!r}"
             )
+        if not 0 <= args.seed < 2**63:
+            raise RoaInputError(f"--seed must be an integer in [0, 2^63), got {args.seed}")
+    elif args.param_samples is not None:
+        raise RoaInputError(
+            "--param-samples applies to a system with uncertain parameters (--param "
+            f"NAME=LOW..HIGH); {args.system} has none" + (" with --nominal" if args.nominal else "")
+        )
     if system.equilibrium is None or system.time_varying:
         raise RoaInputError(
             f"--system {args.system}: basins need an autonomous system with an equilibrium"

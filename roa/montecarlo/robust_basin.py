@@ -89,7 +89,7 @@ def parameter_samples(
     listed once). Depends only on the box, ``n_random`` and ``seed``; the first ``k`` random
     samples are the same for every ``n_random >= k``."""
     n_random = _check_int(n_random, "param_samples", 0, MAX_PARAM_SAMPLES)
-    seed = _check_int(seed, "seed", 0, 2**63 - 1)
+    seed = _check_int(seed, "param_seed", 0, 2**63 - 1)
     box = ParameterBox.of(system)
     nominal = {k: float(r.nominal) for k, r in system.parameters.items()}
     candidates: list[tuple[str, dict[str, float]]] = [("nominal", nominal)]

@@ -154,7 +154,11 @@ class System:
         Proofs hold for the whole box; :meth:`at` fixes values.
     numba : callable, optional
         Factory of the batch integrator's compiled field (``() -> (field, margin, params)``,
-        the cfunc protocol of :mod:`roa.montecarlo.integrator`).
+        the cfunc protocol of :mod:`roa.montecarlo.integrator`), for this system's parameter
+        values: :meth:`at`, :meth:`with_params` and :meth:`with_ranges` rebuild it for other values
+        with ``factory.with_params(values)`` when it has that method, else drop it (the numpy
+        backend then runs). ``dataclasses.replace(system, params=...)`` does neither: use those
+        methods.
     numba_fast : callable, optional
         Factory of the njit fast path of the same field (:mod:`roa.montecarlo.integrator`).
     analysis_coords : object, optional
@@ -284,7 +288,7 @@ class System:
         rest = {k: v for k, v in box.items() if k not in values}
         params = {k: v for k, v in (self.params or {}).items() if k not in rest}
         params.update({k: float(v) for k, v in values.items()})
-        return dataclasses.replace(self, params=params, parameters=rest or None)
+        return self._rekernel(dataclasses.replace(self, params=params, parameters=rest or None))
 
     def with_ranges(self, **ranges: Sequence[float]) -> System:
         """The same system with declared parameters made uncertain: ``name=(low, high)`` (the
@@ -303,7 +307,7 @@ class System:
                 values = (values[0], declared[key], values[1])
             box[key] = values
         params = {k: v for k, v in declared.items() if k not in box}
-        return dataclasses.replace(self, params=params or None, parameters=box)
+        return self._rekernel(dataclasses.replace(self, params=params or None, parameters=box))
 
     def nominal(self) -> System:
         """The system with every uncertain parameter fixed at its nominal value."""
@@ -326,7 +330,26 @@ class System:
                 f"system {self.name!r} has no parameter {unknown[0]!r} "
                 f"(declared: {', '.join(sorted(self.params))})"
             )
-        return dataclasses.replace(self, params={**self.params, **values})
+        return self._rekernel(dataclasses.replace(self, params={**self.params, **values}))
+
+    def _rekernel(self, other: System) -> System:
+        """``other`` (this system with other parameter values) with compiled-field factories
+        that are for *its* values.
+
+        A factory (``numba``, ``numba_fast``) is built for the parameter values of the system it
+        came with. When the values change, a factory that can be rebuilt for them
+        (``factory.with_params(values) -> factory``, ``values`` every parameter by name) is
+        rebuilt; any other is dropped, so the batch integrator falls back to the numpy backend
+        rather than integrate the field of other parameter values.
+        """
+        if dict(other.params or {}) == dict(self.params or {}):
+            return other
+        values = dict(other.params or {})
+        kernels: list[Any] = []
+        for factory in (other.numba, other.numba_fast):
+            rebuild = getattr(factory, "with_params", None)
+            kernels.append(rebuild(values) if callable(rebuild) else None)
+        return dataclasses.replace(other, numba=kernels[0], numba_fast=kernels[1])
 
     @property
     def n(self) -> int:

@@ -5,8 +5,10 @@
 * bench_entry_steps.py: scipy's solve_ivp (RK45) enters the certified degree-4 set at the same
   accepted step as the engine, run for run;
 * bench_montecarlo.py: the engine's statuses, plain and with each terminal set, equal the
-  solve_ivp baseline's.
-Their speed figures are for an idle machine and are not asserted. All three are slow (15-40 s
+  solve_ivp baseline's;
+* bench_robust.py --quick: no robust level above the independent worst case, Van der Pol's within
+  1 % of it (the same target is in the fast suite, tests/test_robust.py).
+Their speed figures are for an idle machine and are not asserted. All four are slow (15-40 s
 each, numba compilation included): ``pytest -m slow``; the default run covers the engine against
 solve_ivp in tests/test_montecarlo.py.
 """
@@ -45,3 +47,13 @@ def test_entry_steps_match_the_engine():
 def test_montecarlo_statuses_agree_with_solve_ivp():
     out = _run("bench_montecarlo.py", "--n", "40", "--n-engine", "400")
     assert out.count("40/40") >= 3  # plain and both terminal sets
+
+
+@pytest.mark.slow
+def test_robust_benchmark_checks_hold():
+    """bench_robust.py --quick: no robust level above the independent worst case, Van der Pol's
+    within 1 %, the naive grid's minimum of the poly case (vertices only) refuted for the box."""
+    out = _run("bench_robust.py", "--quick")
+    lines = [ln for ln in out.splitlines() if ln.startswith(("vdp", "poly"))]
+    assert len(lines) == 2 and "FAILED" not in out
+    assert lines[1].split()[-1] == "refuted"

@@ -1,0 +1,340 @@
+"""Exact polynomial recast of a non-polynomial field for the SOS check (:mod:`roa.proof.sos_putinar`).
+
+**Claim.** :func:`recast_exact` returns, for a field with ``sin``/``cos`` of states and rational
+terms, polynomials over the rationals in ``z = (d, s_a, q_a, ...)`` (``d = x - x_eq``; per angle
+``a``, a state whose equilibrium value is exactly 0: ``s_a`` standing for ``sin d_a`` and ``q_a``
+for ``1 - cos d_a``) such that, at the point ``z(x) = (d, sin d_a, 1 - cos d_a, ...)`` of EVERY
+real state ``x``:
+
+* ``V'(x) = N(z(x)) / Den(z(x))`` with ``Den(z) >= Den(0) > 0`` for every real ``z``;
+* every equality ``h(z(x)) = 0`` (the circle ``s_a^2 + q_a^2 - 2 q_a = 0``, i.e.
+  ``sin^2 + cos^2 = 1``) and every inequality ``g(z(x)) >= 0`` holds.
+
+So a Putinar identity ``-N - eps |d|^2k = sigma0 + lambda (c - V) + sum sigma_j g_j + sum mu_e h_e``
+(sigmas SOS) gives ``-N(z(x)) >= eps |d|^2k > 0`` on ``{V <= c}`` minus ``x_eq``, hence ``V' < 0``
+there for the ORIGINAL field. Soundness needs only that the constraints hold at ``z(x)``, never
+that they pin ``z`` down (loose constraints cost level, not truth).
+
+**The inequalities**, valid for every real ``d`` (no bound on the angle is assumed):
+
+* ``d (T_m(d) - sin d) >= 0`` for ``m = 1, 5, 9, ...`` and ``d (sin d - T_m(d)) >= 0`` for
+  ``m = 3, 7, 11, ...`` (``T_m`` the Taylor polynomial of ``sin`` of degree ``m``);
+* ``cos d - C_m(d) >= 0`` for ``m = 2, 6, 10, ...``, ``C_m(d) - cos d >= 0`` for ``m = 4, 8, ...``
+  (``C_m`` the Taylor polynomial of ``cos``);
+* ``(d^2 / 2)^2 - (sin d - d)^2 >= 0``.
+
+Proof: for ``t >= 0``, ``cos t <= 1``; integrating from 0 to ``t`` (both sides agree at 0)
+gives ``sin t <= t``, again ``1 - cos t <= t^2/2``, i.e. ``cos t >= C_2``, again
+``sin t >= T_3``, and so on, the direction alternating: the bounds hold for ``t >= 0``. ``cos``
+and ``C_m`` are even (the cos bounds hold for all ``t``); ``sin`` and ``T_m`` are odd, so the sin
+bounds multiplied by ``d`` hold for all ``d``. Last: for ``|d| <= 3``, the bounds with ``m = 1, 3``
+give ``|sin d - d| <= |d|^3 / 6 <= d^2 / 2``; for ``|d| >= 3``,
+``|sin d - d| <= 1 + |d| <= d^2 / 2`` (``d^2 - 2|d| - 2 > 0`` there).
+
+**The denominator.** Each field component is brought to ``p_i / q_i`` (sympy ``together``, exact
+rationals) and ``Den`` is their least common multiple; ``Den`` (or ``-Den``, then ``N`` is negated
+too) is accepted only if its constant term is > 0 and every other term has all exponents even and
+a positive coefficient: each such term is ``>= 0`` for all real ``z``, so ``Den >= Den(0) > 0``
+everywhere (a sufficient, exactly checked argument; any other denominator is refused by name).
+
+**Refused, named in the message** (the pipeline then uses the branch and bound): any other
+function (``exp``, ``tanh``, ``tan`` whose ``cos`` denominator is not provably positive, ...),
+non-integer powers (``sqrt``), ``sin``/``cos`` of anything but a state whose equilibrium value
+is exactly 0 (after ``expand_trig``: ``sin(2 x)``, ``sin(x + y)`` are expanded exactly), the
+non-smooth ``min``/``max``/``abs``.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from roa.proof.sos_check import Mono, NotPolynomial, QPoly, _fraction, poly_mul
+
+#: Highest Taylor order of the sin bounds (the cos bounds go one further).
+MAX_TAYLOR = 11
+
+
+@dataclass(frozen=True)
+class RecastData:
+    """Exact data of a recast: polynomials over the rationals in ``nv`` variables
+    ``z = (d_0..d_{n-1}, s_a, q_a, ...)``; ``N`` has the sign of ``V'`` (``V' = N / Den``,
+    ``Den > 0``)."""
+
+    n: int
+    nv: int
+    names: tuple[str, ...]
+    center: tuple[Fraction, ...]
+    V: QPoly
+    N: QPoly
+    low: int
+    angles: tuple[int, ...]  # the state index of each angle, in the order of its (s, q) pair
+    taylor: int
+    scale: tuple[Fraction, ...]  # d_i = scale_i y_i: the polynomials are in y (and the aux)
+    equalities: tuple[tuple[str, QPoly], ...]
+    inequalities: tuple[tuple[str, QPoly], ...]
+    denominator: str
+    description: str
+
+    def aux(self, a: int) -> tuple[int, int]:
+        """Variable indices of ``s`` and ``q`` of the ``a``-th angle."""
+        return self.n + 2 * a, self.n + 2 * a + 1
+
+
+def _term(nv: int, exps: dict[int, int]) -> Mono:
+    e = [0] * nv
+    for i, p in exps.items():
+        e[i] += p
+    return tuple(e)
+
+
+def angle_constraints(nv: int, i: int, si: int, qi: int, taylor: int, r: Fraction | None = None
+                      ) -> tuple[list[tuple[str, QPoly]], list[tuple[str, QPoly]]]:  # fmt: skip
+    """The circle (equality) and the Taylor bounds (inequalities) of one angle (module docstring):
+    ``d = z_i``, ``s = z_si``, ``q = z_qi``; sin bounds of odd orders ``1..taylor``, cos bounds
+    of even orders ``2..taylor + 1``."""
+
+    def t(**exps: int) -> Mono:
+        return _term(nv, {{"d": i, "s": si, "q": qi}[k]: p for k, p in exps.items()})
+
+    circle = {t(s=2): Fraction(1), t(q=2): Fraction(1), t(q=1): Fraction(-2)}
+    eqs = [(f"s{i}^2 + q{i}^2 - 2 q{i} = 0 (sin^2 + cos^2 = 1)", circle)]
+    ineqs: list[tuple[str, QPoly]] = []
+    for m in range(1, taylor + 1, 2):  # d (T_m - s) >= 0 for m = 1 mod 4, reversed for 3 mod 4
+        sign = 1 if m % 4 == 1 else -1
+        g: QPoly = {t(d=1, s=1): Fraction(-sign)}
+        for j in range(1, m + 1, 2):
+            c = Fraction((-1) ** ((j - 1) // 2), math.factorial(j))
+            g[t(d=j + 1)] = g.get(t(d=j + 1), Fraction(0)) + sign * c
+        ineqs.append((f"d{i} ({'T' if sign > 0 else 's'}_{m} - {'s' if sign > 0 else 'T'}) >= 0"
+                      f" (sin Taylor bound of order {m})", g))  # fmt: skip
+    for m in range(2, taylor + 2, 2):  # cos = 1 - q; cos - C_m >= 0 for m = 2 mod 4, reversed
+        sign = 1 if m % 4 == 2 else -1
+        g = {t(q=1): Fraction(-sign)}  # sign (1 - q - C_m), the constant 1 cancels C_m's
+        for j in range(2, m + 1, 2):
+            c = Fraction((-1) ** (j // 2), math.factorial(j))
+            g[t(d=j)] = g.get(t(d=j), Fraction(0)) - sign * c
+        ineqs.append((f"cos Taylor bound of order {m} on d{i}", g))
+    for m in range(1, taylor + 2):  # (s - T_m)^2 <= R^2, (q - (1 - C_m))^2 <= R^2, R = |d|^(m+2)/(m+2)!
+        T: QPoly = {t(s=1) if m % 2 else t(q=1): Fraction(1)}
+        for j in range(1 if m % 2 else 2, m + 1, 2):
+            c = Fraction((-1) ** ((j - 1) // 2 if m % 2 else j // 2 + 1), math.factorial(j))
+            T[t(d=j)] = T.get(t(d=j), Fraction(0)) - c  # s - T_m, or q - (1 - C_m)
+        band = poly_mul(T, T)
+        band = {k: -v for k, v in band.items()}
+        if r is None:  # R^2 = d^(2m+4) / (m+2)!^2, every d
+            top, coef = 2 * m + 4, Fraction(1, math.factorial(m + 2) ** 2)
+        else:  # R^2 <= (r^m / (m+2)!)^2 d^4 where |d| <= r (on the level set)
+            top, coef = 4, (r**m / math.factorial(m + 2)) ** 2
+        band[t(d=top)] = band.get(t(d=top), Fraction(0)) + coef
+        what = "sin" if m % 2 else "cos"
+        ineqs.append((f"|{what} d{i} - Taylor_{m}| <= |d{i}|^{m + 2}/{m + 2}! (squared)", band))
+    return eqs, ineqs
+
+
+def positive_everywhere(p: QPoly) -> bool:
+    """Sufficient exact check that ``p(z) >= p(0) > 0`` for every real ``z``: a constant > 0 and
+    every other term with all exponents even and a positive coefficient."""
+    zero = next((m for m in p if sum(m) == 0), None)
+    if zero is None or p[zero] <= 0:
+        return False
+    return all(c > 0 and all(e % 2 == 0 for e in m) for m, c in p.items() if m != zero)
+
+
+def taylor_order(radius: float) -> int:
+    """Heuristic order (odd, at most :data:`MAX_TAYLOR`): the least ``m`` with
+    ``radius^(m+2) / (m+2)! <= 1e-3`` (the gap of the sin bounds at the angle's extent). Only the
+    level reached depends on it, never soundness."""
+    m = 3
+    while m < MAX_TAYLOR and radius ** (m + 2) / math.factorial(m + 2) > 1e-3:
+        m += 2
+    return m
+
+
+def _unsupported(expr: Any, syms: list[Any]) -> str:
+    import sympy as sp
+
+    bad = [a for a in expr.atoms(sp.Function) if not isinstance(a, sp.sin | sp.cos)]
+    bad += [p for p in expr.atoms(sp.Pow) if not p.exp.is_Integer]
+    if not bad:
+        bad = [a for a in expr.atoms(sp.sin, sp.cos) if a.args[0] not in syms]
+    return ", ".join(sorted({str(b) for b in bad})) or str(expr)
+
+
+def scaled(p: QPoly, scale: tuple[Fraction, ...]) -> QPoly:
+    """``p`` with ``d_i = scale_i y_i`` substituted (the auxiliary variables unchanged)."""
+    out: QPoly = {}
+    for m, c in p.items():
+        for i, r in enumerate(scale):
+            c *= r ** m[i]
+        out[m] = c
+    return out
+
+
+def level_scale(V: Any, level: float) -> tuple[Fraction, ...]:
+    """Heuristic extent of each state on ``{V <= level}`` from V's quadratic part
+    (``sqrt(level (P^-1)_ii)``), rounded to a power of 2: the variables' scale. Any positive
+    scale is sound; it only balances the semidefinite program."""
+    import numpy as np
+
+    n = int(V.n)
+    P = np.zeros((n, n))
+    for m, c in V.terms.items():
+        if sum(m) == 2:
+            idx = [i for i in range(n) for _ in range(m[i])]
+            P[idx[0], idx[1]] += float(c) / (1 if idx[0] == idx[1] else 2)
+            if idx[0] != idx[1]:
+                P[idx[1], idx[0]] += float(c) / 2
+    try:
+        ext = np.sqrt(np.maximum(level * np.diag(np.linalg.inv(P)), 1e-12))
+    except np.linalg.LinAlgError:
+        return tuple([Fraction(1)] * n)
+    return tuple(Fraction(2) ** int(np.round(np.log2(e))) if np.isfinite(e) else Fraction(1)
+                 for e in ext)  # fmt: skip
+
+
+def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
+    """A proved ``r`` with ``|d_i| <= r`` on ``{V <= level}``, or None. Quadratic ``V = d'Pd``
+    (its exact coefficients, ``P`` positive definite exactly): ``max d_i = sqrt(level
+    (P^-1)_ii)`` (Cauchy-Schwarz in the P inner product), ``r`` a dyadic with ``r^2 >=
+    level (P^-1)_ii`` checked exactly. Otherwise the global Gram cover
+    (:func:`roa.proof.cover.gram_cover`)."""
+    import numpy as np
+
+    from roa.proof.cover import gram_cover
+    from roa.proof.exact import exact_positive_definite
+
+    n, c = int(V.n), Fraction(level)
+    terms = {tuple(int(k) for k in m): _fraction(v) for m, v in V.terms.items() if v != 0}
+    if all(sum(m) == 2 for m in terms):
+        P = [[Fraction(0)] * n for _ in range(n)]
+        for m, v in terms.items():
+            idx = [j for j in range(n) for _ in range(m[j])]
+            P[idx[0]][idx[1]] += v if idx[0] == idx[1] else v / 2
+            if idx[0] != idx[1]:
+                P[idx[1]][idx[0]] += v / 2
+        if exact_positive_definite(P)[0]:
+            import sympy as sp
+
+            inv = sp.Matrix([[sp.Rational(v.numerator, v.denominator) for v in row]
+                             for row in P]).inv()  # fmt: skip
+            need = c * Fraction(int(inv[i, i].p), int(inv[i, i].q))
+            r = Fraction(2) ** -20 * (int(np.ceil(np.sqrt(float(need)) * 2**20)) + 1)
+            while r * r < need:
+                r *= 2
+            return r
+    cover = gram_cover(V, float(level))
+    return None if cover is None else Fraction(float(cover[0][i]))
+
+
+def recast_exact(system: Any, V: Any, taylor: int | None = None,
+                 scale: tuple[Fraction, ...] | None = None, level: Any = None
+                 ) -> RecastData:  # fmt: skip
+    """The exact recast of ``V'`` (module docstring) in scaled variables ``y`` (``d_i = scale_i
+    y_i``, any positive rationals, default 1: the identity in ``y`` is the identity in ``d``
+    after the substitution, so the argument is unchanged, with ``eps |y|^2k > 0`` for ``d != 0``);
+    raises :class:`NotPolynomial` naming the term that cannot be recast. ``taylor``: the order of
+    the sin bounds (default from the angles' scale, :func:`taylor_order`)."""
+    import sympy as sp
+
+    from roa.backend import namespace
+    from roa.lyapunov.symbolic import exact_rationals
+
+    terms = getattr(V, "terms", None)
+    if terms is None:
+        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
+    if getattr(system, "time_varying", False) or system.equilibrium is None:
+        raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
+    n = int(V.n)
+    center = tuple(Fraction(float(c)) for c in V.center)
+    xs = list(sp.symbols(f"x0:{n}", real=True))
+    d = list(sp.symbols(f"d0:{n}", real=True))
+    try:
+        with sp.evaluate(False):
+            f = system.field(0.0, xs, namespace("sympy"))
+        shift = {xs[i]: d[i] + sp.Rational(c.numerator, c.denominator)
+                 for i, c in enumerate(center)}  # fmt: skip
+        f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        f = [sp.expand_trig(fi.replace(sp.tan, lambda a: sp.sin(a) / sp.cos(a))) for fi in f]
+    except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
+        raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
+    if len(f) != n:
+        raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
+    trig = set().union(*(fi.atoms(sp.sin, sp.cos) for fi in f))
+    angles = sorted({d.index(a.args[0]) for a in trig if a.args[0] in d})
+    if any(a.args[0] not in d for a in trig):
+        raise NotPolynomial("cannot recast " + _unsupported(sum(f), d) + " (sin/cos of a "
+                            "state whose equilibrium value is exactly 0 only)")  # fmt: skip
+    aux: list[Any] = []
+    subs: dict[Any, Any] = {}
+    for i in angles:
+        s, q = sp.symbols(f"s{i} q{i}", real=True)
+        aux += [s, q]
+        subs[sp.sin(d[i])] = s
+        subs[sp.cos(d[i])] = 1 - q
+    gens = d + aux
+    nv = len(gens)
+    f = [sp.together(fi.xreplace(subs)) for fi in f]
+    nums, dens = [], []
+    for fi in f:
+        p, q = sp.fraction(fi)
+        try:
+            nums.append(sp.Poly(p, *gens, domain="QQ"))
+            dens.append(sp.Poly(q, *gens, domain="QQ"))
+        except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed):
+            raise NotPolynomial(f"cannot recast {_unsupported(fi, gens)} in the field") from None
+    L = dens[0]
+    for q in dens[1:]:
+        L = sp.lcm(L, q)
+    if any(p.subs({g: 0 for g in gens}) != 0 for p in nums):
+        raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
+    Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): _fraction(c)
+                 for a, c in terms.items() if c != 0}  # fmt: skip
+    Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
+                           *gens, domain="QQ")  # fmt: skip
+    Np = sp.Poly(0, *gens, domain="QQ")
+    for i in range(n):
+        Np = Np + Vp.diff(gens[i]) * nums[i] * sp.div(L, dens[i])[0]
+    Lq: QPoly = {tuple(m): _fraction(c) for m, c in L.terms() if c != 0}
+    sign = 1
+    if not positive_everywhere(Lq):
+        if positive_everywhere({m: -c for m, c in Lq.items()}):
+            sign = -1
+        else:
+            raise NotPolynomial(f"cannot prove the denominator {L.as_expr()} positive (needs a "
+                                "positive constant plus even terms with positive coefficients)")
+    Nq: QPoly = {tuple(m): sign * _fraction(c) for m, c in Np.terms() if c != 0}
+    if any(sum(m) == 0 for m in Nq):
+        raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
+    low = min((sum(m) for m in Nq), default=2)
+    sc = tuple(Fraction(1) for _ in range(n)) if scale is None else tuple(map(Fraction, scale))
+    if len(sc) != n or any(r <= 0 for r in sc):
+        raise NotPolynomial(f"scale must be {n} positive rationals")
+    bounds = None if level is None else [angle_bound(V, level, i) for i in angles]
+    if bounds is not None and any(b is None for b in bounds):
+        bounds = None
+    radius = max((float(sc[i]) for i in angles), default=1.0)
+    if bounds:
+        radius = max(float(b) for b in bounds if b is not None)
+    order = taylor_order(radius) if taylor is None else int(taylor)
+    if order % 2 == 0 or not 1 <= order <= MAX_TAYLOR:
+        raise NotPolynomial(f"taylor must be odd, 1..{MAX_TAYLOR}, got {order}")
+    eqs: list[tuple[str, QPoly]] = []
+    ineqs: list[tuple[str, QPoly]] = []
+    for a, i in enumerate(angles):
+        r = None if bounds is None else bounds[a]
+        e, g = angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order, r)
+        eqs += e
+        ineqs += g
+    pad = sc + (Fraction(1),) * (nv - n)
+    Vq, Nq = scaled(Vq, pad), scaled(Nq, pad)
+    eqs = [(w, scaled(h, pad)) for w, h in eqs]
+    ineqs = [(w, scaled(g, pad)) for w, g in ineqs]
+    den = "1" if L.is_one else str(L.as_expr())
+    desc = ", ".join(f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles)
+    desc = "; ".join(x for x in (desc, f"V' multiplied by {den} > 0" if den != "1" else "") if x)
+    return RecastData(n, nv, tuple(str(g) for g in gens), center, Vq, Nq, low, tuple(angles),
+                      order, sc, tuple(eqs), tuple(ineqs), den,
+                      desc or "polynomial (no recast)")  # fmt: skip

@@ -100,26 +100,41 @@ class SosValidator:
     eps: float = 1e-6  # x the largest coefficient of V's lowest-degree part
     solver_options: Any = None
     name: str = "sos-exact"
+    fallback: bool = True  # a field that cannot be recast goes to the branch and bound
+    taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
+    refutes: bool = False  # the pipeline refutes above with the branch and bound
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        from roa.proof.sos_check import NotPolynomial, exact_data
-
         if getattr(V, "terms", None) is None or system.equilibrium is None:
             return False
         if system.parameters:  # parameters as indeterminates: not yet
             return False
         if system.time_varying:
             return False
+        return self.fallback or self.recast_error(system, V) is None
+
+    @staticmethod
+    def recast_error(system: System, V: Lyapunov) -> str | None:
+        """None if the field is polynomial or can be recast exactly, else why not (naming the
+        term)."""
+        from roa.proof.recast import recast_exact
+        from roa.proof.sos_check import NotPolynomial, exact_data
+
         try:
             exact_data(system, V)
+            return None
         except NotPolynomial:
-            return False
-        return True
+            pass
+        try:
+            recast_exact(system, V, taylor=1)
+            return None
+        except NotPolynomial as exc:
+            return str(exc)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         import time
 
-        from roa.proof.sos_check import check_certificate, preconditions
+        from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
 
         t0 = time.perf_counter()
@@ -128,6 +143,18 @@ class SosValidator:
             return Validation(status, float(level), 0, time.perf_counter() - t0,
                               message=message, meta={"method": self.name, **meta})  # fmt: skip
 
+        try:
+            exact_data(system, V)
+        except NotPolynomial:
+            why = self.recast_error(system, V)
+            if why is None:
+                return self._check_recast(system, V, level, out)
+            if not self.fallback:
+                return out(Verdict.INCONCLUSIVE, f"not polynomial, no exact recast: {why}")
+            v = IntervalValidator().check(system, V, level)
+            return Validation(v.status, v.level, v.boxes, v.seconds, v.witness, v.witness_check,
+                              f"SOS not applicable ({why}); interval branch and bound: "
+                              f"{v.message}", {**v.meta, "method": "interval"})  # fmt: skip
         with step(f"SOS exact validation of level {level:.6g}"):
             data, why = preconditions(system, V, level)
             if data is None:
@@ -153,6 +180,36 @@ class SosValidator:
             # the whole of {V <= level} is proved (not one component): any frame bounds it
             return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
                        certificate=cert, M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+
+    def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
+        """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
+        from roa.proof.recast import level_scale
+        from roa.proof.sos_putinar import recast_preconditions
+        from roa.proof.sos_putinar import check_putinar
+        from roa.search.sos_putinar import default_eps, propose_putinar
+
+        with step(f"SOS exact validation (recast field) of level {level:.6g}"):
+            scale = level_scale(V, level)
+            data, why = recast_preconditions(system, V, level, self.taylor, scale)
+            if data is None:
+                return out(Verdict.INCONCLUSIVE, why)
+            eps = default_eps(data, self.eps)
+            cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
+            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
+                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
+                       "sizes": cand.sizes, "recast": data.description}  # fmt: skip
+            if cand.blocks is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
+                           **figures)  # fmt: skip
+            res = check_putinar(data, level, eps, cand.blocks)
+            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
+            if not res.ok or res.blocks is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
+            cert = {"putinar": res.blocks.to_json(), "taylor": data.taylor,
+                    "scale": [str(r) for r in data.scale]}  # fmt: skip
+            return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
+                       f"checked exactly: {res.reason}", certificate=cert,
+                       M=np.eye(V.n).tolist(), **figures)  # fmt: skip
 
 
 # -- level proposers --------------------------------------------------------------------------------

@@ -191,7 +191,7 @@ def level_scale(V: Any, level: float) -> tuple[Fraction, ...]:
         ext = np.sqrt(np.maximum(level * np.diag(np.linalg.inv(P)), 1e-12))
     except np.linalg.LinAlgError:
         return tuple([Fraction(1)] * n)
-    return tuple(Fraction(2) ** int(np.round(np.log2(e))) if np.isfinite(e) else Fraction(1)
+    return tuple(Fraction(2) ** int(np.ceil(np.log2(e))) if np.isfinite(e) else Fraction(1)
                  for e in ext)  # fmt: skip
 
 

@@ -181,3 +181,68 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
             "eps": str(e), "k": k, "recast": data.description}  # fmt: skip
     return PutinarCheck(True, "identity exact with the recast's constraints, every Gram matrix "
                         "positive definite (exact)", _float(residual), mp, final, meta)
+
+
+def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
+                         scale: Any) -> tuple[RecastData | None, str]:  # fmt: skip
+    """The recast data at ``level``, or None and why the check does not apply: V not centred at
+    the equilibrium, a term that cannot be recast (named), ``{V <= level}`` not proved bounded
+    (:func:`roa.proof.cover.gram_cover`), V' starting at an odd degree."""
+    import numpy as np
+
+    from roa.proof.cover import gram_cover
+    from roa.proof.recast import recast_exact
+    from roa.proof.sos_check import NotPolynomial
+
+    if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
+        return None, "V must be centred at the system's equilibrium"
+    try:
+        data = recast_exact(system, V, taylor=taylor, scale=scale, level=level)
+    except NotPolynomial as exc:
+        return None, f"no exact recast: {exc}"
+    if gram_cover(V, level) is None:
+        return None, ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the "
+                      "linear monomials): {V <= level} may be unbounded")  # fmt: skip
+    if data.low % 2:
+        return None, "the lowest degree of V' is odd"
+    return data, ""
+
+
+def parse_blocks(raw: Any, nv: int) -> Blocks:
+    """A stored certificate's blocks (``Blocks.to_json``), bounded before any arithmetic."""
+    from roa.proof.sos_check import MAX_DIGITS, _parse_basis, _parse_matrix
+
+    if not isinstance(raw, dict):
+        raise ValueError("no constrained certificate in the file")
+    grams, free = [], []
+    for k, g in enumerate(raw.get("grams") or []):
+        basis = _parse_basis(g.get("basis"), nv, f"grams[{k}].basis")
+        grams.append((basis, _parse_matrix(g.get("Q"), len(basis), f"grams[{k}].Q")))
+    for k, f in enumerate(raw.get("free") or []):
+        basis = _parse_basis(f.get("basis"), nv, f"free[{k}].basis")
+        coeffs = f.get("coeffs")
+        if not isinstance(coeffs, list) or len(coeffs) != len(basis):
+            raise ValueError(f"free[{k}].coeffs must match its basis")
+        if any(len(str(v)) > MAX_DIGITS for v in coeffs):
+            raise ValueError(f"free[{k}].coeffs: at most {MAX_DIGITS} characters each")
+        cs = [Fraction(str(v)) for v in coeffs]
+        free.append((basis, cs))
+    return Blocks(grams, free)
+
+
+def recheck_recast(system: Any, V: Any, level: float, cert: dict[str, Any], eps: Fraction
+                   ) -> tuple[bool, str, PutinarCheck | None]:  # fmt: skip
+    """Re-check a stored recast certificate exactly, without a solver. The recast (variables,
+    constraints, denominator) is recomputed from the system; only the multipliers, the Taylor
+    order and the variables' scale (any positive rationals are sound) come from the file."""
+    taylor = cert.get("taylor")
+    raw_scale = cert.get("scale")
+    if type(taylor) is not int or not isinstance(raw_scale, list):
+        raise ValueError("taylor (an odd integer) and scale (rationals) are required")
+    scale = tuple(Fraction(str(r)) for r in raw_scale if len(str(r)) < 100)
+    data, why = recast_preconditions(system, V, level, taylor, scale)
+    if data is None:
+        return False, why, None
+    blocks = parse_blocks(cert.get("putinar"), data.nv)
+    res = check_putinar(data, level, eps, blocks, rounded=True)
+    return res.ok, res.reason, res

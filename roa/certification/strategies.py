@@ -184,8 +184,7 @@ class SosValidator:
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
         """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
         from roa.proof.recast import level_scale
-        from roa.proof.sos_putinar import recast_preconditions
-        from roa.proof.sos_putinar import check_putinar
+        from roa.proof.sos_putinar import check_putinar, recast_preconditions
         from roa.search.sos_putinar import default_eps, propose_putinar
 
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):

@@ -117,7 +117,8 @@ def angle_constraints(nv: int, i: int, si: int, qi: int, taylor: int, r: Fractio
             c = Fraction((-1) ** (j // 2), math.factorial(j))
             g[t(d=j)] = g.get(t(d=j), Fraction(0)) - sign * c
         ineqs.append((f"cos Taylor bound of order {m} on d{i}", g))
-    for m in range(1, taylor + 2):  # (s - T_m)^2 <= R^2, (q - (1 - C_m))^2 <= R^2, R = |d|^(m+2)/(m+2)!
+    # (s - T_m)^2 <= R^2 and (q - (1 - C_m))^2 <= R^2, R = |d|^(m+2) / (m+2)!
+    for m in range(1, taylor + 2):
         T: QPoly = {t(s=1) if m % 2 else t(q=1): Fraction(1)}
         for j in range(1 if m % 2 else 2, m + 1, 2):
             c = Fraction((-1) ** ((j - 1) // 2 if m % 2 else j // 2 + 1), math.factorial(j))
@@ -303,8 +304,10 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         if positive_everywhere({m: -c for m, c in Lq.items()}):
             sign = -1
         else:
-            raise NotPolynomial(f"cannot prove the denominator {L.as_expr()} positive (needs a "
-                                "positive constant plus even terms with positive coefficients)")
+            raise NotPolynomial(
+                f"cannot prove the denominator {L.as_expr()} positive (needs a "
+                "positive constant plus even terms with positive coefficients)"
+            )
     Nq: QPoly = {tuple(m): sign * _fraction(c) for m, c in Np.terms() if c != 0}
     if any(sum(m) == 0 for m in Nq):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")

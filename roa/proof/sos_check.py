@@ -364,14 +364,14 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
         if "putinar" in cert:  # a recast (non-polynomial) field's constrained certificate
             from roa.proof.sos_putinar import recheck_recast
 
-            ok, reason, res = recheck_recast(system, V, level, cert, Fraction(raw_eps))
-            fig = {} if res is None else {"residual": res.residual, "min_pivot": res.min_pivot}
+            ok, reason, rres = recheck_recast(system, V, level, cert, Fraction(raw_eps))
+            fig = {} if rres is None else {"residual": rres.residual, "min_pivot": rres.min_pivot}
             if not ok:
                 return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {reason}",
                            **fig)  # fmt: skip
-            assert res is not None
+            assert rres is not None
             return out(Verdict.CERTIFIED, "stored SOS certificate (recast field) re-checked "
-                       f"exactly: {reason}", **fig, **res.meta)  # fmt: skip
+                       f"exactly: {reason}", **fig, **rres.meta)  # fmt: skip
         basis0 = _parse_basis(cert.get("basis0"), n, "basis0")
         basis1 = _parse_basis(cert.get("basis1") or [], n, "basis1")
         Q0 = _parse_matrix(cert.get("Q0"), len(basis0), "Q0")

@@ -105,8 +105,11 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
         return PutinarCheck(False, f"the lowest degree of V' is {data.low}, not even")
     times = times_polys(data, c)
     if len(blocks.grams) != len(times) or len(blocks.free) != len(data.equalities):
-        return PutinarCheck(False, "the certificate's blocks do not match the recast's "
-                            f"({len(times)} Gram blocks, {len(data.equalities)} equalities)")
+        return PutinarCheck(
+            False,
+            "the certificate's blocks do not match the recast's "
+            f"({len(times)} Gram blocks, {len(data.equalities)} equalities)",
+        )
     grams: list[tuple[list[Mono], list[list[Fraction]]]] = []
     for idx, (basis, Q) in enumerate(blocks.grams):
         if any(len(b) != data.nv for b in basis) or len(Q) != len(basis):
@@ -127,7 +130,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(gram_poly(basis, R), t)))
     zero = tuple([0] * data.nv)
     for (basis, cs), (_, h) in zip(free, data.equalities, strict=True):
-        mu = {}
+        mu: QPoly = {}
         for b, v in zip(basis, cs, strict=True):
             mu[b] = mu.get(b, Fraction(0)) + v
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(mu, h)))
@@ -179,8 +182,14 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     meta = {"digest": matrix_digest(*[R for _, R in final.grams],
                                     [[v] for _, cs in free for v in cs]),
             "eps": str(e), "k": k, "recast": data.description}  # fmt: skip
-    return PutinarCheck(True, "identity exact with the recast's constraints, every Gram matrix "
-                        "positive definite (exact)", _float(residual), mp, final, meta)
+    return PutinarCheck(
+        True,
+        "identity exact with the recast's constraints, every Gram matrix positive definite (exact)",
+        _float(residual),
+        mp,
+        final,
+        meta,
+    )
 
 
 def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,

@@ -110,10 +110,14 @@ def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = No
     gparts = [_columns(rows, B, T) for B, T in zip(gram_bases, times, strict=True)]
     fparts = []
     for B, (_, h) in zip(me, data.equalities, strict=True):
-        r, c, v = [], [], []
-        for k, b in enumerate(B):
+        r: list[int] = []
+        c: list[int] = []
+        v: list[float] = []
+        for k, bm in enumerate(B):
             for m, coef in h.items():
-                r.append(rows.setdefault(tuple(p + q for p, q in zip(b, m, strict=True)), len(rows)))
+                r.append(
+                    rows.setdefault(tuple(p + q for p, q in zip(bm, m, strict=True)), len(rows))
+                )
                 c.append(k)
                 v.append(float(coef))
         fparts.append((r, c, v))
@@ -147,8 +151,10 @@ def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = No
     ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Qs[0].value is not None
     blocks = None
     if ok:
-        blocks = Blocks([(B, np.asarray(Q.value)) for B, Q in zip(gram_bases, Qs, strict=True)],
-                        [(B, np.asarray(mu.value)) for B, mu in zip(me, mus, strict=True)])
+        blocks = Blocks(
+            [(B, np.asarray(Q.value)) for B, Q in zip(gram_bases, Qs, strict=True)],
+            [(B, np.asarray(mu.value)) for B, mu in zip(me, mus, strict=True)],
+        )
     sizes = {"rows": nrow, "gram_sizes": [len(B) for B in gram_bases],
              "free": sum(len(B) for B in me)}  # fmt: skip
     return PutinarCandidate(blocks, eps, float(t.value) if ok and t.value is not None else None,

@@ -6,6 +6,7 @@ test; the rational system's is 1 (its docstring: V' = 0 at (1, 0), V = 1).
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import math
 from fractions import Fraction
@@ -127,3 +128,52 @@ def test_denominators_and_terms_that_cannot_be_recast_are_named():
                          ("a", "b"))  # fmt: skip
     with pytest.raises(NotPolynomial, match="equilibrium value is exactly 0"):
         recast_exact(shifted, roa.QuadraticLyapunov(np.eye(2), [1.0, 0.0]))
+
+
+def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
+    """The planar quadrotor (6 states, sin/cos of the pitch): a point with V' >= 0 next to an
+    SLSQP solution of min V s.t. V' = 0 (independent of roa's searches) bounds the largest level
+    from above; 0.95 x its V is
+    certified by the recast SOS route. The check refuses a level above the one whose angle bound
+    it proved, a multiplier of a Taylor band made indefinite, and an identity off by one
+    coefficient. (Changing an equality multiplier is no tampering: ``mu h`` vanishes at every
+    ``z(x)``, so any ``mu`` whose projected ``Q0`` stays positive definite is a valid proof.)"""
+    from roa.proof.recast import level_scale
+    from roa.proof.sos_putinar import Blocks, check_putinar, recast_preconditions
+    from roa.search.sos_putinar import propose_putinar
+
+    system = roa.load_system("examples/systems/quadrotor2d.py:SYSTEM")
+    V = roa.default_lyapunov(system)
+    x0 = np.array([0.0012, -0.037, 0.0705, 0.00054, -0.0603, 0.0])  # near roa khalil's witness
+    r = minimize(lambda x: V.value(x), x0, method="SLSQP",
+                 constraints=[{"type": "eq", "fun": lambda x: V.derivative(system, x)}])  # fmt: skip
+    assert r.success and abs(V.derivative(system, r.x)) < 1e-6 and np.linalg.norm(r.x) > 0.05
+    t = next(t for t in np.linspace(1, 1.01, 1001) if V.derivative(system, t * r.x) >= 0)
+    top = float(V.value(t * r.x))  # V' >= 0 there: the largest level is at most top
+    assert top == pytest.approx(0.130338, rel=1e-4)  # roa khalil: 0.13034 (both methods agree)
+    level = 0.95 * top
+    cert = roa.certify(system, V, level=level, validator=roa.SosValidator())
+    assert cert.status is roa.Verdict.CERTIFIED and "sin/cos(d2)" in cert.message, cert.message
+    data, why = recast_preconditions(system, V, level, None, level_scale(V, level))
+    assert data is not None, why
+    cand = propose_putinar(data, level)
+    assert cand.blocks is not None
+    good = check_putinar(data, level, cand.eps, cand.blocks)
+    assert good.ok and good.blocks is not None
+    exact = good.blocks
+    assert check_putinar(data, level, cand.eps, exact, rounded=True).ok
+    assert "only" in check_putinar(data, 1.01 * level, cand.eps, exact, rounded=True).reason
+    band = next(j for j, (w, _) in enumerate(data.inequalities) if "squared" in w)
+    grams = list(exact.grams)
+    basis, Q = grams[2 + band]
+    grams[2 + band] = (basis, [[-v for v in row] for row in Q])
+    bad = check_putinar(data, level, cand.eps, Blocks(grams, exact.free), rounded=True)
+    assert not bad.ok and "not positive definite" in bad.reason
+    # V' off by one coefficient: its y0^2 term made positive (V' > 0 near x_eq along y0, so no
+    # certificate can exist); the projection must move Q0 by the mismatch and fails
+    y0 = (2,) + (0,) * (data.nv - 1)
+    a = data.N[y0]
+    assert a < 0
+    wrong = dataclasses.replace(data, N={**data.N, y0: -a})
+    off = check_putinar(wrong, level, cand.eps, exact, rounded=True)
+    assert not off.ok and off.residual == pytest.approx(float(-2 * a))

@@ -15,21 +15,32 @@ So a Putinar identity ``-N - eps |d|^2k = sigma0 + lambda (c - V) + sum sigma_j 
 there for the ORIGINAL field. Soundness needs only that the constraints hold at ``z(x)``, never
 that they pin ``z`` down (loose constraints cost level, not truth).
 
-**The inequalities**, valid for every real ``d`` (no bound on the angle is assumed):
+**The inequalities** (orders up to ``taylor``, odd; ``T_m``, ``C_m`` the Taylor polynomials of
+``sin`` and ``cos`` of degree ``m``):
 
-* ``d (T_m(d) - sin d) >= 0`` for ``m = 1, 5, 9, ...`` and ``d (sin d - T_m(d)) >= 0`` for
-  ``m = 3, 7, 11, ...`` (``T_m`` the Taylor polynomial of ``sin`` of degree ``m``);
-* ``cos d - C_m(d) >= 0`` for ``m = 2, 6, 10, ...``, ``C_m(d) - cos d >= 0`` for ``m = 4, 8, ...``
-  (``C_m`` the Taylor polynomial of ``cos``);
-* ``(d^2 / 2)^2 - (sin d - d)^2 >= 0``.
+* one-sided, for every real ``d``: ``d (T_m(d) - sin d) >= 0`` for ``m = 1, 5, 9, ...`` and
+  ``d (sin d - T_m(d)) >= 0`` for ``m = 3, 7, 11, ...``; ``cos d - C_m(d) >= 0`` for
+  ``m = 2, 6, 10, ...`` and ``C_m(d) - cos d >= 0`` for ``m = 4, 8, ...``;
+* bands: ``|sin d - T_m(d)| <= |d|^(m+2) / (m+2)!`` (odd ``m``) and
+  ``|cos d - C_m(d)| <= |d|^(m+2) / (m+2)!`` (even ``m``), squared. With a proved bound
+  ``|d_a| <= r`` on ``{V <= level}`` (:func:`angle_bound`) they are used as
+  ``(sin d - T_m)^2 <= (r^m / (m+2)!)^2 d^4`` (degree 4 in ``d`` instead of ``2m + 4``), which
+  holds wherever ``|d| <= r``, so at ``z(x)`` for every ``x`` of ``{V <= level}``, the only
+  points the identity is used at; the check then refuses any level above the one the bound was
+  proved for. Without such a bound the global form ``R^2 = d^(2m+4) / (m+2)!^2`` is used.
 
 Proof: for ``t >= 0``, ``cos t <= 1``; integrating from 0 to ``t`` (both sides agree at 0)
 gives ``sin t <= t``, again ``1 - cos t <= t^2/2``, i.e. ``cos t >= C_2``, again
 ``sin t >= T_3``, and so on, the direction alternating: the bounds hold for ``t >= 0``. ``cos``
 and ``C_m`` are even (the cos bounds hold for all ``t``); ``sin`` and ``T_m`` are odd, so the sin
-bounds multiplied by ``d`` hold for all ``d``. Last: for ``|d| <= 3``, the bounds with ``m = 1, 3``
-give ``|sin d - d| <= |d|^3 / 6 <= d^2 / 2``; for ``|d| >= 3``,
-``|sin d - d| <= 1 + |d| <= d^2 / 2`` (``d^2 - 2|d| - 2 > 0`` there).
+bounds multiplied by ``d`` hold for all ``d``. Consecutive orders bracket the function, so it
+differs from either by at most their difference ``|d|^(m+2) / (m+2)!``: the bands; and
+``|d|^(m+2) <= r^m d^2`` for ``|d| <= r``. (``tests/test_sos_recast.py`` evaluates every
+constraint at 50 digits.)
+
+**Scaling.** The polynomials are written in ``y`` with ``d_i = scale_i y_i`` (positive dyadics,
+the states' extents on the level set, only to balance the semidefinite program): the identity in
+``y`` at ``y = d / scale`` is the identity in ``d``, and ``eps |y|^2k > 0`` for ``d != 0``.
 
 **The denominator.** Each field component is brought to ``p_i / q_i`` (sympy ``together``, exact
 rationals) and ``Den`` is their least common multiple; ``Den`` (or ``-Den``, then ``N`` is negated
@@ -73,6 +84,7 @@ class RecastData:
     angles: tuple[int, ...]  # the state index of each angle, in the order of its (s, q) pair
     taylor: int
     scale: tuple[Fraction, ...]  # d_i = scale_i y_i: the polynomials are in y (and the aux)
+    bounded_level: Fraction | None  # the bands assume |d_a| <= r_a, proved on {V <= this level}
     equalities: tuple[tuple[str, QPoly], ...]
     inequalities: tuple[tuple[str, QPoly], ...]
     denominator: str
@@ -93,8 +105,9 @@ def _term(nv: int, exps: dict[int, int]) -> Mono:
 def angle_constraints(nv: int, i: int, si: int, qi: int, taylor: int, r: Fraction | None = None
                       ) -> tuple[list[tuple[str, QPoly]], list[tuple[str, QPoly]]]:  # fmt: skip
     """The circle (equality) and the Taylor bounds (inequalities) of one angle (module docstring):
-    ``d = z_i``, ``s = z_si``, ``q = z_qi``; sin bounds of odd orders ``1..taylor``, cos bounds
-    of even orders ``2..taylor + 1``."""
+    ``d = z_i``, ``s = z_si``, ``q = z_qi``; one-sided sin bounds of odd orders ``1..taylor``,
+    cos bounds of even orders ``2..taylor + 1``, bands of orders ``1..taylor + 1`` (with ``r``
+    given: valid only where ``|d| <= r``)."""
 
     def t(**exps: int) -> Mono:
         return _term(nv, {{"d": i, "s": si, "q": qi}[k]: p for k, p in exps.items()})
@@ -339,5 +352,6 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     desc = ", ".join(f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles)
     desc = "; ".join(x for x in (desc, f"V' multiplied by {den} > 0" if den != "1" else "") if x)
     return RecastData(n, nv, tuple(str(g) for g in gens), center, Vq, Nq, low, tuple(angles),
-                      order, sc, tuple(eqs), tuple(ineqs), den,
+                      order, sc, None if bounds is None else Fraction(level), tuple(eqs),
+                      tuple(ineqs), den,
                       desc or "polynomial (no recast)")  # fmt: skip

@@ -103,6 +103,12 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     k, rem = divmod(data.low, 2)
     if rem or k < 1:
         return PutinarCheck(False, f"the lowest degree of V' is {data.low}, not even")
+    if data.bounded_level is not None and c > data.bounded_level:
+        return PutinarCheck(
+            False,
+            f"the recast's angle bounds hold on {{V <= "
+            f"{_float(data.bounded_level)}}} only, not at level {_float(c)}",
+        )
     times = times_polys(data, c)
     if len(blocks.grams) != len(times) or len(blocks.free) != len(data.equalities):
         return PutinarCheck(
@@ -248,7 +254,9 @@ def recheck_recast(system: Any, V: Any, level: float, cert: dict[str, Any], eps:
     raw_scale = cert.get("scale")
     if type(taylor) is not int or not isinstance(raw_scale, list):
         raise ValueError("taylor (an odd integer) and scale (rationals) are required")
-    scale = tuple(Fraction(str(r)) for r in raw_scale if len(str(r)) < 100)
+    if any(len(str(r)) > 100 or "e" in str(r).lower() for r in raw_scale):
+        raise ValueError("scale must be rationals like '1/4'")
+    scale = tuple(Fraction(str(r)) for r in raw_scale)
     data, why = recast_preconditions(system, V, level, taylor, scale)
     if data is None:
         return False, why, None

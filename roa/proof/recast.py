@@ -62,7 +62,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from roa.proof.sos_check import Mono, NotPolynomial, QPoly, _fraction, poly_mul
+from roa.proof.sos_check import Mono, NotPolynomial, QPoly, _fraction, poly_lin, poly_mul
 
 #: Highest Taylor order of the sin bounds (the cos bounds go one further).
 MAX_TAYLOR = 11
@@ -89,10 +89,40 @@ class RecastData:
     inequalities: tuple[tuple[str, QPoly], ...]
     denominator: str
     description: str
+    Den: QPoly  # V' = N / Den at z(x), Den > 0 there (in y and the aux)
+    roots: tuple[tuple[int, Fraction, QPoly], ...]  # (index of u, t0, b in y): u = sqrt(b) - t0
 
     def aux(self, a: int) -> tuple[int, int]:
         """Variable indices of ``s`` and ``q`` of the ``a``-th angle."""
         return self.n + 2 * a, self.n + 2 * a + 1
+
+    def point(self, x: Any) -> list[float]:
+        """``z(x)`` in floats (for tests and plots, never for a proof): ``y = d / scale``,
+        ``sin``, ``1 - cos`` of each angle, ``sqrt(b) - t0`` of each square root."""
+        import numpy as np
+
+        d = [float(xi) - float(c) for xi, c in zip(x, self.center, strict=True)]
+        z = [di / float(r) for di, r in zip(d, self.scale, strict=True)] + [0.0] * (
+            self.nv - self.n
+        )
+        for a, i in enumerate(self.angles):
+            si, qi = self.aux(a)
+            z[si], z[qi] = float(np.sin(d[i])), float(1 - np.cos(d[i]))
+        for ui, t0, b in self.roots:
+            z[ui] = float(np.sqrt(evaluate(b, z))) - float(t0)
+        return z
+
+
+def evaluate(p: QPoly, z: Any) -> Any:
+    """``p`` at the point ``z`` (floats or mpmath numbers; for tests, never for a proof)."""
+    total = 0.0 * z[0]
+    for m, c in p.items():
+        term = c.numerator / c.denominator if isinstance(c, Fraction) else c
+        for zi, e in zip(z, m, strict=True):
+            if e:
+                term = term * zi**e
+        total = total + term
+    return total
 
 
 def _term(nv: int, exps: dict[int, int]) -> Mono:
@@ -165,6 +195,75 @@ def taylor_order(radius: float) -> int:
     while m < MAX_TAYLOR and radius ** (m + 2) / math.factorial(m + 2) > 1e-3:
         m += 2
     return m
+
+
+def _pretty(p: QPoly, gens: list[Any]) -> str:
+    import sympy as sp
+
+    return str(sp.Add(*[sp.Rational(c.numerator, c.denominator)
+                        * sp.Mul(*[g**e for g, e in zip(gens, m, strict=True)])
+                        for m, c in p.items()]))  # fmt: skip
+
+
+def _square_roots(
+    f: list[Any], gens: list[Any]
+) -> list[tuple[Any, Fraction, QPoly, dict[Any, Any]]]:
+    """The half-integer powers ``b^(k/2)`` of ``f`` that are recast: ``b`` polynomial with
+    :func:`positive_everywhere` (so ``b >= b(0) > 0``) and ``b(0) = t0^2`` a rational square.
+    Each distinct ``b`` gets ``u = sqrt(b) - t0`` (``u >= 0``, ``(t0 + u)^2 = b``) and
+    ``b^(k/2) -> (t0 + u)^k``. Returns ``(u, t0, b, replacements)`` per ``b``; other powers are
+    left in place (refused later, by name)."""
+    import sympy as sp
+
+    found: dict[Any, tuple[Any, Fraction, QPoly, dict[Any, Any]]] = {}
+    pows = {p for fi in f for p in fi.atoms(sp.Pow)
+            if p.exp.is_Rational and p.exp.q == 2}  # fmt: skip
+    for p in sorted(pows, key=sp.default_sort_key):
+        base = sp.expand(p.base)
+        if base not in found:
+            try:
+                bp = sp.Poly(base, *gens, domain="QQ")
+            except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed):
+                continue
+            b = {tuple(m): _fraction(c) for m, c in bp.terms() if c != 0}
+            if not positive_everywhere(b):
+                continue
+            b0 = b[tuple([0] * len(gens))]
+            rn, rd = math.isqrt(b0.numerator), math.isqrt(b0.denominator)
+            if rn * rn != b0.numerator or rd * rd != b0.denominator:
+                continue
+            u = sp.Symbol(f"u{len(found)}", real=True)
+            found[base] = (u, Fraction(rn, rd), b, {})
+        u, t0, _, rep = found[base]
+        rep[p] = (sp.Rational(t0.numerator, t0.denominator) + u) ** int(p.exp.p)
+    return list(found.values())
+
+
+def denominator_sign(L: Any, gens: list[Any], roots: list[int]) -> int | None:
+    """+1 or -1 if the polynomial ``L`` has that sign at ``z(x)`` for every state, else None:
+    each irreducible factor (sympy ``factor_list`` over the rationals) is
+    :func:`positive_everywhere` (or its negative), or ``a u + b`` with ``a b > 0`` and ``u`` a
+    square-root variable (``u >= 0`` at ``z(x)``, so the factor has the sign of ``a`` there)."""
+    import sympy as sp
+
+    const, factors = sp.factor_list(L.as_expr(), *gens)
+    sign = 1 if const > 0 else -1
+    for fac, mult in factors:
+        fp = sp.Poly(fac, *gens, domain="QQ")
+        q = {tuple(m): _fraction(c) for m, c in fp.terms() if c != 0}
+        if positive_everywhere(q):
+            s = 1
+        elif positive_everywhere({m: -c for m, c in q.items()}):
+            s = -1
+        else:
+            zero = tuple([0] * len(gens))
+            lin = [m for m in q if m != zero]
+            if not (len(q) == 2 and zero in q and len(lin) == 1 and sum(lin[0]) == 1
+                    and lin[0].index(1) in roots and q[zero] * q[lin[0]] > 0):  # fmt: skip
+                return None
+            s = 1 if q[zero] > 0 else -1
+        sign *= s**mult
+    return sign
 
 
 def _unsupported(expr: Any, syms: list[Any]) -> str:
@@ -288,9 +387,15 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         aux += [s, q]
         subs[sp.sin(d[i])] = s
         subs[sp.cos(d[i])] = 1 - q
+    f = [fi.xreplace(subs) for fi in f]
+    roots = _square_roots(f, d + aux)
+    aux += [u for u, _, _, _ in roots]
     gens = d + aux
     nv = len(gens)
-    f = [sp.together(fi.xreplace(subs)) for fi in f]
+    roots = [(u, t0, {m + (0,) * (nv - len(m)): c for m, c in b.items()}, rep)
+             for u, t0, b, rep in roots]  # fmt: skip
+    f = [sp.together(fi.xreplace({p: r for _, _, _, rep in roots for p, r in rep.items()}))
+         for fi in f]  # fmt: skip
     nums, dens = [], []
     for fi in f:
         p, q = sp.fraction(fi)
@@ -311,16 +416,12 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     Np = sp.Poly(0, *gens, domain="QQ")
     for i in range(n):
         Np = Np + Vp.diff(gens[i]) * nums[i] * sp.div(L, dens[i])[0]
-    Lq: QPoly = {tuple(m): _fraction(c) for m, c in L.terms() if c != 0}
-    sign = 1
-    if not positive_everywhere(Lq):
-        if positive_everywhere({m: -c for m, c in Lq.items()}):
-            sign = -1
-        else:
-            raise NotPolynomial(
-                f"cannot prove the denominator {L.as_expr()} positive (needs a "
-                "positive constant plus even terms with positive coefficients)"
-            )
+    sign = denominator_sign(L, gens, [gens.index(u) for u, _, _, _ in roots])
+    if sign is None:
+        raise NotPolynomial(
+            f"cannot prove the denominator {L.as_expr()} positive (needs factors that are a "
+            "positive constant plus even terms with positive coefficients, or sqrt(b) >= 0)"
+        )
     Nq: QPoly = {tuple(m): sign * _fraction(c) for m, c in Np.terms() if c != 0}
     if any(sum(m) == 0 for m in Nq):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
@@ -344,14 +445,28 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         e, g = angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order, r)
         eqs += e
         ineqs += g
+    for k, (u, t0, b, _) in enumerate(roots):  # (t0 + u)^2 = b and u >= 0
+        ui = gens.index(u)
+        unit = tuple(int(j == ui) for j in range(nv))
+        h = poly_lin((Fraction(1), {tuple(2 * e for e in unit): Fraction(1)}),
+                     (2 * t0, {unit: Fraction(1)}), (t0 * t0, {tuple([0] * nv): Fraction(1)}),
+                     (Fraction(-1), b))  # fmt: skip
+        h = {m: c for m, c in h.items() if c}
+        eqs.append((f"(sqrt(b{k}(0)) + {u})^2 = b{k}, b{k} = {_pretty(b, gens)}", h))
+        ineqs.append((f"{u} >= 0 (b{k} >= b{k}(0))", {unit: Fraction(1)}))
     pad = sc + (Fraction(1),) * (nv - n)
     Vq, Nq = scaled(Vq, pad), scaled(Nq, pad)
     eqs = [(w, scaled(h, pad)) for w, h in eqs]
     ineqs = [(w, scaled(g, pad)) for w, g in ineqs]
+    Lq = scaled({tuple(m): sign * _fraction(c) for m, c in L.terms() if c != 0}, pad)
+    root_data = tuple((gens.index(u), t0, scaled(b, pad)) for u, t0, b, _ in roots)
     den = "1" if L.is_one else str(L.as_expr())
-    desc = ", ".join(f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles)
+    desc = ", ".join(
+        [f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]
+        + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in roots]
+    )
     desc = "; ".join(x for x in (desc, f"V' multiplied by {den} > 0" if den != "1" else "") if x)
     return RecastData(n, nv, tuple(str(g) for g in gens), center, Vq, Nq, low, tuple(angles),
                       order, sc, None if bounds is None else Fraction(level), tuple(eqs),
-                      tuple(ineqs), den,
-                      desc or "polynomial (no recast)")  # fmt: skip
+                      tuple(ineqs), den, desc or "polynomial (no recast)", Lq,
+                      root_data)  # fmt: skip

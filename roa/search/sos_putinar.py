@@ -5,11 +5,14 @@ the identity of :mod:`roa.proof.sos_putinar`, maximising the least eigenvalue ``
 Gram matrix (``t <= 1``): the margin the exact rounding and projection need. Only
 :func:`roa.proof.sos_putinar.check_putinar` decides.
 
-**Bases** (``z`` = states and the angles' ``(s, q)``): ``m0`` holds every monomial of degree 1..2
-in ``z`` and, per angle, ``d^j``, ``d^j s``, ``d^j q`` up to degree ``H`` (``2H`` the degree of
-the highest Taylor bound); ``lambda`` is a quadratic form in ``z`` (``m1``: degree 1); a
-constraint of degree <= 2 gets an SOS multiplier over ``(1, z)``, a higher one a constant; the
-circle's free multiplier spans the monomials of degree <= 2 and the angle's powers ``d^j``. Every
+**Bases** (``z`` = states and the auxiliary variables): ``m0`` holds every monomial of degree
+``1..D`` in ``z`` (``2D`` the least even degree >= that of ``N`` and of ``lambda V``, at least 4)
+and, per angle, ``d^j``, ``d^j s``, ``d^j q`` up to degree ``H`` (``2H`` the degree of the
+highest Taylor bound); ``m1`` has the degrees ``1..D - deg V / 2``; a constraint ``g`` of degree
+``<= 2D - 2`` gets an SOS multiplier over the monomials of degree ``0..D - deg g / 2``, a higher
+one a constant; the
+circle's free multiplier spans the monomials of degree <= 2 and the angle's powers ``d^j`` (a
+square root's, the monomials of degree <= 2). Every
 product then lies in the span of ``m0 m0'`` except each circle's linear ``q``, which the check
 matches with the multiplier's constant.
 """
@@ -57,9 +60,12 @@ def _unit(nv: int, i: int, p: int = 1) -> Mono:
 def bases(data: RecastData) -> tuple[list[Mono], list[Mono], list[list[Mono]], list[list[Mono]]]:
     """``m0``, ``m1``, the inequalities' bases and the equalities' bases (module docstring)."""
     nv = data.nv
+    deg_n = max((sum(m) for m in data.N), default=2)
+    deg_v = max((sum(m) for m in data.V), default=2)
+    D = max(2, (deg_n + 1) // 2, (deg_v + 3) // 2)  # m0 has degrees 1..D (plus angle powers)
     top = max((sum(m) for _, g in data.inequalities for m in g), default=2)
-    H = max(2, (top + 1) // 2)
-    m0 = monomials(nv, 2, 1)
+    H = max(D, (top + 1) // 2)
+    m0 = monomials(nv, D, 1)
     angle_powers: list[list[Mono]] = []
     for a, i in enumerate(data.angles):
         si, qi = data.aux(a)
@@ -69,14 +75,18 @@ def bases(data: RecastData) -> tuple[list[Mono], list[Mono], list[list[Mono]], l
                 m = list(_unit(nv, i, j))
                 if aux is not None:
                     m[aux] += 1
-                if 3 <= sum(m) <= H:
+                if D < sum(m) <= H:
                     extra.append(tuple(m))
         m0 += extra
-        angle_powers.append([_unit(nv, i, j) for j in range(3, 2 * H - 1)])
-    m1 = monomials(nv, 1, 1)
-    low = monomials(nv, 1, 0)
-    mj = [low if max(sum(m) for m in g) <= 2 else [tuple([0] * nv)] for _, g in data.inequalities]
-    me = [monomials(nv, 2, 0) + angle_powers[a] for a in range(len(data.equalities))]
+        angle_powers.append([_unit(nv, i, j) for j in range(2 * D - 1, 2 * H - 1)])
+    m1 = monomials(nv, D - (deg_v + 1) // 2, 1)
+    mj = []
+    for _, g in data.inequalities:
+        deg_g = max(sum(m) for m in g)
+        mj.append(monomials(nv, D - (deg_g + 1) // 2, 0) if deg_g <= 2 * D - 2 else
+                  [tuple([0] * nv)])  # fmt: skip
+    me = [monomials(nv, 2 * D - 2, 0) + (angle_powers[a] if a < len(angle_powers) else [])
+          for a in range(len(data.equalities))]  # fmt: skip
     return m0, m1, mj, me
 
 

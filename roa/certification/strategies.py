@@ -80,13 +80,21 @@ class IntervalValidator:
 
 @dataclass(frozen=True)
 class SosValidator:
-    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial fields and V.
+    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
 
     The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
     Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
     ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
-    reason). It never refutes. Its cost grows polynomially with the dimension (the Gram basis),
-    not exponentially as the branch and bound's boxes do.
+    reason). It never refutes (the pipeline's refutation above uses the branch and bound). Its
+    cost grows polynomially with the dimension (the Gram basis), not exponentially as the branch
+    and bound's boxes do.
+
+    A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
+    (:mod:`roa.proof.recast`) and proved by a constrained certificate
+    (:mod:`roa.proof.sos_putinar`, proposed by :mod:`roa.search.sos_putinar`); a field that
+    cannot be recast (the term is named), or one with a domain, is decided by the interval branch
+    and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
+    inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
 
     Examples
     --------
@@ -125,6 +133,8 @@ class SosValidator:
             return None
         except NotPolynomial:
             pass
+        if getattr(system, "margin", None) is not None:
+            return "the system has a domain (margin): the recast route does not bound it"
         try:
             recast_exact(system, V, taylor=1)
             return None

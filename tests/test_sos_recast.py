@@ -119,6 +119,21 @@ def test_pendulum_certified_at_095_of_its_optimum_and_rechecked():
     ]
     r = Certificate.from_dict(bad, system).reverify()
     assert r.status is roa.Verdict.INCONCLUSIVE and "not positive definite" in r.message
+    # Q0 made indefinite with the identity still exact: +a on the (y0^2, y1^2) pair and -2a on
+    # (y0 y1, y0 y1) leave every coefficient unchanged (the projection does not move it)
+    forged = json.loads(json.dumps(data))
+    g0 = forged["certificate"]["putinar"]["grams"][0]
+    basis = [tuple(b) for b in g0["basis"]]
+    i11, i12, i22 = (basis.index(m) for m in ((2, 0, 0, 0), (1, 1, 0, 0), (0, 2, 0, 0)))
+    Q0 = [[Fraction(v) for v in row] for row in g0["Q"]]
+    a = abs(Q0[i12][i12]) + 1
+    Q0[i11][i22] += a
+    Q0[i22][i11] += a
+    Q0[i12][i12] -= 2 * a
+    g0["Q"] = [[str(v) for v in row] for row in Q0]
+    r = Certificate.from_dict(forged, system).reverify()
+    assert r.status is roa.Verdict.INCONCLUSIVE and "Q0 (after projection)" in r.message
+    assert r.validation.meta["residual"] == 0
     # a Taylor order the file cannot justify (even) is refused
     odd = json.loads(json.dumps(data))
     odd["certificate"]["taylor"] = 4

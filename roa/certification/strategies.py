@@ -135,6 +135,8 @@ class SosValidator:
             pass
         if getattr(system, "margin", None) is not None:
             return "the system has a domain (margin): the recast route does not bound it"
+        if getattr(system, "parameters", None):
+            return "the system has uncertain parameters: the SOS check proves one field"
         try:
             recast_exact(system, V, taylor=1)
             return None
@@ -154,6 +156,8 @@ class SosValidator:
                               message=message, meta={"method": self.name, **meta})  # fmt: skip
 
         try:
+            if getattr(system, "parameters", None):
+                raise NotPolynomial("uncertain parameters")
             exact_data(system, V)
         except NotPolynomial:
             why = self.recast_error(system, V)
@@ -161,10 +165,10 @@ class SosValidator:
                 return self._check_recast(system, V, level, out)
             if not self.fallback:
                 return out(Verdict.INCONCLUSIVE, f"not polynomial, no exact recast: {why}")
-            v = IntervalValidator().check(system, V, level)
-            return Validation(v.status, v.level, v.boxes, v.seconds, v.witness, v.witness_check,
-                              f"SOS not applicable ({why}); interval branch and bound: "
-                              f"{v.message}", {**v.meta, "method": "interval"})  # fmt: skip
+            v = IntervalValidator().check(system, V, level)  # robust for uncertain parameters
+            return dataclasses.replace(v, message=f"SOS not applicable ({why}); interval branch "
+                                       f"and bound: {v.message}",
+                                       meta={**v.meta, "method": "interval"})  # fmt: skip
         with step(f"SOS exact validation of level {level:.6g}"):
             data, why = preconditions(system, V, level)
             if data is None:

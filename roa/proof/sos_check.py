@@ -284,6 +284,8 @@ def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, 
     at an odd degree."""
     from roa.proof.cover import gram_cover
 
+    if getattr(system, "parameters", None):
+        return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
         return None, "V must be centred at the system's equilibrium"
     try:

@@ -209,6 +209,8 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
     from roa.proof.recast import recast_exact
     from roa.proof.sos_check import NotPolynomial
 
+    if getattr(system, "parameters", None):
+        return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
         return None, "V must be centred at the system's equilibrium"
     try:

@@ -230,3 +230,25 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     wrong = dataclasses.replace(data, N={**data.N, y0: -a})
     off = check_putinar(wrong, level, cand.eps, exact, rounded=True)
     assert not off.ok and off.residual == pytest.approx(float(-2 * a))
+
+
+def test_uncertain_parameters_are_not_proved_by_the_sos_routes():
+    """A stored SOS certificate of Van der Pol (mu = 1) is refused for the family mu in
+    [0.5, 2] (it proves one field; at mu = 2 the level 2.30 is refuted): by the file's system
+    fingerprint, and by the exact re-check itself; the SOS validator refuses an uncertain
+    system (the check sees one field)."""
+    import json
+
+    from roa.proof.sos_check import recheck_stored
+    from roa.systems.vanderpol import vanderpol
+
+    cert = roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator())
+    assert cert.certified
+    family = vanderpol().with_ranges(mu=(0.5, 2.0))
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    with pytest.raises(roa.RoaInputError, match="another system"):
+        Certificate.from_dict(data, family)
+    again = recheck_stored(family, cert.V, 2.30, cert.validation.meta)
+    assert again.status is roa.Verdict.INCONCLUSIVE and "uncertain parameters" in again.message
+    v = roa.SosValidator(fallback=False).check(family, roa.default_lyapunov(vanderpol()), 2.30)
+    assert v.status is roa.Verdict.INCONCLUSIVE and "uncertain parameters" in v.message

@@ -294,10 +294,11 @@ def run(
         message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
                    f"sampled search, checked by interval validation. {message}")  # fmt: skip
     if given and not fresh:
-        return done(status=v.status, level=value, method=validator.name, level_source="given",
-                    message=message, validation=v, above=above, candidate=value)  # fmt: skip
+        return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
+                    level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
     source = "witness" if notes else prop.source
-    return done(status=v.status, level=value, method=validator.name, level_source=source,
+    return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
+                level_source=source,
                 message=message, candidate=opt,
                 safety_factor=None if choose is not None else factor, validation=v,
                 above=above, sos=sos_res, search=prop.search)  # fmt: skip
@@ -358,6 +359,8 @@ def _refute_above(
         how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
         trace.append({"stage": "refute above", "by": "witness", "level": top})
         return refuted_by(proof[0], proof[1], top, how, parameters=proof[3])
+    if not getattr(validator, "refutes", True):  # an SOS check never refutes: the branch and
+        validator = IntervalValidator()  # bound looks for a witness (checked at 50 digits)
     if fresh and isinstance(validator, IntervalValidator) and validator.bounding_box is None:
         from roa.proof.cover import ray_box
 

@@ -80,13 +80,21 @@ class IntervalValidator:
 
 @dataclass(frozen=True)
 class SosValidator:
-    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial fields and V.
+    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
 
     The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
     Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
     ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
-    reason). It never refutes. Its cost grows polynomially with the dimension (the Gram basis),
-    not exponentially as the branch and bound's boxes do.
+    reason). It never refutes (the pipeline's refutation above uses the branch and bound). Its
+    cost grows polynomially with the dimension (the Gram basis), not exponentially as the branch
+    and bound's boxes do.
+
+    A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
+    (:mod:`roa.proof.recast`) and proved by a constrained certificate
+    (:mod:`roa.proof.sos_putinar`, proposed by :mod:`roa.search.sos_putinar`); a field that
+    cannot be recast (the term is named), or one with a domain, is decided by the interval branch
+    and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
+    inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
 
     Examples
     --------
@@ -100,26 +108,45 @@ class SosValidator:
     eps: float = 1e-6  # x the largest coefficient of V's lowest-degree part
     solver_options: Any = None
     name: str = "sos-exact"
+    fallback: bool = True  # a field that cannot be recast goes to the branch and bound
+    taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
+    refutes: bool = False  # the pipeline refutes above with the branch and bound
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        from roa.proof.sos_check import NotPolynomial, exact_data
-
         if getattr(V, "terms", None) is None or system.equilibrium is None:
             return False
         if system.parameters:  # parameters as indeterminates: not yet
             return False
         if system.time_varying:
             return False
+        return self.fallback or self.recast_error(system, V) is None
+
+    @staticmethod
+    def recast_error(system: System, V: Lyapunov) -> str | None:
+        """None if the field is polynomial or can be recast exactly, else why not (naming the
+        term)."""
+        from roa.proof.recast import recast_exact
+        from roa.proof.sos_check import NotPolynomial, exact_data
+
         try:
             exact_data(system, V)
+            return None
         except NotPolynomial:
-            return False
-        return True
+            pass
+        if getattr(system, "margin", None) is not None:
+            return "the system has a domain (margin): the recast route does not bound it"
+        if getattr(system, "parameters", None):
+            return "the system has uncertain parameters: the SOS check proves one field"
+        try:
+            recast_exact(system, V, taylor=1)
+            return None
+        except NotPolynomial as exc:
+            return str(exc)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         import time
 
-        from roa.proof.sos_check import check_certificate, preconditions
+        from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
 
         t0 = time.perf_counter()
@@ -128,6 +155,20 @@ class SosValidator:
             return Validation(status, float(level), 0, time.perf_counter() - t0,
                               message=message, meta={"method": self.name, **meta})  # fmt: skip
 
+        try:
+            if getattr(system, "parameters", None):
+                raise NotPolynomial("uncertain parameters")
+            exact_data(system, V)
+        except NotPolynomial:
+            why = self.recast_error(system, V)
+            if why is None:
+                return self._check_recast(system, V, level, out)
+            if not self.fallback:
+                return out(Verdict.INCONCLUSIVE, f"not polynomial, no exact recast: {why}")
+            v = IntervalValidator().check(system, V, level)  # robust for uncertain parameters
+            return dataclasses.replace(v, message=f"SOS not applicable ({why}); interval branch "
+                                       f"and bound: {v.message}",
+                                       meta={**v.meta, "method": "interval"})  # fmt: skip
         with step(f"SOS exact validation of level {level:.6g}"):
             data, why = preconditions(system, V, level)
             if data is None:
@@ -153,6 +194,35 @@ class SosValidator:
             # the whole of {V <= level} is proved (not one component): any frame bounds it
             return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
                        certificate=cert, M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+
+    def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
+        """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
+        from roa.proof.recast import level_scale
+        from roa.proof.sos_putinar import check_putinar, recast_preconditions
+        from roa.search.sos_putinar import default_eps, propose_putinar
+
+        with step(f"SOS exact validation (recast field) of level {level:.6g}"):
+            scale = level_scale(V, level)
+            data, why = recast_preconditions(system, V, level, self.taylor, scale)
+            if data is None:
+                return out(Verdict.INCONCLUSIVE, why)
+            eps = default_eps(data, self.eps)
+            cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
+            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
+                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
+                       "sizes": cand.sizes, "recast": data.description}  # fmt: skip
+            if cand.blocks is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
+                           **figures)  # fmt: skip
+            res = check_putinar(data, level, eps, cand.blocks)
+            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
+            if not res.ok or res.blocks is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
+            cert = {"putinar": res.blocks.to_json(), "taylor": data.taylor,
+                    "scale": [str(r) for r in data.scale]}  # fmt: skip
+            return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
+                       f"checked exactly: {res.reason}", certificate=cert,
+                       M=np.eye(V.n).tolist(), **figures)  # fmt: skip
 
 
 # -- level proposers --------------------------------------------------------------------------------

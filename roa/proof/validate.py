@@ -541,13 +541,15 @@ def _local_over(
     :data:`LOCAL_PIECES`), each piece's parameters entering as its intervals; the intersection of
     the pieces' boxes (each holds the equilibrium) is proved for every piece, so for the box."""
     from roa.parameters import parameter_values
+    from roa.proof.local import hessian_preconditions
 
+    exact = hessian_preconditions(system, lyap)  # f(x_eq, p) = 0 in the parameter symbols
     width = np.where(phi > plo, phi - plo, 1.0)
     queue, boxes = [(plo, phi)], []
     while queue:
         a, b = queue.pop(0)
         with parameter_values([Interval(x, y) for x, y in zip(a, b, strict=True)]):
-            found = local_box(system, lyap, lo0, hi0)
+            found = local_box(system, lyap, lo0, hi0, exact=exact)
         if found is not None:
             boxes.append(found)
             continue

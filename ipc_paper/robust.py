@@ -187,7 +187,7 @@ def _cases(p: dict[str, Any], results: Path) -> dict[str, Any]:
     with step("robust: the quadratic V designed for the box"):
         cert = roa.certify(system, P, method="interval", interval=itv, check_above=1.001)
     row = {**_row(cert), "P": P.tolist(), "design": design}
-    if cert.certified:
+    if cert.certified and cert.level is not None:
         row.update(_sector_box(as_lyapunov(system, P), float(cert.level), p))
     nominal = roa.level_search(system.nominal(), P, method="sampled")
     row["nominal_sampled_optimum"] = nominal.level

@@ -248,3 +248,26 @@ def test_level_search_and_simulation_over_a_box(capsys):
                "--method", "sampled", "--json"])  # fmt: skip
     out = json.loads(capsys.readouterr().out)
     assert rc == 0 and out["parameters"] == {"mu": 0.8} and len(out["per_parameter"]) == 3
+
+
+def poly(t, x, xp, p):
+    A = 1 - (2 * p.a - 1) ** 2  # largest (1) at a = 1/2, inside the box
+    return (-x[0] + A * x[0] ** 3 + 1.5 * x[0] * x[1] ** 2, -x[1] + 0.6 * x[1] ** 3
+            + 1.5 * x[0] ** 2 * x[1])  # fmt: skip
+
+
+def test_worst_case_inside_the_box_is_never_exceeded():
+    """V = |x|^2: with u = x1^2 = s r, x2^2 = (1 - s) r, V'/2 = -r + r^2 q(s), q(s) = A s^2 +
+    0.6 (1 - s)^2 + 3 s (1 - s), so the largest level is 1 / max q, smallest at A = 1 (a = 1/2):
+    q'(s) = 0 at s = 2.4 / 3.2 = 0.75, max q = 1.1786 = 33/28, worst level 28/33. The sample points
+    (nominal 0.2, ends 0 and 0.9, axis points 0.225, 0.45, 0.675) miss a = 1/2; the level is
+    certified below 28/33 (backing off where the proposal was too high) and never above it."""
+    s = System("poly", poly, (0.0, 0.0), ("x1", "x2"), parameters={"a": (0.0, 0.2, 0.9)})
+    itv = roa.IntervalOptions(max_boxes=200_000)
+    cert = roa.certify(s, np.eye(2), method="interval", interval=itv)
+    worst = 28 / 33
+    assert cert.status is Verdict.CERTIFIED
+    assert 0.85 * worst <= cert.level <= worst
+    assert cert.level_source == "backoff" and "not a bound between them" in cert.message
+    above = roa.certify(s, np.eye(2), level=1.01 * worst, interval=itv)
+    assert above.status is not Verdict.CERTIFIED

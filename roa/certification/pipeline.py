@@ -54,6 +54,9 @@ from roa.system import System
 METHODS = ("sos", "interval", "both")
 #: Times a proposed level is chosen again below a confirmed witness.
 RETRIES = 3
+#: Factors of the levels tried after an inconclusive validation of a level proposed at sample
+#: points of a parameter box (the worst case may lie between them).
+BACKOFF = (0.98, 0.95, 0.9)
 
 
 def certify(
@@ -282,6 +285,19 @@ def run(
         trace.append({"stage": "refine", "witness_level": bound, "next_level": new})
         value = new
         v = _validate(system, V, validator, value, trace, "validate below the witness")
+    backoff: list[str] = []
+    if system.parameters and not given and v.status is Verdict.INCONCLUSIVE:
+        # a level proposed at sample points of the box is no bound between them: back off
+        for factor_back in BACKOFF[: max(retries, 0)]:
+            if "domain" in v.message or "box cover" in v.message:
+                break  # neither depends on where the level is below the worst case
+            new = factor_back * value
+            backoff.append(f"inconclusive at {value:.7g}, backed off to {new:.7g}")
+            trace.append({"stage": "back off", "from": value, "next_level": new})
+            value = new
+            v = _validate(system, V, validator, value, trace, "validate below (back off)")
+            if v.status is not Verdict.INCONCLUSIVE:
+                break
     above = None
     if check_above is not None:
         above = _refute_above(system, V, validator, check_above * opt, proof, prop, fresh, trace)
@@ -290,13 +306,16 @@ def run(
         sampled_opt = prop.candidate
         message = (f"{message}; retried below confirmed witnesses (sampled optimum "
                    f"{sampled_opt:.7g}): " + "; ".join(notes))  # fmt: skip
+    if backoff:
+        message = (f"{message}; the proposal is the worst of the parameter box's sample points, "
+                   "not a bound between them: " + "; ".join(backoff))  # fmt: skip
     if skipped and not given:
         message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
                    f"sampled search, checked by interval validation. {message}")  # fmt: skip
     if given and not fresh:
         return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                     level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
-    source = "witness" if notes else prop.source
+    source = "backoff" if backoff else "witness" if notes else prop.source
     return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                 level_source=source,
                 message=message, candidate=opt,

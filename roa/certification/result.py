@@ -45,8 +45,10 @@ class Certificate:
         What produced the verdict: ``"interval"``, ``"sos"`` (an unchecked candidate: never
         certified) or ``"level search"`` (no candidate was found).
     level_source : str or None
-        Where the level came from: ``"given"``, ``"sos"``, ``"sampled"``, ``"candidate"`` or
-        ``"witness"`` (chosen again below a confirmed refutation witness).
+        Where the level came from: ``"given"``, ``"sos"``, ``"sampled"``, ``"candidate"``,
+        ``"witness"`` (chosen again below a confirmed refutation witness) or ``"backoff"`` (a
+        system with uncertain parameters: lowered after an inconclusive validation, since a level
+        proposed at the box's sample points is no bound between them).
     candidate : float or None
         The level before the safety factor (SOS optimum or sampled optimum).
     above : Validation or None

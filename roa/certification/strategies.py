@@ -363,10 +363,12 @@ class SampledLevel:
 @dataclass(frozen=True)
 class WorstCase:
     """A proposer run at each sample point of an uncertain system's parameter box
-    (:func:`roa.parameters.sample_points`: nominal value and vertices); the lowest level wins.
+    (:func:`roa.parameters.sample_points`: nominal value, vertices and ``per_axis`` points along
+    each axis); the lowest level wins.
     A proposal only: the robust validator decides for every parameter of the box."""
 
     inner: LevelProposer
+    per_axis: int = 3  # interior points along each parameter's axis, beside the vertices
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return self.inner.accepts(system.nominal(), V)
@@ -375,7 +377,7 @@ class WorstCase:
         from roa.parameters import describe_point, sample_points
 
         best: Proposal | None = None
-        for p in sample_points(system):
+        for p in sample_points(system, per_axis=self.per_axis):
             prop = dataclasses.replace(self.inner.propose(system.at(**p), V), parameters=p)
             if prop.level is None:
                 if prop.final or best is None:

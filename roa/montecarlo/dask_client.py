@@ -120,7 +120,8 @@ def run_tasks(client: Any, fn: Any, tasks: Any, timeout: float, *, window: int =
     lost with its worker is re-run by the scheduler on another worker (the scheduler's policy); a
     cluster that has had no worker (or no reachable scheduler) for ``timeout`` seconds, or a task
     that killed its workers, ends the run with a :class:`roa.errors.SolverError` within about
-    ``timeout + POLL`` seconds, never a silent wait. Pending tasks are cancelled on the way out.
+    ``timeout + POLL`` seconds, never a silent wait. Pending futures are released on the way out
+    (closing the client, :func:`close_quietly`, cancels them).
     """
     import time
 
@@ -142,7 +143,8 @@ def run_tasks(client: Any, fn: Any, tasks: Any, timeout: float, *, window: int =
             if not pending:
                 return
             try:
-                done, not_done = wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
+                with client.as_current():  # wait() looks for the default client
+                    done, not_done = wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
                 pending = set(not_done)
             except TimeoutError:
                 done = set()
@@ -173,10 +175,6 @@ def run_tasks(client: Any, fn: Any, tasks: Any, timeout: float, *, window: int =
                     "chunks are kept (resume with --out); start workers with `dask worker ADDRESS`"
                 )
     finally:
-        if pending:
-            with warnings.catch_warnings():
-                warnings.simplefilter("ignore")
-                try:
-                    client.cancel(list(pending))
-                except BaseException:  # noqa: BLE001, S110 - cancelling on the way out
-                    pass
+        # pending futures are released with this generator; the caller closes the client
+        # (close_quietly, bounded), which cancels whatever still runs: no unbounded call here
+        pending.clear()

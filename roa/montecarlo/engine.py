@@ -12,8 +12,10 @@ binding matches this run and its contents; any other chunk (rewritten, truncated
 another run, with unknown status codes) is deleted, recomputed and counted (``chunks_rejected`` in
 the run's ``meta``, and a :class:`ChunkRejectedWarning`). A directory holding a different run is
 refused (:class:`roa.errors.ResultsError`) unless ``fresh=True`` (recompute everything) or
-``replace_stale=True``. ``scheduler`` runs the chunks on a Dask cluster through joblib's dask
-backend, with bounded waits for the scheduler and its workers.
+``replace_stale=True``. ``scheduler`` runs the chunks on a Dask cluster as futures
+(:func:`roa.montecarlo.dask_client.run_tasks`), with bounded waits for the scheduler and its
+workers: a cluster left without workers ends the run with an error, its completed chunks kept.
+``time_limit`` bounds the run's wall-clock time (:mod:`roa.montecarlo.budget`).
 
 Bounds, checked before any allocation: at most :data:`roa.montecarlo.sampling.MAX_SAMPLES`
 initial conditions (and at most half of the physical memory for their statuses), ``chunk_size`` in

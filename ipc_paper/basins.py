@@ -316,7 +316,8 @@ def _settings(opts: dict[str, Any]) -> dict[str, Any]:
 
 def _frac(res: BasinResult) -> str:
     lo, hi = res.ci95
-    return f"{res.counts['converged']}/{res.n} converged ({100 * res.fraction_converged:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
+    share = res.counts["converged"] / res.n if res.n else 0.0  # every run was run (no time limit)
+    return f"{res.counts['converged']}/{res.n} converged ({100 * share:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
 
 
 def sector_line_scan(

@@ -73,7 +73,9 @@ def differences(stored: Any, new: Any, where: str = "", *, limit: int = 20) -> l
                 if _volatile(str(k)):
                     continue
                 if k not in a or k not in b:
-                    out.append(f"{path}.{k}: only in the {'recomputed' if k in b else 'stored'} summary")
+                    out.append(
+                        f"{path}.{k}: only in the {'recomputed' if k in b else 'stored'} summary"
+                    )
                 else:
                     walk(a[k], b[k], f"{path}.{k}")
         elif isinstance(a, list) and isinstance(b, list):

@@ -102,10 +102,7 @@ class BasinStatus(_Status):
     ALL_CONVERGED = "all_converged", "every initial condition converged to the equilibrium"
     PARTLY_CONVERGED = "partly_converged", "some initial conditions did not converge (see counts)"
     NONE_CONVERGED = "none_converged", "no initial condition converged"
-    INCONCLUSIVE = "inconclusive", (
-        "the wall-clock budget ran out before every initial condition was run (counts['not_run']);"
-        " the same run with the same --out resumes from its completed chunks"
-    )
+    INCONCLUSIVE = "inconclusive", "the time limit ran out first (counts['not_run']); resumable"
 
 
 @dataclass(frozen=True)

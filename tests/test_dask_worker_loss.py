@@ -38,7 +38,10 @@ def test_a_killed_worker_ends_the_run_within_a_bounded_time_and_it_resumes(tmp_p
 
     smp = grid_slice(SYSTEM, ("x1", "x2"), [(-3, 3), (-3, 3)], (40, 40))
     out = tmp_path / "run"
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+    }
     with LocalCluster(n_workers=0, processes=False, protocol="tcp://", host="127.0.0.1",
                       dashboard_address=None) as cluster:  # fmt: skip
         worker = subprocess.Popen(

@@ -39,7 +39,9 @@ def run(args: argparse.Namespace) -> int:
 
     if args.recompute is not None:
         if args.update or args.only:
-            raise RoaInputError("--recompute compares experiments' results: not with --update or --only")
+            raise RoaInputError(
+                "--recompute compares experiments' results: not with --update or --only"
+            )
         return _report(args, _recompute(args))
     registry = studies.get(args.study).registry()
     if args.update:

@@ -157,10 +157,8 @@ class BasinRun:
         }
 
 
-def _chunk(
-    system: System, sampler: Any, start: int, stop: int, opts: dict[str, Any],
-    deadline: float | None = None,
-) -> tuple[int, np.ndarray | None, np.ndarray | None, int]:
+def _chunk(system: System, sampler: Any, start: int, stop: int, opts: dict[str, Any],
+           deadline: float | None = None) -> tuple[int, np.ndarray | None, np.ndarray | None, int]:  # fmt: skip
     """Statuses, stop times and terminal-set entries of rows ``start:stop``; ``None`` arrays when
     the budget ``deadline`` ran out before or during the chunk (nothing of it is kept)."""
     try:

@@ -113,7 +113,9 @@ def close_quietly(client: Any, results: Any = None) -> None:
 POLL = 0.5
 
 
-def run_tasks(client: Any, fn: Any, tasks: Any, timeout: float, *, window: int = 64) -> Any:
+def run_tasks(
+    client: Any, fn: Any, tasks: Any, timeout: float, *, address: str = "?", window: int = 64
+) -> Any:
     """Run ``fn(*args)`` on the cluster for each ``args`` of ``tasks``; yield results as they finish.
 
     Claims: at most ``window`` tasks are pending at once (``tasks`` is consumed lazily); a task
@@ -153,7 +155,7 @@ def run_tasks(client: Any, fn: Any, tasks: Any, timeout: float, *, window: int =
                     result = fut.result()
                 except KilledWorker as exc:
                     raise SolverError(
-                        f"scheduler {client.scheduler.address}: a task killed the workers that "
+                        f"scheduler {address}: a task killed the workers that "
                         f"ran it ({exc}); completed chunks are kept (resume with --out)"
                     ) from None
                 yield result
@@ -170,7 +172,7 @@ def run_tasks(client: Any, fn: Any, tasks: Any, timeout: float, *, window: int =
             lost_since = time.monotonic() if lost_since is None else lost_since
             if time.monotonic() - lost_since > timeout:
                 raise SolverError(
-                    f"scheduler {client.scheduler.address}: no Dask worker for {timeout:g} s "
+                    f"scheduler {address}: no Dask worker for {timeout:g} s "
                     f"with {len(pending)} task(s) pending (the workers died or left); completed "
                     "chunks are kept (resume with --out); start workers with `dask worker ADDRESS`"
                 )

@@ -394,7 +394,9 @@ def _run_basin(
                 if client is not None:  # futures watched for lost workers (bounded waits)
                     args = ((system, sampler, s, min(s + chunk_size, n), opts, deadline)
                             for s in starts)  # fmt: skip
-                    results = run_tasks(client, _chunk, args, float(scheduler_timeout))
+                    results = run_tasks(
+                        client, _chunk, args, float(scheduler_timeout), address=scheduler
+                    )
                 else:
                     results = joblib.Parallel(return_as="generator_unordered")(tasks)
                 if progress:  # a bar on a terminal only: logs get no flood of bar updates

@@ -395,7 +395,7 @@ def _run_basin(
                     args = ((system, sampler, s, min(s + chunk_size, n), opts, deadline)
                             for s in starts)  # fmt: skip
                     results = run_tasks(
-                        client, _chunk, args, float(scheduler_timeout), address=scheduler
+                        client, _chunk, args, float(scheduler_timeout), address=str(scheduler)
                     )
                 else:
                     results = joblib.Parallel(return_as="generator_unordered")(tasks)

@@ -50,6 +50,10 @@ def test_a_killed_worker_ends_the_run_within_a_bounded_time_and_it_resumes(tmp_p
              str(tmp_path / "worker")],
             env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
         )  # fmt: skip
+        t0 = time.monotonic()  # a loaded machine starts the worker slowly: wait until it joined
+        while not cluster.scheduler.workers and time.monotonic() - t0 < 120:
+            time.sleep(0.1)
+        assert cluster.scheduler.workers, "the dask worker did not join within 120 s"
         killed = threading.Event()
 
         def kill_after_first_chunk() -> None:

@@ -57,6 +57,12 @@ def _files(tmp_path):
         'runner = "ipc_paper.basins:run_box"\n[params]\nsamples = 10\nseed = 18446744073709551616\n'
     )
     (tmp_path / "empty.npy").write_bytes(b"")
+    (tmp_path / "tv.py").write_text(  # declared time-varying: no equilibrium analysis applies
+        "from roa import System\n"
+        "def field(t, x, xp):\n    return (-x[1] + 0.1 * t * x[0], x[0] - x[1])\n"
+        "SYSTEM = System(name='tv', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'),"
+        " time_varying=True)\n"
+    )
     np.save(tmp_path / "str.npy", np.array(["a", "b"]))
     np.save(tmp_path / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
     return tmp_path
@@ -80,6 +86,9 @@ CASES = [
     (["basin", "--system", "{d}/raiser.py:SYSTEM", "--slice", "x1,x2", "--grid", "4x4", "--box", "x1=-3:3,x2=-3:3", "--jobs", "1"], "raiser.py:5"),
     (["run", "{d}/missing.toml"], "ipc_paper.nonexistent"),
     (["run", "{d}/dots.toml"], "runner must be"),
+    (["khalil", "--system", "{d}/tv.py:SYSTEM"], "time-varying"),
+    (["certify", "--system", "{d}/tv.py:SYSTEM", "--level", "1"], "autonomous"),
+    (["basin", "--system", "{d}/tv.py:SYSTEM", "--slice", "x1,x2", "--grid", "3x3"], "autonomous"),
     (["run", "{d}/bigbound.toml"], "n_points must be an integer in [1, 10000000]"),
     (["run", "{d}/bigseed.toml"], "seed must be an integer in [0, 9223372036854775807]"),
     (["certify", "--system", "vanderpol", "--lyapunov", "{d}/empty.npy", "--level", "1"], "--lyapunov"),

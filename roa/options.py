@@ -476,6 +476,10 @@ class RunOptions(Options):
         Progress bar (default: on for runs of more than 50 chunks).
     fresh : bool
         Recompute every chunk of ``out_dir`` instead of resuming from it.
+    time_limit : float or None
+        Wall-clock budget of the run in seconds, in (0, 1e9]: when it runs out the run ends
+        ``inconclusive`` with the initial conditions not run counted as ``not_run`` (the
+        completed chunks are kept; with ``out_dir`` the same run resumes from them).
     """
 
     chunk_size: int = 4096
@@ -484,6 +488,7 @@ class RunOptions(Options):
     scheduler: str | None = None
     progress: bool | None = None
     fresh: bool = False
+    time_limit: float | None = None
 
     def __post_init__(self) -> None:
         _int(self, "chunk_size", 1, 1_000_000)
@@ -492,3 +497,5 @@ class RunOptions(Options):
             _int(self, "n_jobs", 1, 4 * cores)
         if self.out_dir is not None:
             object.__setattr__(self, "out_dir", os.fspath(self.out_dir))
+        if self.time_limit is not None:
+            _pos(self, "time_limit", upper=1e9, closed_upper=True)

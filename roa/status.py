@@ -102,6 +102,7 @@ class BasinStatus(_Status):
     ALL_CONVERGED = "all_converged", "every initial condition converged to the equilibrium"
     PARTLY_CONVERGED = "partly_converged", "some initial conditions did not converge (see counts)"
     NONE_CONVERGED = "none_converged", "no initial condition converged"
+    INCONCLUSIVE = "inconclusive", "the time limit ran out first (counts['not_run']); resumable"
 
 
 @dataclass(frozen=True)

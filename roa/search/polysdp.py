@@ -16,7 +16,26 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
+from roa.errors import RoaInputError
+
 Poly = dict[tuple[int, ...], float]
+
+
+class ProgramTooLarge(RoaInputError):
+    """An SOS program whose Gram blocks exceed :data:`roa.search.sos.MAX_GRAM_BLOCK` (not built)."""
+
+
+def check_block(size: int) -> None:
+    """Refuse a Gram block of ``size`` monomials above :data:`roa.search.sos.MAX_GRAM_BLOCK`
+    before any work (such programs made the solver request terabytes and abort)."""
+    from roa.search.sos import MAX_GRAM_BLOCK
+
+    if size > MAX_GRAM_BLOCK:
+        raise ProgramTooLarge(
+            f"the SOS program's Gram block would hold {size} monomials, more than the "
+            f"{MAX_GRAM_BLOCK} built here (memory would run out): not built; use a lower degree "
+            "or fewer states"
+        )
 
 
 def monomials(nvars: int, max_deg: int, min_deg: int = 0) -> list[tuple[int, ...]]:
@@ -169,8 +188,9 @@ class Identity:
 
         if not basis:
             return
-        times = times or {tuple([0] * self.nv): 1.0}
         nb = len(basis)
+        check_block(nb)
+        times = times or {tuple([0] * self.nv): 1.0}
         Q = cp.Variable((nb, nb), symmetric=True)
         self.psd.append(Q >> 0)
         r, c, v = [], [], []

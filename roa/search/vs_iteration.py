@@ -21,6 +21,7 @@ interval branch and bound; the SDPs are solved in floating point and prove nothi
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -34,6 +35,7 @@ from roa.progress import step
 from roa.search.polysdp import (
     Identity,
     Poly,
+    ProgramTooLarge,
     add,
     diff,
     is_even,
@@ -52,6 +54,11 @@ from roa.status import SosStatus
 from roa.system import System
 
 SOLVERS = ("auto", "clarabel", "scs")
+
+
+#: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
+#: bounded on their own by :data:`roa.search.sos.MAX_GRAM_BLOCK` (roa.search.polysdp.check_block).
+MAX_V_TERMS = 5000
 
 
 @dataclass(frozen=True)
@@ -140,6 +147,12 @@ class _Problem:
         self.D = degree // 2
         self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
         self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
+        if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
+            raise ProgramTooLarge(
+                f"a V of degree {degree} in {self.nd} states has {len(self.vbasis)} coefficients, "
+                f"more than the {MAX_V_TERMS} searched here (its SOS programs would not fit in "
+                "memory): not built; use a lower degree or fewer states"
+            )
         efy = max(sum(m) for p in self.fy for m in p)
         deg_vd = degree - 1 + efy
         if multiplier_degree is None:
@@ -298,11 +311,23 @@ def vs_search(
     if not (isinstance(rounds, int) and 1 <= rounds <= 50):
         raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
     t0 = time.perf_counter()
+    # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
+    # level search, which alone takes a while in tens of states
+    even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
+    if even > MAX_V_TERMS:
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], time.perf_counter() - t0,
+                        message=f"a V of degree {degree} in {system.n} states has at least {even} "
+                        f"coefficients, more than the {MAX_V_TERMS} searched here (its SOS "
+                        "programs would not fit in memory): not built; use a lower degree or "
+                        "fewer states")  # fmt: skip
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
     scale = seed_level(system, V0)
     try:
         pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
                       scale)  # fmt: skip
+    except ProgramTooLarge as exc:
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], time.perf_counter() - t0,
+                        message=str(exc))  # fmt: skip
     except (RoaInputError, sp.PolynomialError) as exc:
         return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], time.perf_counter() - t0,
                         message=str(exc))  # fmt: skip

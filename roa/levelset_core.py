@@ -179,10 +179,10 @@ def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -
 
     ``x`` counts as a ``vdot_zero`` witness only when it is a genuine boundary point of
     ``{V' < 0}``: a sign change of V' is bracketed next to it on its ray (then it is moved onto the
-    root), or ``V'(x) >= 0``, or ``|V'(x)|`` is below ``WITNESS_ATOL`` *and* below ``1e-8`` x
-    ``|V'|`` halfway along the ray (a tangential zero). A point next to the equilibrium, where V' is
-    tiny only because it vanishes there (``V' = -4e-53`` at ``|x| = 1e-13`` when V' starts at
-    degree 4), is none of these and is refused (status ``failed``).
+    root), or ``|V'(x)|`` is below ``WITNESS_ATOL`` *and* at most ``1e-8`` x ``|V'| > 0`` halfway
+    along the ray (a tangential zero). A point next to the equilibrium, where V' is tiny only
+    because it vanishes there (``V' = -4e-53``, or 0 by rounding, at ``|x| = 1e-13`` when V' starts
+    at degree 4), is neither and is refused (status ``failed``).
     """
     x = np.asarray(x, dtype=float)
     c = prob.V.center
@@ -194,7 +194,6 @@ def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -
         def g(t: float) -> float:
             return float(prob.vdot(c + t * (x - c)))
 
-        genuine = vd >= 0
         for width in (1e-9, 1e-6, 1e-3):
             a, b = 1 - width, 1 + width
             if g(a) * g(b) < 0:
@@ -205,7 +204,7 @@ def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -
                 break
         if not genuine:
             half = abs(g(0.5))
-            genuine = bool(np.isfinite(half) and abs(vd) <= 1e-8 * half)
+            genuine = bool(np.isfinite(half) and half > 0 and abs(vd) <= 1e-8 * half)
     if prob.by_value:
         value = float(prob.V.value(x[None, :])[0])
     else:

@@ -35,7 +35,9 @@ def copies(k: int) -> System:
             out += _block(x, 10 * c)
         return out
 
-    names = tuple(f"x{i + 1}" if k == 1 else f"x{i + 1}_{c + 1}" for c in range(k) for i in range(10))
+    names = tuple(
+        f"x{i + 1}" if k == 1 else f"x{i + 1}_{c + 1}" for c in range(k) for i in range(10)
+    )
     return System(
         name="lyznet-10d" if k == 1 else f"lyznet-10d-x{k}",
         field=field,

@@ -229,6 +229,10 @@ class VsOptions(Options):
         still a candidate, proved or not by the validation.
     multiplier_degree, aux_degree, symmetry, recast, time_limit
         As in :class:`SosOptions`.
+    budget : float or None
+        Wall-clock seconds for the whole V-s iteration (default 600; ``None``: none). No SDP is
+        started past it, and each is given the time left as its solver time limit; the iteration
+        then stops with the candidates of the rounds completed (the best is validated).
     method : {"sos", "sampled"}
         ``sos``: the V-s iteration; ``sampled``: the sampled cutting-plane search
         (``roa.certify`` with :class:`roa.CuttingPlanes`, no SDP over the field), with ``sampled``
@@ -246,6 +250,7 @@ class VsOptions(Options):
     symmetry: str | bool = "auto"
     recast: str = "exact"
     time_limit: float | None = None
+    budget: float | None = 600.0
     method: str = "sos"
     sampled: Any = None
 
@@ -261,6 +266,8 @@ class VsOptions(Options):
                 f"got {type(self.sampled).__name__}"
             )
         _int(self, "validate", 1, 20)
+        if self.budget is not None:
+            _pos(self, "budget")
         if self.max_iters is not None:
             _int(self, "max_iters", 1, 10**6)
         _pos(self, "tol", upper=1.0)

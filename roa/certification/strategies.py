@@ -353,7 +353,7 @@ class VsIteration:
                              rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
                              symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
                              tol=vs.tol, solver_options=vs.solver_options(),
-                             solver=vs.solver)  # fmt: skip
+                             solver=vs.solver, budget=vs.budget)  # fmt: skip
 
 
 @dataclass(frozen=True)

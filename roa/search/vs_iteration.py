@@ -340,6 +340,7 @@ def vs_search(
             message = (
                 f"time budget of {budget} s spent before round {r}: kept {len(cands)} candidates"
             )
+            status = SosStatus.FAILED if not cands else status
             break
         # gamma step: the level of the current V, then V / gamma (level 1)
         ident = Identity(pb.nv)

@@ -292,7 +292,7 @@ def main(argv: list[str] | None = None) -> int:
         if out.returncode or not lines:
             rows.append({"system": name, "error": f"failed: {out.stderr.strip()[-300:]}"})
             continue
-        rows.append(json.loads(lines[-1][len("RESULT "):]))
+        rows.append(json.loads(lines[-1][len("RESULT ") :]))
         r = rows[-1]
         print(f"{name}: n = {r['n']}, {r['status']} {r['level']}, optimum {r['optimum']:.9g}, "
               f"{r['certify_seconds']:.1f} s, {r['peak_mib']:.0f} MiB", flush=True)  # fmt: skip

@@ -25,7 +25,7 @@ def casadi_level(
     *,
     shape: str = "custom",
     n_starts: int = 16,
-    r_start: tuple[float, float] = (0.1, 30.0),
+    r_start: tuple[float, float] = (0.1, 100.0),
     n_candidates: int = 8000,
     seed: int = 1,
 ) -> LevelSetResult:
@@ -84,7 +84,7 @@ def casadi_level(
     }
     rng = np.random.default_rng(seed)
     U = unit(rng.standard_normal((int(n_candidates), n)))
-    r_grid = np.geomspace(r_start[0], r_start[1], 96)
+    r_grid = np.geomspace(r_start[0], r_start[1], 128)
     r = crossings(prob, U, r_grid)
     hits = np.flatnonzero(np.isfinite(r))
     chosen: list[int] = []

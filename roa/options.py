@@ -134,15 +134,16 @@ class CasadiOptions(Options):
     n_starts : int
         IPOPT starts per problem, in [1, 10000].
     r_start : (float, float)
-        Range ``0 < low < high`` of shape radii of the candidate starting points.
+        Range ``0 < low < high`` of shape radii scanned along the rays for starting points (the
+        default reaches s = 10^4, as the sampled search's ``r_max``).
     n_candidates : int
-        Random points drawn to find violating starting points (>= 1).
+        Random directions (rays) scanned for violating starting points (>= 1).
     seed : int
         Random seed (>= 0).
     """
 
     n_starts: int = 16
-    r_start: tuple[float, float] = (0.1, 30.0)
+    r_start: tuple[float, float] = (0.1, 100.0)
     n_candidates: int = 8000
     seed: int = 1
 

@@ -5,7 +5,10 @@
 * bench_entry_steps.py: scipy's solve_ivp (RK45) enters the certified degree-4 set at the same
   accepted step as the engine, run for run;
 * bench_montecarlo.py: the engine's statuses, plain and with each terminal set, equal the
-  solve_ivp baseline's.
+  solve_ivp baseline's;
+* bench_scale.py (two rungs of its ladder): each level certified at >= 0.99 x the optimum found
+  independently (multistart SLSQP), below a point refuting it (V' >= 0 at 50 digits, V at most
+  1.001 x the optimum), and the branch and bound agrees on the same level.
 Their speed figures are for an idle machine and are not asserted. All three are slow (15-40 s
 each, numba compilation included): ``pytest -m slow``; the default run covers the engine against
 solve_ivp in tests/test_montecarlo.py.
@@ -45,3 +48,10 @@ def test_entry_steps_match_the_engine():
 def test_montecarlo_statuses_agree_with_solve_ivp():
     out = _run("bench_montecarlo.py", "--n", "40", "--n-engine", "400")
     assert out.count("40/40") >= 3  # plain and both terminal sets
+
+
+@pytest.mark.slow
+def test_scale_ladder_quick_rungs_hold():
+    out = _run("bench_scale.py", "--only", "vanderpol", "poly3d")
+    assert "all ladder checks hold" in out
+    assert out.count("certified, ") == 2  # the branch and bound's column, one per rung

@@ -69,13 +69,13 @@ def test_a_point_next_to_the_equilibrium_is_not_a_witness():
 
 def test_casadi_without_a_violating_ray_runs_nothing_and_claims_no_bound():
     """x' = -x (V' = -2|x|^2 < 0 everywhere): no ray violates, IPOPT is not run, and the status
-    says what was searched (rays up to s = 900), not that the level is at least that."""
+    says what was searched (rays up to s = 10^4), not that the level is at least that."""
     system = System("decay", lambda t, x, xp: (-x[0], -x[1]), (0.0, 0.0), ("a", "b"))
     V = QuadraticLyapunov.for_system(system, np.eye(2))
     res = casadi_level(system, V, np.eye(2), n_candidates=200)
     assert res.status == "unbounded"
     assert res.details["n_run"] == 0 and res.details["n_rays_violating"] == 0
-    assert res.details["searched_up_to"] == pytest.approx(900.0)
+    assert res.details["searched_up_to"] == pytest.approx(1e4)
     msg = level_search(system, V, method="casadi").message
     assert "not a bound" in msg and "at least" not in msg
 
@@ -100,3 +100,15 @@ def test_lyznet_10d_both_methods_agree_on_the_closed_form():
     u = np.array([-2.0, -1.0, 2.0]) / 3  # the maximiser of C on (x1, x3, x9)
     C = -0.1 * u[0] * u[2] ** 2 - 0.1 * u[1] * u[0] ** 2
     assert C == pytest.approx(2 / 45, rel=1e-14)
+
+
+@pytest.mark.slow
+def test_lyznet_three_copies_30_states_both_methods_agree():
+    """Three decoupled copies (30 states) have the same level 2025/8: V and V' are sums over the
+    copies, so a copy's witness with the others at 0 is one, and no copy has V' >= 0 below it.
+    At the former default (rays up to s = 900) CasADi found no violating ray here."""
+    system = roa.load_system(f"{EXAMPLES / 'lyznet_10d.py'}:SYSTEM_30")
+    res = level_search(system, method="both")
+    assert res.status is LevelStatus.AGREE, res.message
+    for r in res.per_method.values():
+        assert r.level == pytest.approx(2025 / 8, rel=1e-6)

@@ -246,24 +246,28 @@ def _fmt(x: Any, spec: str = ".4g") -> str:
 
 def table(rows: list[dict[str, Any]]) -> str:
     head = ("| system | n | SOS level | certified level (route) | certified / optimum | optimum "
-            "(SLSQP; known) | refuted at V / optimum | SOS s | check s | total s | peak MiB "
-            "| B&B same level |\n|---|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
+            "(SLSQP; known) | refuted at V / optimum | propose s (SOS; search) | check s | "
+            "total s | peak MiB | Gram blocks (largest) | B&B same level |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
     lines = [head]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['system']} | {r.get('n', '-')} | {r['error']} |" + " |" * 10)
+            lines.append(f"| {r['system']} | {r.get('n', '-')} | {r['error']} |" + " |" * 11)
             continue
         ratio = None if r["level"] is None else r["level"] / r["optimum"]
         bnb = r.get("bnb")
         bnb_s = "-" if bnb is None else f"{bnb['status']}, {bnb['seconds']:.1f} s"
         sos = _fmt(r["sos_level"], ".7g") if r["sos_level"] else "none (too large)"
+        g = r["gram_sizes"] or []
+        grams = f"{len(g)} ({max(g)})" if g else "-"
         ref = r["refutation"]
         refuted = f"{ref['ratio']:.4f}" if ref["confirmed"] else "not confirmed"
         lines.append(
             f"| {r['system']} | {r['n']} | {sos} | {_fmt(r['level'], '.7g')} ({r['route']}) | "
             f"{_fmt(ratio, '.5f')} | {r['optimum']:.7g}; {_fmt(r['known'], '.7g')} | {refuted} | "
-            f"{_fmt(r['sos_seconds'], '.1f')} | {r['check_seconds']:.1f} | "
-            f"{r['certify_seconds']:.1f} | {r['peak_mib']:.0f} | {bnb_s} |"
+            f"{_fmt(r['sos_seconds'], '.1f')}; {_fmt(r['search_seconds'], '.1f')} | "
+            f"{r['check_seconds']:.1f} | "
+            f"{r['certify_seconds']:.1f} | {r['peak_mib']:.0f} | {grams} | {bnb_s} |"
         )
     return "\n".join(lines)
 
@@ -275,7 +279,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--one", default=None, help=argparse.SUPPRESS)  # the child process
     ap.add_argument("--no-bnb", action="store_true", help="skip the branch and bound column")
     ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    ap.add_argument("--from-json", default=None, help="print the table of rows written by --json")
     args = ap.parse_args(argv)
+    if args.from_json:
+        print(table(json.loads(Path(args.from_json).read_text())))
+        return 0
     if args.one:
         print("RESULT " + json.dumps(measure(args.one, bnb=not args.no_bnb), default=float))
         return 0

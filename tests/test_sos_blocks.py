@@ -102,3 +102,25 @@ def test_a_split_certificate_is_rechecked_and_tampering_is_refused(split_certifi
     for forged in (raised, negated, merged):
         v = Certificate.from_dict(forged, system).reverify()
         assert v.status is roa.Verdict.INCONCLUSIVE, v.message
+
+
+def test_the_sos_level_of_independent_blocks_is_the_least_block_level():
+    """Two copies of poly3d plus x7' = -x7 (V' = -2 x7^2 < 0 everywhere: no limit): the blocks'
+    levels are 3 (both copies, solved once) and unlimited, so the proposal is 3 (closed form), to
+    the bisection's and the solver's tolerance; roa.certify (SosLevel, the default proposer for a
+    quadratic V) then has the exact check prove 0.9999 x it."""
+    from roa.search.sos_bisection import block_levels
+
+    def field(t, x, xp):
+        return _poly3d(x, 0) + _poly3d(x, 3) + (-x[6],)
+
+    system = roa.System("poly3d-x2-plus", field, (0.0,) * 7, tuple(f"x{i}" for i in range(7)))
+    V = roa.QuadraticLyapunov(np.eye(7), np.zeros(7))
+    res = block_levels(exact_data(system, V))
+    assert res.sizes == {"blocks": [3, 3, 1], "distinct_blocks": 2}
+    assert res.level == pytest.approx(3.0, rel=1e-4) and res.level <= 3.0 * (1 + 1e-9)
+    assert [b for b, _ in res.per_block] == [(0, 1, 2), (3, 4, 5), (6,)]
+    assert res.per_block[2][1] > 1e6  # unlimited, up to the solver's scaling at huge levels
+    proved = roa.certify(system, V, validator=roa.SosValidator())
+    assert proved.level_source == "sos" and proved.sos.solver_status == "bisection"
+    assert proved.certified and proved.level == pytest.approx(3.0, rel=2e-4)

@@ -258,7 +258,9 @@ class CandidateLevel:
 @dataclass(frozen=True)
 class SosLevel:
     """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
-    validated at ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
+    for a polynomial system whose V and V' split over independent blocks of variables, the least
+    of the blocks' levels found by bisection (:mod:`roa.search.sos_bisection`); validated at
+    ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
     (never certified: no independent check)."""
 
     options: SosOptions = field(default_factory=SosOptions)
@@ -273,11 +275,13 @@ class SosLevel:
         quad = V.as_quadratic()
         assert quad is not None
         o = self.options
-        with step("SOS program (cvxpy + Clarabel)"):
-            res = sos_level(system, quad, recast_mode=o.recast,
-                            multiplier_degree=o.multiplier_degree,
-                            solver_options=o.solver_options(), symmetry=o.symmetry,
-                            aux_degree=o.aux_degree)  # fmt: skip
+        res = _block_sos_level(system, V, o)
+        if res is None:
+            with step("SOS program (cvxpy + Clarabel)"):
+                res = sos_level(system, quad, recast_mode=o.recast,
+                                multiplier_degree=o.multiplier_degree,
+                                solver_options=o.solver_options(), symmetry=o.symmetry,
+                                aux_degree=o.aux_degree)  # fmt: skip
         ok = res.status is SosStatus.SOLVED and res.level is not None
         if self.only:
             msg = (
@@ -290,6 +294,35 @@ class SosLevel:
         if not ok:
             return Proposal("sos", None, None, res.message, sos=res)
         return Proposal("sos", res.level, o.safety_factor, sos=res)
+
+
+def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
+    """The SOS level of a polynomial system whose V and V' split over independent blocks of
+    variables (:func:`roa.search.sos_bisection.block_levels`: bisection per distinct block, the
+    least level), as an ``SOSResult``; None when the data are not polynomial or do not split
+    (then the one program of :func:`roa.search.sos.sos_level` is used)."""
+    from roa.proof.sos_blocks import blocks
+    from roa.proof.sos_check import NotPolynomial, exact_data
+    from roa.search.sos import SOSResult
+    from roa.search.sos_bisection import block_levels
+
+    if system.equilibrium is None or system.time_varying:
+        return None
+    try:
+        data = exact_data(system, V)
+    except NotPolynomial:
+        return None
+    parts = blocks(data)
+    if len(parts) < 2:
+        return None
+    with step(f"SOS level by bisection over {len(parts)} independent blocks of variables"):
+        bl = block_levels(data, solver_options=o.solver_options())
+    sizes = {**bl.sizes, "programs": bl.programs}
+    if bl.level is None:
+        return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds, "none (polynomial)",
+                         sizes, f"SOS bisection over independent blocks: {bl.message}")  # fmt: skip
+    return SOSResult(SosStatus.SOLVED, bl.level, "bisection", bl.seconds, "none (polynomial)",
+                     sizes, f"least of {len(parts)} block levels (bisection)")  # fmt: skip
 
 
 @dataclass(frozen=True)

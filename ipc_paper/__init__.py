@@ -25,5 +25,6 @@ STUDY = Study(
     systems={
         "ipc": "ipc_paper.system:closed_loop",
         "ipc-flat": "ipc_paper.system:transformed",
+        "ipc-flat-uncertain": "ipc_paper.system:transformed_uncertain",
     },
 )

@@ -38,6 +38,7 @@ from roa.lyapunov import (
     default_lyapunov,
 )
 from roa.montecarlo.basin import BasinResult, basin
+from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
 from roa.options import (
     CasadiOptions,
@@ -64,6 +65,7 @@ from roa.systems import load_system
 
 __all__ = [
     "BasinResult",
+    "RobustBasinResult",
     "CandidateLevel",
     "CuttingPlanes",
     "GivenLevel",
@@ -101,6 +103,7 @@ __all__ = [
     "Trajectory",
     "Verdict",
     "basin",
+    "parameter_samples",
     "box_sample",
     "certify",
     "default_lyapunov",

@@ -82,6 +82,26 @@ def _check_autonomous(system: System, X: np.ndarray, F0: np.ndarray) -> None:
             )
 
 
+#: Interior points per uncertain parameter where the equilibrium and linearisation are checked.
+BOX_POINTS_PER_AXIS = 3
+
+
+def _check_box(system: System, analysis: bool) -> None:
+    """The equilibrium stays one, inside the domain, with a stable linearisation, at the sample
+    points of the parameter box (its vertices, nominal value and a few points along each axis);
+    an error names the parameter values where it fails. (Proofs check the equilibrium exactly
+    over the whole box, :func:`roa.proof.exact.exact_equilibrium`.)"""
+    from roa.parameters import describe_point, sample_points
+
+    for p in sample_points(system, per_axis=BOX_POINTS_PER_AXIS):
+        try:
+            check_system(system.at(**p), analysis=analysis)
+        except RoaInputError as exc:
+            raise type(exc)(
+                f"for the parameter values {describe_point(p)} of the box of {system.name!r}: {exc}"
+            ) from None
+
+
 @functools.lru_cache(maxsize=64)
 def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
     """Check ``system`` at its equilibrium; with ``analysis`` also classify its linearisation.
@@ -133,6 +153,8 @@ def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
             f"system {system.name!r}: equilibrium {x_eq.tolist()} lies outside the domain "
             f"({system.domain_description}): margin(x_eq) must be > 0"
         )
+    if system.parameters:
+        _check_box(system, analysis)
     if not analysis:
         return SystemCheck(residual, scale, None)
     lin = linearise(system)

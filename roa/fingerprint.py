@@ -66,6 +66,8 @@ def system_fingerprint(system: System) -> str:
         "field": _rounded(F),
         "margin": margin,
     }
+    if system.parameters:  # the box a robust certificate holds for (absent: one parameter value)
+        data["parameters"] = {k: [float(v) for v in r] for k, r in system.parameters.items()}
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()
 
 
@@ -157,6 +159,8 @@ def system_identity(system: System) -> str | None:
             "field": _identity(system.field),
             "margin": _identity(system.margin),
         }
+        if system.parameters:
+            data["parameters"] = {k: [float(v) for v in r] for k, r in system.parameters.items()}
     except (_Unidentified, OSError, TypeError, ValueError):
         return None
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()

@@ -253,6 +253,9 @@ def level_search(
         raise RoaInputError(
             f"system {system.name!r} has no equilibrium (time-varying): no level-set search"
         )
+    if system.parameters:
+        return _worst_over_box(system, V, shape=shape, method=method, sampled=sampled,
+                               casadi=casadi)  # fmt: skip
     notes = check_system(system, analysis=True).notes
     lyap = as_lyapunov(system, V)
     S, name = shape_matrix(system, lyap, shape)
@@ -276,6 +279,36 @@ def level_search(
     if method != "both":
         return runs[0]
     return _combine(runs, keep)
+
+
+def _rank(res: LevelSearchResult) -> float:
+    """Order of results from the worst: no level because V' is not negative near the
+    equilibrium (or the search failed) below any level, an unbounded search above any."""
+    if res.level is not None:
+        return float(res.level)
+    return np.inf if res.status is LevelStatus.UNBOUNDED else -np.inf
+
+
+def _worst_over_box(system: System, V: Any, **kw: Any) -> LevelSearchResult:
+    """The search at each sample point of an uncertain system's parameter box (nominal value,
+    vertices; :func:`roa.parameters.sample_points`), the lowest level reported with the
+    parameter values it was found at (``details["parameters"]``) and every point's level
+    (``details["per_parameter"]``). A proposal: nothing is searched between the points."""
+    from roa.parameters import describe_point, sample_points
+
+    check_system(system, analysis=True)  # the box's sample points, with their parameter values
+    rows, best, best_p = [], None, None
+    for p in sample_points(system):
+        res = level_search(system.at(**p), V, **kw)
+        rows.append({"parameters": p, "status": res.status.value, "level": res.level})
+        if best is None or _rank(res) < _rank(best):
+            best, best_p = res, p
+    assert best is not None and best_p is not None
+    note = (f"worst of {len(rows)} sample points of the parameter box at "
+            f"{describe_point(best_p)} (nominal value and vertices; not a bound between them)")  # fmt: skip
+    details = {**best.details, "parameters": best_p, "per_parameter": rows}
+    return dataclasses.replace(best, message=f"{best.message}; {note}".lstrip("; "),
+                               details=details, system=system)  # fmt: skip
 
 
 def _combine(runs: list[LevelSearchResult], keep: dict[str, Any]) -> LevelSearchResult:

@@ -151,6 +151,14 @@ def simulate(
         )
     from roa.checks import check_system
 
+    if system.parameters:
+        box = ", ".join(f"{k} in [{r.low:g}, {r.high:g}]" for k, r in system.parameters.items())
+        first = next(iter(system.parameters))
+        raise RoaInputError(
+            f"system {system.name!r} has uncertain parameters ({box}): a trajectory needs one "
+            f"value of each; simulate system.at({first}=...) or system.nominal() (CLI: --param "
+            f"{first}=VALUE)"
+        )
     check_system(system)
     traj = _integrate(system, x0, rules, dict(rtol=rtol, atol=atol, method=method,
                                               t_eval=t_eval, max_step=max_step),

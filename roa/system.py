@@ -3,6 +3,12 @@
 A field is ``field(t, x, xp)``, or ``field(t, x, xp, p)`` for a system that declares parameters
 (``params``: name -> value; ``p`` is a read-only mapping with attribute access, ``p.mu`` or
 ``p["mu"]``). :meth:`System.with_params` gives the same system with other parameter values.
+
+A parameter known only to lie in a range is declared in ``parameters`` (name ->
+``(low, nominal, high)``): the system then stands for the whole family, ``p`` holds the nominal
+values where one value is needed (simulation), :meth:`System.at` fixes values and
+:meth:`System.nominal` fixes them all at their nominal values. Analyses that prove (``roa.certify``)
+hold for every parameter in the box.
 """
 
 from __future__ import annotations
@@ -10,7 +16,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -22,6 +28,39 @@ Margin = Callable[[Any, Any], Any]
 
 #: Keys of ``meta`` that older systems used for what are now typed fields.
 _TYPED_META = ("numba", "numba_fast", "analysis_coords")
+
+
+class Uncertain(NamedTuple):
+    """The range of an uncertain parameter: ``low <= nominal <= high``."""
+
+    low: float
+    nominal: float
+    high: float
+
+    @property
+    def width(self) -> float:
+        return self.high - self.low
+
+
+def _uncertain(name: str, value: Any) -> Uncertain:
+    """``value`` as the range of parameter ``name``, or an error naming it and the rule."""
+    try:
+        low, nominal, high = (float(v) for v in value)
+        ok = all(not isinstance(v, bool) and isinstance(v, int | float | np.floating)
+                 for v in value)  # fmt: skip
+    except (TypeError, ValueError):
+        ok = False
+    if not ok or not all(np.isfinite(v) for v in (low, nominal, high)):
+        raise RoaInputError(
+            f"System.parameters[{name!r}] must be three finite numbers (low, nominal, high), "
+            f"got {value!r}"
+        )
+    if not low <= nominal <= high or not low < high:
+        raise RoaInputError(
+            f"System.parameters[{name!r}] needs low <= nominal <= high and low < high, got "
+            f"({low!r}, {nominal!r}, {high!r})"
+        )
+    return Uncertain(low, nominal, high)
 
 
 class Params(Mapping[str, float]):
@@ -109,9 +148,17 @@ class System:
         ``"ball"`` shape of :func:`roa.level_search` (default: the identity).
     params : mapping, optional
         Declared parameters (name -> float): the field is then ``field(t, x, xp, p)``.
+    parameters : mapping, optional
+        Uncertain parameters (name -> ``(low, nominal, high)``, ``low < high``): the field is
+        ``field(t, x, xp, p)`` with ``p`` holding every parameter (the nominal values of these).
+        Proofs hold for the whole box; :meth:`at` fixes values.
     numba : callable, optional
         Factory of the batch integrator's compiled field (``() -> (field, margin, params)``,
-        the cfunc protocol of :mod:`roa.montecarlo.integrator`).
+        the cfunc protocol of :mod:`roa.montecarlo.integrator`), for this system's parameter
+        values: :meth:`at`, :meth:`with_params` and :meth:`with_ranges` rebuild it for other values
+        with ``factory.with_params(values)`` when it has that method, else drop it (the numpy
+        backend then runs). ``dataclasses.replace(system, params=...)`` does neither: use those
+        methods.
     numba_fast : callable, optional
         Factory of the njit fast path of the same field (:mod:`roa.montecarlo.integrator`).
     analysis_coords : object, optional
@@ -133,7 +180,8 @@ class System:
     time_varying: bool = False
     lyapunov: Any = None  # stored as a tuple of rows
     norm: Any = None  # stored as a tuple of rows
-    params: Any = None  # stored as Params
+    params: Any = None  # stored as Params (nominal values of the uncertain ones included)
+    parameters: Any = None  # stored as a read-only mapping name -> Uncertain (None: none)
     numba: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     numba_fast: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     analysis_coords: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
@@ -160,6 +208,37 @@ class System:
 
     def _bind_params(self) -> None:
         func = self.field.func if isinstance(self.field, BoundField) else self.field
+        if self.parameters is not None:
+            if not isinstance(self.parameters, Mapping) or not self.parameters:
+                raise RoaInputError(
+                    "System.parameters must be a non-empty mapping name -> (low, nominal, high), "
+                    f"got {self.parameters!r}"
+                )
+            box = {}
+            for key, value in self.parameters.items():
+                if not isinstance(key, str) or not key.isidentifier():
+                    raise RoaInputError(
+                        f"System.parameters: names must be identifiers, got {key!r}"
+                    )
+                box[key] = _uncertain(key, value)
+            fixed = dict(self.params or {})
+            for key, rng in box.items():
+                if key in fixed and isinstance(self.params, Params):
+                    # re-bound (dataclasses.replace): a value inside the range is the nominal
+                    if not rng.low <= fixed[key] <= rng.high:
+                        raise RoaInputError(
+                            f"parameter {key!r} = {fixed[key]!r} is outside its range "
+                            f"[{rng.low!r}, {rng.high!r}]"
+                        )
+                    box[key] = Uncertain(rng.low, float(fixed[key]), rng.high)
+                elif key in fixed:
+                    raise RoaInputError(
+                        f"parameter {key!r} is declared both fixed (params) and uncertain "
+                        "(parameters): declare it once"
+                    )
+                fixed[key] = box[key].nominal
+            object.__setattr__(self, "parameters", Params(box))
+            object.__setattr__(self, "params", fixed)
         if self.params is None:
             if func is not self.field:
                 object.__setattr__(self, "field", func)
@@ -181,8 +260,68 @@ class System:
         object.__setattr__(self, "params", bound)
         object.__setattr__(self, "field", BoundField(func, bound))
 
+    @property
+    def uncertain(self) -> tuple[str, ...]:
+        """Names of the uncertain parameters (empty for a system with fixed parameters only)."""
+        return tuple(self.parameters or ())
+
+    def at(self, **values: float) -> System:
+        """The same system with the uncertain parameters ``values`` fixed (each inside its range;
+        the others stay uncertain)."""
+        box = dict(self.parameters or {})
+        for key, value in values.items():
+            if key not in box:
+                raise RoaInputError(
+                    f"system {self.name!r} has no uncertain parameter {key!r} "
+                    f"(uncertain: {', '.join(box) or 'none'})"
+                )
+            rng = box[key]
+            if (
+                isinstance(value, bool)
+                or not isinstance(value, int | float | np.floating)
+                or not rng.low <= value <= rng.high
+            ):
+                raise RoaInputError(
+                    f"parameter {key!r} must be a number in [{rng.low!r}, {rng.high!r}], "
+                    f"got {value!r}"
+                )
+        rest = {k: v for k, v in box.items() if k not in values}
+        params = {k: v for k, v in (self.params or {}).items() if k not in rest}
+        params.update({k: float(v) for k, v in values.items()})
+        return self._rekernel(dataclasses.replace(self, params=params, parameters=rest or None))
+
+    def with_ranges(self, **ranges: Sequence[float]) -> System:
+        """The same system with declared parameters made uncertain: ``name=(low, high)`` (the
+        nominal value is the parameter's current one, which must lie in the range) or
+        ``name=(low, nominal, high)``."""
+        declared = dict(self.params or {})
+        box = {k: tuple(r) for k, r in (self.parameters or {}).items()}
+        for key, rng in ranges.items():
+            if key not in declared:
+                raise RoaInputError(
+                    f"system {self.name!r} has no parameter {key!r} "
+                    f"(declared: {', '.join(sorted(declared)) or 'none'})"
+                )
+            values = tuple(rng)
+            if len(values) == 2:
+                values = (values[0], declared[key], values[1])
+            box[key] = values
+        params = {k: v for k, v in declared.items() if k not in box}
+        return self._rekernel(dataclasses.replace(self, params=params or None, parameters=box))
+
+    def nominal(self) -> System:
+        """The system with every uncertain parameter fixed at its nominal value."""
+        box = self.parameters or {}
+        return self.at(**{k: r.nominal for k, r in box.items()}) if box else self
+
     def with_params(self, **values: float) -> System:
         """The same system with some parameters set to other values (names must be declared)."""
+        held = sorted(set(values) & set(self.uncertain))
+        if held:
+            raise RoaInputError(
+                f"parameter {held[0]!r} of {self.name!r} is uncertain: fix it with "
+                f"System.at({held[0]}=...) (a value in its range)"
+            )
         if self.params is None:
             raise RoaInputError(f"system {self.name!r} declares no parameters")
         unknown = sorted(set(values) - set(self.params))
@@ -191,7 +330,26 @@ class System:
                 f"system {self.name!r} has no parameter {unknown[0]!r} "
                 f"(declared: {', '.join(sorted(self.params))})"
             )
-        return dataclasses.replace(self, params={**self.params, **values})
+        return self._rekernel(dataclasses.replace(self, params={**self.params, **values}))
+
+    def _rekernel(self, other: System) -> System:
+        """``other`` (this system with other parameter values) with compiled-field factories
+        that are for *its* values.
+
+        A factory (``numba``, ``numba_fast``) is built for the parameter values of the system it
+        came with. When the values change, a factory that can be rebuilt for them
+        (``factory.with_params(values) -> factory``, ``values`` every parameter by name) is
+        rebuilt; any other is dropped, so the batch integrator falls back to the numpy backend
+        rather than integrate the field of other parameter values.
+        """
+        if dict(other.params or {}) == dict(self.params or {}):
+            return other
+        values = dict(other.params or {})
+        kernels: list[Any] = []
+        for factory in (other.numba, other.numba_fast):
+            rebuild = getattr(factory, "with_params", None)
+            kernels.append(rebuild(values) if callable(rebuild) else None)
+        return dataclasses.replace(other, numba=kernels[0], numba_fast=kernels[1])
 
     @property
     def n(self) -> int:

@@ -184,7 +184,12 @@ def test_library_does_not_special_case_the_ipc():
     from roa.systems import BUILTIN, builtin_names
 
     assert set(BUILTIN) == {"vanderpol"}
-    assert builtin_names() == {"vanderpol": None, "ipc": "ipc", "ipc-flat": "ipc"}
+    assert builtin_names() == {
+        "vanderpol": None,
+        "ipc": "ipc",
+        "ipc-flat": "ipc",
+        "ipc-flat-uncertain": "ipc",
+    }
 
 
 def test_cli_reports_each_long_step_on_stderr_and_the_library_stays_silent(capsys):

@@ -8,8 +8,10 @@
   solve_ivp baseline's;
 * bench_scale.py (two rungs of its ladder): each level certified at >= 0.99 x the optimum found
   independently (multistart SLSQP), below a point refuting it (V' >= 0 at 50 digits, V at most
-  1.001 x the optimum), and the branch and bound agrees on the same level.
-Their speed figures are for an idle machine and are not asserted. All three are slow (15-40 s
+  1.001 x the optimum), and the branch and bound agrees on the same level;
+* bench_robust.py --quick: no robust level above the independent worst case, Van der Pol's within
+  1 % of it (the same target is in the fast suite, tests/test_robust.py).
+Their speed figures are for an idle machine and are not asserted. All five are slow (15-40 s
 each, numba compilation included): ``pytest -m slow``; the default run covers the engine against
 solve_ivp in tests/test_montecarlo.py.
 """
@@ -55,3 +57,13 @@ def test_scale_ladder_quick_rungs_hold():
     out = _run("bench_scale.py", "--only", "vanderpol", "poly3d")
     assert "all ladder checks hold" in out
     assert out.count("certified, ") == 2  # the branch and bound's column, one per rung
+
+
+@pytest.mark.slow
+def test_robust_benchmark_checks_hold():
+    """bench_robust.py --quick: no robust level above the independent worst case, Van der Pol's
+    within 1 %, the naive grid's minimum of the poly case (vertices only) refuted for the box."""
+    out = _run("bench_robust.py", "--quick")
+    lines = [ln for ln in out.splitlines() if ln.startswith(("vdp", "poly"))]
+    assert len(lines) == 2 and "FAILED" not in out
+    assert lines[1].split()[-1] == "refuted"

@@ -127,16 +127,20 @@ def test_tampered_certificates_are_refused():
     assert not r.ok
 
 
-def test_non_polynomial_fields_are_refused():
-    system = roa.System("pendulum", lambda t, x, xp: (x[1], -xp.sin(x[0]) - x[1]), (0.0, 0.0),
+def test_fields_that_cannot_be_recast_are_refused_or_fall_back():
+    """exp is not recast: with ``fallback=False`` the SOS validator refuses the system, naming
+    the term; by default the branch and bound decides (method ``interval``)."""
+    system = roa.System("exp", lambda t, x, xp: (x[1], -(xp.exp(x[0]) - 1) - x[1]), (0.0, 0.0),
                         ("a", "b"))  # fmt: skip
     V = QuadraticLyapunov([[1.5, 0.5], [0.5, 1.0]], [0.0, 0.0])
-    v = roa.SosValidator()
-    assert not v.accepts(system, V)
-    res = v.check(system, V, 0.5)
-    assert res.status is roa.Verdict.INCONCLUSIVE and "not polynomial" in res.message
+    strict = roa.SosValidator(fallback=False)
+    assert not strict.accepts(system, V)
+    res = strict.check(system, V, 0.05)
+    assert res.status is roa.Verdict.INCONCLUSIVE and "exp(d0)" in res.message
     with pytest.raises(roa.RoaInputError, match="does not accept"):
-        roa.certify(system, V, level=0.5, validator=v)
+        roa.certify(system, V, level=0.05, validator=strict)
+    cert = roa.certify(system, V, level=0.05, validator=roa.SosValidator())
+    assert cert.method == "interval" and "exp(d0)" in cert.message
 
 
 def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(

@@ -231,6 +231,68 @@ def transformed(
     )
 
 
+def transformed_uncertain(
+    *,
+    delta_low: float = 0.5,
+    delta_high: float = 2.0,
+    delta: float = DEFAULT_DELTA,
+    gains: Gains | None = None,
+    saturation: float | None = None,
+) -> System:
+    """The flat closed loop when the plant's mass ratio differs from the controller's design.
+
+    The controller is designed with mass ratio ``delta`` (nominal, default 1); the real plant's
+    ratio ``delta_plant`` is an uncertain parameter in ``[delta_low, delta_high]``. The coordinate
+    map (2.2) does not involve the mass ratio, so the loop is still written in ``(z1, z2, w1, w2)``:
+    the law (2.5) computes ``u = (a_c - v) / phi1_c`` with the design's ``a_c = phi2(w1, delta) +
+    w2^2 phi3(w1, delta)`` and ``phi1_c = phi1(w1, delta)``, and the plant answers with
+    ``w2' = a_p - phi1_p u`` (its own ``a_p``, ``phi1_p`` at ``delta_plant``; the same identity as
+    :func:`transformed`'s saturated loop), so ``w2' = v`` exactly when ``delta_plant = delta``.
+    ``saturation`` clips ``u`` as there. Carries the paper's V and ball (default gains).
+    """
+    gains, _ = _settings(gains, None)
+    sat = _saturation(saturation)
+    delta = check_delta(delta)
+    lo, hi = check_delta(delta_low), check_delta(delta_high)
+    if not lo <= delta <= hi or not lo < hi:
+        raise RoaInputError(
+            f"delta_low < delta_high with the design delta = {delta} between them, got "
+            f"[{delta_low}, {delta_high}]"
+        )
+    zero = make_reference(None)
+
+    def field(t: Any, x: Any, xp: Any, p: Any) -> tuple:
+        z1, z2, w1, w2 = x[0], x[1], x[2], x[3]
+        v = virtual_input(t, (z1, z2, w1, w2), gains, zero)
+        a_c = phi2(w1, delta, xp) + w2 * w2 * phi3(w1, delta, xp)
+        u = (a_c - v) / phi1(w1, delta, xp)
+        if sat is not None:
+            u = _saturate(u, sat, xp)
+        dp = p.delta_plant
+        a_p = phi2(w1, dp, xp) + w2 * w2 * phi3(w1, dp, xp)
+        return (z2, w1 + phi0(w1, xp) * w2 * w2, w2, a_p - phi1(w1, dp, xp) * u)
+
+    paper_v = np.allclose(gains.h, Gains.default().h)
+    from ipc_paper.system.lyapunov import P_Q, T
+
+    return System(
+        name="ipc_flat_uncertain" if sat is None else "ipc_flat_uncertain_saturated",
+        field=field,
+        equilibrium=(0.0, 0.0, 0.0, 0.0),
+        lyapunov=T.T @ P_Q @ T if paper_v else None,
+        norm=T.T @ T if paper_v else None,
+        state_names=FLAT_NAMES,
+        state_units=("-", "1/s", "-", "1/s"),
+        domain_description="R^4 (w1 = tan(theta) covers |theta| < pi/2)",
+        parameters={"delta_plant": (lo, delta, hi)},
+        meta={
+            "gains": gains.h,
+            "design_delta": delta,
+            **({} if sat is None else {"saturation": sat}),
+        },  # fmt: skip
+    )
+
+
 def _kernels(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
     """The System fields ``numba`` and ``numba_fast`` (factories) for the batch integrator (zero reference only;
     the public array signatures and the pointer-only fast path, see fast.py), and for the

@@ -39,6 +39,7 @@ from roa.certification.strategies import (
     SosLevel,
     Validator,
     VsIteration,
+    WorstCase,
 )
 from roa.checks import check_system
 from roa.errors import RoaInputError
@@ -235,6 +236,9 @@ def run(
         return Certificate(seconds=time.perf_counter() - t0, system=system, V=V,
                            trace=tuple(trace), **kw)  # fmt: skip
 
+    if system.parameters:  # levels proposed at the box's sample points, the lowest first
+        proposers = [p if isinstance(p, GivenLevel | CandidateLevel | WorstCase) else WorstCase(p)
+                     for p in proposers]  # fmt: skip
     prop, sos_res, skipped = _propose(system, V, proposers, trace)
     if prop.final:
         return done(status=Verdict.INCONCLUSIVE, level=prop.candidate, method="sos",
@@ -255,7 +259,7 @@ def run(
     value = prop.level if given or choose is None else level_for(opt)
     v = _validate(system, V, validator, value, trace, "validate")
     notes: list[str] = []
-    proof: tuple[Any, Any, float] | None = None  # a confirmed witness below the optimum
+    proof: tuple[Any, Any, float, Any] | None = None  # a confirmed witness below the optimum
     for _ in range(0 if given and not fresh else retries):
         w = v.witness
         confirmed = (v.witness_check or {}).get("confirmed")
@@ -263,11 +267,13 @@ def run(
             break
         from roa.proof.witness import lowest_confirmed_witness
 
-        bound, x, check = lowest_confirmed_witness(system, V, np.asarray(w, dtype=float))
+        wp = v.witness_parameters
+        at = system.at(**wp) if wp else system
+        bound, x, check = lowest_confirmed_witness(at, V, np.asarray(w, dtype=float))
         if not bound > 0 or x is None:  # only a point proved in the component bounds c*
             break
         if bound <= opt:
-            proof = (x, check, bound)  # refutes every level >= V(x)
+            proof = (x, check, bound, wp)  # refutes every level >= V(x)
         opt = min(opt, bound)
         new = min(level_for(opt), factor * opt) if choose is not None else factor * opt
         if not 0 < new < value:
@@ -288,10 +294,11 @@ def run(
         message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
                    f"sampled search, checked by interval validation. {message}")  # fmt: skip
     if given and not fresh:
-        return done(status=v.status, level=value, method=validator.name, level_source="given",
-                    message=message, validation=v, above=above, candidate=value)  # fmt: skip
+        return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
+                    level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
     source = "witness" if notes else prop.source
-    return done(status=v.status, level=value, method=validator.name, level_source=source,
+    return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
+                level_source=source,
                 message=message, candidate=opt,
                 safety_factor=None if choose is not None else factor, validation=v,
                 above=above, sos=sos_res, search=prop.search)  # fmt: skip
@@ -333,7 +340,7 @@ def _refute_above(
     V: Lyapunov,
     validator: Validator,
     top: float,
-    proof: tuple[Any, Any, float] | None,
+    proof: tuple[Any, Any, float, Any] | None,
     prop: Proposal,
     fresh: bool,
     trace: list[dict[str, Any]],
@@ -344,13 +351,16 @@ def _refute_above(
 
     if fresh and proof is None and prop.search is not None and prop.search.witness is not None:
         w = np.asarray(prop.search.witness, dtype=float)
-        val, x, check = lowest_confirmed_witness(system, V, w)
+        wp = prop.parameters if system.parameters else None
+        val, x, check = lowest_confirmed_witness(system.at(**wp) if wp else system, V, w)
         if x is not None and val * (1 + 1e-12) <= top:
-            proof = (x, check, val)
+            proof = (x, check, val, wp)
     if proof is not None and proof[2] * (1 + 1e-12) <= top:  # checked at V(x) (1 + 1e-12)
         how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
         trace.append({"stage": "refute above", "by": "witness", "level": top})
-        return refuted_by(proof[0], proof[1], top, how)
+        return refuted_by(proof[0], proof[1], top, how, parameters=proof[3])
+    if not getattr(validator, "refutes", True):  # an SOS check never refutes: the branch and
+        validator = IntervalValidator()  # bound looks for a witness (checked at 50 digits)
     if fresh and isinstance(validator, IntervalValidator) and validator.bounding_box is None:
         from roa.proof.cover import ray_box
 

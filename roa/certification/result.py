@@ -84,6 +84,9 @@ class Certificate:
         if self.system is not None:
             out["system"] = self.system.name
             out["system_fingerprint"] = system_fingerprint(self.system)
+            if self.system.parameters:  # the claim holds for every parameter of this box
+                out["parameters"] = {k: dict(r._asdict())
+                                     for k, r in self.system.parameters.items()}  # fmt: skip
         if self.V is not None:
             out.update(certificate_fields(self.V))
         if self.sos is not None:

@@ -16,6 +16,7 @@ Proposers and sources prove nothing; only a validator's verdict reaches ``certif
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -51,7 +52,9 @@ class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
     Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
-    V) is a box holding the level set, proved by ``V > level`` on its faces.
+    V) is a box holding the level set, proved by ``V > level`` on its faces. For a system with
+    uncertain parameters the level is proved for every parameter of the box
+    (:func:`roa.proof.robust.validate_robust`).
     """
 
     options: IntervalOptions = field(default_factory=IntervalOptions)
@@ -62,6 +65,13 @@ class IntervalValidator:
         return system.equilibrium is not None and not system.time_varying
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        if system.parameters:
+            from roa.proof.robust import validate_robust
+
+            with step(f"robust interval validation of level {level:.6g}"):
+                return validate_robust(system, V, level, max_boxes=self.options.max_boxes,
+                                       batch=self.options.batch,
+                                       bounding_box=self.bounding_box)  # fmt: skip
         with step(f"interval validation of level {level:.6g}"):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch,
@@ -70,15 +80,25 @@ class IntervalValidator:
 
 @dataclass(frozen=True)
 class SosValidator:
-    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial fields and V.
+    """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
 
     The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
     Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
     ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
-    reason). It never refutes. Its cost grows polynomially with the dimension (the Gram basis),
-    not exponentially as the branch and bound's boxes do. When ``V`` and ``V'`` split over
-    independent blocks of variables (:mod:`roa.proof.sos_blocks`: decoupled subsystems), each block
-    gets its own certificate at the same level, which proves the whole.
+    reason). It never refutes (the pipeline's refutation above uses the branch and bound). Its
+    cost grows polynomially with the dimension (the Gram basis), not exponentially as the branch
+    and bound's boxes do.
+
+    A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
+    (:mod:`roa.proof.recast`) and proved by a constrained certificate
+    (:mod:`roa.proof.sos_putinar`, proposed by :mod:`roa.search.sos_putinar`); a field that
+    cannot be recast (the term is named), or one with a domain, is decided by the interval branch
+    and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
+    inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
+
+    When ``V`` and ``V'`` of a polynomial field split over independent blocks of variables
+    (:mod:`roa.proof.sos_blocks`: decoupled subsystems), each block gets its own certificate at the
+    same level, which proves the whole.
 
     Examples
     --------
@@ -92,25 +112,46 @@ class SosValidator:
     eps: float = 1e-6  # x the largest coefficient of V's lowest-degree part
     solver_options: Any = None
     name: str = "sos-exact"
+    fallback: bool = True  # a field that cannot be recast goes to the branch and bound
+    taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
+    refutes: bool = False  # the pipeline refutes above with the branch and bound
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        from roa.proof.sos_check import NotPolynomial, exact_data
-
         if getattr(V, "terms", None) is None or system.equilibrium is None:
+            return False
+        if system.parameters:  # parameters as indeterminates: not yet
             return False
         if system.time_varying:
             return False
+        return self.fallback or self.recast_error(system, V) is None
+
+    @staticmethod
+    def recast_error(system: System, V: Lyapunov) -> str | None:
+        """None if the field is polynomial or can be recast exactly, else why not (naming the
+        term)."""
+        from roa.proof.recast import recast_exact
+        from roa.proof.sos_check import NotPolynomial, exact_data
+
         try:
             exact_data(system, V)
+            return None
         except NotPolynomial:
-            return False
-        return True
+            pass
+        if getattr(system, "margin", None) is not None:
+            return "the system has a domain (margin): the recast route does not bound it"
+        if getattr(system, "parameters", None):
+            return "the system has uncertain parameters: the SOS check proves one field"
+        try:
+            recast_exact(system, V, taylor=1)
+            return None
+        except NotPolynomial as exc:
+            return str(exc)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         import time
 
         from roa.proof.sos_blocks import blocks, restrict
-        from roa.proof.sos_check import check_certificate, preconditions
+        from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
 
         t0 = time.perf_counter()
@@ -119,6 +160,20 @@ class SosValidator:
             return Validation(status, float(level), 0, time.perf_counter() - t0,
                               message=message, meta={"method": self.name, **meta})  # fmt: skip
 
+        try:
+            if getattr(system, "parameters", None):
+                raise NotPolynomial("uncertain parameters")
+            exact_data(system, V)
+        except NotPolynomial:
+            why = self.recast_error(system, V)
+            if why is None:
+                return self._check_recast(system, V, level, out)
+            if not self.fallback:
+                return out(Verdict.INCONCLUSIVE, f"not polynomial, no exact recast: {why}")
+            v = IntervalValidator().check(system, V, level)  # robust for uncertain parameters
+            return dataclasses.replace(v, message=f"SOS not applicable ({why}); interval branch "
+                                       f"and bound: {v.message}",
+                                       meta={**v.meta, "method": "interval"})  # fmt: skip
         with step(f"SOS exact validation of level {level:.6g}"):
             data, why = preconditions(system, V, level)
             if data is None:
@@ -178,6 +233,35 @@ class SosValidator:
                        certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
                        **figures)  # fmt: skip
 
+    def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
+        """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
+        from roa.proof.recast import level_scale
+        from roa.proof.sos_putinar import check_putinar, recast_preconditions
+        from roa.search.sos_putinar import default_eps, propose_putinar
+
+        with step(f"SOS exact validation (recast field) of level {level:.6g}"):
+            scale = level_scale(V, level)
+            data, why = recast_preconditions(system, V, level, self.taylor, scale)
+            if data is None:
+                return out(Verdict.INCONCLUSIVE, why)
+            eps = default_eps(data, self.eps)
+            cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
+            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
+                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
+                       "sizes": cand.sizes, "recast": data.description}  # fmt: skip
+            if cand.blocks is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
+                           **figures)  # fmt: skip
+            res = check_putinar(data, level, eps, cand.blocks)
+            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
+            if not res.ok or res.blocks is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
+            cert = {"putinar": res.blocks.to_json(), "taylor": data.taylor,
+                    "scale": [str(r) for r in data.scale]}  # fmt: skip
+            return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
+                       f"checked exactly: {res.reason}", certificate=cert,
+                       M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+
 
 # -- level proposers --------------------------------------------------------------------------------
 @dataclass(frozen=True)
@@ -192,6 +276,7 @@ class Proposal:
     sos: Any = None
     search: LevelSearchResult | None = None
     final: bool = False  # a proposal that is the answer itself (SOS only, never certified)
+    parameters: dict[str, float] | None = None  # the parameter values it was found at
 
     @property
     def level(self) -> float | None:
@@ -306,7 +391,7 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     from roa.search.sos import SOSResult
     from roa.search.sos_bisection import block_levels
 
-    if system.equilibrium is None or system.time_varying:
+    if system.equilibrium is None or system.time_varying or getattr(system, "parameters", None):
         return None
     try:
         data = exact_data(system, V)
@@ -344,6 +429,36 @@ class SampledLevel:
                 msg += "; give level= to validate a level of your choice"
             return Proposal("sampled", None, None, msg, search=search)
         return Proposal("sampled", float(search.level), self.safety, search=search)
+
+
+@dataclass(frozen=True)
+class WorstCase:
+    """A proposer run at each sample point of an uncertain system's parameter box
+    (:func:`roa.parameters.sample_points`: nominal value and vertices); the lowest level wins.
+    A proposal only: the robust validator decides for every parameter of the box."""
+
+    inner: LevelProposer
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return self.inner.accepts(system.nominal(), V)
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        from roa.parameters import describe_point, sample_points
+
+        best: Proposal | None = None
+        for p in sample_points(system):
+            prop = dataclasses.replace(self.inner.propose(system.at(**p), V), parameters=p)
+            if prop.level is None:
+                if prop.final or best is None:
+                    best = best or prop
+                continue
+            if best is None or best.level is None or prop.level < best.level:
+                best = prop
+        assert best is not None
+        if best.level is not None and best.parameters is not None:
+            note = f"lowest over the box's sample points at {describe_point(best.parameters)}"
+            best = dataclasses.replace(best, message=f"{best.message}; {note}".lstrip("; "))
+        return best
 
 
 # -- sources of V ------------------------------------------------------------------------------------

@@ -6,13 +6,16 @@ import argparse
 import itertools
 import re
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
+from roa.montecarlo.robust_basin import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
 from roa.montecarlo.sampling import GridSlice
+from roa.parameters import ParameterBox, describe_point
 from roa.system import System
 
 EPILOG = """examples:
@@ -20,6 +23,14 @@ EPILOG = """examples:
   roa basin --system ipc:saturation=2 --slice q,theta --grid 100x100 --fix theta_dot=0.5 --json
   roa basin --system ipc --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
   roa basin --system ipc --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
+  roa basin --system vanderpol --param mu=0.8..1.2 --param-samples 8 --slice x1,x2 --grid 80x80 --box x1=-3:3,x2=-3:3 --terminal-set cert.json --plot robust.png
+
+For a system with uncertain parameters (--param NAME=LOW..HIGH, or declared by the system) every
+initial state is run at each parameter sample (the nominal values, the box's vertices and
+--param-samples seeded uniform samples, seed --seed); the JSON keeps every sample's counts per
+status, and the maps derived from them: the converged share per initial state and the worst case
+(converged for every sampled value; nothing is claimed between samples). --nominal: the nominal
+values only.
 """
 
 
@@ -79,6 +90,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "coordinates, e.g. ipc-flat for ipc; quadratic V, or polynomial with --degree): runs "
         "entering {V <= level} stop as converged",
     )
+    p.add_argument(
+        "--param-samples", type=int, default=None, metavar="N",
+        help="for a system with uncertain parameters: seeded uniform samples of the parameter box "
+        f"on top of the nominal values and the vertices, in [0, {MAX_PARAM_SAMPLES}] (default "
+        f"{DEFAULT_PARAM_SAMPLES}; seed --seed)",
+    )  # fmt: skip
+    p.add_argument("--nominal", action="store_true",
+                   help="for a system with uncertain parameters: run at their nominal values only")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.set_defaults(func=run)
 
@@ -138,6 +157,23 @@ def build(args: argparse.Namespace):
     from roa.status import StopRules
 
     system = C.system(args)
+    if getattr(args, "nominal", False):
+        system = system.nominal()
+    if system.parameters:
+        if args.param_samples is None:
+            args.param_samples = DEFAULT_PARAM_SAMPLES
+        n = args.param_samples
+        if not 0 <= n <= MAX_PARAM_SAMPLES:
+            raise RoaInputError(
+                f"--param-samples must be an integer in [0, {MAX_PARAM_SAMPLES}], got {n!r}"
+            )
+        if not 0 <= args.seed < 2**63:
+            raise RoaInputError(f"--seed must be an integer in [0, 2^63), got {args.seed}")
+    elif args.param_samples is not None:
+        raise RoaInputError(
+            "--param-samples applies to a system with uncertain parameters (--param "
+            f"NAME=LOW..HIGH); {args.system} has none" + (" with --nominal" if args.nominal else "")
+        )
     if system.equilibrium is None or system.time_varying:
         raise RoaInputError(
             f"--system {args.system}: basins need an autonomous system with an equilibrium"
@@ -229,6 +265,8 @@ def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
         status = verdict.status.value
         reg = Region.from_lyapunov(f"V <= {rho:g} ({V.name})", V, rho, status)
         label = f"{V.name}: {kind_text(reg)} V <= {rho:g} [{status}]"
+        if system.parameters:  # roa.certify decided it for every parameter of the box
+            label += " for every parameter of the box"
         out.append(Region.from_lyapunov(reg.name, V, rho, status, None, {"label": label}))
     return out
 
@@ -254,7 +292,8 @@ def _check_out_dir(out: str | None) -> None:
             f"--out {out}: this directory holds the results of an experiment (manifest.json); "
             "roa basin would overwrite them: choose another --out directory"
         )
-    if d.is_dir() and any(d.iterdir()) and not (d / "chunks").is_dir():
+    robust = (d / "parameter_samples.json").is_file()  # a robust run: param_NNN/chunks
+    if d.is_dir() and any(d.iterdir()) and not (d / "chunks").is_dir() and not robust:
         raise RoaInputError(
             f"--out {out}: the directory exists and is not a roa basin run (no chunks/): choose an "
             "empty or new directory"
@@ -293,6 +332,9 @@ def run(args: argparse.Namespace) -> int:
         {"IntegratorOptions.rtol": "--rtol", "IntegratorOptions.atol": "--atol",
          "RunOptions.chunk_size": "--chunk-size", "RunOptions.n_jobs": "--jobs"},
     )  # fmt: skip
+    if system.parameters:
+        return _run_robust(args, system, sampler, rules, integrator, run_opts, terminal, regs,
+                           plot)  # fmt: skip
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
                        terminal=terminal, regions=regs if plot else ())  # fmt: skip
     summary = result.to_dict()
@@ -312,4 +354,39 @@ def run(args: argparse.Namespace) -> int:
         print(f"fraction converged {summary['fraction_converged']:.4f} (95 % CI {lo:.4f}-{hi:.4f})")
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
+    return 0
+
+
+def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: Any,
+                integrator: Any, run_opts: Any, terminal: Any, regs: list, plot: str | None
+                ) -> int:  # fmt: skip
+    """``roa basin`` on a system with uncertain parameters (:mod:`roa.montecarlo.robust_basin`)."""
+    from roa.montecarlo.robust_basin import robust_basin
+
+    result = robust_basin(system, sampler, param_samples=args.param_samples, param_seed=args.seed,
+                          rules=rules, integrator=integrator, run=run_opts, terminal=terminal,
+                          regions=regs if plot else ())  # fmt: skip
+    summary = result.to_dict()
+    if plot:
+        result.plot(plot, title=f"robust basin of {args.system}")
+    if args.out:
+        atomic_write_json(Path(args.out) / "summary.json", summary)
+    if args.json:
+        print(to_json(summary))
+        return 0
+    print(f"n = {summary['n']} initial states x {len(result.samples)} parameter samples "
+          f"({ParameterBox.of(system).describe()})")  # fmt: skip
+    for entry in summary["per_parameter"]:
+        c = entry["counts"]
+        print(
+            f"  {entry['kind']:8s} {describe_point(entry['parameters'])}: "
+            + ", ".join(f"{k} {v}" for k, v in c.items())
+        )
+    w = summary["worst_case"]
+    lo, hi = w["fraction_ci95"]
+    print(f"converged for every sampled parameter value: {w['converged']} "
+          f"({w['fraction']:.4f}, 95 % CI {lo:.4f}-{hi:.4f}); mean converged share "
+          f"{summary['converged_share']['mean']:.4f}")  # fmt: skip
+    if terminal is not None:
+        print(f"terminal set (proved for the whole box): {terminal.name}")
     return 0

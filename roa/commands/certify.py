@@ -21,7 +21,10 @@ def register(sub: argparse._SubParsersAction) -> None:
             "(the default, --maximise), a candidate level is found first -- by the SOS program "
             f"(validated at {sos.safety_factor} x its level) and/or the sampled level search "
             f"(validated at {itv.sampled_safety} x the sampled optimum) -- and then validated. "
-            "Only an interval validation gives status 'certified'. Exit code 0 iff certified."
+            "Only an interval validation gives status 'certified'. Exit code 0 iff certified. "
+            "For a system with uncertain parameters (--param NAME=LOW..HIGH, or declared by the "
+            "system) the level holds for every parameter of the box (--nominal: the nominal "
+            "values only); a refutation names the parameter values of its witness."
         ),
     )
     C.add_system(p, lyapunov=True)
@@ -53,6 +56,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--budget", type=float, default=VsOptions().budget, metavar="SEC",
                    help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
+    p.add_argument("--nominal", action="store_true",
+                   help="for a system with uncertain parameters: certify at their nominal values "
+                   "only (default: for every parameter of the box)")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object (default: text)")
     p.set_defaults(func=run)
 
@@ -76,6 +82,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
     if args.check_above is not None and not args.check_above > 1:
         raise RoaInputError(f"--check-above must be a finite number > 1, got {args.check_above}")
     system = C.system(args)
+    if args.nominal:
+        system = system.nominal()
     V = C.lyapunov(args, system)
     if args.degree is not None:
         if args.level is not None or args.method is not None:
@@ -96,6 +104,10 @@ def run(args: argparse.Namespace) -> int:
         C.emit(args, out)
         return 0 if cert.certified else 1
     print(f"{out.get('system')}: V = {out.get('lyapunov')}")
+    if "parameters" in out:
+        box = ", ".join(f"{k} in [{r['low']:.6g}, {r['high']:.6g}]"
+                        for k, r in out["parameters"].items())  # fmt: skip
+        print(f"  for every parameter of the box: {box}")
     if cert.sos is not None:
         s = cert.sos
         print(f"  SOS: {s.status.value} (solver {s.solver_status}), level {C.fmt(s.level)}, "
@@ -115,6 +127,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"  {cert.message}")
     if v is not None and v.witness is not None:
         print(f"  witness: {v.witness}  ({v.witness_check})")
+        if v.witness_parameters:
+            print(f"  witness parameters: {v.witness_parameters}")
     if cert.above is not None:
         print(f"  above: {cert.above.status.value} at {C.fmt(cert.above.level)}")
     return 0 if cert.certified else 1

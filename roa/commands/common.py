@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
@@ -45,6 +46,16 @@ def add_system(p: argparse.ArgumentParser, *, lyapunov: bool = False) -> None:
         metavar="SYSTEM",
         help=SYSTEM_HELP.format(builtins=describe_builtins()),
     )
+    p.add_argument(
+        "--param",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE|LOW..HIGH",
+        help="set a parameter of the system (repeatable): NAME=VALUE fixes it (an uncertain one "
+        "inside its range), NAME=LOW..HIGH makes it uncertain over that range (nominal: its "
+        "current value; LOW..NOMINAL..HIGH to choose it); analyses that prove then hold for "
+        "every value of the range",
+    )
     if lyapunov:
         p.add_argument("--lyapunov", default=None, metavar="FILE", help=LYAPUNOV_HELP)
 
@@ -64,7 +75,48 @@ class Parser(argparse.ArgumentParser):
 def system(args: argparse.Namespace) -> Any:
     from roa.systems import load_system
 
-    return load_system(args.system)
+    return with_param_options(load_system(args.system), getattr(args, "param", None) or [])
+
+
+def _number(text: str, where: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise RoaInputError(f"{where}: {text!r} is not a number") from None
+    if not math.isfinite(value):
+        raise RoaInputError(f"{where}: {text!r} must be finite")
+    return value
+
+
+def with_param_options(sys_: Any, specs: list[str]) -> Any:
+    """``sys_`` with the ``--param`` options applied (``NAME=VALUE`` fixes, ``NAME=LOW..HIGH``
+    makes uncertain)."""
+    for spec in specs:
+        key, sep, value = spec.partition("=")
+        key = key.strip()
+        where = f"--param {spec}"
+        if not sep or not key:
+            raise RoaInputError(f"{where}: expected NAME=VALUE or NAME=LOW..HIGH")
+        if ".." in value:
+            parts = value.split("..")
+            if len(parts) not in (2, 3):
+                raise RoaInputError(f"{where}: expected LOW..HIGH or LOW..NOMINAL..HIGH")
+            rng = tuple(_number(t, where) for t in parts)
+            try:
+                sys_ = sys_.with_ranges(**{key: rng})
+            except RoaInputError as exc:
+                raise RoaInputError(f"{where}: {exc}") from None
+            continue
+        number = _number(value, where)
+        try:
+            sys_ = (
+                sys_.at(**{key: number})
+                if key in sys_.uncertain
+                else sys_.with_params(**{key: number})
+            )
+        except RoaInputError as exc:
+            raise RoaInputError(f"{where}: {exc}") from None
+    return sys_
 
 
 def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:

@@ -19,6 +19,7 @@ from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import run_basin, wilson_interval
+from roa.montecarlo.robust_basin import DEFAULT_PARAM_SAMPLES
 from roa.montecarlo.sampling import GridSlice
 from roa.montecarlo.terminal import TerminalSet
 from roa.options import IntegratorOptions, RunOptions
@@ -121,8 +122,17 @@ def basin(
     run: RunOptions | None = None,
     terminal: TerminalSet | str | Path | dict | None = None,
     regions: Sequence[Any] = (),
-) -> BasinResult:
+    param_samples: int = DEFAULT_PARAM_SAMPLES,
+    param_seed: int = 0,
+) -> Any:  # BasinResult, or RobustBasinResult for a system with uncertain parameters
     """Integrate every initial condition of ``sampler`` and count the statuses.
+
+    For a system with uncertain parameters (``system.parameters``) this is
+    :func:`roa.montecarlo.robust_basin.robust_basin`: one run per parameter sample (nominal,
+    vertices and ``param_samples`` seeded uniform samples drawn with ``param_seed``), returning a
+    :class:`~roa.montecarlo.robust_basin.RobustBasinResult` (statuses per sample, never merged;
+    the converged-share and worst-case maps derived from them). Otherwise a
+    :class:`BasinResult`.
 
     Parameters
     ----------
@@ -154,6 +164,12 @@ def basin(
     >>> res.status, res.counts["converged"] + res.counts["diverged"] == res.n
     (<BasinStatus.PARTLY_CONVERGED: 'partly_converged'>, True)
     """
+    if system.parameters:
+        from roa.montecarlo.robust_basin import robust_basin
+
+        return robust_basin(system, sampler, param_samples=param_samples, param_seed=param_seed,
+                            rules=rules, integrator=integrator, run=run, terminal=terminal,
+                            regions=regions)  # fmt: skip
     t0 = time.perf_counter()
     rules = StopRules() if rules is None else rules
     integrator = IntegratorOptions() if integrator is None else integrator

@@ -150,6 +150,9 @@ def _fingerprint(system: System, sampler: Any, opts: dict[str, Any], chunk: int)
         {
             "system": system.name,
             "meta": {k: repr(v) for k, v in meta.items()},
+            # the parameter values integrated (other values: another run, never resumed)
+            **({"params": {k: float(v).hex() for k, v in system.params.items()}}
+               if system.params else {}),
             "sampler": {k: np.asarray(v).tolist() if isinstance(v, np.ndarray) else v
                         for k, v in sampler.fingerprint().items()},
             "opts": {k: repr(v) for k, v in opts.items()},

@@ -163,6 +163,8 @@ class Interval:
         return self
 
     def __add__(self, other: Any) -> Interval:
+        if getattr(other, "defers_to_interval", False):
+            return NotImplemented  # a jet: its reflected operator treats self as a constant
         if type(other) is float and other == 0.0:
             return self  # exact
         o = Interval.of(other)
@@ -171,12 +173,16 @@ class Interval:
     __radd__ = __add__
 
     def __sub__(self, other: Any) -> Interval:
+        if getattr(other, "defers_to_interval", False):
+            return NotImplemented  # a jet: its reflected operator treats self as a constant
         if type(other) is float and other == 0.0:
             return self
         o = Interval.of(other)
         return Interval(round_down(self.lo - o.hi), round_up(self.hi - o.lo))
 
     def __rsub__(self, other: Any) -> Interval:
+        if getattr(other, "defers_to_interval", False):
+            return NotImplemented  # a jet: its reflected operator treats self as a constant
         return Interval.of(other) - self
 
     def square(self) -> Interval:
@@ -187,6 +193,8 @@ class Interval:
         return Interval(np.maximum(lo, 0.0), hi)
 
     def __mul__(self, other: Any) -> Interval:
+        if getattr(other, "defers_to_interval", False):
+            return NotImplemented  # a jet: its reflected operator treats self as a constant
         if other is self:
             return self.square()
         if type(other) is float:
@@ -231,9 +239,13 @@ class Interval:
         return Interval(lo, hi)
 
     def __truediv__(self, other: Any) -> Interval:
+        if getattr(other, "defers_to_interval", False):
+            return NotImplemented  # a jet: its reflected operator treats self as a constant
         return self * Interval.of(other).reciprocal()
 
     def __rtruediv__(self, other: Any) -> Interval:
+        if getattr(other, "defers_to_interval", False):
+            return NotImplemented  # a jet: its reflected operator treats self as a constant
         return Interval.of(other) * self.reciprocal()
 
     def __pow__(self, p: Any) -> Interval:

@@ -144,6 +144,7 @@ class Jet:
     value is an :class:`Interval`; a gradient or Hessian entry is an :class:`Interval` or a Python
     float that is exactly the entry (``0.0`` for an exact zero, skipped in arithmetic). Only the
     upper triangle ``h[i][j], j >= i`` of the Hessian is computed (the lower one holds ``0.0``).
+    An :class:`Interval` operand (e.g. an uncertain parameter's range) is a constant of the jet.
 
     Centred jets (``Jet.variables(..., centred=True)``) also carry ``c``, an enclosure of the
     expression at the boxes' midpoints ``m``, and ``d``, enclosures of ``x_i - m_i`` over the boxes.
@@ -155,6 +156,7 @@ class Jet:
     """
 
     __slots__ = ("v", "g", "h", "c", "d")
+    defers_to_interval = True  # Interval operators return NotImplemented: ours run
     __array_priority__ = 1000
 
     def __init__(

@@ -83,24 +83,42 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
     return ok
 
 
-def local_box_proof(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> bool:
-    """Prove ``V' < 0`` on the box ``[lo, hi]`` (holding ``x_eq``) minus the equilibrium."""
-    if not gradient_vanishes(lyap) or not exact_equilibrium(system, lyap.center):
+def local_box_proof(
+    system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, *, exact: bool | None = None
+) -> bool:
+    """Prove ``V' < 0`` on the box ``[lo, hi]`` (holding ``x_eq``) minus the equilibrium.
+    ``exact``: the result of :func:`hessian_preconditions` when the caller has it."""
+    if exact is None:
+        exact = hessian_preconditions(system, lyap)
+    if not exact:
         return False
     vd = lyap.vdot_expr(system, Jet.variables(lo[None, :], hi[None, :], order=2), JET)
     return hessian_negative_definite(vd, lyap.n)
 
 
+def hessian_preconditions(system: System, lyap: Lyapunov) -> bool:
+    """``grad V(x_eq) = 0`` and ``f(x_eq) = 0`` exactly (the Hessian argument's premises)."""
+    return gradient_vanishes(lyap) and exact_equilibrium(system, lyap.center)
+
+
 def local_box(
-    system: System, lyap: Lyapunov, lo0: np.ndarray, hi0: np.ndarray
+    system: System,
+    lyap: Lyapunov,
+    lo0: np.ndarray,
+    hi0: np.ndarray,
+    *,
+    exact: bool | None = None,
 ) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
     """``(lo, hi, info)``: a box around the equilibrium inside ``[lo0, hi0]`` (or the cube of the
     lowest-order part, which may reach past it) on which ``V' < 0`` is proved minus the
-    equilibrium (module doc), or None. ``info`` names the proof (``local_proof``)."""
+    equilibrium (module doc), or None. ``info`` names the proof (``local_proof``); ``exact``: the
+    result of :func:`hessian_preconditions` when the caller has it (checked here otherwise)."""
     c = np.asarray(lyap.center, dtype=float)
-    for k in range(1, 41):
+    if exact is None:
+        exact = hessian_preconditions(system, lyap)
+    for k in range(1, 41 if exact else 1):
         a, b = c + (lo0 - c) / 2.0**k, c + (hi0 - c) / 2.0**k
-        if local_box_proof(system, lyap, a, b):
+        if local_box_proof(system, lyap, a, b, exact=True):
             return a, b, {"local_proof": "hessian", "local_scale": 2.0**-k}
     found = higher_order_cube(system, lyap)
     if found is None:

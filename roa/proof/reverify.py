@@ -132,7 +132,12 @@ def reverify(
                           time.perf_counter() - t0, True, hit.get("validation", {}))  # fmt: skip
     opts = IntervalOptions() if interval is None else interval
     try:
-        v = validate_level(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch)
+        if system.parameters:  # every parameter of the box, as the certificate claims
+            from roa.proof.robust import validate_robust
+
+            v = validate_robust(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch)
+        else:
+            v = validate_level(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch)
     except (OverflowError, FloatingPointError, ZeroDivisionError) as exc:
         return Reverified(Verdict.INCONCLUSIVE, lvl,
                           f"the validation cannot take level {lvl!r} ({type(exc).__name__})",

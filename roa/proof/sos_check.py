@@ -284,6 +284,8 @@ def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, 
     at an odd degree."""
     from roa.proof.cover import gram_cover
 
+    if getattr(system, "parameters", None):
+        return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
         return None, "V must be centred at the system's equilibrium"
     try:
@@ -358,6 +360,20 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
         if not isinstance(cert, dict):
             raise ValueError("no certificate (bases and Gram matrices) in the file")
         n = int(V.n)
+        raw_eps = str(meta.get("eps"))
+        if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
+            raise ValueError("eps must be a rational like '1/1048576'")
+        if "putinar" in cert:  # a recast (non-polynomial) field's constrained certificate
+            from roa.proof.sos_putinar import recheck_recast
+
+            ok, reason, rres = recheck_recast(system, V, level, cert, Fraction(raw_eps))
+            fig = {} if rres is None else {"residual": rres.residual, "min_pivot": rres.min_pivot}
+            if not ok:
+                return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {reason}",
+                           **fig)  # fmt: skip
+            assert rres is not None
+            return out(Verdict.CERTIFIED, "stored SOS certificate (recast field) re-checked "
+                       f"exactly: {reason}", **fig, **rres.meta)  # fmt: skip
         basis0 = _parse_basis(cert.get("basis0"), n, "basis0")
         basis1 = _parse_basis(cert.get("basis1") or [], n, "basis1")
         Q0 = _parse_matrix(cert.get("Q0"), len(basis0), "Q0")

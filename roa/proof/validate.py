@@ -200,28 +200,54 @@ def _v_enclosures(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, mid: np.ndarra
             lyap.expr(Jet.variables(mid, mid, order=1, centred=kinked), JET))  # fmt: skip
 
 
-def evaluate_boxes(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float):
-    """Enclosures on the boxes ``[lo, hi]`` (shape ``(m, n)``): ``V`` and ``V'`` (natural
-    extension, centred and second-order Taylor forms intersected), the upper bound of
-    ``F = V' + lambda (level - V)`` on the boxes that reach past the level surface (``inf``
-    elsewhere, step 3 of the module doc), the split scores and the domain margin (None without a
-    domain). Returns ``(V, V', F_hi, score, margin)``."""
+def _pad(e: Any, k: int) -> Enclosure:
+    """An enclosure of a function of the states as one of (states, ``k`` parameters): zero
+    derivatives in the parameters (exact)."""
+    g = list(e.g) + [0.0] * k
+    h = None
+    if e.h is not None:
+        N = len(g)
+        h = [list(row) + [0.0] * k for row in e.h] + [[0.0] * N for _ in range(k)]
+    return Enclosure(e.v, g, h)
+
+
+def evaluate_boxes(
+    system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, k: int = 0
+):
+    """Enclosures on the boxes ``[lo, hi]`` (shape ``(m, n + k)``: the states, then ``k``
+    uncertain parameters of a :func:`roa.parameters.over` system, which enter the jets as
+    variables): ``V`` and ``V'`` (natural extension, centred and second-order Taylor forms
+    intersected, over states and parameters), the upper bound of ``F = V' + lambda (level - V)``
+    on the boxes that reach past the level surface (``inf`` elsewhere, step 3 of the module doc),
+    the split scores (per column) and the domain margin (None without a domain). Returns
+    ``(V, V', F_hi, score, margin)``."""
+    from roa.parameters import parameter_values
+
     n, m = lyap.n, len(lo)
+    N = n + k
     mid = 0.5 * (lo + hi)
     delta = box_offsets(lo, hi, mid)
-    kinked = nonsmooth(lambda: lyap.vdot_expr(system, Jet.variables(lo[:1], hi[:1]), JET))
-    vd = lyap.vdot_expr(system, Jet.variables(lo, hi, order=2, centred=kinked), JET)
-    at = lyap.vdot_expr(system, Jet.variables(mid, mid, order=1, centred=kinked), JET)
+
+    def vdot(X: list[Jet]) -> Any:
+        with parameter_values(X[n:] if k else None):
+            return lyap.vdot_expr(system, X[:n], JET)
+
+    kinked = nonsmooth(lambda: vdot(Jet.variables(lo[:1], hi[:1])))
+    vd = vdot(Jet.variables(lo, hi, order=2, centred=kinked))
+    at = vdot(Jet.variables(mid, mid, order=1, centred=kinked))
     cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
-    vdot = _meet(_full(vd.v, m), cen, tay)
-    Vb, Vm = _v_enclosures(lyap, lo, hi, mid)
+    vdot_box = _meet(_full(vd.v, m), cen, tay)
+    Vb, Vm = _v_enclosures(lyap, lo[:, :n], hi[:, :n], mid[:, :n])
+    if k:
+        Vb, Vm = _pad(Vb, k), _pad(Vm, k)
     V = _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m))
     score = np.zeros_like(lo)
+    n = N  # every column from here: states and parameters
     for i in range(n):
         g = _full(vd.g[i], m)
         score[:, i] = np.maximum(np.abs(g.lo), np.abs(g.hi)) * (hi[:, i] - lo[:, i])
     F_hi = np.full(m, np.inf)
-    idx = np.flatnonzero(~(V.lo > level) & ~(vdot.hi < 0) & (V.hi > level))
+    idx = np.flatnonzero(~(V.lo > level) & ~(vdot_box.hi < 0) & (V.hi > level))
     if len(idx):
         k = len(idx)
         gd = np.stack([_midpoints(_rows(at.g[i], idx), k) for i in range(n)], axis=1)
@@ -250,9 +276,9 @@ def evaluate_boxes(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarra
         )
     margin = None
     if system.margin is not None:
-        X = [Interval(lo[:, i], hi[:, i]) for i in range(n)]
+        X = [Interval(lo[:, i], hi[:, i]) for i in range(lyap.n)]
         margin = _full(system.margin(X, INTERVAL), m)
-    return V, vdot, F_hi, score, margin
+    return V, vdot_box, F_hi, score, margin
 
 
 # -- witness search (floats; every candidate is re-checked) ---------------------------------------
@@ -333,6 +359,7 @@ def validate_level(
     max_boxes: int = 3_000_000,
     batch: int = 100_000,
     bounding_box: Any = None,
+    parameters: tuple[Any, Any] | None = None,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -354,6 +381,11 @@ def validate_level(
         level set (``V > level`` is proved on its faces; the run is then in ``x``). Default: a
         global bound from V's Gram matrix when there is one (every quadratic V), else a box found
         along rays and proved.
+    parameters : (lo, hi), optional
+        For a system over a parameter box (:func:`roa.parameters.over`): the box's bounds. The
+        branch and bound then runs over states and parameters (boxes of ``n + k`` columns, the
+        parameters variables of the jets, split where that decides more) and proves ``V' < 0``
+        for every parameter of the box; witnesses are at the system's float point.
     """
     level = float(level)
     if not (np.isfinite(level) and level > 0):
@@ -364,7 +396,7 @@ def validate_level(
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
     with np.errstate(over="ignore"):  # an interval bound that overflows is +-inf: still sound
         res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
-                                bounding_box=bounding_box)  # fmt: skip
+                                bounding_box=bounding_box, parameters=parameters)  # fmt: skip
     if "M" not in res.meta:  # boxes in x: the frame (of the component box argument) is I
         meta = {**res.meta, "coordinates": "x", "M": np.eye(lyap.n).tolist()}
         res = dataclasses.replace(res, meta=meta)
@@ -380,6 +412,7 @@ def _branch_and_bound(
     batch: int,
     bounding_box: Any = None,
     whiten: bool = True,
+    parameters: tuple[Any, Any] | None = None,
 ) -> Validation:
     """The loop of the module doc. ``whiten``: run it on boxes in ``y`` with ``x = x_eq + M y``
     and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
@@ -390,7 +423,7 @@ def _branch_and_bound(
         if M is not None:
             W = Whitened(lyap, system, M)
             res = _branch_and_bound(whitened_system(system, W), W, level, max_boxes=max_boxes,
-                                    batch=batch, whiten=False)  # fmt: skip
+                                    batch=batch, whiten=False, parameters=parameters)  # fmt: skip
             return _in_x(res, system, lyap, W)
 
     def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
@@ -402,8 +435,14 @@ def _branch_and_bound(
                    f"no proved box cover of the level set: {why}", meta=info)  # fmt: skip
     lo0, hi0 = box
     c = lyap.center
+    n = lyap.n
     component = "component" in str(info.get("cover", ""))
-    found = local_box(system, lyap, lo0, hi0)
+    plo = phi = np.zeros(0)
+    if parameters is not None:
+        plo, phi = (np.asarray(a, dtype=float).ravel() for a in parameters)
+    n_par = len(plo)
+    found = local_box(system, lyap, lo0, hi0) if not n_par else _local_over(system, lyap, lo0, hi0,
+                                                                        plo, phi)  # fmt: skip
     if (
         found is None
     ):  # not proved: only ends the search there (the verdict is at best inconclusive)
@@ -411,7 +450,8 @@ def _branch_and_bound(
         local: dict[str, Any] = {"local_proof": "none"}
     else:
         loc_lo, loc_hi, local = found
-    queue_lo, queue_hi = [lo0[None, :]], [hi0[None, :]]
+    queue_lo = [np.concatenate([lo0, plo])[None, :]]
+    queue_hi = [np.concatenate([hi0, phi])[None, :]]
     boxes = proved = proved_F = outside = 0
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
@@ -419,9 +459,9 @@ def _branch_and_bound(
         queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level)
+        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level, n_par)
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
-        in_local = np.all((lo >= loc_lo) & (hi <= loc_hi), axis=1)
+        in_local = np.all((lo[:, :n] >= loc_lo) & (hi[:, :n] <= loc_hi), axis=1)
         decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside
         undecided = ~((V.lo > level) | in_local | decreasing)
         proved += int(np.count_nonzero(decreasing))
@@ -430,7 +470,7 @@ def _branch_and_bound(
         not_in = ~inside[undecided]
         outside += int(np.count_nonzero(not_in))
         if len(lo) and not_in.any():
-            w = _domain_witness(system, lyap, 0.5 * (lo[not_in] + hi[not_in]), level)
+            w = _domain_witness(system, lyap, 0.5 * (lo[not_in, :n] + hi[not_in, :n]), level)
             if w is not None:
                 check = recheck_domain_witness(system, lyap, w, level)
                 if check["confirmed"] and (not component or connected_to_center(lyap, w, level)):
@@ -441,7 +481,7 @@ def _branch_and_bound(
                                meta={**info, **local, "domain_witness": [float(v) for v in w],
                                      "domain_check": check})  # fmt: skip
         if len(lo):
-            w = _witness(system, lyap, 0.5 * (lo + hi), level)
+            w = _witness(system, lyap, 0.5 * (lo[:, :n] + hi[:, :n]), level)
             if w is not None:
                 check = recheck_witness(system, lyap, w, level)
                 if check["confirmed"] and component and not connected_to_center(lyap, w, level):
@@ -485,6 +525,45 @@ def _branch_and_bound(
                f"V' < 0 proved on {proved} boxes of the cover; local proof on a box around x_eq",
                meta={"proved_boxes": proved, "proved_by_multiplier": proved_F, **info,
                      **local})  # fmt: skip
+
+
+#: Pieces of the parameter box at most for the local proof near the equilibrium.
+LOCAL_PIECES = 64
+
+
+def _local_over(
+    system: System, lyap: Lyapunov, lo0: np.ndarray, hi0: np.ndarray, plo: np.ndarray,
+    phi: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:  # fmt: skip
+    """A box around the equilibrium on which ``V' < 0`` (minus the equilibrium) is proved for
+    every parameter of ``[plo, phi]``: :func:`local_box` on pieces of the parameter box (the
+    whole box first, then halves along the relatively widest parameter, at most
+    :data:`LOCAL_PIECES`), each piece's parameters entering as its intervals; the intersection of
+    the pieces' boxes (each holds the equilibrium) is proved for every piece, so for the box."""
+    from roa.parameters import parameter_values
+    from roa.proof.local import hessian_preconditions
+
+    exact = hessian_preconditions(system, lyap)  # f(x_eq, p) = 0 in the parameter symbols
+    width = np.where(phi > plo, phi - plo, 1.0)
+    queue, boxes = [(plo, phi)], []
+    while queue:
+        a, b = queue.pop(0)
+        with parameter_values([Interval(x, y) for x, y in zip(a, b, strict=True)]):
+            found = local_box(system, lyap, lo0, hi0, exact=exact)
+        if found is not None:
+            boxes.append(found)
+            continue
+        if len(boxes) + len(queue) + 2 > LOCAL_PIECES:
+            return None
+        j = int(np.argmax((b - a) / width))
+        m = 0.5 * a[j] + 0.5 * b[j]
+        b1, a2 = b.copy(), a.copy()
+        b1[j], a2[j] = m, m
+        queue += [(a, b1), (a2, b)]
+    lo = np.max([f[0] for f in boxes], axis=0)
+    hi = np.min([f[1] for f in boxes], axis=0)
+    kinds = sorted({str(f[2].get("local_proof")) for f in boxes})
+    return lo, hi, {"local_proof": "+".join(kinds), "local_parameter_pieces": len(boxes)}
 
 
 def _in_x(res: Validation, system: System, lyap: Lyapunov, W: Whitened) -> Validation:

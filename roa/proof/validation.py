@@ -10,7 +10,10 @@ from roa.status import Verdict
 
 @dataclass(frozen=True)
 class Validation:
-    """Outcome of an interval validation of ``V' < 0`` on ``{V <= level} \\ {x_eq}``."""
+    """Outcome of an interval validation of ``V' < 0`` on ``{V <= level} \\ {x_eq}``.
+
+    ``witness_parameters``: for a system with uncertain parameters, the parameter values (by
+    name) at which the witness has ``V' >= 0``."""
 
     status: Verdict
     level: float
@@ -19,6 +22,7 @@ class Validation:
     witness: list[float] | None = None
     witness_check: dict[str, Any] | None = None
     message: str = ""
+    witness_parameters: dict[str, float] | None = None
     meta: dict[str, Any] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
@@ -34,4 +38,6 @@ class Validation:
         if self.witness is not None:
             out["witness"] = self.witness
             out["witness_check"] = self.witness_check
+            if self.witness_parameters is not None:
+                out["witness_parameters"] = self.witness_parameters
         return out

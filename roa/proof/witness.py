@@ -108,10 +108,19 @@ def lowest_confirmed_witness(
     return best, None, None
 
 
-def refuted_by(x: np.ndarray, check: dict[str, Any], level: float, how: str) -> Any:
-    """A refutation of ``level`` by a confirmed witness ``x`` with ``V(x) <= level``."""
-
+def refuted_by(
+    x: np.ndarray,
+    check: dict[str, Any],
+    level: float,
+    how: str,
+    *,
+    parameters: dict[str, float] | None = None,
+) -> Any:
+    """A refutation of ``level`` by a confirmed witness ``x`` with ``V(x) <= level`` (at the
+    uncertain ``parameters`` when given)."""
+    at = "" if not parameters else " for " + ", ".join(f"{k} = {v:.10g}"
+                                                      for k, v in parameters.items())  # fmt: skip
     return Validation(Verdict.REFUTED, level, 0, 0.0, witness=[float(v) for v in x],
-                      witness_check=check,
+                      witness_check=check, witness_parameters=parameters,
                       message=f"V' >= 0 at a point of {{V <= level}} in the equilibrium's "
-                      f"component (float and 50 digits; {how})")  # fmt: skip
+                      f"component{at} (float and 50 digits; {how})")  # fmt: skip

@@ -1,0 +1,153 @@
+"""Robust validation of a level: ``V' < 0`` on ``{V <= level} \\ {x_eq}`` for every parameter of a box.
+
+**Claim.** For a system with uncertain parameters ``p`` in a box ``P``, the certificate states:
+for every ``p`` in ``P``, ``V'_p(x) = grad V(x) . f(x, p) < 0`` on ``{V <= level}`` minus ``x_eq``
+(``V`` does not depend on ``p``), so ``{V <= level}`` lies in the region of attraction of ``x_eq``
+for every fixed parameter value of the box (LaSalle, as for one parameter value).
+
+**Proof.** One interval branch and bound (:func:`roa.proof.validate.validate_level` with
+``parameters``) over boxes of states *and* parameters, on the system of
+:func:`roa.parameters.over`: the uncertain parameters enter the second-order jets as variables, so
+the enclosures of ``V'`` (natural extension, centred and Taylor forms over all ``n + k`` columns)
+hold for every ``(x, p)`` of a box, and a box is split along a parameter where ``|dV'/dp|`` times
+its width is the largest score. The cover of ``{V <= level}`` depends on ``V`` only. Near ``x_eq``:
+``f(x_eq, p) = 0`` as an exact identity in the parameter symbols and a negative definite Hessian
+of ``V'`` enclosed over each piece of the parameter box (halves where the whole box does not
+pass), the intersection of the pieces' boxes kept.
+
+**Refutation.** A witness ``(x, p)``: ``p`` a sample point of ``P`` (nominal value or vertex, where
+the float searches run), ``x`` with ``V(x) <= level`` and ``V'_p(x) >= 0`` re-checked at 50 digits
+with ``p`` taken exactly, in the equilibrium's component.
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+
+from roa.errors import RoaInputError
+from roa.lyapunov import Lyapunov
+from roa.parameters import ParameterBox, describe_point, over, sample_points
+from roa.proof.validate import validate_level
+from roa.proof.validation import Validation
+from roa.status import Verdict
+from roa.system import System
+
+#: Directions of the sampled witness search at each sample point of the box.
+WITNESS_DIRECTIONS = 4000
+
+
+def sampled_witness(
+    system: System, lyap: Lyapunov, level: float, *, directions: int = WITNESS_DIRECTIONS
+) -> tuple[np.ndarray | None, dict[str, float], dict[str, Any] | None]:
+    """``(x, p, check)``: a confirmed witness of ``V'_p(x) >= 0`` inside ``{V <= level}`` at one of
+    the box's sample points (:func:`roa.parameters.sample_points`), else ``(None, p, None)`` with
+    ``p`` the sample point of the lowest sampled level (the likely worst case). A search: no
+    witness proves nothing."""
+    from roa.levelset import level_search
+    from roa.options import SampledOptions
+    from roa.proof.cover import connected_to_center
+    from roa.proof.witness import recheck_witness
+
+    best: tuple[float, np.ndarray, dict[str, float], System] | None = None
+    opts = SampledOptions(n_directions=directions)
+    points = sample_points(system)
+    for p in points:
+        fixed = system.at(**p)
+        near = _near_equilibrium(fixed, lyap, level)
+        if near is not None:
+            return near[0], p, near[1]
+        res = level_search(fixed, lyap, shape="level", method="sampled", sampled=opts)
+        if res.level is None or res.witness is None:
+            continue
+        if best is None or res.level < best[0]:
+            best = (float(res.level), np.asarray(res.witness, dtype=float), p, fixed)
+    if best is None:
+        return None, points[0], None
+    value, w, p, fixed = best
+    if value < level:
+        check = recheck_witness(fixed, lyap, w, level)
+        if check["confirmed"] and connected_to_center(lyap, w, level):
+            return w, p, check
+    return None, p, None
+
+
+def _near_equilibrium(
+    system: System, lyap: Lyapunov, level: float
+) -> tuple[np.ndarray, dict[str, Any]] | None:
+    """Where ``V'`` is not negative definite to second order at the equilibrium (``A'H + HA`` has
+    an eigenvalue > 0, ``H`` half the Hessian of V): a confirmed witness ``x_eq + t u`` along its
+    eigenvector ``u`` inside ``{V <= level}`` (``t`` halved until ``V' >= 0`` holds at 50 digits),
+    or None. A search."""
+    from roa.linearisation import linearise
+    from roa.proof.cover import connected_to_center
+    from roa.proof.witness import recheck_witness
+
+    H = 0.5 * lyap.hessian_at_center()
+    A = linearise(system).A
+    w, U = np.linalg.eigh(A.T @ H + H @ A)
+    if not w[-1] > 0:
+        return None
+    u, c = U[:, -1], np.asarray(lyap.center, dtype=float)
+    t = 1.0
+    for _ in range(60):  # down to V(c + t u) < level
+        if float(lyap.value((c + t * u)[None])[0]) < level:
+            break
+        t *= 0.5
+    for _ in range(40):
+        x = c + t * u
+        check = recheck_witness(system, lyap, x, level)
+        if check["confirmed"] and connected_to_center(lyap, x, level):
+            return x, check
+        t *= 0.5
+    return None
+
+
+def validate_robust(
+    system: System,
+    lyap: Lyapunov,
+    level: float,
+    *,
+    max_boxes: int = 3_000_000,
+    batch: int = 100_000,
+    bounding_box: Any = None,
+) -> Validation:
+    """Decide ``V'_p < 0`` on ``{V <= level} \\ {x_eq}`` for every ``p`` of the system's box (module
+    doc). ``max_boxes`` is the budget of boxes (states and parameters)."""
+    t0 = time.perf_counter()
+    level = float(level)
+    if not (np.isfinite(level) and level > 0):
+        raise RoaInputError(f"level must be a finite number > 0, got {level!r}")
+    full = ParameterBox.of(system)
+
+    def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
+        meta = {"parameter_box": {k: [a, b] for k, a, b in zip(full.names, full.lo, full.hi,
+                                                               strict=True)}, **kw.pop("meta", {})}  # fmt: skip
+        return Validation(status, level, boxes, time.perf_counter() - t0, message=message,
+                          meta=meta, **kw)  # fmt: skip
+
+    w, worst, check = sampled_witness(system, lyap, level)
+    if w is not None:
+        return out(Verdict.REFUTED, 0,
+                   f"V' >= 0 at a point of {{V <= level}} for {describe_point(worst)} (sampled "
+                   "search at the box's vertices and nominal value; float and 50 digits)",
+                   witness=[float(v) for v in w], witness_check=check,
+                   witness_parameters=dict(worst))  # fmt: skip
+    # one branch and bound over states and parameters; its float searches run at the worst
+    # sample point
+    res = validate_level(over(system, full, point=worst), lyap, level, max_boxes=max_boxes,
+                         batch=batch, bounding_box=bounding_box,
+                         parameters=(np.asarray(full.lo), np.asarray(full.hi)))  # fmt: skip
+    meta = {**res.meta, "witness_search_parameters": worst}
+    if res.status is Verdict.REFUTED:
+        return out(Verdict.REFUTED, res.boxes, f"{res.message} for {describe_point(worst)}",
+                   witness=res.witness, witness_check=res.witness_check,
+                   witness_parameters=dict(worst), meta=meta)  # fmt: skip
+    if res.status is Verdict.CERTIFIED:
+        return out(Verdict.CERTIFIED, res.boxes,
+                   f"V' < 0 proved for every parameter of the box ({full.describe()}): "
+                   f"{res.message}", meta=meta)  # fmt: skip
+    return out(res.status, res.boxes, f"not decided for {full.describe()}: {res.message}",
+               meta=meta)  # fmt: skip

@@ -1,0 +1,171 @@
+"""Numerical constrained SOS certificate of a level for a recast field (proposes only).
+
+One semidefinite program (cvxpy, Clarabel) finds the Gram matrices and equality multipliers of
+the identity of :mod:`roa.proof.sos_putinar`, maximising the least eigenvalue ``t`` of every
+Gram matrix (``t <= 1``): the margin the exact rounding and projection need. Only
+:func:`roa.proof.sos_putinar.check_putinar` decides.
+
+**Bases** (``z`` = states and the auxiliary variables): ``m0`` holds every monomial of degree
+``1..D`` in ``z`` (``2D`` the least even degree >= that of ``N`` and of ``lambda V``, at least 4)
+and, per angle, ``d^j``, ``d^j s``, ``d^j q`` up to degree ``H`` (``2H`` the degree of the
+highest Taylor bound); ``m1`` has the degrees ``1..D - deg V / 2``; a constraint ``g`` of degree
+``<= 2D - 2`` gets an SOS multiplier over the monomials of degree ``0..D - deg g / 2``, a higher
+one a constant; the
+circle's free multiplier spans the monomials of degree <= 2 and the angle's powers ``d^j`` (a
+square root's, the monomials of degree <= 2). Every
+product then lies in the span of ``m0 m0'`` except each circle's linear ``q``, which the check
+matches with the multiplier's constant.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sps
+
+from roa.proof.recast import RecastData
+from roa.proof.sos_putinar import Blocks, target_poly, times_polys
+from roa.search.polysdp import monomials
+
+Mono = tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class PutinarCandidate:
+    """Float blocks of a numerical certificate (``blocks`` None if the solver failed)."""
+
+    blocks: Blocks | None
+    eps: Fraction
+    margin: float | None
+    solver_status: str
+    seconds: float
+    sizes: dict[str, Any]
+
+
+def default_eps(data: RecastData, scale: float = 1e-6) -> Fraction:
+    """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (a dyadic)."""
+    top = max((abs(float(c)) for m, c in data.N.items() if sum(m) == data.low), default=1.0)
+    return Fraction(2.0 ** round(np.log2(scale * top)))
+
+
+def _unit(nv: int, i: int, p: int = 1) -> Mono:
+    return tuple(p if k == i else 0 for k in range(nv))
+
+
+def bases(data: RecastData) -> tuple[list[Mono], list[Mono], list[list[Mono]], list[list[Mono]]]:
+    """``m0``, ``m1``, the inequalities' bases and the equalities' bases (module docstring)."""
+    nv = data.nv
+    deg_n = max((sum(m) for m in data.N), default=2)
+    deg_v = max((sum(m) for m in data.V), default=2)
+    D = max(2, (deg_n + 1) // 2, (deg_v + 3) // 2)  # m0 has degrees 1..D (plus angle powers)
+    top = max((sum(m) for _, g in data.inequalities for m in g), default=2)
+    H = max(D, (top + 1) // 2)
+    m0 = monomials(nv, D, 1)
+    angle_powers: list[list[Mono]] = []
+    for a, i in enumerate(data.angles):
+        si, qi = data.aux(a)
+        extra = []
+        for j in range(0, H + 1):
+            for aux in (None, si, qi):
+                m = list(_unit(nv, i, j))
+                if aux is not None:
+                    m[aux] += 1
+                if D < sum(m) <= H:
+                    extra.append(tuple(m))
+        m0 += extra
+        angle_powers.append([_unit(nv, i, j) for j in range(2 * D - 1, 2 * H - 1)])
+    m1 = monomials(nv, D - (deg_v + 1) // 2, 1)
+    mj = []
+    for _, g in data.inequalities:
+        deg_g = max(sum(m) for m in g)
+        mj.append(monomials(nv, D - (deg_g + 1) // 2, 0) if deg_g <= 2 * D - 2 else
+                  [tuple([0] * nv)])  # fmt: skip
+    me = [monomials(nv, 2 * D - 2, 0) + (angle_powers[a] if a < len(angle_powers) else [])
+          for a in range(len(data.equalities))]  # fmt: skip
+    return m0, m1, mj, me
+
+
+def _columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
+             ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
+    r, c, v = [], [], []
+    nb = len(basis)
+    for i, j in itertools.product(range(nb), range(nb)):
+        bij = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
+        for m, coef in times.items():
+            r.append(rows.setdefault(tuple(p + q for p, q in zip(bij, m, strict=True)), len(rows)))
+            c.append(i * nb + j)
+            v.append(coef)
+    return r, c, v
+
+
+def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = None,
+                    solver_options: dict[str, Any] | None = None) -> PutinarCandidate:  # fmt: skip
+    """Solve the constrained SOS program for ``level`` (module docstring)."""
+    import cvxpy as cp
+
+    t0 = time.perf_counter()
+    eps = default_eps(data) if eps is None else Fraction(eps)
+    m0, m1, mj, me = bases(data)
+    gram_bases = [m0, m1, *mj]
+    times = [{m: float(c) for m, c in p.items()} for p in times_polys(data, Fraction(level))]
+    rows: dict[Mono, int] = {}
+    target = {m: float(c) for m, c in target_poly(data, eps).items()}
+    for m in target:
+        rows.setdefault(m, len(rows))
+    gparts = [_columns(rows, B, T) for B, T in zip(gram_bases, times, strict=True)]
+    fparts = []
+    for B, (_, h) in zip(me, data.equalities, strict=True):
+        r: list[int] = []
+        c: list[int] = []
+        v: list[float] = []
+        for k, bm in enumerate(B):
+            for m, coef in h.items():
+                r.append(
+                    rows.setdefault(tuple(p + q for p, q in zip(bm, m, strict=True)), len(rows))
+                )
+                c.append(k)
+                v.append(float(coef))
+        fparts.append((r, c, v))
+    nrow = len(rows)
+    b = np.zeros(nrow)
+    for m, value in target.items():
+        b[rows[m]] = value
+    t = cp.Variable()
+    cons: list[Any] = [t <= 1]
+    Qs = []
+    expr: Any = 0
+    for B, (r, c, v) in zip(gram_bases, gparts, strict=True):
+        nb = len(B)
+        Q = cp.Variable((nb, nb), symmetric=True)
+        A = sps.csr_matrix((v, (r, c)), shape=(nrow, nb * nb))
+        expr = expr + A @ cp.vec(Q, order="C")
+        cons.append(Q - t * np.eye(nb) >> 0)
+        Qs.append(Q)
+    mus = []
+    for B, (r, c, v) in zip(me, fparts, strict=True):
+        mu = cp.Variable(len(B))
+        expr = expr + sps.csr_matrix((v, (r, c)), shape=(nrow, len(B))) @ mu
+        mus.append(mu)
+    cons.append(expr == b)
+    prob = cp.Problem(cp.Maximize(t), cons)
+    try:
+        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
+        status = str(prob.status)
+    except cp.error.SolverError as exc:
+        status = f"solver error: {exc}"
+    ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Qs[0].value is not None
+    blocks = None
+    if ok:
+        blocks = Blocks(
+            [(B, np.asarray(Q.value)) for B, Q in zip(gram_bases, Qs, strict=True)],
+            [(B, np.asarray(mu.value)) for B, mu in zip(me, mus, strict=True)],
+        )
+    sizes = {"rows": nrow, "gram_sizes": [len(B) for B in gram_bases],
+             "free": sum(len(B) for B in me)}  # fmt: skip
+    return PutinarCandidate(blocks, eps, float(t.value) if ok and t.value is not None else None,
+                            status, time.perf_counter() - t0, sizes)  # fmt: skip

@@ -258,3 +258,16 @@ class Identity:
             lam = {b: float(x) for b, x in zip(basis, q.value, strict=True) if x != 0.0}
         val = objective.value
         return True, float(np.asarray(val).reshape(-1)[0]), lam
+
+
+#: Memory budget of one SOS program's interior-point solve (bytes). Clarabel's step on a PSD block
+#: of B monomials forms a dense matrix over its B (B + 1) / 2 entries; the process peaked at about
+#: 3 x its 8-byte size (16.9 GB for B = 231, a 20-state cubic V'). Beyond the budget a program is
+#: refused before it is built (about B = 160 for 4 GiB).
+MAX_SDP_BYTES = 4 * 2**30
+
+
+def sdp_bytes(block: int) -> int:
+    """Estimated peak memory of the interior-point solve of a PSD block of ``block`` monomials."""
+    entries = block * (block + 1) // 2
+    return 3 * 8 * entries**2

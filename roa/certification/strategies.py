@@ -263,6 +263,50 @@ class SosValidator:
                        M=np.eye(V.n).tolist(), **figures)  # fmt: skip
 
 
+@dataclass(frozen=True)
+class AutoValidator:
+    """The route that certifies, chosen from the problem's form.
+
+    Where the branch and bound's dimension allows it (states plus uncertain parameters at most
+    ``max_bnb_dim``) it decides first (it also refutes, with a 50-digit witness) and the exact SOS
+    certificate is tried when it is inconclusive; above, the exact SOS certificate (polynomial or
+    exactly recast fields, decoupled blocks) is tried first and the branch and bound decides when
+    it does not certify. Either way only a validator's own proof certifies; the verdict's
+    ``method`` names the one that decided.
+    """
+
+    options: IntervalOptions = field(default_factory=IntervalOptions)
+    bounding_box: Any = None
+    max_bnb_dim: int = 4
+    name: str = "auto"
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return system.equilibrium is not None and not system.time_varying
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        itv = IntervalValidator(self.options, self.bounding_box)
+        sos = SosValidator(fallback=False)
+        sos_ok = self.bounding_box is None and sos.accepts(system, V)
+
+        def by_interval(v: Validation, note: str = "") -> Validation:
+            return dataclasses.replace(v, message=f"{note}{v.message}",
+                                       meta={**v.meta, "method": itv.name})  # fmt: skip
+
+        if V.n + len(system.uncertain) <= self.max_bnb_dim or not sos_ok:
+            v = itv.check(system, V, level)
+            if v.status is not Verdict.INCONCLUSIVE or not sos_ok:
+                return by_interval(v)
+            s = sos.check(system, V, level)
+            if s.status is Verdict.CERTIFIED:
+                return s
+            return by_interval(v, f"SOS route: {s.message}; branch and bound: ")
+        s = sos.check(system, V, level)
+        if s.status is Verdict.CERTIFIED:
+            return s
+        return by_interval(itv.check(system, V, level), f"SOS route: {s.message}; branch and "
+                           "bound: ")  # fmt: skip
+
+
 # -- level proposers --------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class Proposal:

@@ -391,7 +391,10 @@ def _refute_above(
     level search's), else decided by the validator."""
     from roa.proof.witness import lowest_confirmed_witness, refuted_by
 
-    if fresh and proof is None and prop.search is not None and prop.search.witness is not None:
+    # the proposal's own witness (a freshly found V's search, or the worst sample point of a
+    # parameter box), proved again here (50 digits, in the equilibrium's component)
+    own = fresh or bool(system.parameters)
+    if own and proof is None and prop.search is not None and prop.search.witness is not None:
         w = np.asarray(prop.search.witness, dtype=float)
         wp = prop.parameters if system.parameters else None
         val, x, check = lowest_confirmed_witness(system.at(**wp) if wp else system, V, w)

@@ -12,6 +12,8 @@ E = "results/robust/summary.json"
 
 def _verdict_text(r: dict[str, Any]) -> str:
     status = r["status"]
+    if status == "not run":
+        return r["message"]
     if status == "certified":
         return f"certified at V <= {r['level']:.6g} ({r['boxes']} boxes, {r['seconds']} s)"
     if status == "refuted":
@@ -40,14 +42,15 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
             "evidence": E,
         })  # fmt: skip
     r = ev["robust_quadratic"]
-    d = r["design"]
     txt = _verdict_text(r)
     if r["status"] == "certified":
         txt += (f"; sector |theta(0)| <= {r['sector_deg']:.2f} deg at q = q' = theta' = 0 (certified "
                 f"lower bound), reference-box share {r['box']['fraction']:.3f}; x1.001 of the "
                 f"worst sampled optimum: {r['above']}")  # fmt: skip
-    txt += (f" (P nearest C5 with A'P + PA <= -2 alpha P at both ends of 1/delta_plant, alpha = "
-            f"{d['alpha']:g}; nominal sampled optimum of this V {r['nominal_sampled_optimum']:.4g})")  # fmt: skip
+    if "design" in r:
+        txt += (f" (P nearest C5 with A'P + PA <= -2 alpha P at both ends of 1/delta_plant, "
+                f"alpha = {r['design']['alpha']:g}; nominal sampled optimum of this V "
+                f"{r['nominal_sampled_optimum']:.4g})")  # fmt: skip
     out.append({
         "id": "R3",
         "claim": f"a quadratic V designed for the box certifies a region for every {box}",

@@ -28,6 +28,12 @@ from roa.errors import RoaInputError
 MAX_DIRECTIONS = 2_000_000
 MAX_BOXES = 200_000_000
 
+#: Seeded uniform parameter samples of a robust basin by default (on top of the nominal values
+#: and the vertices of the parameter box).
+DEFAULT_PARAM_SAMPLES = 8
+#: At most this many seeded uniform parameter samples in a robust basin.
+MAX_PARAM_SAMPLES = 1000
+
 
 def _int(obj: Any, name: str, lo: int, hi: int | None = None) -> None:
     value = getattr(obj, name)

@@ -13,8 +13,8 @@ import numpy as np
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
-from roa.montecarlo.robust_basin import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
 from roa.montecarlo.sampling import GridSlice
+from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
 from roa.parameters import ParameterBox, describe_point
 from roa.system import System
 

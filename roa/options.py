@@ -20,8 +20,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Self
 
-import numpy as np
-
 from roa.errors import RoaInputError
 
 #: Upper bounds that keep a single call within the memory of a workstation.
@@ -286,6 +284,8 @@ class VsOptions(Options):
                    symmetry=self.symmetry, aux_degree=self.aux_degree,
                    time_limit=self.time_limit)  # fmt: skip
         if self.shape is not None:
+            import numpy as np
+
             S = np.asarray(self.shape, dtype=float)
             if S.ndim != 2 or S.shape[0] != S.shape[1] or not np.all(np.isfinite(S)):
                 raise RoaInputError(

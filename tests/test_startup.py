@@ -44,6 +44,9 @@ def test_light_public_names_stay_light():
 def test_cli_parser_with_study_commands_imports_no_heavy_module():
     code = "from roa.cli import build_parser\nbuild_parser()"
     assert _loaded_after(code) == []
+    # not even numpy: --help lists the commands, the built-in systems and the defaults only
+    code += "\nimport sys\nassert 'numpy' not in sys.modules, 'numpy imported by the parser'"
+    assert _loaded_after(code) == []
 
 
 @pytest.mark.parametrize("args", [["--help"], ["certify", "--help"], ["basin", "--help"]])

@@ -6,17 +6,15 @@ import argparse
 import itertools
 import re
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
-from roa.montecarlo.sampling import GridSlice
 from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
-from roa.parameters import ParameterBox, describe_point
-from roa.system import System
+
+if TYPE_CHECKING:
+    from roa.system import System
 
 EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
@@ -119,6 +117,8 @@ def parse_grid(text: str) -> tuple[int, int]:
 
 
 def parse_box(text: str | None, names: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    import numpy as np
+
     out: dict[str, tuple[float, float]] = {}
     for part in (text or "").split(","):
         if not part.strip():
@@ -157,6 +157,8 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
 
 def build(args: argparse.Namespace):
     """Validate everything and return ``(system, sampler, rules)`` before any work."""
+    import numpy as np
+
     from roa.montecarlo.sampling import box_sample, grid_slice
     from roa.status import StopRules
 
@@ -238,6 +240,8 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
     Every corner of the box must lie inside the domain (exact for domains that are boxes or
     convex, such as the IPC's |theta| < pi/2).
     """
+    import numpy as np
+
     if system.margin is None:
         return
     names = system.state_names
@@ -254,6 +258,8 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
 def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
     """Regions {V <= rho} of ``--lyapunov-level`` for any ``--lyapunov`` (quadratic, polynomial,
     any function), each with the verdict of :func:`roa.certify` as its status."""
+    import numpy as np
+
     import roa
     from roa.plotting.basin import kind_text
     from roa.regions import Region
@@ -306,6 +312,7 @@ def _check_out_dir(out: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import roa
+    from roa.montecarlo.sampling import GridSlice
 
     _check_out_dir(args.out)
     system, sampler, rules = build(args)
@@ -383,6 +390,7 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
                 ) -> int:  # fmt: skip
     """``roa basin`` on a system with uncertain parameters (:mod:`roa.montecarlo.robust_basin`)."""
     from roa.montecarlo.robust_basin import robust_basin
+    from roa.parameters import ParameterBox, describe_point
 
     result = robust_basin(system, sampler, param_samples=args.param_samples, param_seed=args.seed,
                           rules=rules, integrator=integrator, run=run_opts, terminal=terminal,

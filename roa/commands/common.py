@@ -12,8 +12,6 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
-import numpy as np
-
 from roa.errors import RoaInputError
 from roa.io import to_json
 
@@ -155,6 +153,8 @@ def read_matrix(spec: str, *, what: str) -> Any:
     """A matrix (or a Lyapunov object) from ``.json`` / ``.npy`` / ``file.py:NAME``; a JSON object
     with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V), also
     when they are in its ``"candidate_kind"`` (the JSON of ``roa certify --degree D --json``)."""
+    import numpy as np
+
     if spec.endswith(".py") or ".py:" in spec:
         from roa.systems import user_module
 

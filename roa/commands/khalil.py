@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from roa.commands import common as C
 
 
@@ -53,6 +51,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     res = compute(args)
     if args.json:
         C.emit(args, res.to_dict())

@@ -36,6 +36,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "basin",
         help="Monte Carlo basin of attraction: statuses over a 2D slice or random samples of a box",
+        description=(
+            "Simulate many initial conditions and report how each run ends (converged, "
+            "left_domain, diverged, undecided; never merged): a 2D slice through the equilibrium "
+            "(--slice A,B --grid NxM, the other states at the equilibrium or --fix) or seeded "
+            "uniform samples of a box (--samples N). --box ranges every sampled state (default "
+            "without --box: equilibrium +- 1). --plot draws the slice's map, with the sets "
+            "{V <= RHO} of --lyapunov-level validated and drawn over it; --out makes the run "
+            "resumable. Exit 0 when every run was done, 1 when --time-limit cut the run short."
+        ),
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -49,7 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                    help="value of a state off the slice (default: the equilibrium); repeatable")  # fmt: skip
     p.add_argument("--box", default=None, metavar="NAME=LO:HI,...",
-                   help="ranges of the slice axes or of the sampled box (default: equilibrium +- 1)")  # fmt: skip
+                   help="ranges of the slice axes or of the sampled box, every one of them "
+                   "(default without --box: equilibrium +- 1)")  # fmt: skip
     p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
     p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
     p.add_argument("--converge-tol", type=float, default=1e-3,
@@ -197,6 +207,16 @@ def build(args: argparse.Namespace):
         i = names.index(name)
         return box.get(name, (x_eq[i] - 1.0, x_eq[i] + 1.0))
 
+    def require_box(needed: list[str]) -> None:
+        """A --box given must range every state sampled: a state left out is an error, never a
+        silent equilibrium +- 1 (that default holds only without --box)."""
+        missing = [a for a in needed if a not in box]
+        if box and missing:
+            raise RoaInputError(
+                f"--box gives no range for {', '.join(missing)}: give NAME=LO:HI for each of "
+                f"{', '.join(needed)} (without --box every range is the equilibrium +- 1)"
+            )
+
     if (args.slice is None) == (args.samples is None):
         raise RoaInputError("give either --slice AXIS1,AXIS2 with --grid NxM, or --samples N")
     if args.slice is not None:
@@ -213,6 +233,7 @@ def build(args: argparse.Namespace):
         extra = set(box) - set(axes)
         if extra:
             raise RoaInputError(f"--box: {sorted(extra)} are not slice axes (use --fix for them)")
+        require_box(axes)
         shape = parse_grid(args.grid)
         sampler = grid_slice(system, axes, [rng(a) for a in axes], shape, fixed=fixed)
         _check_box_in_domain(
@@ -224,6 +245,7 @@ def build(args: argparse.Namespace):
             raise RoaInputError("--grid and --fix apply to --slice runs, not to --samples")
         if args.samples < 1:
             raise RoaInputError(f"--samples must be >= 1, got {args.samples}")
+        require_box(list(names))
         ranges = [rng(n) for n in names]
         _check_box_in_domain(system, ranges)
         sampler = box_sample(system, ranges, args.samples, seed=args.seed)  # type: ignore[assignment]

@@ -125,3 +125,19 @@ def test_wrong_count_and_pickling():
     X = _states(10)
     np.testing.assert_array_equal(again.f(X), sys_.f(X))
     assert "sympy" not in repr(sys_.field.func.program)  # no sympy object in the program
+
+
+def test_a_user_file_with_from_sympy_is_certified_by_the_cli(tmp_path, capsys):
+    from roa.cli import main
+
+    path = tmp_path / "vdp_sympy.py"
+    path.write_text(
+        "import sympy as sp\nfrom roa import System\n\n"
+        'x1, x2, mu = sp.symbols("x1 x2 mu")\n'
+        "SYSTEM = System.from_sympy([-x2, x1 + mu * (x1**2 - 1) * x2], [x1, x2], params={mu: 1.0},\n"
+        '                           name="vdp-sympy", lyapunov=[[1.5, -0.5], [-0.5, 1.0]])\n'
+    )
+    assert main(["certify", "--system", f"{path}:SYSTEM", "--level", "2.30", "--json"]) == 0
+    assert '"status": "certified"' in capsys.readouterr().out
+    assert main(["certify", "--system", f"{path}:SYSTEM", "--level", "2.31", "--json"]) == 1
+    assert '"status": "refuted"' in capsys.readouterr().out

@@ -83,3 +83,21 @@ def test_simulate_plot_time_label():
     ax2 = roa.simulate(timed, [0.5, 0.5]).plot()
     assert ax2.get_xlabel() == "time t [s]"
     plt.close("all")
+
+
+def test_basin_plot_title_names_the_system_not_the_file(tmp_path, monkeypatch):
+    import roa.plotting.basin as pb
+
+    seen = {}
+    monkeypatch.setattr(pb, "plot_slice", lambda *a, **kw: seen.update(kw))
+    path = tmp_path / "mine.py"
+    path.write_text(
+        "from roa import System\n\n"
+        "def field(t, x, xp):\n    return (-x[0], -x[1])\n\n"
+        'SYSTEM = System(name="my-linear", field=field, equilibrium=(0.0, 0.0), '
+        'state_names=("a", "b"))\n'
+    )
+    argv = ["basin", "--system", f"{path}:SYSTEM", "--slice", "a,b", "--grid", "3x3",
+            "--jobs", "1", "--t-final", "5", "--plot", str(tmp_path / "m.png")]  # fmt: skip
+    assert main(argv) == 0
+    assert seen["title"] == "basin of my-linear"

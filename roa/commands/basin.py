@@ -385,7 +385,7 @@ def run(args: argparse.Namespace) -> int:
         from roa.plotting.basin import plot_slice
 
         plot_slice(system, sampler, result.code, plot, regions=regs,
-                   title=f"basin of {args.system}")  # fmt: skip
+                   title=f"basin of {system.name}")  # fmt: skip
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
     if args.json:
@@ -419,7 +419,7 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
                           regions=regs if plot else ())  # fmt: skip
     summary = result.to_dict()
     if plot:
-        result.plot(plot, title=f"robust basin of {args.system}")
+        result.plot(plot, title=f"robust basin of {system.name}")
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
     if args.json:

@@ -101,3 +101,12 @@ def test_basin_plot_title_names_the_system_not_the_file(tmp_path, monkeypatch):
             "--jobs", "1", "--t-final", "5", "--plot", str(tmp_path / "m.png")]  # fmt: skip
     assert main(argv) == 0
     assert seen["title"] == "basin of my-linear"
+
+
+def test_khalil_says_which_shape_it_used(capsys):
+    base = ["khalil", "--system", "vanderpol", "--method", "sampled", "--directions", "64"]
+    main(base)
+    out = capsys.readouterr().out
+    assert "shape ball" in out and "--shape level work on levels of V" in out
+    main([*base, "--shape", "level"])
+    assert "shape ball" not in capsys.readouterr().out

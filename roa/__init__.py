@@ -16,53 +16,114 @@ against an array namespace (numpy, CasADi, sympy, intervals), so that simulation
 certification and Monte Carlo all work on the same definition.
 """
 
-from roa.certification import (
-    AutoValidator,
-    CandidateLevel,
-    Certificate,
-    CuttingPlanes,
-    GivenLevel,
-    IntervalValidator,
-    SampledLevel,
-    SosLevel,
-    SosValidator,
-    VsIteration,
-    certify,
-)
-from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
-from roa.levelset import LevelSearchResult, level_search
-from roa.lyapunov import (
-    FunctionLyapunov,
-    Lyapunov,
-    PolynomialLyapunov,
-    QuadraticLyapunov,
-    default_lyapunov,
-)
-from roa.montecarlo.basin import BasinResult, basin
-from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
-from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
-from roa.options import (
-    CasadiOptions,
-    IntegratorOptions,
-    IntervalOptions,
-    RunOptions,
-    SampledOptions,
-    SampleSearchOptions,
-    SosOptions,
-    VsOptions,
-)
-from roa.simulation import Trajectory, simulate
-from roa.status import (
-    BasinStatus,
-    LevelStatus,
-    RegionStatus,
-    RunStatus,
-    SosStatus,
-    StopRules,
-    Verdict,
-)
-from roa.system import System
-from roa.systems import load_system
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+#: Public name -> the module defining it. Each is imported on first use (PEP 562), so that
+#: ``import roa`` and ``roa --help`` stay fast: cvxpy, CasADi, numba, sympy, matplotlib and
+#: scipy.optimize are imported only by the analyses that need them.
+_LAZY: dict[str, str] = {
+    "AutoValidator": "roa.certification",
+    "CandidateLevel": "roa.certification",
+    "Certificate": "roa.certification",
+    "CuttingPlanes": "roa.certification",
+    "GivenLevel": "roa.certification",
+    "IntervalValidator": "roa.certification",
+    "SampledLevel": "roa.certification",
+    "SosLevel": "roa.certification",
+    "SosValidator": "roa.certification",
+    "VsIteration": "roa.certification",
+    "certify": "roa.certification",
+    "ResultsError": "roa.errors",
+    "RoaError": "roa.errors",
+    "RoaInputError": "roa.errors",
+    "SolverError": "roa.errors",
+    "SystemDefinitionError": "roa.errors",
+    "LevelSearchResult": "roa.levelset",
+    "level_search": "roa.levelset",
+    "FunctionLyapunov": "roa.lyapunov",
+    "Lyapunov": "roa.lyapunov",
+    "PolynomialLyapunov": "roa.lyapunov",
+    "QuadraticLyapunov": "roa.lyapunov",
+    "default_lyapunov": "roa.lyapunov",
+    "BasinResult": "roa.montecarlo.basin",
+    "basin": "roa.montecarlo.basin",
+    "RobustBasinResult": "roa.montecarlo.robust_basin",
+    "parameter_samples": "roa.montecarlo.robust_basin",
+    "box_sample": "roa.montecarlo.sampling",
+    "grid_slice": "roa.montecarlo.sampling",
+    "region_sample": "roa.montecarlo.sampling",
+    "CasadiOptions": "roa.options",
+    "IntegratorOptions": "roa.options",
+    "IntervalOptions": "roa.options",
+    "RunOptions": "roa.options",
+    "SampledOptions": "roa.options",
+    "SampleSearchOptions": "roa.options",
+    "SosOptions": "roa.options",
+    "VsOptions": "roa.options",
+    "Trajectory": "roa.simulation",
+    "simulate": "roa.simulation",
+    "BasinStatus": "roa.status",
+    "LevelStatus": "roa.status",
+    "RegionStatus": "roa.status",
+    "RunStatus": "roa.status",
+    "SosStatus": "roa.status",
+    "StopRules": "roa.status",
+    "Verdict": "roa.status",
+    "System": "roa.system",
+    "load_system": "roa.systems",
+}
+
+if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
+    from roa.certification import (
+        AutoValidator,
+        CandidateLevel,
+        Certificate,
+        CuttingPlanes,
+        GivenLevel,
+        IntervalValidator,
+        SampledLevel,
+        SosLevel,
+        SosValidator,
+        VsIteration,
+        certify,
+    )
+    from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
+    from roa.levelset import LevelSearchResult, level_search
+    from roa.lyapunov import (
+        FunctionLyapunov,
+        Lyapunov,
+        PolynomialLyapunov,
+        QuadraticLyapunov,
+        default_lyapunov,
+    )
+    from roa.montecarlo.basin import BasinResult, basin
+    from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
+    from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
+    from roa.options import (
+        CasadiOptions,
+        IntegratorOptions,
+        IntervalOptions,
+        RunOptions,
+        SampledOptions,
+        SampleSearchOptions,
+        SosOptions,
+        VsOptions,
+    )
+    from roa.simulation import Trajectory, simulate
+    from roa.status import (
+        BasinStatus,
+        LevelStatus,
+        RegionStatus,
+        RunStatus,
+        SosStatus,
+        StopRules,
+        Verdict,
+    )
+    from roa.system import System
+    from roa.systems import load_system
 
 __all__ = [
     "BasinResult",
@@ -116,3 +177,17 @@ __all__ = [
     "simulate",
 ]
 __version__ = "0.1.0"
+
+
+def __getattr__(name: str) -> Any:
+    """Import the public name ``name`` from its module on first access and cache it here."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'roa' has no attribute {name!r}")
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(__all__))

@@ -41,11 +41,11 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI: input errors exit 2, other roa errors exit 1 with their message, bugs raise."""
+    parser = build_parser()
+    args = parser.parse_args(argv)  # --help and usage errors exit here, before any heavy import
     import matplotlib
 
     matplotlib.use("Agg")  # files only, never a window
-    parser = build_parser()
-    args = parser.parse_args(argv)
     from roa import progress
 
     progress.enable(True)  # a line per long step on stderr (bars only on a terminal)

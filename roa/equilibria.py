@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-from scipy import optimize
 
 from roa.system import System
 
@@ -18,6 +17,8 @@ def settled_elsewhere(
     it, and ``x*`` is more than ``converge_tol`` away from the studied equilibrium. Returns
     ``(mask, points)`` with ``points[i]`` the equilibrium found (NaN where ``mask`` is false).
     """
+    from scipy import optimize  # here, not at import: scipy.optimize takes a while to load
+
     X = np.atleast_2d(np.asarray(x_end, dtype=float))
     mask = np.zeros(len(X), dtype=bool)
     points = np.full_like(X, np.nan)

@@ -15,8 +15,6 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 PACKAGES = (
     "roa",
     "numpy",
@@ -32,6 +30,8 @@ PACKAGES = (
 
 
 def _default(obj: Any) -> Any:
+    import numpy as np
+
     if isinstance(obj, np.ndarray):
         return obj.tolist()
     if isinstance(obj, np.generic):
@@ -45,6 +45,8 @@ def _default(obj: Any) -> Any:
 
 def _finite(obj: Any) -> Any:
     """A copy with every non-finite float (inf, NaN) replaced by ``None`` (JSON has neither)."""
+    import numpy as np
+
     if isinstance(obj, float | np.floating):
         return float(obj) if np.isfinite(obj) else None
     if isinstance(obj, dict):

@@ -20,13 +20,17 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any, Self
 
-import numpy as np
-
 from roa.errors import RoaInputError
 
 #: Upper bounds that keep a single call within the memory of a workstation.
 MAX_DIRECTIONS = 2_000_000
 MAX_BOXES = 200_000_000
+
+#: Seeded uniform parameter samples of a robust basin by default (on top of the nominal values
+#: and the vertices of the parameter box).
+DEFAULT_PARAM_SAMPLES = 8
+#: At most this many seeded uniform parameter samples in a robust basin.
+MAX_PARAM_SAMPLES = 1000
 
 
 def _int(obj: Any, name: str, lo: int, hi: int | None = None) -> None:
@@ -280,6 +284,8 @@ class VsOptions(Options):
                    symmetry=self.symmetry, aux_degree=self.aux_degree,
                    time_limit=self.time_limit)  # fmt: skip
         if self.shape is not None:
+            import numpy as np
+
             S = np.asarray(self.shape, dtype=float)
             if S.ndim != 2 or S.shape[0] != S.shape[1] or not np.all(np.isfinite(S)):
                 raise RoaInputError(

@@ -75,7 +75,9 @@ class Trajectory:
         units = (self.problem.state_units if self.problem else ()) or ("-",) * len(names)
         for i, (nm, un) in enumerate(zip(names, units, strict=True)):
             ax.plot(self.t, self.x[:, i], label=f"{nm} [{un}]")
-        ax.set_xlabel("time t [s or normalised]")
+        # a unit only where the system declares one (meta["time_unit"]): fields are often scaled
+        unit = (self.problem.meta.get("time_unit") if self.problem else None) or None
+        ax.set_xlabel(f"time t [{unit}]" if unit else "time t")
         ax.set_ylabel("state")
         ax.set_title(f"{self.system}: {self.status.value}")
         ax.legend(loc="best", fontsize=8)

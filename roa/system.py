@@ -206,6 +206,54 @@ class System:
                     )
                 object.__setattr__(self, name, tuple(tuple(float(v) for v in row) for row in arr))
 
+    @classmethod
+    def from_sympy(
+        cls,
+        exprs: Any,
+        states: Sequence[Any],
+        *,
+        equilibrium: Sequence[float] | None = None,
+        parameters: Mapping[Any, Sequence[float]] | None = None,
+        params: Mapping[Any, float] | None = None,
+        name: str = "sympy-system",
+        state_units: Sequence[str] = (),
+        **kwargs: Any,
+    ) -> System:
+        """The system ``x' = exprs(x)`` from sympy expressions of the state symbols.
+
+        Parameters
+        ----------
+        exprs : sequence or sympy Matrix of sympy expressions
+            One per state, in the symbols of ``states`` and of the parameters.
+        states : sequence of sympy Symbol or str
+            The state symbols, in order; their names become ``state_names``.
+        equilibrium : sequence of float, optional
+            The equilibrium studied (default: the origin).
+        parameters : mapping, optional
+            Uncertain parameters: symbol or name -> ``(low, nominal, high)`` (as ``System``).
+        params : mapping, optional
+            Fixed parameters: symbol or name -> value (as ``System``; ``with_params`` changes them).
+        name, state_units, **kwargs
+            As :class:`System` (``margin``, ``lyapunov``, ``norm``, ``domain_description``, ...).
+
+        The field is compiled once (:mod:`roa.sympy_system`) and runs in every namespace: numpy,
+        CasADi, sympy, mpmath, intervals and jets (rationals enclosed). An unsupported function
+        or symbol is an error naming it.
+
+        Examples
+        --------
+        >>> import sympy as sp
+        >>> x1, x2, mu = sp.symbols("x1 x2 mu")
+        >>> vdp = System.from_sympy([-x2, x1 + mu * (x1**2 - 1) * x2], [x1, x2], params={mu: 1.0})
+        >>> vdp.f([0.5, 0.5]).tolist()
+        [-0.5, 0.125]
+        """
+        from roa.sympy_system import system_from_sympy
+
+        return system_from_sympy(exprs, states, equilibrium=equilibrium, parameters=parameters,
+                                 params=params, name=name, state_units=state_units,
+                                 **kwargs)  # fmt: skip
+
     def _bind_params(self) -> None:
         func = self.field.func if isinstance(self.field, BoundField) else self.field
         if self.parameters is not None:

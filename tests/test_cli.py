@@ -138,7 +138,7 @@ def test_basin_box_outside_the_domain_is_rejected_before_work(capsys):
                 "--grid",
                 "5x5",
                 "--box",
-                "theta=-2:2",
+                "q=-1:1,theta=-2:2",
             ]
         )
         == 2

@@ -125,7 +125,7 @@ def test_fused_field_writes_what_the_field_and_the_map_give(coords):
     X[:8, 2] = [np.pi / 2, -np.pi / 2, 1.5707963267948966, 2.0, np.inf, np.nan, 1e-310, -0.0]
     X[8:12, [0, 1, 3, 0]] = [np.inf, -np.inf, np.nan, 1.7e308]
     cmap, fused = fast.FAST_COORDS[coords]
-    public_map = fast.COMPILED_COORDS[coords]
+    public_map = fast.compiled_coords(coords)
     for x in X:
         x = np.ascontiguousarray(x)
         out_a, w_a = np.empty(4), np.empty(4)

@@ -6,8 +6,6 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-import numpy as np
-
 from roa.commands.common import floats
 from roa.errors import RoaInputError
 from roa.io import to_json
@@ -56,6 +54,8 @@ MAX_POLE = 1e3
 def _gains(args: argparse.Namespace, gains_class: Any) -> Any:
     """The controller gains of ``--poles`` or ``--coefficients`` (default: the paper's); every
     problem is an input error naming the option."""
+    import numpy as np
+
     if not (args.poles or args.coefficients):
         return gains_class.default()
     flag = "--poles" if args.poles else "--coefficients"
@@ -86,6 +86,8 @@ def _gains(args: argparse.Namespace, gains_class: Any) -> Any:
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     from ipc_paper import system as ipc
     from ipc_paper.system.controller import Gains, make_reference
     from roa.simulation import simulate

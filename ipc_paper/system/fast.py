@@ -27,9 +27,9 @@ from roa.montecarlo.integrator import (
     COORDS_SIGNATURE,
     FIELD_SIGNATURE,
     MARGIN_SIGNATURE,
-    no_margin,
     no_margin_njit,
 )
+from roa.montecarlo.lazy_cfunc import LazyCfuncs
 
 if TYPE_CHECKING:
     from roa.system import System
@@ -74,7 +74,7 @@ def physical_scalar(q, qd, th, thd, p):
 def _physical(x, p, out, w, mode):
     """The closed loop in physical coordinates (q, q', theta, theta'), zero reference, into
     ``out``; with ``mode`` 1 (2) also the flat (hybrid) coordinates of ``x`` into ``w``, bit for
-    bit what :func:`_to_flat` (and :func:`physical_to_hybrid`) give, from the same sin, cos and
+    bit what :func:`_to_flat` (and ``physical_to_hybrid``) give, from the same sin, cos and
     log."""
     q, qd, th, thd = x[0], x[1], x[2], x[3]
     out[0], out[1], out[2], out[3], s, c, sec, a = physical_scalar(q, qd, th, thd, p)
@@ -95,15 +95,14 @@ def _physical(x, p, out, w, mode):
     w[3] = thd * sec * sec
 
 
-@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
-def physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+def _physical_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """Closed loop in physical coordinates (q, q', theta, theta'), zero reference."""
     _physical(x, p, out, out, 0)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def physical_field_njit(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """:func:`physical_field` for the fast path."""
+    """``physical_field`` for the fast path."""
     _physical(x, p, out, out, 0)
 
 
@@ -111,7 +110,7 @@ def physical_field_njit(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray)
 def physical_field_flat_njit(
     t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray, w: np.ndarray
 ) -> None:
-    """:func:`physical_field` and :func:`physical_to_flat` of ``x`` in one call (fast path)."""
+    """``physical_field`` and ``physical_to_flat`` of ``x`` in one call (fast path)."""
     _physical(x, p, out, w, 1)
 
 
@@ -119,7 +118,7 @@ def physical_field_flat_njit(
 def physical_field_hybrid_njit(
     t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray, w: np.ndarray
 ) -> None:
-    """:func:`physical_field` and :func:`physical_to_hybrid` of ``x`` in one call (fast path)."""
+    """``physical_field`` and ``physical_to_hybrid`` of ``x`` in one call (fast path)."""
     _physical(x, p, out, w, 2)
 
 
@@ -128,15 +127,14 @@ def _margin(x, p):
     return HALF_PI - abs(x[2])
 
 
-@numba.cfunc(MARGIN_SIGNATURE, cache=True, error_model="numpy")
-def physical_margin(x: np.ndarray, p: np.ndarray) -> float:
+def _physical_margin(x: np.ndarray, p: np.ndarray) -> float:
     """pi/2 - |theta|."""
     return _margin(x, p)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def physical_margin_njit(x: np.ndarray, p: np.ndarray) -> float:
-    """:func:`physical_margin` for the fast path."""
+    """``physical_margin`` for the fast path."""
     return _margin(x, p)
 
 
@@ -150,15 +148,14 @@ def _flat(x, p, out):
     out[3] = -(p[1] * x[0] + p[2] * x[1] + p[3] * w1 + p[4] * w2)
 
 
-@numba.cfunc(FIELD_SIGNATURE, cache=True, error_model="numpy")
-def flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+def _flat_field(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """The closed loop (3.8) in flat coordinates (z1, z2, w1, w2)."""
     _flat(x, p, out)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def flat_field_njit(t: float, x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """:func:`flat_field` for the fast path."""
+    """``flat_field`` for the fast path."""
     _flat(x, p, out)
 
 
@@ -188,32 +185,48 @@ def _to_hybrid(x, out):
         out[0] = x[0]
 
 
-@numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
-def physical_to_flat(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+def _physical_to_flat(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """(2.2): physical -> flat ``(z1, z2, w1, w2)``; inf outside |theta| < pi/2 or if not finite."""
     _to_flat(x, out)
 
 
-@numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
-def physical_to_hybrid(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
+def _physical_to_hybrid(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
     """Physical -> hybrid ``(q, z2, w1, w2)`` (ipc_paper/system/hybrid.py); inf as above."""
     _to_hybrid(x, out)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def physical_to_flat_njit(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """:func:`physical_to_flat` for the fast path."""
+    """``physical_to_flat`` for the fast path."""
     _to_flat(x, out)
 
 
 @numba.njit(cache=True, error_model="numpy")
 def physical_to_hybrid_njit(x: np.ndarray, p: np.ndarray, out: np.ndarray) -> None:
-    """:func:`physical_to_hybrid` for the fast path."""
+    """``physical_to_hybrid`` for the fast path."""
     _to_hybrid(x, out)
 
 
-#: Compiled analysis-coordinate maps of the physical closed loop (terminal sets).
-COMPILED_COORDS = {"flat": physical_to_flat, "hybrid": physical_to_hybrid}
+#: The public cfuncs (``System.numba``), compiled on first access (not at import): each is
+#: ``numba.cfunc(SIGNATURE, cache=True, error_model="numpy")`` of the function ``_NAME`` above.
+__getattr__ = LazyCfuncs(
+    __name__,
+    {
+        "physical_field": (FIELD_SIGNATURE, _physical_field),
+        "physical_margin": (MARGIN_SIGNATURE, _physical_margin),
+        "flat_field": (FIELD_SIGNATURE, _flat_field),
+        "physical_to_flat": (COORDS_SIGNATURE, _physical_to_flat),
+        "physical_to_hybrid": (COORDS_SIGNATURE, _physical_to_hybrid),
+    },
+)
+
+
+def compiled_coords(name: str):
+    """The compiled analysis-coordinate map ``name`` ("flat" or "hybrid") of the physical closed
+    loop (terminal sets); KeyError for another name."""
+    return __getattr__({"flat": "physical_to_flat", "hybrid": "physical_to_hybrid"}[name])
+
+
 #: The same for the fast path: (map, field fused with the map).
 FAST_COORDS = {
     "flat": (physical_to_flat_njit, physical_field_flat_njit),
@@ -225,7 +238,7 @@ class PhysicalKernels:
     """Picklable factory for ``System.numba`` (physical coordinates).
 
     ``kernels()`` returns ``(field, margin, params)``; ``kernels(coords=name)`` adds the compiled
-    map ``coords(x, params, out)`` to the analysis coordinates ``name`` (:data:`COMPILED_COORDS`)
+    map ``coords(x, params, out)`` to the analysis coordinates ``name`` (:func:`compiled_coords`)
     of a terminal set (roa/montecarlo/terminal.py).
     """
 
@@ -234,9 +247,10 @@ class PhysicalKernels:
         self.params = np.array([float(delta), *map(float, h), sat])
 
     def __call__(self, coords: str | None = None):
+        field, margin = __getattr__("physical_field"), __getattr__("physical_margin")
         if coords is None:
-            return physical_field, physical_margin, self.params
-        return physical_field, physical_margin, self.params, COMPILED_COORDS[coords]
+            return field, margin, self.params
+        return field, margin, self.params, compiled_coords(coords)
 
 
 class PhysicalFastKernels(PhysicalKernels):
@@ -298,7 +312,9 @@ class FlatKernels:
         self.params = np.array([1.0, *map(float, h), np.nan])
 
     def __call__(self):
-        return flat_field, no_margin, self.params
+        from roa.montecarlo import integrator
+
+        return __getattr__("flat_field"), integrator.no_margin, self.params
 
 
 class FlatFastKernels(FlatKernels):

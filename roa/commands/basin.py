@@ -6,17 +6,15 @@ import argparse
 import itertools
 import re
 from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
-from roa.montecarlo.robust_basin import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
-from roa.montecarlo.sampling import GridSlice
-from roa.parameters import ParameterBox, describe_point
-from roa.system import System
+from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
+
+if TYPE_CHECKING:
+    from roa.system import System
 
 EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
@@ -38,6 +36,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "basin",
         help="Monte Carlo basin of attraction: statuses over a 2D slice or random samples of a box",
+        description=(
+            "Simulate many initial conditions and report how each run ends (converged, "
+            "left_domain, diverged, undecided; never merged): a 2D slice through the equilibrium "
+            "(--slice A,B --grid NxM, the other states at the equilibrium or --fix) or seeded "
+            "uniform samples of a box (--samples N). --box ranges every sampled state (default "
+            "without --box: equilibrium +- 1). --plot draws the slice's map, with the sets "
+            "{V <= RHO} of --lyapunov-level validated and drawn over it; --out makes the run "
+            "resumable. Exit 0 when every run was done, 1 when --time-limit cut the run short."
+        ),
         epilog=EPILOG,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -51,7 +58,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--fix", action="append", default=[], metavar="NAME=VALUE",
                    help="value of a state off the slice (default: the equilibrium); repeatable")  # fmt: skip
     p.add_argument("--box", default=None, metavar="NAME=LO:HI,...",
-                   help="ranges of the slice axes or of the sampled box (default: equilibrium +- 1)")  # fmt: skip
+                   help="ranges of the slice axes or of the sampled box, every one of them "
+                   "(default without --box: equilibrium +- 1)")  # fmt: skip
     p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
     p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
     p.add_argument("--converge-tol", type=float, default=1e-3,
@@ -119,6 +127,8 @@ def parse_grid(text: str) -> tuple[int, int]:
 
 
 def parse_box(text: str | None, names: tuple[str, ...]) -> dict[str, tuple[float, float]]:
+    import numpy as np
+
     out: dict[str, tuple[float, float]] = {}
     for part in (text or "").split(","):
         if not part.strip():
@@ -157,6 +167,8 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
 
 def build(args: argparse.Namespace):
     """Validate everything and return ``(system, sampler, rules)`` before any work."""
+    import numpy as np
+
     from roa.montecarlo.sampling import box_sample, grid_slice
     from roa.status import StopRules
 
@@ -195,6 +207,16 @@ def build(args: argparse.Namespace):
         i = names.index(name)
         return box.get(name, (x_eq[i] - 1.0, x_eq[i] + 1.0))
 
+    def require_box(needed: list[str]) -> None:
+        """A --box given must range every state sampled: a state left out is an error, never a
+        silent equilibrium +- 1 (that default holds only without --box)."""
+        missing = [a for a in needed if a not in box]
+        if box and missing:
+            raise RoaInputError(
+                f"--box gives no range for {', '.join(missing)}: give NAME=LO:HI for each of "
+                f"{', '.join(needed)} (without --box every range is the equilibrium +- 1)"
+            )
+
     if (args.slice is None) == (args.samples is None):
         raise RoaInputError("give either --slice AXIS1,AXIS2 with --grid NxM, or --samples N")
     if args.slice is not None:
@@ -211,6 +233,7 @@ def build(args: argparse.Namespace):
         extra = set(box) - set(axes)
         if extra:
             raise RoaInputError(f"--box: {sorted(extra)} are not slice axes (use --fix for them)")
+        require_box(axes)
         shape = parse_grid(args.grid)
         sampler = grid_slice(system, axes, [rng(a) for a in axes], shape, fixed=fixed)
         _check_box_in_domain(
@@ -222,6 +245,7 @@ def build(args: argparse.Namespace):
             raise RoaInputError("--grid and --fix apply to --slice runs, not to --samples")
         if args.samples < 1:
             raise RoaInputError(f"--samples must be >= 1, got {args.samples}")
+        require_box(list(names))
         ranges = [rng(n) for n in names]
         _check_box_in_domain(system, ranges)
         sampler = box_sample(system, ranges, args.samples, seed=args.seed)  # type: ignore[assignment]
@@ -238,6 +262,8 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
     Every corner of the box must lie inside the domain (exact for domains that are boxes or
     convex, such as the IPC's |theta| < pi/2).
     """
+    import numpy as np
+
     if system.margin is None:
         return
     names = system.state_names
@@ -254,6 +280,8 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
 def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
     """Regions {V <= rho} of ``--lyapunov-level`` for any ``--lyapunov`` (quadratic, polynomial,
     any function), each with the verdict of :func:`roa.certify` as its status."""
+    import numpy as np
+
     import roa
     from roa.plotting.basin import kind_text
     from roa.regions import Region
@@ -306,6 +334,7 @@ def _check_out_dir(out: str | None) -> None:
 
 def run(args: argparse.Namespace) -> int:
     import roa
+    from roa.montecarlo.sampling import GridSlice
 
     _check_out_dir(args.out)
     system, sampler, rules = build(args)
@@ -356,7 +385,7 @@ def run(args: argparse.Namespace) -> int:
         from roa.plotting.basin import plot_slice
 
         plot_slice(system, sampler, result.code, plot, regions=regs,
-                   title=f"basin of {args.system}")  # fmt: skip
+                   title=f"basin of {system.name}")  # fmt: skip
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
     if args.json:
@@ -383,13 +412,14 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
                 ) -> int:  # fmt: skip
     """``roa basin`` on a system with uncertain parameters (:mod:`roa.montecarlo.robust_basin`)."""
     from roa.montecarlo.robust_basin import robust_basin
+    from roa.parameters import ParameterBox, describe_point
 
     result = robust_basin(system, sampler, param_samples=args.param_samples, param_seed=args.seed,
                           rules=rules, integrator=integrator, run=run_opts, terminal=terminal,
                           regions=regs if plot else ())  # fmt: skip
     summary = result.to_dict()
     if plot:
-        result.plot(plot, title=f"robust basin of {args.system}")
+        result.plot(plot, title=f"robust basin of {system.name}")
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
     if args.json:

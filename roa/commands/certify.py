@@ -14,8 +14,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         "certify",
         help="certify V' < 0 on {V <= level} (SOS + interval validation)",
         description=(
-            "Certify that the sublevel set {V <= level} of a quadratic Lyapunov candidate lies in "
-            "the region of attraction: V' < 0 on it minus the equilibrium (and inside the system's "
+            "Certify that the sublevel set {V <= level} of a Lyapunov candidate V (any V: the "
+            "system's default quadratic, a matrix, a polynomial JSON or file.py:NAME, see "
+            "--lyapunov) lies in the region of attraction: V' < 0 on it minus the equilibrium (and inside the system's "
             "domain). With --level, that level is checked by interval branch and bound "
             "(certified / refuted with a 50-digit checked witness / inconclusive). Without --level "
             "(the default, --maximise), a candidate level is found first -- by the SOS program "

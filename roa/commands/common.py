@@ -8,11 +8,10 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
-
-import numpy as np
 
 from roa.errors import RoaInputError
 from roa.io import to_json
@@ -60,9 +59,40 @@ def add_system(p: argparse.ArgumentParser, *, lyapunov: bool = False) -> None:
         p.add_argument("--lyapunov", default=None, metavar="FILE", help=LYAPUNOV_HELP)
 
 
+#: A value that starts like a negative number but that argparse would take for an option
+#: (``-10x10``, ``-0.5,0.5``, ``-1e-3``): argparse accepts only ``-5`` and ``-.5`` as values.
+_NEGATIVE_VALUE = re.compile(r"-\.?\d.*")
+_ARGPARSE_NUMBER = re.compile(r"^-\d+$|^-\d*\.\d+$")
+
+
+def join_negative_values(argv: list[str]) -> list[str]:
+    """``--opt -10x10`` as ``--opt=-10x10``, so that the option's own check names the value and
+    its allowed range instead of argparse's "expected one argument" (no option starts ``-digit``)."""
+    out: list[str] = []
+    i = 0
+    while i < len(argv):
+        tok = argv[i]
+        nxt = argv[i + 1] if i + 1 < len(argv) else None
+        if (tok.startswith("--") and "=" not in tok and len(tok) > 2 and nxt is not None
+                and _NEGATIVE_VALUE.fullmatch(nxt) and not _ARGPARSE_NUMBER.match(nxt)):  # fmt: skip
+            out.append(f"{tok}={nxt}")
+            i += 2
+            continue
+        out.append(tok)
+        i += 1
+    return out
+
+
 class Parser(argparse.ArgumentParser):
     """The parser of ``roa`` and its commands: an error about ``--system`` (missing, no value)
-    lists the systems loadable by name."""
+    lists the systems loadable by name; ``--opt -10x10`` reaches the option (see
+    :func:`join_negative_values`)."""
+
+    def parse_known_args(self, args: Any = None, namespace: Any = None) -> Any:
+        import sys
+
+        argv = list(sys.argv[1:] if args is None else args)
+        return super().parse_known_args(join_negative_values(argv), namespace)
 
     def error(self, message: str) -> NoReturn:
         if "--system" in message and any("--system" in a.option_strings for a in self._actions):
@@ -155,6 +185,8 @@ def read_matrix(spec: str, *, what: str) -> Any:
     """A matrix (or a Lyapunov object) from ``.json`` / ``.npy`` / ``file.py:NAME``; a JSON object
     with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V), also
     when they are in its ``"candidate_kind"`` (the JSON of ``roa certify --degree D --json``)."""
+    import numpy as np
+
     if spec.endswith(".py") or ".py:" in spec:
         from roa.systems import user_module
 

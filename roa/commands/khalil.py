@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from roa.commands import common as C
 
 
@@ -53,6 +51,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     res = compute(args)
     if args.json:
         C.emit(args, res.to_dict())
@@ -60,6 +60,9 @@ def run(args: argparse.Namespace) -> int:
     what = "V" if args.shape == "level" else "ball"
     print(f"{args.system}: largest {what} level with V' < 0: {C.fmt(res.level, '.10g')}  "
           f"[{res.method}, {res.status.value}]")  # fmt: skip
+    if args.shape == "ball":  # the default differs from certify's: say which one this is
+        print("  shape ball: the level c bounds (x - x_eq)' S (x - x_eq) with the system's norm S; "
+              "roa certify and --shape level work on levels of V")  # fmt: skip
     for name, r in res.per_method.items():
         print(f"  {name:8s} {C.fmt(r.level, '.10g')}  ({r.status.value})")
     if res.witness is not None:

@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import argparse
 
-import numpy as np
-
 from roa.commands import common as C
 
 
@@ -31,6 +29,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
+    import numpy as np
+
     import roa
     from roa.errors import RoaInputError
 
@@ -47,6 +47,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
 
 
 def run(args: argparse.Namespace) -> int:
+    import numpy as np
+
     if args.plot:
         from roa.io import check_figure_path
 

@@ -19,10 +19,9 @@ from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.engine import converged_interval, run_basin
-from roa.montecarlo.robust_basin import DEFAULT_PARAM_SAMPLES
 from roa.montecarlo.sampling import GridSlice
 from roa.montecarlo.terminal import TerminalSet
-from roa.options import IntegratorOptions, RunOptions
+from roa.options import DEFAULT_PARAM_SAMPLES, IntegratorOptions, RunOptions
 from roa.status import BasinStatus, StopRules
 from roa.system import System
 

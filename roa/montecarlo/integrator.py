@@ -70,6 +70,7 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     check_tolerances,
 )
 from roa.montecarlo.integrator_numpy import integrate_numpy
+from roa.montecarlo.lazy_cfunc import LazyCfuncs
 from roa.montecarlo.terminal import ENTERED, REASON, TerminalSet
 from roa.montecarlo.terminal_poly import member_numba
 from roa.status import StopRules
@@ -202,7 +203,7 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
     factory = system.numba
     if name is None:
         field, margin, params = factory()
-        coords = identity_coords
+        coords = __getattr__("identity_coords")
     else:
         try:
             field, margin, params, coords = factory(coords=name)
@@ -618,17 +619,26 @@ def _kernel(
         steps[k] = ns
 
 
-@numba.cfunc(MARGIN_SIGNATURE, cache=True, error_model="numpy")
-def no_margin(x: np.ndarray, params: np.ndarray) -> float:
+def _no_margin(x: np.ndarray, params: np.ndarray) -> float:
     """Margin of a system whose domain is the whole space (for numba fields)."""
     return np.inf
 
 
-@numba.cfunc(COORDS_SIGNATURE, cache=True, error_model="numpy")
-def identity_coords(x: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
+def _identity_coords(x: np.ndarray, params: np.ndarray, out: np.ndarray) -> None:
     """The identity coordinate map (a terminal set in the simulated coordinates)."""
     for i in range(x.shape[0]):
         out[i] = x[i]
+
+
+#: The public cfuncs ``no_margin`` (:func:`_no_margin`, MARGIN_SIGNATURE) and ``identity_coords``
+#: (:func:`_identity_coords`, COORDS_SIGNATURE), compiled on first access, not at import.
+__getattr__ = LazyCfuncs(
+    __name__,
+    {
+        "no_margin": (MARGIN_SIGNATURE, _no_margin),
+        "identity_coords": (COORDS_SIGNATURE, _identity_coords),
+    },
+)
 
 
 # ----------------------------------------------------------------------------- fast path

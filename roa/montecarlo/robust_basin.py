@@ -44,15 +44,16 @@ from roa.montecarlo import dopri as I  # noqa: N812  (status codes)
 from roa.montecarlo.engine import wilson_interval
 from roa.montecarlo.sampling import GridSlice
 from roa.montecarlo.terminal import TerminalSet
-from roa.options import IntegratorOptions, RunOptions
+from roa.options import (  # noqa: F401  (the sample counts are re-exported)
+    DEFAULT_PARAM_SAMPLES,
+    MAX_PARAM_SAMPLES,
+    IntegratorOptions,
+    RunOptions,
+)
 from roa.parameters import ParameterBox
 from roa.status import BasinStatus, StopRules
 from roa.system import System
 
-#: Seeded uniform parameter samples by default (on top of the nominal values and the vertices).
-DEFAULT_PARAM_SAMPLES = 8
-#: At most this many seeded uniform parameter samples.
-MAX_PARAM_SAMPLES = 1000
 #: Second word of the seed of the parameter samples (kept apart from the state samplers' streams).
 _STREAM = 0x70617261
 

@@ -21,10 +21,12 @@ import traceback
 from collections.abc import Callable
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from roa.errors import RoaError, RoaInputError, SystemDefinitionError
-from roa.system import System
+
+if TYPE_CHECKING:  # imported where needed: the CLI's --help lists the names without numpy
+    from roa.system import System
 
 #: The library's built-in systems: name -> "module:factory"; factories take keyword parameters
 #: (floats). Studies add their own (:attr:`roa.studies.Study.systems`), looked up after these.
@@ -119,6 +121,8 @@ def load_system(spec: str) -> System:
     >>> load_system("vanderpol").state_names
     ('x1', 'x2')
     """
+    from roa.system import System
+
     builtin = _builtin(spec)
     if builtin is not None:
         return builtin

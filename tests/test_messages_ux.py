@@ -1,0 +1,112 @@
+"""Messages that say what to do (#25): each mistake of a new user exits 2 naming the input.
+
+* a --box that leaves out a sampled state is an error naming it (it was silently eq +- 1);
+* ``--grid -10x10`` reaches --grid's own check (allowed range), not argparse's "expected one
+  argument"; a negative first component is a value for any option (``--x0 -0.5,0.5``);
+* ``certify --help`` speaks of any V, ``basin --help`` has a description;
+* a simulation plot claims no time unit unless the system declares one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import pytest
+
+from roa.cli import main
+from roa.commands.common import join_negative_values
+
+SLICE = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--jobs", "1"]
+
+
+@pytest.mark.parametrize(
+    ("argv", "missing"),
+    [
+        (SLICE + ["--box", "x1=-3:3"], "x2"),
+        (["basin", "--system", "vanderpol", "--samples", "10", "--box", "x2=-3:3"], "x1"),
+    ],
+)
+def test_box_leaving_out_a_state_names_it(capsys, argv, missing):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert f"--box gives no range for {missing}" in err and "x1, x2" in err
+
+
+@pytest.mark.parametrize("grid", ["-10x10", "-3x-3", "-1e3x4"])
+def test_negative_grid_reaches_the_grid_check(capsys, grid):
+    argv = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", grid]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "expected one argument" not in err
+    assert "--grid" in err and ">= 2" in err and repr(grid) in err
+
+
+def test_negative_values_are_joined_to_their_option_only():
+    assert join_negative_values(["--grid", "-10x10"]) == ["--grid=-10x10"]
+    assert join_negative_values(["--x0", "-0.5,0.5"]) == ["--x0=-0.5,0.5"]
+    assert join_negative_values(["--tol", "-1e-3"]) == ["--tol=-1e-3"]
+    # argparse already takes these as values; flags and options are left alone
+    assert join_negative_values(["--level", "-5"]) == ["--level", "-5"]
+    assert join_negative_values(["--json", "--box", "x=-1:1"]) == ["--json", "--box", "x=-1:1"]
+    assert join_negative_values(["-h"]) == ["-h"]
+
+
+def test_simulate_accepts_a_negative_first_component(capsys):
+    argv = ["simulate", "--system", "vanderpol", "--x0", "-0.5,0.5", "--json"]
+    assert main(argv) == 0
+    assert '"status": "converged"' in capsys.readouterr().out
+
+
+def test_help_texts(capsys):
+    with pytest.raises(SystemExit):
+        main(["certify", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "quadratic Lyapunov candidate lies" not in out and "any V" in out
+    with pytest.raises(SystemExit):
+        main(["basin", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert "Simulate many initial conditions" in out and "--box ranges every sampled state" in out
+
+
+def test_simulate_plot_time_label():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    import roa
+
+    system = roa.load_system("vanderpol")
+    ax = roa.simulate(system, [0.5, 0.5]).plot()
+    assert ax.get_xlabel() == "time t"
+    timed = dataclasses.replace(system, meta={"time_unit": "s"})
+    ax2 = roa.simulate(timed, [0.5, 0.5]).plot()
+    assert ax2.get_xlabel() == "time t [s]"
+    plt.close("all")
+
+
+def test_basin_plot_title_names_the_system_not_the_file(tmp_path, monkeypatch):
+    import roa.plotting.basin as pb
+
+    seen = {}
+    monkeypatch.setattr(pb, "plot_slice", lambda *a, **kw: seen.update(kw))
+    path = tmp_path / "mine.py"
+    path.write_text(
+        "from roa import System\n\n"
+        "def field(t, x, xp):\n    return (-x[0], -x[1])\n\n"
+        'SYSTEM = System(name="my-linear", field=field, equilibrium=(0.0, 0.0), '
+        'state_names=("a", "b"))\n'
+    )
+    argv = ["basin", "--system", f"{path}:SYSTEM", "--slice", "a,b", "--grid", "3x3",
+            "--jobs", "1", "--t-final", "5", "--plot", str(tmp_path / "m.png")]  # fmt: skip
+    assert main(argv) == 0
+    assert seen["title"] == "basin of my-linear"
+
+
+def test_khalil_says_which_shape_it_used(capsys):
+    base = ["khalil", "--system", "vanderpol", "--method", "sampled", "--directions", "64"]
+    main(base)
+    out = capsys.readouterr().out
+    assert "shape ball" in out and "--shape level work on levels of V" in out
+    main([*base, "--shape", "level"])
+    assert "shape ball" not in capsys.readouterr().out

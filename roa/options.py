@@ -424,16 +424,27 @@ class IntervalOptions(Options):
     sampled_safety : float
         A sampled optimum (an upper bound of the largest level) is validated at this fraction,
         in (0, 1].
+    time_limit : float or None
+        Wall-clock budget of one validation in seconds, in (0, 1e9]: when it runs out the
+        verdict is ``inconclusive`` saying so (checked between batches of boxes).
     """
 
     max_boxes: int = 3_000_000
     batch: int = 100_000
     sampled_safety: float = 0.999
+    time_limit: float | None = None
 
     def __post_init__(self) -> None:
         _int(self, "max_boxes", 1, MAX_BOXES)
         _int(self, "batch", 1, 10_000_000)
         _pos(self, "sampled_safety", upper=1.0, closed_upper=True)
+        t = self.time_limit
+        if t is not None and (
+            isinstance(t, bool) or not isinstance(t, int | float) or not 0 < t <= 1e9
+        ):
+            raise RoaInputError(
+                f"IntervalOptions.time_limit must be a number of seconds in (0, 1e9], got {t!r}"
+            )
 
 
 @dataclass(frozen=True)

@@ -145,3 +145,17 @@ def test_a_gram_block_too_large_is_refused_where_it_is_built():
     assert len(basis) > MAX_GRAM_BLOCK
     with pytest.raises(ProgramTooLarge, match=f"{len(basis)} monomials"):
         Identity(12).gram(basis, None)
+
+
+def test_a_validation_out_of_time_is_inconclusive_saying_so():
+    """A wall-clock budget ends the branch and bound between batches: inconclusive, never
+    certified (the budget is spent before the first split here)."""
+    import roa
+    from roa.systems.vanderpol import vanderpol
+
+    itv = roa.IntervalOptions(time_limit=1e-9, batch=1)
+    cert = roa.certify(vanderpol(), level=2.3, interval=itv)
+    assert cert.status is roa.Verdict.INCONCLUSIVE and "time limit" in cert.message
+    assert roa.certify(vanderpol(), level=2.3).status is roa.Verdict.CERTIFIED
+    with pytest.raises(roa.RoaInputError, match="time_limit must be a number of seconds"):
+        roa.IntervalOptions(time_limit=-1)

@@ -71,11 +71,12 @@ class IntervalValidator:
             with step(f"robust interval validation of level {level:.6g}"):
                 return validate_robust(system, V, level, max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
-                                       bounding_box=self.bounding_box)  # fmt: skip
+                                       bounding_box=self.bounding_box,
+                                       time_limit=self.options.time_limit)  # fmt: skip
         with step(f"interval validation of level {level:.6g}"):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
-                                  batch=self.options.batch,
-                                  bounding_box=self.bounding_box)  # fmt: skip
+                                  batch=self.options.batch, bounding_box=self.bounding_box,
+                                  time_limit=self.options.time_limit)  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -57,6 +57,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--budget", type=float, default=VsOptions().budget, metavar="SEC",
                    help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
+    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+                   help="wall-clock budget of each interval validation, in (0, 1e9] seconds: "
+                   "when it runs out the verdict is inconclusive, saying so (default: none)")  # fmt: skip
     p.add_argument("--validator", choices=("auto", "interval", "sos"), default="auto",
                    help="what proves the level: auto (default: the interval branch and bound up "
                    "to 4 states and parameters, the exact SOS certificate above, each backing up "
@@ -82,8 +85,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
     if args.level is not None and not args.level > 0:
         raise RoaInputError(f"--level must be a finite number > 0, got {args.level}")
     interval = C.options(
-        lambda: roa.IntervalOptions(max_boxes=args.max_boxes),
-        {"IntervalOptions.max_boxes": "--max-boxes"},
+        lambda: roa.IntervalOptions(max_boxes=args.max_boxes, time_limit=args.time_limit),
+        {"IntervalOptions.max_boxes": "--max-boxes", "IntervalOptions.time_limit": "--time-limit"},
     )
     if args.check_above is not None and not args.check_above > 1:
         raise RoaInputError(f"--check-above must be a finite number > 1, got {args.check_above}")

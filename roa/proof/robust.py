@@ -113,6 +113,7 @@ def validate_robust(
     max_boxes: int = 3_000_000,
     batch: int = 100_000,
     bounding_box: Any = None,
+    time_limit: float | None = None,
 ) -> Validation:
     """Decide ``V'_p < 0`` on ``{V <= level} \\ {x_eq}`` for every ``p`` of the system's box (module
     doc). ``max_boxes`` is the budget of boxes (states and parameters)."""
@@ -138,7 +139,7 @@ def validate_robust(
     # one branch and bound over states and parameters; its float searches run at the worst
     # sample point
     res = validate_level(over(system, full, point=worst), lyap, level, max_boxes=max_boxes,
-                         batch=batch, bounding_box=bounding_box,
+                         batch=batch, bounding_box=bounding_box, time_limit=time_limit,
                          parameters=(np.asarray(full.lo), np.asarray(full.hi)))  # fmt: skip
     meta = {**res.meta, "witness_search_parameters": worst}
     if res.status is Verdict.REFUTED:

@@ -360,6 +360,7 @@ def validate_level(
     batch: int = 100_000,
     bounding_box: Any = None,
     parameters: tuple[Any, Any] | None = None,
+    time_limit: float | None = None,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -396,7 +397,9 @@ def validate_level(
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
     with np.errstate(over="ignore"):  # an interval bound that overflows is +-inf: still sound
         res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
-                                bounding_box=bounding_box, parameters=parameters)  # fmt: skip
+                                bounding_box=bounding_box, parameters=parameters,
+                                deadline=None if time_limit is None
+                                else time.perf_counter() + float(time_limit))  # fmt: skip
     if "M" not in res.meta:  # boxes in x: the frame (of the component box argument) is I
         meta = {**res.meta, "coordinates": "x", "M": np.eye(lyap.n).tolist()}
         res = dataclasses.replace(res, meta=meta)
@@ -413,6 +416,7 @@ def _branch_and_bound(
     bounding_box: Any = None,
     whiten: bool = True,
     parameters: tuple[Any, Any] | None = None,
+    deadline: float | None = None,
 ) -> Validation:
     """The loop of the module doc. ``whiten``: run it on boxes in ``y`` with ``x = x_eq + M y``
     and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
@@ -423,7 +427,8 @@ def _branch_and_bound(
         if M is not None:
             W = Whitened(lyap, system, M)
             res = _branch_and_bound(whitened_system(system, W), W, level, max_boxes=max_boxes,
-                                    batch=batch, whiten=False, parameters=parameters)  # fmt: skip
+                                    batch=batch, whiten=False, parameters=parameters,
+                                    deadline=deadline)  # fmt: skip
             return _in_x(res, system, lyap, W)
 
     def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
@@ -495,6 +500,10 @@ def _branch_and_bound(
                                "V' >= 0 at a point of the level set in the cover (float and 50 "
                                "digits)", witness=[float(v) for v in w], witness_check=check,
                                meta={**info, **local})  # fmt: skip
+        if len(lo) and deadline is not None and time.perf_counter() > deadline:
+            return out(Verdict.INCONCLUSIVE, boxes,
+                       f"time limit reached with {len(lo)} boxes undecided ({boxes} evaluated)",
+                       meta={**info, **local, "time_limit": True})  # fmt: skip
         if len(lo) and boxes + 2 * len(lo) > max_boxes:
             return out(Verdict.INCONCLUSIVE, boxes,
                        f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided"

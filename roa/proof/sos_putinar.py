@@ -31,6 +31,7 @@ from typing import Any
 
 from roa.proof.exact import exact_positive_definite
 from roa.proof.recast import RecastData
+from roa.proof.recast_box import box_json
 from roa.proof.sos_check import (
     Mono,
     QPoly,
@@ -188,6 +189,8 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     meta = {"digest": matrix_digest(*[R for _, R in final.grams],
                                     [[v] for _, cs in free for v in cs]),
             "eps": str(e), "k": k, "recast": data.description}  # fmt: skip
+    if data.parameters:
+        meta["parameters"] = box_json(data.parameters)
     return PutinarCheck(
         True,
         "identity exact with the recast's constraints, every Gram matrix positive definite (exact)",
@@ -209,8 +212,6 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
     from roa.proof.recast import recast_exact
     from roa.proof.sos_check import NotPolynomial
 
-    if getattr(system, "parameters", None):
-        return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
         return None, "V must be centred at the system's equilibrium"
     try:
@@ -262,6 +263,10 @@ def recheck_recast(system: Any, V: Any, level: float, cert: dict[str, Any], eps:
     data, why = recast_preconditions(system, V, level, taylor, scale)
     if data is None:
         return False, why, None
+    stored_box = cert.get("parameters")
+    if (stored_box or None) != (box_json(data.parameters) or None):  # the system's box decides
+        return False, (f"the certificate was made for the parameter box {stored_box}, the system's "
+                       f"is {box_json(data.parameters) or 'none'}"), None  # fmt: skip
     blocks = parse_blocks(cert.get("putinar"), data.nv)
     res = check_putinar(data, level, eps, blocks, rounded=True)
     return res.ok, res.reason, res

@@ -49,7 +49,8 @@ class PutinarCandidate:
 
 def default_eps(data: RecastData, scale: float = 1e-6) -> Fraction:
     """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (a dyadic)."""
-    top = max((abs(float(c)) for m, c in data.N.items() if sum(m) == data.low), default=1.0)
+    top = max((abs(float(c)) for m, c in data.N.items() if data.state_degree(m) == data.low),
+              default=1.0)  # fmt: skip
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
@@ -87,7 +88,18 @@ def bases(data: RecastData) -> tuple[list[Mono], list[Mono], list[list[Mono]], l
                   [tuple([0] * nv)])  # fmt: skip
     me = [monomials(nv, 2 * D - 2, 0) + (angle_powers[a] if a < len(angle_powers) else [])
           for a in range(len(data.equalities))]  # fmt: skip
+    if data.parameters:  # V' = 0 at x_eq for every parameter: no block may be > 0 there
+        boxes = len(data.parameters)
+        m0, m1 = _moving(data, m0), _moving(data, m1)
+        mj = mj[:-boxes] + [_moving(data, B) for B in mj[-boxes:]]
     return m0, m1, mj, me
+
+
+def _moving(data: RecastData, basis: list[Mono]) -> list[Mono]:
+    """The monomials of ``basis`` that vanish at the equilibrium (state degree >= 1): with the
+    parameters as variables, a monomial in the parameters alone would make its block positive at
+    ``x_eq`` where the identity's other side is 0 (no strictly feasible Gram matrix)."""
+    return [m for m in basis if data.state_degree(m) >= 1]
 
 
 def _columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]

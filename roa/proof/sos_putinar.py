@@ -189,8 +189,6 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     meta = {"digest": matrix_digest(*[R for _, R in final.grams],
                                     [[v] for _, cs in free for v in cs]),
             "eps": str(e), "k": k, "recast": data.description}  # fmt: skip
-    if data.parameters:
-        meta["parameters"] = box_json(data.parameters)
     return PutinarCheck(
         True,
         "identity exact with the recast's constraints, every Gram matrix positive definite (exact)",

@@ -188,6 +188,7 @@ def test_two_parameter_polynomial_box():
     vertices = []
     for a in (0.5, 1.5):
         for b in (0.5, 1.0):
+
             def vdot(x, a=a, b=b):
                 return float(-2 * a * x[0] ** 2 - 2 * x[1] ** 2 + 2 * b * x[0] ** 2 * x[1] ** 2)
 

@@ -495,8 +495,15 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         [f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]
         + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in roots]
     ) or ("polynomial (no recast)" if params else "")
-    desc = "; ".join(x for x in (desc, f"V' multiplied by {den} > 0" if den != "1" else "",
-                                 f"for every {describe(params)}" if params else "") if x)
+    desc = "; ".join(
+        x
+        for x in (
+            desc,
+            f"V' multiplied by {den} > 0" if den != "1" else "",
+            f"for every {describe(params)}" if params else "",
+        )
+        if x
+    )
     return RecastData(n, nv, tuple(str(g) for g in gens), center, Vq, Nq, low, tuple(angles),
                       order, sc, None if bounds is None else Fraction(level), tuple(eqs),
                       tuple(ineqs), den, desc or "polynomial (no recast)", Lq,

@@ -208,3 +208,34 @@ def test_two_parameter_polynomial_box():
     assert (1 + math.sqrt(0.5)) ** 2 / 1.2 < 0.95 * closed
     v = roa.SosValidator(fallback=False).check(wider, V, 0.95 * closed)
     assert v.status is Verdict.INCONCLUSIVE
+
+
+def _pendulum_field(t, x, xp, p):
+    return (x[1], -xp.sin(x[0]) - p.b * x[1])
+
+
+def test_recast_pendulum_with_uncertain_damping():
+    """sin recast and a parameter box together: the damped pendulum with b in [0.8, 1.2] and
+    the V of A'P + PA = -I at b = 1 (P = [[1.5, 0.5], [0.5, 1]]). V' is affine in b, so the
+    worst case is the lower of the two ends' SLSQP optima (8.5608 at b = 0.8): 0.95 x it is
+    certified and re-checked from the file, 1.005 x it is not."""
+    Pp = np.array([[1.5, 0.5], [0.5, 1.0]])
+
+    def optimum(b: float) -> float:
+        def vdot(x):
+            return float(2 * x @ Pp @ np.array([x[1], -np.sin(x[0]) - b * x[1]]))
+
+        return _slsqp(vdot, Pp, starts=40)
+
+    worst = min(optimum(0.8), optimum(1.2))
+    assert worst == pytest.approx(8.5608, rel=1e-4) and optimum(0.8) < optimum(1.2)
+    box = System("pendulum-b", _pendulum_field, (0.0, 0.0), ("theta", "omega"),
+                 parameters={"b": (0.8, 1.0, 1.2)})  # fmt: skip
+    V = as_lyapunov(box, Pp)
+    cert = roa.certify(box, V, level=0.95 * worst, validator=roa.SosValidator(fallback=False))
+    assert cert.status is Verdict.CERTIFIED and cert.method == "sos-exact", cert.message
+    assert "sin/cos(d0)" in cert.message and "for every b in [0.8, 1.2]" in cert.message
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    assert Certificate.from_dict(data, box).reverify().certified
+    above = roa.SosValidator(fallback=False).check(box, V, 1.005 * worst)
+    assert above.status is Verdict.INCONCLUSIVE

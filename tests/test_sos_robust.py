@@ -239,3 +239,29 @@ def test_recast_pendulum_with_uncertain_damping():
     assert Certificate.from_dict(data, box).reverify().certified
     above = roa.SosValidator(fallback=False).check(box, V, 1.005 * worst)
     assert above.status is Verdict.INCONCLUSIVE
+
+
+def _poly_field(t, x, xp, p):
+    A = 1 - (2 * p.a - 1) ** 2
+    return (-x[0] + A * x[0] ** 3 + p.c * x[0] * x[1] ** 2 / 2,
+            -x[1] + p.b * x[1] ** 3 + p.c * x[0] ** 2 * x[1] / 2)  # fmt: skip
+
+
+def test_worst_case_inside_the_box_with_three_parameters():
+    """V' quadratic (not affine) in a: ``x1' = -x1 + A(a) x1^3 + (c/2) x1 x2^2``,
+    ``x2' = -x2 + b x2^3 + (c/2) x1^2 x2``, ``A(a) = 1 - (2a - 1)^2``, V = |x|^2 (the benchmark
+    of benchmarks/bench_robust.py). With ``x1^2 = s r``, ``x2^2 = (1 - s) r``, ``r = V``:
+    ``V'/2 = -r + r^2 q(s)``, ``q = A s^2 + b (1 - s)^2 + c s (1 - s)``, increasing in A, b, c:
+    the worst case is A = 1 (a = 1/2, inside the box), b = 0.6, c = 3, where max q = q(1/2) =
+    33/28, so the largest level is 28/33. Certified at 0.99 x it, not at 1.01 x it."""
+    s = System("poly3", _poly_field, (0.0, 0.0), ("x1", "x2"),
+               parameters={"a": (0.0, 0.25, 1.0), "b": (0.2, 0.4, 0.6), "c": (2.0, 2.5, 3.0)})  # fmt: skip
+    q = np.linspace(0, 1, 100001)
+    assert (q * q + 0.6 * (1 - q) ** 2 + 3 * q * (1 - q)).max() == pytest.approx(33 / 28)
+    V = as_lyapunov(s, np.eye(2))
+    worst = 28 / 33
+    sos = roa.SosValidator(fallback=False)
+    ok = sos.check(s, V, 0.99 * worst)
+    assert ok.status is Verdict.CERTIFIED, ok.message
+    assert len(ok.meta["certificate"]["putinar"]["grams"]) == 5  # sigma0, lambda, 3 boxes
+    assert sos.check(s, V, 1.01 * worst).status is Verdict.INCONCLUSIVE

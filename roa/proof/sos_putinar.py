@@ -14,6 +14,11 @@ coefficients. At ``z(x)`` with ``V(x) <= c``: every ``h_e = 0``, ``g_j >= 0``, s
 for the original field (``V' = N / Den``, ``Den > 0``). ``{V <= c}`` is bounded by the Gram cover
 of ``V`` as in :mod:`roa.proof.sos_check`; then it lies in the region of attraction (LaSalle).
 
+**Parameter boxes** (:mod:`roa.proof.recast_box`): the uncertain parameters are the last
+variables of ``z`` (normalised to ``[-1, 1]``) and their box constraints ``1 - w_j^2 >= 0`` the
+last inequalities; the argument above then holds for every parameter of the box. A stored
+certificate's box must equal the system's (:func:`recheck_recast`), which alone is used.
+
 **Rounding and projection.** The multipliers' float Gram matrices and coefficients are rounded to
 dyadic rationals (never projected; a stored certificate is taken as it is). The linear monomial
 ``q_a`` of each circle cannot be matched by ``Q0`` (its basis has no constant): the constant

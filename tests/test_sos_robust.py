@@ -265,3 +265,25 @@ def test_worst_case_inside_the_box_with_three_parameters():
     assert ok.status is Verdict.CERTIFIED, ok.message
     assert len(ok.meta["certificate"]["putinar"]["grams"]) == 5  # sigma0, lambda, 3 boxes
     assert sos.check(s, V, 1.01 * worst).status is Verdict.INCONCLUSIVE
+
+
+def test_cli_verify_rechecks_a_box_certificate(box_cert, worst, tmp_path, capsys):
+    """``roa verify CERT --system vanderpol --param mu=0.8..1.2`` re-checks the stored SOS
+    certificate with the box from the command line; a raised level is refused, and another box
+    is refused by the fingerprint."""
+    from roa.cli import main
+
+    s, V, cert = box_cert
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    good, raised = tmp_path / "good.json", tmp_path / "raised.json"
+    good.write_text(json.dumps(data))
+    raised.write_text(json.dumps({**data, "level": 1.01 * worst}))
+    box = ["--system", "vanderpol", "--param", "mu=0.8..1.2", "--json"]
+    assert main(["verify", str(good), *box]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "certified" and out["method"] == "sos-exact"
+    assert main(["verify", str(raised), *box]) != 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["status"] == "inconclusive" and "refused" in out["message"]
+    rc = main(["verify", str(good), "--system", "vanderpol", "--param", "mu=0.9..1.2"])
+    assert rc != 0 and "another system" in capsys.readouterr().err

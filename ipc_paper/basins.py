@@ -29,12 +29,12 @@ import roa
 from ipc_paper import system as ipc
 from ipc_paper.estimates import paper_ball
 from roa.errors import ResultsError, RoaInputError
-from roa.experiment import VERDICTS, accepts, check_int, check_number, check_numbers
+from roa.experiment import MAX_SEED, VERDICTS, accepts, check_int, check_number, check_numbers
 from roa.io import atomic_write_json
 from roa.lyapunov import QuadraticLyapunov
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.basin import BasinResult
-from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
+from roa.montecarlo.sampling import MAX_SAMPLES, box_sample, grid_slice, region_sample
 from roa.montecarlo.terminal import REL_MARGIN, TerminalSet, coords_map
 from roa.options import IntegratorOptions, Options, RunOptions
 from roa.proof.reverify import reverify
@@ -130,7 +130,7 @@ class SliceParams(BasinParams):
         if not (isinstance(grid, tuple) and len(grid) == 2):
             raise RoaInputError(f"grid must be [nx, ny], got {grid!r}")
         for k in (0, 1):
-            check_int({f"grid[{k}]": grid[k]}, f"grid[{k}]", 2)
+            check_int({f"grid[{k}]": grid[k]}, f"grid[{k}]", 2, 10**4)
         _check_box(self, "ranges", 2)
         if not isinstance(self.fixed, dict):
             raise RoaInputError(f"fixed must be a table state = value, got {self.fixed!r}")
@@ -139,7 +139,7 @@ class SliceParams(BasinParams):
         if self.saturation is not None:
             check_number(self, "saturation", positive=True)
         if self.sector_scan is not None and self.sector_scan != 0:  # 0 or None: no scan
-            check_int(self, "sector_scan", 2)
+            check_int(self, "sector_scan", 2, 10**4)
         for name in ("title", "claim_id", "claim", "paper"):
             value = getattr(self, name)
             if value is not None and not isinstance(value, str):
@@ -158,8 +158,8 @@ class SampledParams(BasinParams):
 
     def __post_init__(self) -> None:
         super().__post_init__()
-        check_int(self, "samples", 1)
-        check_int(self, "seed", 0)
+        check_int(self, "samples", 1, MAX_SAMPLES)
+        check_int(self, "seed", 0, MAX_SEED)
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -316,7 +316,8 @@ def _settings(opts: dict[str, Any]) -> dict[str, Any]:
 
 def _frac(res: BasinResult) -> str:
     lo, hi = res.ci95
-    return f"{res.counts['converged']}/{res.n} converged ({100 * res.fraction_converged:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
+    share = res.counts["converged"] / res.n if res.n else 0.0  # every run was run (no time limit)
+    return f"{res.counts['converged']}/{res.n} converged ({100 * share:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
 
 
 def sector_line_scan(

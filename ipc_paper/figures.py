@@ -39,7 +39,7 @@ def _check_common(params: Any) -> None:
     check_number(params, "t_final", positive=True)
     check_number(params, "delta", positive=True)
     Gains.from_poles(params.poles)
-    check_int(params, "n_points", 2)
+    check_int(params, "n_points", 2, 10**6)
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -13,7 +13,7 @@ from ipc_paper import estimates as est
 from ipc_paper.bound import check_against_phi, corrected_bound, kappa_numeric, paper_bound
 from ipc_paper.system import from_flat
 from ipc_paper.system import lyapunov as ly
-from roa.experiment import accepts, check_int
+from roa.experiment import MAX_SEED, accepts, check_int
 from roa.io import atomic_savefig, atomic_write_json
 from roa.levelset import inner_level, level_search
 from roa.options import CasadiOptions, Options, SampledOptions
@@ -38,8 +38,8 @@ class BoundParams(Options):
     seed: int = 0
 
     def __post_init__(self) -> None:
-        check_int(self, "n_points", 1)
-        check_int(self, "seed", 0)
+        check_int(self, "n_points", 1, 10**7)  # n x 4 doubles in memory
+        check_int(self, "seed", 0, MAX_SEED)
 
 
 @accepts(BoundParams)

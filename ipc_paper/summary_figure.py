@@ -22,7 +22,7 @@ from ipc_paper import system as ipc
 from ipc_paper.basins import SECTOR, regions
 from ipc_paper.estimates import sector_theta
 from roa.errors import ResultsError
-from roa.experiment import accepts, check_int
+from roa.experiment import MAX_SEED, accepts, check_int
 from roa.io import atomic_write_json
 from roa.montecarlo.sampling import box_sample
 from roa.options import Options
@@ -52,8 +52,8 @@ class SummaryParams(Options):
     seed: int = 0
 
     def __post_init__(self) -> None:
-        check_int(self, "samples", 1)
-        check_int(self, "seed", 0)
+        check_int(self, "samples", 1, 10**7)
+        check_int(self, "seed", 0, MAX_SEED)
 
 
 def _colour(kind: str) -> Any:

@@ -17,6 +17,7 @@ certification and Monte Carlo all work on the same definition.
 """
 
 from roa.certification import (
+    AutoValidator,
     CandidateLevel,
     Certificate,
     CuttingPlanes,
@@ -69,6 +70,7 @@ __all__ = [
     "CandidateLevel",
     "CuttingPlanes",
     "GivenLevel",
+    "AutoValidator",
     "IntervalValidator",
     "SampledLevel",
     "SosLevel",

@@ -77,15 +77,26 @@ def _value(params: Any, name: str) -> Any:
     return params[name] if isinstance(params, Mapping) else getattr(params, name)
 
 
-def check_int(params: Any, name: str, lo: int = 0) -> None:
-    """For a params class's ``__post_init__``: field ``name`` must be an integer ``>= lo``.
+#: Largest seed accepted by :func:`check_int` callers (numpy takes any; 2^63 - 1 is plenty).
+MAX_SEED = 2**63 - 1
+
+
+def check_int(params: Any, name: str, lo: int = 0, hi: int | None = None) -> None:
+    """For a params class's ``__post_init__``: field ``name`` must be an integer ``>= lo`` (and
+    ``<= hi``: every count that sizes an array has one, so a huge value is refused before work).
 
     ``params`` is the params instance or a mapping (e.g. ``{"grid[0]": value}``); the same holds
     for :func:`check_number` and :func:`check_numbers`.
     """
     value = _value(params, name)
-    if isinstance(value, bool) or not isinstance(value, int) or value < lo:
-        raise RoaInputError(f"{name} must be an integer >= {lo}, got {value!r}")
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int)
+        or value < lo
+        or (hi is not None and value > hi)
+    ):
+        allowed = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
+        raise RoaInputError(f"{name} must be an integer {allowed}, got {value!r}")
 
 
 def _finite(v: Any, positive: bool) -> bool:

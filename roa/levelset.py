@@ -4,7 +4,8 @@
 the boundary of the admissible set (``V'(x) = 0`` to rounding, or the domain boundary):
 
 * ``"sampled"`` (:mod:`roa.levelset_sampled`): rays in random directions, bisection, cap refinement;
-* ``"casadi"`` (:mod:`roa.levelset_casadi`): IPOPT multi-start ``min s(x) s.t. V'(x)/s(x) >= 0``;
+* ``"casadi"`` (:mod:`roa.levelset_casadi`): IPOPT multi-start ``min s(x) s.t. V'(x)/s(x)^(p/2) >= 0``
+  (``p`` the degree at which V' starts), started at the first violations along random rays;
 * ``"both"`` runs the two and checks that they agree.
 
 The largest level is an *estimate* (an upper bound attained at the witness), not a certificate:
@@ -66,7 +67,7 @@ class LevelSearchResult:
         level (``unbounded``, ``not_locally_negative``, ``failed``).
     level : float or None
         The largest level (an upper bound attained at the witness); ``None`` when no level was
-        found (then ``lower_bound`` may say how far the search reached).
+        found (then ``lower_bound`` says how far the rays reached: an estimate, not a bound).
     method, shape : str
         What ran and which shape (``"level"``, ``"ball"`` or ``"custom"``).
     witness : ndarray or None
@@ -175,9 +176,13 @@ def _wrap(r: LevelSetResult, seconds: float, **extra: Any) -> LevelSearchResult:
     message = ""
     if status is LevelStatus.UNBOUNDED:
         lower = _finite(r.value)
+        rays = details.get("n_rays", details.get("n_directions"))
+        on = f" on {rays} rays" if rays is not None else ""
+        widen = "r_start" if r.method == "casadi" else "r_max"
         message = (
-            f"no point with V' >= 0 found up to s = {r.value:.4g}: the largest level is at least "
-            "that (V' < 0 may hold on every sublevel set); increase r_max to search further"
+            f"no point with V' >= 0 found{on} up to s = {r.value:.4g} (V' < 0 may hold on every "
+            "sublevel set); rays can miss a thin set where V' >= 0, so this is a sampled estimate, "
+            f"not a bound; increase {widen} or the number of rays to search further"
         )
     elif status is LevelStatus.NOT_LOCALLY_NEGATIVE:
         message = (

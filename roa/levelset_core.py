@@ -175,11 +175,20 @@ def inner_level(P_outer: Any, level: float, S_inner: Any) -> float:
 
 
 def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -> LevelSetResult:
-    """Put ``x`` exactly on V' = 0 along its ray (if it is a V' root), evaluate, wrap."""
+    """Put ``x`` exactly on V' = 0 along its ray (if it is a V' root), evaluate, wrap.
+
+    ``x`` counts as a ``vdot_zero`` witness only when it is a genuine boundary point of
+    ``{V' < 0}``: a sign change of V' is bracketed next to it on its ray (then it is moved onto the
+    root), or ``|V'(x)|`` is below ``WITNESS_ATOL`` *and* at most ``1e-8`` x ``|V'| > 0`` halfway
+    along the ray (a tangential zero). A point next to the equilibrium, where V' is tiny only
+    because it vanishes there (``V' = -4e-53``, or 0 by rounding, at ``|x| = 1e-13`` when V' starts
+    at degree 4), is neither and is refused (status ``failed``).
+    """
     x = np.asarray(x, dtype=float)
     c = prob.V.center
     inside = prob.system.margin is None or bool(prob.system.inside(x))
     vd = float(prob.vdot(x))
+    genuine = False
     if inside and np.isfinite(vd):
 
         def g(t: float) -> float:
@@ -191,7 +200,11 @@ def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -
                 t = optimize.brentq(g, a, b, xtol=1e-15, rtol=4 * np.finfo(float).eps)
                 x = c + t * (x - c)
                 vd = float(prob.vdot(x))
+                genuine = True
                 break
+        if not genuine:
+            half = abs(g(0.5))
+            genuine = bool(np.isfinite(half) and half > 0 and abs(vd) <= 1e-8 * half)
     if prob.by_value:
         value = float(prob.V.value(x[None, :])[0])
     else:
@@ -199,8 +212,60 @@ def finish(prob: Problem, x: np.ndarray, method: str, details: dict[str, Any]) -
         value = float(d @ prob.S @ d)
     kind = (
         "vdot_zero"
-        if inside and abs(vd) < WITNESS_ATOL
+        if inside and genuine and abs(vd) < WITNESS_ATOL
         else ("domain_boundary" if not inside else None)
     )
     status = "found" if kind is not None else "failed"
     return LevelSetResult(value, status, method, prob.shape, x, vd, kind, details)
+
+
+def vdot_order(prob: Problem, *, n_directions: int = 256, seed: int = 0) -> int:
+    """The even degree ``p`` at which V' starts at the equilibrium (2 for a definite linearisation).
+
+    Estimated from V' on two small spheres of the shape (radii ``1e-3`` and ``2e-3``): the median
+    over directions of ``log2 |V'(2e-3 u)| / |V'(1e-3 u)|``, rounded to the nearest even integer
+    >= 2 (2 when the samples are not finite or zero). An estimate used only to scale the CasADi
+    constraint ``V' / s^(p/2) >= 0``, which is then bounded away from 0 near the equilibrium.
+    """
+    rng = np.random.default_rng(seed)
+    U = unit(rng.standard_normal((n_directions, prob.V.n)))
+    with np.errstate(all="ignore"):
+        a = np.abs(prob.vdot(prob.points(U, np.full(n_directions, 1e-3))))
+        b = np.abs(prob.vdot(prob.points(U, np.full(n_directions, 2e-3))))
+        ratio = np.log2(b / a)
+    ratio = ratio[np.isfinite(ratio)]
+    if len(ratio) == 0:
+        return 2
+    return max(2, 2 * int(round(float(np.median(ratio)) / 2)))
+
+
+def crossings(
+    prob: Problem, U: np.ndarray, r_grid: np.ndarray, *, iters: int = 40, chunk: int = 4096
+) -> np.ndarray:
+    """Shape radius of the first violation along each direction (inf if none on the grid).
+
+    Each ray is scanned on ``r_grid`` (increasing); the first violating grid point and the one
+    before it bracket the crossing, refined by ``iters`` bisections. The radius returned violates
+    (V' >= 0, not finite, or outside the domain); a violation between two grid points that the
+    grid steps over is missed.
+    """
+    out = np.full(len(U), np.inf)
+    for a in range(0, len(U), chunk):
+        Uc = U[a : a + chunk]
+        bad = prob.bad(prob.points(Uc[:, None, :], np.broadcast_to(r_grid, (len(Uc), len(r_grid)))))
+        hit = bad.any(axis=1)
+        if not hit.any():
+            continue
+        k = np.argmax(bad, axis=1)[hit]
+        Uh = Uc[hit]
+        hi = r_grid[k]
+        lo = np.where(k > 0, r_grid[np.maximum(k - 1, 0)], 0.0)
+        for _ in range(iters):  # invariant: lo admissible (or 0), hi violating
+            mid = 0.5 * (lo + hi)
+            b = prob.bad(prob.points(Uh, mid))
+            hi = np.where(b, mid, hi)
+            lo = np.where(b, lo, mid)
+        res = out[a : a + chunk]
+        res[hit] = hi
+        out[a : a + chunk] = res
+    return out

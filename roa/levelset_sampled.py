@@ -2,7 +2,11 @@
 
 Rays in random directions on the unit sphere of the shape; the first sign change of V' along each
 ray is bracketed on a geometric radial grid and refined by bisection, then the best directions are
-refined by sampling in shrinking caps around them. The minimum over the sampled directions is an
+refined by sampling in caps around them: a round that finds an earlier crossing moves there and
+widens the cap 1.5x, one that does not halves it; a direction is done after ``refine_rounds``
+rounds in a row without improvement (its cap then 2^-refine_rounds of what it was). The cap adapts
+so that the refinement converges in 10-30 states too, where a fixed shrinking schedule stopped
+short of the optimum. The minimum over the sampled directions is an
 upper bound of the largest level that decreases as the number of directions grows
 (``details["convergence"]``).
 """
@@ -13,36 +17,15 @@ from typing import Any
 
 import numpy as np
 
-from roa.levelset_core import LevelSetResult, Problem, finish, start, unit
+from roa.levelset_core import LevelSetResult, Problem, crossings, finish, start, unit
 from roa.lyapunov import Lyapunov
 from roa.options import SampledOptions
 from roa.system import System
 
-
-def crossings(
-    prob: Problem, U: np.ndarray, r_grid: np.ndarray, *, iters: int = 40, chunk: int = 4096
-) -> np.ndarray:
-    """Shape radius of the first violation along each direction (inf if none on the grid)."""
-    out = np.full(len(U), np.inf)
-    for a in range(0, len(U), chunk):
-        Uc = U[a : a + chunk]
-        bad = prob.bad(prob.points(Uc[:, None, :], np.broadcast_to(r_grid, (len(Uc), len(r_grid)))))
-        hit = bad.any(axis=1)
-        if not hit.any():
-            continue
-        k = np.argmax(bad, axis=1)[hit]
-        Uh = Uc[hit]
-        hi = r_grid[k]
-        lo = np.where(k > 0, r_grid[np.maximum(k - 1, 0)], 0.0)
-        for _ in range(iters):  # invariant: lo admissible (or 0), hi violating
-            mid = 0.5 * (lo + hi)
-            b = prob.bad(prob.points(Uh, mid))
-            hi = np.where(b, mid, hi)
-            lo = np.where(b, lo, mid)
-        res = out[a : a + chunk]
-        res[hit] = hi
-        out[a : a + chunk] = res
-    return out
+#: A refined direction stops after at most this many rounds per allowed miss (a safety cap).
+MAX_ROUNDS_PER_MISS = 50
+#: A relative improvement below this counts as a miss (rounding-level gains do not widen the cap).
+MIN_GAIN = 1e-12
 
 
 def sampled_level(
@@ -74,7 +57,8 @@ def sampled_level(
     n_radial : int
         Points of the geometric radial grid from ``1e-4 r_max`` to ``r_max`` used for bracketing.
     refine_rounds, refine_directions, n_candidates : int
-        Cap-refinement: rounds, directions per round, and how many of the best directions to refine.
+        Cap refinement: rounds in a row without improvement that end a direction's refinement,
+        directions per round, and how many of the best directions to refine.
     seed : int
         Random seed.
     """
@@ -111,7 +95,7 @@ def sampled_level(
             shape,
             None,
             None,
-            details={"r_max": r_max, "convergence": convergence},
+            details={"n_directions": m, "r_max": r_max, "convergence": convergence},
         )
     # Cap refinement around the best few (well separated) directions.
     order = np.argsort(key)
@@ -124,18 +108,25 @@ def sampled_level(
         if len(cands) >= n_candidates:
             break
     best_r, best_u, best_k = np.inf, None, np.inf
+    total_rounds = 0
     for i in cands:
         u, ru, ku = U[i], r[i], key[i]
-        sigma = 0.1
-        for _ in range(int(refine_rounds)):
+        sigma, misses, rounds = 0.1, 0, 0
+        while misses < int(refine_rounds) and rounds < MAX_ROUNDS_PER_MISS * int(refine_rounds):
             Z = unit(u + sigma * rng.standard_normal((int(refine_directions), n)))
             grid = ru * np.linspace(1.0 / 24, 1.25, 30)
             rz = crossings(prob, Z, grid)
             kz = _keys(prob, Z, rz)
             j = int(np.argmin(kz))
-            if kz[j] < ku:
+            rounds += 1
+            gain = ku - kz[j]
+            if gain > 0:
                 u, ru, ku = Z[j], rz[j], kz[j]
-            sigma *= 0.55
+            if gain > MIN_GAIN * abs(ku):  # success: widen the cap, else halve it
+                sigma, misses = min(0.5, 1.5 * sigma), 0
+            else:
+                sigma, misses = 0.5 * sigma, misses + 1
+        total_rounds += rounds
         if ku < best_k:
             best_r, best_u, best_k = ru, u, ku
     assert best_u is not None
@@ -151,6 +142,7 @@ def sampled_level(
             "raw_value": float(np.min(r) ** 2) if not prob.by_value else float(np.min(key)),
             "convergence": convergence,
             "refine_rounds": int(refine_rounds),
+            "rounds_run": total_rounds,
             "seed": seed,
         },
     )

@@ -134,15 +134,16 @@ class CasadiOptions(Options):
     n_starts : int
         IPOPT starts per problem, in [1, 10000].
     r_start : (float, float)
-        Range ``0 < low < high`` of shape radii of the candidate starting points.
+        Range ``0 < low < high`` of shape radii scanned along the rays for starting points (the
+        default reaches s = 10^4, as the sampled search's ``r_max``).
     n_candidates : int
-        Random points drawn to find violating starting points (>= 1).
+        Random directions (rays) scanned for violating starting points (>= 1).
     seed : int
         Random seed (>= 0).
     """
 
     n_starts: int = 16
-    r_start: tuple[float, float] = (0.1, 30.0)
+    r_start: tuple[float, float] = (0.1, 100.0)
     n_candidates: int = 8000
     seed: int = 1
 
@@ -229,6 +230,10 @@ class VsOptions(Options):
         still a candidate, proved or not by the validation.
     multiplier_degree, aux_degree, symmetry, recast, time_limit
         As in :class:`SosOptions`.
+    budget : float or None
+        Wall-clock seconds for the whole V-s iteration (default 600; ``None``: none). No SDP is
+        started past it, and each is given the time left as its solver time limit; the iteration
+        then stops with the candidates of the rounds completed (the best is validated).
     method : {"sos", "sampled"}
         ``sos``: the V-s iteration; ``sampled``: the sampled cutting-plane search
         (``roa.certify`` with :class:`roa.CuttingPlanes`, no SDP over the field), with ``sampled``
@@ -246,6 +251,7 @@ class VsOptions(Options):
     symmetry: str | bool = "auto"
     recast: str = "exact"
     time_limit: float | None = None
+    budget: float | None = 600.0
     method: str = "sos"
     sampled: Any = None
 
@@ -261,6 +267,8 @@ class VsOptions(Options):
                 f"got {type(self.sampled).__name__}"
             )
         _int(self, "validate", 1, 20)
+        if self.budget is not None:
+            _pos(self, "budget")
         if self.max_iters is not None:
             _int(self, "max_iters", 1, 10**6)
         _pos(self, "tol", upper=1.0)
@@ -476,6 +484,10 @@ class RunOptions(Options):
         Progress bar (default: on for runs of more than 50 chunks).
     fresh : bool
         Recompute every chunk of ``out_dir`` instead of resuming from it.
+    time_limit : float or None
+        Wall-clock budget of the run in seconds, in (0, 1e9]: when it runs out the run ends
+        ``inconclusive`` with the initial conditions not run counted as ``not_run`` (the
+        completed chunks are kept; with ``out_dir`` the same run resumes from them).
     """
 
     chunk_size: int = 4096
@@ -484,6 +496,7 @@ class RunOptions(Options):
     scheduler: str | None = None
     progress: bool | None = None
     fresh: bool = False
+    time_limit: float | None = None
 
     def __post_init__(self) -> None:
         _int(self, "chunk_size", 1, 1_000_000)
@@ -492,3 +505,5 @@ class RunOptions(Options):
             _int(self, "n_jobs", 1, 4 * cores)
         if self.out_dir is not None:
             object.__setattr__(self, "out_dir", os.fspath(self.out_dir))
+        if self.time_limit is not None:
+            _pos(self, "time_limit", upper=1e9, closed_upper=True)

@@ -54,7 +54,10 @@ class LevelStatus(_Status):
     AGREE = "agree", "both methods found a level and agree within the tolerance"
     DISAGREE = "disagree", "both methods found a level but they differ: the smaller is reported"
     PARTIAL = "partial", "one method found a level, the other did not (see per_method)"
-    UNBOUNDED = "unbounded", "no point with V' >= 0 within the search radius: level >= r_max^2"
+    UNBOUNDED = (
+        "unbounded",
+        "no point with V' >= 0 on the rays searched up to their radius (an estimate, not a bound)",
+    )
     NOT_LOCALLY_NEGATIVE = (
         "not_locally_negative",
         "V' is not negative definite at the equilibrium: no level > 0 exists for this V",
@@ -102,6 +105,7 @@ class BasinStatus(_Status):
     ALL_CONVERGED = "all_converged", "every initial condition converged to the equilibrium"
     PARTLY_CONVERGED = "partly_converged", "some initial conditions did not converge (see counts)"
     NONE_CONVERGED = "none_converged", "no initial condition converged"
+    INCONCLUSIVE = "inconclusive", "the time limit ran out first (counts['not_run']); resumable"
 
 
 @dataclass(frozen=True)

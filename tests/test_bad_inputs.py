@@ -50,6 +50,19 @@ def _files(tmp_path):
         ("dots", "ipc_paper..figures:run_figure1"),
     ):
         (tmp_path / f"{name}.toml").write_text(f'runner = "{runner}"\n')
+    (tmp_path / "bigbound.toml").write_text(  # n_points = 2^63 - 1: numpy's "array is too big"
+        'runner = "ipc_paper.lyapunov_report:run_bound"\n[params]\nn_points = 9223372036854775807\n'
+    )
+    (tmp_path / "bigseed.toml").write_text(
+        'runner = "ipc_paper.basins:run_box"\n[params]\nsamples = 10\nseed = 18446744073709551616\n'
+    )
+    (tmp_path / "empty.npy").write_bytes(b"")
+    (tmp_path / "tv.py").write_text(  # declared time-varying: no equilibrium analysis applies
+        "from roa import System\n"
+        "def field(t, x, xp):\n    return (-x[1] + 0.1 * t * x[0], x[0] - x[1])\n"
+        "SYSTEM = System(name='tv', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'),"
+        " time_varying=True)\n"
+    )
     np.save(tmp_path / "str.npy", np.array(["a", "b"]))
     np.save(tmp_path / "obj.npy", np.array([{"a": 1}], dtype=object), allow_pickle=True)
     return tmp_path
@@ -73,6 +86,12 @@ CASES = [
     (["basin", "--system", "{d}/raiser.py:SYSTEM", "--slice", "x1,x2", "--grid", "4x4", "--box", "x1=-3:3,x2=-3:3", "--jobs", "1"], "raiser.py:5"),
     (["run", "{d}/missing.toml"], "ipc_paper.nonexistent"),
     (["run", "{d}/dots.toml"], "runner must be"),
+    (["khalil", "--system", "{d}/tv.py:SYSTEM"], "time-varying"),
+    (["certify", "--system", "{d}/tv.py:SYSTEM", "--level", "1"], "autonomous"),
+    (["basin", "--system", "{d}/tv.py:SYSTEM", "--slice", "x1,x2", "--grid", "3x3"], "autonomous"),
+    (["run", "{d}/bigbound.toml"], "n_points must be an integer in [1, 10000000]"),
+    (["run", "{d}/bigseed.toml"], "seed must be an integer in [0, 9223372036854775807]"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/empty.npy", "--level", "1"], "--lyapunov"),
 ]  # fmt: skip
 
 

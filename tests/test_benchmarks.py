@@ -6,9 +6,12 @@
   accepted step as the engine, run for run;
 * bench_montecarlo.py: the engine's statuses, plain and with each terminal set, equal the
   solve_ivp baseline's;
+* bench_scale.py (two rungs of its ladder): each level certified at >= 0.99 x the optimum found
+  independently (multistart SLSQP), below a point refuting it (V' >= 0 at 50 digits, V at most
+  1.001 x the optimum), and the branch and bound agrees on the same level;
 * bench_robust.py --quick: no robust level above the independent worst case, Van der Pol's within
   1 % of it (the same target is in the fast suite, tests/test_robust.py).
-Their speed figures are for an idle machine and are not asserted. All four are slow (15-40 s
+Their speed figures are for an idle machine and are not asserted. All five are slow (15-40 s
 each, numba compilation included): ``pytest -m slow``; the default run covers the engine against
 solve_ivp in tests/test_montecarlo.py.
 """
@@ -47,6 +50,13 @@ def test_entry_steps_match_the_engine():
 def test_montecarlo_statuses_agree_with_solve_ivp():
     out = _run("bench_montecarlo.py", "--n", "40", "--n-engine", "400")
     assert out.count("40/40") >= 3  # plain and both terminal sets
+
+
+@pytest.mark.slow
+def test_scale_ladder_quick_rungs_hold():
+    out = _run("bench_scale.py", "--only", "vanderpol", "poly3d")
+    assert "all ladder checks hold" in out
+    assert out.count("certified, ") == 2  # the branch and bound's column, one per rung
 
 
 @pytest.mark.slow

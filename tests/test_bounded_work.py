@@ -119,3 +119,29 @@ def test_a_slow_field_ends_at_the_time_limit(tmp_path, capsys):
     assert out["status"] == "undecided" and "wall-clock budget" in out["message"]
     assert main(["simulate", "--system", "vanderpol", "--x0", "0.5,0.5", "--time-limit", "-1"]) == 2
     assert "time_limit" in capsys.readouterr().err
+
+
+def _ring(n: int) -> roa.System:
+    def field(t, x, xp):
+        return tuple(-x[i] + 0.1 * x[(i + 1) % n] * x[(i + 2) % n] for i in range(n))
+
+    return roa.System(f"ring{n}", field, (0.0,) * n, tuple(f"x{i}" for i in range(n)))
+
+
+def test_a_polynomial_v_search_too_large_is_refused_before_any_work():
+    """Deliver 3 (SDP sizes estimated before building): a degree-4 V in 30 states has 41385
+    coefficients at least; its programs would not fit in memory. The V-s search used to spend
+    hours expanding them; it now ends inconclusive with the reason, before the seed's search."""
+    cert = roa.certify(_ring(30), roa.VsIteration(4))
+    assert cert.status is roa.Verdict.INCONCLUSIVE
+    assert "41385 coefficients" in cert.message and "not built" in cert.message
+
+
+def test_a_gram_block_too_large_is_refused_where_it_is_built():
+    from roa.search.polysdp import Identity, ProgramTooLarge, monomials
+    from roa.search.sos import MAX_GRAM_BLOCK
+
+    basis = monomials(12, 3, 0)
+    assert len(basis) > MAX_GRAM_BLOCK
+    with pytest.raises(ProgramTooLarge, match=f"{len(basis)} monomials"):
+        Identity(12).gram(basis, None)

@@ -107,6 +107,7 @@ def test_cli_degree_json_round_trips(tmp_path, capsys):
     [
         (["--degree", "4", "--level", "1"], "drop --level"),
         (["--degree", "4", "--rounds", "0"], "--rounds must be in [1, 50]"),
+        (["--degree", "4", "--budget", "0"], "--budget must be"),
     ],
 )
 def test_cli_degree_bad_input(argv, needle, capsys):
@@ -133,6 +134,7 @@ def test_degree_needs_quadratic_seed(vdp):
         ),
         ({"tol": 0.0}, "VsOptions.tol must be in (0, 1)"),
         ({"validate": 21}, "VsOptions.validate must be in [1, 20]"),
+        ({"budget": -1.0}, "VsOptions.budget must be"),
     ],
 )
 def test_vs_options_name_the_field(kw, needle):
@@ -175,3 +177,11 @@ def test_degrees_hybrid_row_matches_the_certify_case():
     assert row["sector_deg"] == pytest.approx(phys["sector_deg"], abs=0.01)
     lo, hi = row["box"]["ci95"]
     assert lo - 0.01 < phys["box"]["fraction"] < hi + 0.01
+
+
+def test_a_spent_budget_stops_the_iteration_with_what_it_has(vdp):
+    """A budget already spent starts no SDP: no candidate, status failed, and the message says
+    why (the search stops with the rounds it completed, here none)."""
+    res = vs_search(vdp, roa.default_lyapunov(vdp), degree=4, budget=1e-12)
+    assert res.status is SosStatus.FAILED and res.candidates == []
+    assert "time budget of 1e-12 s spent before round 0" in res.message

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+from typing import Any
 
 import numpy as np
 
@@ -34,6 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--coefficients", default=None, help="h0,h1,h2,h3 of p(s) instead of --poles")
     p.add_argument("--saturation", type=float, default=None, help="actuator limit |u| <= U")
+    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+                   help="wall-clock budget of the run (> 0); then it ends undecided")  # fmt: skip
     p.add_argument(
         "--coordinates",
         choices=("physical", "flat"),
@@ -45,6 +48,43 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.set_defaults(func=run)
 
 
+#: Largest |pole| of p(s) (or root of the --coefficients polynomial): the closed loop's stiffness
+#: grows with it, and beyond this the explicit integrator would run for hours.
+MAX_POLE = 1e3
+
+
+def _gains(args: argparse.Namespace, gains_class: Any) -> Any:
+    """The controller gains of ``--poles`` or ``--coefficients`` (default: the paper's); every
+    problem is an input error naming the option."""
+    if not (args.poles or args.coefficients):
+        return gains_class.default()
+    flag = "--poles" if args.poles else "--coefficients"
+    try:
+        if args.poles:
+            try:
+                poles = [complex(p.strip().replace("i", "j")) for p in args.poles.split(",")]
+            except ValueError:
+                raise RoaInputError(
+                    f"expected comma-separated numbers (complex as -1+1j), got {args.poles!r}"
+                ) from None
+            if not all(np.isfinite(p.real) and np.isfinite(p.imag) for p in poles):
+                raise RoaInputError(f"poles must be finite, got {args.poles!r}")
+            gains = gains_class.from_poles(poles)
+        else:
+            gains = gains_class.from_coefficients(floats(args.coefficients, "--coefficients", 4))
+        h = gains.h
+        roots = np.roots([1.0, h[3], h[2], h[1], h[0]])
+        if not np.max(np.abs(roots)) <= MAX_POLE:
+            raise RoaInputError(
+                f"every pole of p(s) must have |pole| <= {MAX_POLE:g} (a stiffer loop would run "
+                f"for hours), got {np.max(np.abs(roots)):.4g}"
+            )
+    except RoaInputError as exc:
+        msg = str(exc)
+        raise RoaInputError(msg if msg.startswith(flag) else f"{flag}: {msg}") from None
+    return gains
+
+
 def run(args: argparse.Namespace) -> int:
     from ipc_paper import system as ipc
     from ipc_paper.system.controller import Gains, make_reference
@@ -54,27 +94,27 @@ def run(args: argparse.Namespace) -> int:
     x0 = np.array(floats(args.ic, "--ic", 4))
     if args.poles and args.coefficients:
         raise RoaInputError("--poles and --coefficients are exclusive")
-    if args.poles:
-        gains = Gains.from_poles([complex(p.replace("i", "j")) for p in args.poles.split(",")])
-    elif args.coefficients:
-        gains = Gains.from_coefficients(floats(args.coefficients, "--coefficients", 4))
-    else:
-        gains = Gains.default()
+    gains = _gains(args, Gains)
     if not args.t_final > 0:
         raise RoaInputError(f"--t-final must be > 0, got {args.t_final}")
-    ipc.coordinates.check_physical(x0)
+    if not np.isfinite(x0).all():
+        raise RoaInputError(f"--ic: the state must be finite (no NaN/inf), got {args.ic!r}")
+    try:
+        ipc.coordinates.check_physical(x0)
+    except RoaInputError as exc:
+        raise RoaInputError(f"--ic: {exc}") from None
     reference = make_reference(args.reference)
     delta = ipc.DEFAULT_DELTA if args.delta is None else args.delta
     rules = StopRules(t_final=args.t_final)
     if args.coordinates == "flat":
         system = ipc.transformed(gains=gains, reference=reference)
-        traj = simulate(system, ipc.to_flat(x0), rules=rules)
+        traj = simulate(system, ipc.to_flat(x0), rules=rules, time_limit=args.time_limit)
         x_phys = ipc.from_flat(traj.x)
     else:
         system = ipc.closed_loop(
             delta=delta, gains=gains, reference=reference, saturation=args.saturation
         )
-        traj = simulate(system, x0, rules=rules)
+        traj = simulate(system, x0, rules=rules, time_limit=args.time_limit)
         x_phys = traj.x
     out = {
         "status": traj.status.value,

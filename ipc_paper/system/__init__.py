@@ -293,6 +293,49 @@ def transformed_uncertain(
     )
 
 
+def closed_loop_uncertain(
+    *,
+    delta_low: float = 0.5,
+    delta_high: float = 2.0,
+    delta: float = DEFAULT_DELTA,
+    gains: Gains | None = None,
+) -> System:
+    """The physical closed loop ``(q, q', theta, theta')`` with the law designed for mass ratio
+    ``delta`` (nominal) and the plant's ratio ``delta_plant`` uncertain in
+    ``[delta_low, delta_high]`` (the same loop as :func:`transformed_uncertain`, in physical
+    coordinates: the force of :func:`control_force` at ``delta``, the accelerations of the model at
+    ``delta_plant``). No compiled kernels: basins run on the numpy backend."""
+    gains, _ = _settings(gains, None)
+    delta = check_delta(delta)
+    lo, hi = check_delta(delta_low), check_delta(delta_high)
+    if not lo <= delta <= hi or not lo < hi:
+        raise RoaInputError(
+            f"delta_low < delta_high with the design delta = {delta} between them, got "
+            f"[{delta_low}, {delta_high}]"
+        )
+
+    def field(t: Any, x: Any, xp: Any, p: Any) -> tuple:
+        q, qd, th, thd = x[0], x[1], x[2], x[3]
+        u = control_force(t, (q, qd, th, thd), delta=delta, gains=gains, xp=xp)
+        qdd, thdd = accelerations(qd, th, thd, u, p.delta_plant, xp)
+        return (qd, qdd, thd, thdd)
+
+    def margin(x: Any, xp: Any) -> Any:
+        return HALF_PI - xp.abs(x[2])
+
+    return System(
+        name="ipc_uncertain",
+        field=field,
+        equilibrium=(0.0, 0.0, 0.0, 0.0),
+        state_names=PHYSICAL_NAMES,
+        state_units=PHYSICAL_UNITS,
+        margin=margin,
+        domain_description="|theta| < pi/2 rad",
+        parameters={"delta_plant": (lo, delta, hi)},
+        meta={"gains": gains.h, "design_delta": delta},
+    )
+
+
 def _kernels(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
     """The System fields ``numba`` and ``numba_fast`` (factories) for the batch integrator (zero reference only;
     the public array signatures and the pointer-only fast path, see fast.py), and for the

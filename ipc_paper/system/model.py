@@ -34,10 +34,22 @@ from roa.errors import RoaInputError
 DEFAULT_DELTA = 1.0
 
 
+#: Mass ratios allowed: beyond them the model's arithmetic (delta + sin^2, 1 / delta) is not
+#: meaningful in doubles (a subnormal delta made the field NaN at the equilibrium).
+DELTA_RANGE = (1e-6, 1e6)
+
+
 def check_delta(delta: float) -> float:
-    delta = float(delta)
-    if not (delta > 0 and delta < float("inf")):
-        raise RoaInputError(f"delta (mass ratio M/m) must be a finite number > 0, got {delta!r}")
+    """``delta`` as a float in :data:`DELTA_RANGE`, else a :class:`RoaInputError` naming it."""
+    try:
+        delta = float(delta)
+    except (TypeError, ValueError):
+        raise RoaInputError(f"delta (mass ratio M/m) must be a number, got {delta!r}") from None
+    lo, hi = DELTA_RANGE
+    if not lo <= delta <= hi:
+        raise RoaInputError(
+            f"delta (mass ratio M/m) must be a number in [{lo:g}, {hi:g}], got {delta!r}"
+        )
     return delta
 
 

@@ -1,7 +1,7 @@
 """``roa.certify``: find a level of a Lyapunov candidate and prove it, as a pipeline of strategies.
 
 :func:`certify` returns a :class:`Certificate`. The strategies (:mod:`.strategies`) are objects:
-validators (:class:`IntervalValidator`, :class:`SosValidator`), level proposers (:class:`GivenLevel`,
+validators (:class:`IntervalValidator`, :class:`SosValidator`, :class:`AutoValidator`), level proposers (:class:`GivenLevel`,
 :class:`CandidateLevel`, :class:`SosLevel`, :class:`SampledLevel`) and sources of V
 (:class:`VsIteration`, :class:`CuttingPlanes`); :mod:`.pipeline` chains them.
 """
@@ -9,6 +9,7 @@ validators (:class:`IntervalValidator`, :class:`SosValidator`), level proposers 
 from roa.certification.pipeline import METHODS, certify, run
 from roa.certification.result import Certificate
 from roa.certification.strategies import (
+    AutoValidator,
     CandidateLevel,
     CuttingPlanes,
     GivenLevel,
@@ -29,6 +30,7 @@ __all__ = [
     "Certificate",
     "CuttingPlanes",
     "GivenLevel",
+    "AutoValidator",
     "IntervalValidator",
     "LevelProposer",
     "Proposal",

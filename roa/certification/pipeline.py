@@ -29,6 +29,7 @@ import numpy as np
 from roa.certification.result import Certificate
 from roa.certification.strategies import (
     DEGREES,
+    AutoValidator,
     CandidateLevel,
     CuttingPlanes,
     GivenLevel,
@@ -37,6 +38,7 @@ from roa.certification.strategies import (
     Proposal,
     SampledLevel,
     SosLevel,
+    SosValidator,
     Validator,
     VsIteration,
     WorstCase,
@@ -73,7 +75,7 @@ def certify(
     bounding_box: Any = None,
     degree: int | None = None,
     vs: VsOptions | None = None,
-    validator: Validator | None = None,
+    validator: Validator | str | None = None,
     retries: int = RETRIES,
 ) -> Certificate:
     """Certify (or refute) that ``{V <= level}`` lies in the region of attraction.
@@ -107,8 +109,10 @@ def certify(
         ``roa.CuttingPlanes``), seeded by ``V`` (quadratic).
     vs : VsOptions, optional
         Options of the search of V.
-    validator : Validator, optional
-        What decides a level (default :class:`roa.IntervalValidator`).
+    validator : Validator or {"interval", "sos", "auto"}, optional
+        What decides a level: a validator object, or ``"interval"`` (the default,
+        :class:`roa.IntervalValidator`), ``"sos"`` (:class:`roa.SosValidator`) or ``"auto"``
+        (:class:`roa.AutoValidator`: the route that certifies for the problem's size and form).
     retries : int
         Times a proposed level is chosen again below a confirmed refutation witness (0 to 10).
 
@@ -132,9 +136,9 @@ def certify(
     if check_above is not None and not (np.isfinite(check_above) and check_above > 1):
         raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
     interval = IntervalOptions() if interval is None else interval
-    if validator is not None and bounding_box is not None:
+    if validator is not None and not isinstance(validator, str) and bounding_box is not None:
         raise RoaInputError("bounding_box belongs to the validator: give one or the other")
-    check: Validator = IntervalValidator(interval, bounding_box) if validator is None else validator
+    check = _validator(validator, interval, bounding_box)
     source: VsIteration | CuttingPlanes | None = None
     if degree is not None:
         if level is not None or candidate is not None or method != "both":
@@ -160,6 +164,25 @@ def certify(
     proposers = _proposers(lyap, level, method, candidate, sos, interval, sampled)
     return run(system, lyap, proposers, check, check_above=check_above, retries=retries,
                t0=t0)  # fmt: skip
+
+
+VALIDATORS = ("interval", "sos", "auto")
+
+
+def _validator(validator: Any, interval: IntervalOptions, bounding_box: Any) -> Validator:
+    """The validator object of ``certify``'s ``validator`` argument (an object or a name)."""
+    if validator is None or validator == "interval":
+        return IntervalValidator(interval, bounding_box)
+    if validator == "auto":
+        return AutoValidator(interval, bounding_box)
+    if validator == "sos":
+        if bounding_box is not None:
+            raise RoaInputError("bounding_box belongs to the branch and bound, not to 'sos'")
+        return SosValidator()
+    if isinstance(validator, str):
+        raise RoaInputError(f"validator must be one of {VALIDATORS} or a validator object, "
+                            f"got {validator!r}")  # fmt: skip
+    return validator
 
 
 def _check_system(system: System) -> None:
@@ -368,7 +391,10 @@ def _refute_above(
     level search's), else decided by the validator."""
     from roa.proof.witness import lowest_confirmed_witness, refuted_by
 
-    if fresh and proof is None and prop.search is not None and prop.search.witness is not None:
+    # the proposal's own witness (a freshly found V's search, or the worst sample point of a
+    # parameter box), proved again here (50 digits, in the equilibrium's component)
+    own = fresh or bool(system.parameters)
+    if own and proof is None and prop.search is not None and prop.search.witness is not None:
         w = np.asarray(prop.search.witness, dtype=float)
         wp = prop.parameters if system.parameters else None
         val, x, check = lowest_confirmed_witness(system.at(**wp) if wp else system, V, w)

@@ -203,7 +203,8 @@ class Certificate:
     def reverify(self, interval: IntervalOptions | None = None) -> Certificate:
         """This claim proved again on its system: an exact SOS certificate (``method``
         ``"sos-exact"``) by re-checking its stored Gram matrices in exact arithmetic, without any
-        solver (:func:`roa.proof.sos_check.recheck_stored`); any other by interval validation
+        solver (:func:`roa.proof.sos_blocks.recheck`, block by block for independent blocks);
+        any other by interval validation
         (cached by content, :func:`roa.proof.reverify.reverify`). ``certified`` only if proved
         here."""
         from roa.proof.reverify import reverify
@@ -211,10 +212,10 @@ class Certificate:
         if self.system is None or self.V is None or self.level is None:
             raise RoaInputError("reverify: the certificate has no system, V or level")
         if self.method == SOS_EXACT and self.validation is not None:
-            from roa.proof.sos_check import recheck_stored
+            from roa.proof.sos_blocks import recheck
 
             with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
-                v = recheck_stored(self.system, self.V, self.level, self.validation.meta)
+                v = recheck(self.system, self.V, self.level, self.validation.meta)
             return Certificate(status=v.status, level=self.level, method=SOS_EXACT,
                                level_source="reverified", seconds=v.seconds, message=v.message,
                                validation=v, trace=({"stage": "reverify", "by": SOS_EXACT,

@@ -100,6 +100,10 @@ class SosValidator:
     and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
     inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
 
+    When ``V`` and ``V'`` of a polynomial field split over independent blocks of variables
+    (:mod:`roa.proof.sos_blocks`: decoupled subsystems), each block gets its own certificate at the
+    same level, which proves the whole.
+
     Examples
     --------
     >>> import roa
@@ -147,6 +151,7 @@ class SosValidator:
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         import time
 
+        from roa.proof.sos_blocks import blocks, restrict
         from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
 
@@ -174,27 +179,60 @@ class SosValidator:
             data, why = preconditions(system, V, level)
             if data is None:
                 return out(Verdict.INCONCLUSIVE, why)
-            eps = default_eps(data, self.eps)
-            cand = propose_certificate(data, level, eps=eps,
-                                       multiplier_degree=self.multiplier_degree,
-                                       solver_options=self.solver_options)  # fmt: skip
-            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
-                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps)}  # fmt: skip
-            if cand.Q0 is None:
-                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
-                           **figures)  # fmt: skip
-            res = check_certificate(data, level, eps, cand.basis0, cand.Q0, cand.basis1, cand.Q1)
-            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
-            if not res.ok:
-                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            assert res.Q0 is not None and res.Q1 is not None
-            cert = {"basis0": [list(b) for b in cand.basis0],
-                    "basis1": [list(b) for b in cand.basis1],
-                    "Q0": [[str(v) for v in row] for row in res.Q0],
-                    "Q1": [[str(v) for v in row] for row in res.Q1]}  # fmt: skip
+            parts = blocks(data)
+            whole = len(parts) == 1
+            certs: list[dict[str, Any]] = []
+            statuses: list[str] = []
+            margins: list[float | None] = []
+            sizes: list[int] = []
+            sdp_seconds = 0.0
+            for block in parts:
+                sub = data if whole else restrict(data, block)
+                eps = default_eps(sub, self.eps)
+                cand = propose_certificate(sub, level, eps=eps,
+                                           multiplier_degree=self.multiplier_degree,
+                                           solver_options=self.solver_options)  # fmt: skip
+                statuses.append(cand.solver_status)
+                margins.append(cand.margin)
+                sizes.append(len(cand.basis0))
+                sdp_seconds += cand.seconds
+                figures: dict[str, Any] = {
+                    "solver_status": statuses[0] if whole else statuses,
+                    "margin": margins[0] if whole else margins,
+                    "sdp_seconds": round(sdp_seconds, 3),
+                    "gram_sizes": sizes,
+                }
+                where = "" if whole else f" (block {list(block)})"
+                if cand.Q0 is None:
+                    return out(Verdict.INCONCLUSIVE, f"SOS solver failed{where} "
+                               f"({cand.solver_status})", **figures)  # fmt: skip
+                res = check_certificate(sub, level, eps, cand.basis0, cand.Q0, cand.basis1,
+                                        cand.Q1)  # fmt: skip
+                if not res.ok:
+                    return out(Verdict.INCONCLUSIVE, f"SOS check failed{where}: {res.reason}",
+                               residual=res.residual, min_pivot=res.min_pivot, **figures)  # fmt: skip
+                assert res.Q0 is not None and res.Q1 is not None
+                certs.append({"variables": list(block),
+                              "basis0": [list(b) for b in cand.basis0],
+                              "basis1": [list(b) for b in cand.basis1],
+                              "Q0": [[str(v) for v in row] for row in res.Q0],
+                              "Q1": [[str(v) for v in row] for row in res.Q1],
+                              "residual": res.residual, "min_pivot": res.min_pivot,
+                              **res.meta})  # fmt: skip
+            if whole:  # one certificate, stored as before (meta: eps, digest, k, residual, ...)
+                one = certs[0]
+                stats = {key: one.pop(key) for key in ("residual", "min_pivot", "eps", "digest",
+                                                       "k")}  # fmt: skip
+                one.pop("variables")
+                return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
+                           certificate=one, M=np.eye(V.n).tolist(), **figures,
+                           **stats)  # fmt: skip
             # the whole of {V <= level} is proved (not one component): any frame bounds it
-            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
-                       certificate=cert, M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+            reason = (f"{len(parts)} independent blocks of variables (sizes "
+                      f"{[len(b) for b in parts]}), each: {res.reason}")  # fmt: skip
+            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
+                       certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
+                       **figures)  # fmt: skip
 
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
         """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
@@ -227,6 +265,50 @@ class SosValidator:
             return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
                        f"checked exactly: {res.reason}", certificate=cert,
                        M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+
+
+@dataclass(frozen=True)
+class AutoValidator:
+    """The route that certifies, chosen from the problem's form.
+
+    Where the branch and bound's dimension allows it (states plus uncertain parameters at most
+    ``max_bnb_dim``) it decides first (it also refutes, with a 50-digit witness) and the exact SOS
+    certificate is tried when it is inconclusive; above, the exact SOS certificate (polynomial or
+    exactly recast fields, decoupled blocks) is tried first and the branch and bound decides when
+    it does not certify. Either way only a validator's own proof certifies; the verdict's
+    ``method`` names the one that decided.
+    """
+
+    options: IntervalOptions = field(default_factory=IntervalOptions)
+    bounding_box: Any = None
+    max_bnb_dim: int = 4
+    name: str = "auto"
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return system.equilibrium is not None and not system.time_varying
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        itv = IntervalValidator(self.options, self.bounding_box)
+        sos = SosValidator(fallback=False)
+        sos_ok = self.bounding_box is None and sos.accepts(system, V)
+
+        def by_interval(v: Validation, note: str = "") -> Validation:
+            return dataclasses.replace(v, message=f"{note}{v.message}",
+                                       meta={**v.meta, "method": itv.name})  # fmt: skip
+
+        if V.n + len(system.uncertain) <= self.max_bnb_dim or not sos_ok:
+            v = itv.check(system, V, level)
+            if v.status is not Verdict.INCONCLUSIVE or not sos_ok:
+                return by_interval(v)
+            s = sos.check(system, V, level)
+            if s.status is Verdict.CERTIFIED:
+                return s
+            return by_interval(v, f"SOS route: {s.message}; branch and bound: ")
+        s = sos.check(system, V, level)
+        if s.status is Verdict.CERTIFIED:
+            return s
+        return by_interval(itv.check(system, V, level), f"SOS route: {s.message}; branch and "
+                           "bound: ")  # fmt: skip
 
 
 # -- level proposers --------------------------------------------------------------------------------
@@ -309,7 +391,9 @@ class CandidateLevel:
 @dataclass(frozen=True)
 class SosLevel:
     """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
-    validated at ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
+    for a polynomial system whose V and V' split over independent blocks of variables, the least
+    of the blocks' levels found by bisection (:mod:`roa.search.sos_bisection`); validated at
+    ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
     (never certified: no independent check)."""
 
     options: SosOptions = field(default_factory=SosOptions)
@@ -324,11 +408,13 @@ class SosLevel:
         quad = V.as_quadratic()
         assert quad is not None
         o = self.options
-        with step("SOS program (cvxpy + Clarabel)"):
-            res = sos_level(system, quad, recast_mode=o.recast,
-                            multiplier_degree=o.multiplier_degree,
-                            solver_options=o.solver_options(), symmetry=o.symmetry,
-                            aux_degree=o.aux_degree)  # fmt: skip
+        res = _block_sos_level(system, V, o)
+        if res is None:
+            with step("SOS program (cvxpy + Clarabel)"):
+                res = sos_level(system, quad, recast_mode=o.recast,
+                                multiplier_degree=o.multiplier_degree,
+                                solver_options=o.solver_options(), symmetry=o.symmetry,
+                                aux_degree=o.aux_degree)  # fmt: skip
         ok = res.status is SosStatus.SOLVED and res.level is not None
         if self.only:
             msg = (
@@ -341,6 +427,35 @@ class SosLevel:
         if not ok:
             return Proposal("sos", None, None, res.message, sos=res)
         return Proposal("sos", res.level, o.safety_factor, sos=res)
+
+
+def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
+    """The SOS level of a polynomial system whose V and V' split over independent blocks of
+    variables (:func:`roa.search.sos_bisection.block_levels`: bisection per distinct block, the
+    least level), as an ``SOSResult``; None when the data are not polynomial or do not split
+    (then the one program of :func:`roa.search.sos.sos_level` is used)."""
+    from roa.proof.sos_blocks import blocks
+    from roa.proof.sos_check import NotPolynomial, exact_data
+    from roa.search.sos import SOSResult
+    from roa.search.sos_bisection import block_levels
+
+    if system.equilibrium is None or system.time_varying or getattr(system, "parameters", None):
+        return None
+    try:
+        data = exact_data(system, V)
+    except NotPolynomial:
+        return None
+    parts = blocks(data)
+    if len(parts) < 2:
+        return None
+    with step(f"SOS level by bisection over {len(parts)} independent blocks of variables"):
+        bl = block_levels(data, solver_options=o.solver_options())
+    sizes = {**bl.sizes, "programs": bl.programs}
+    if bl.level is None:
+        return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds, "none (polynomial)",
+                         sizes, f"SOS bisection over independent blocks: {bl.message}")  # fmt: skip
+    return SOSResult(SosStatus.SOLVED, bl.level, "bisection", bl.seconds, "none (polynomial)",
+                     sizes, f"least of {len(parts)} block levels (bisection)")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -436,7 +551,7 @@ class VsIteration:
                              rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
                              symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
                              tol=vs.tol, solver_options=vs.solver_options(),
-                             solver=vs.solver)  # fmt: skip
+                             solver=vs.solver, budget=vs.budget)  # fmt: skip
 
 
 @dataclass(frozen=True)

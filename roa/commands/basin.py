@@ -71,6 +71,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
+    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+                   help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
+                   "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
+                   "with --out the same command resumes from the completed chunks")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
         type=float,
@@ -327,10 +331,12 @@ def run(args: argparse.Namespace) -> int:
         lambda: (
             roa.IntegratorOptions(rtol=args.rtol, atol=args.atol),
             roa.RunOptions(chunk_size=args.chunk_size, n_jobs=args.jobs, out_dir=args.out,
-                           scheduler=args.scheduler, fresh=args.force),
+                           scheduler=args.scheduler, fresh=args.force,
+                           time_limit=args.time_limit),
         ),
         {"IntegratorOptions.rtol": "--rtol", "IntegratorOptions.atol": "--atol",
-         "RunOptions.chunk_size": "--chunk-size", "RunOptions.n_jobs": "--jobs"},
+         "RunOptions.chunk_size": "--chunk-size", "RunOptions.n_jobs": "--jobs",
+         "RunOptions.time_limit": "--time-limit"},
     )  # fmt: skip
     if system.parameters:
         return _run_robust(args, system, sampler, rules, integrator, run_opts, terminal, regs,
@@ -338,7 +344,15 @@ def run(args: argparse.Namespace) -> int:
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
                        terminal=terminal, regions=regs if plot else ())  # fmt: skip
     summary = result.to_dict()
-    if plot:
+    cut = result.status is roa.BasinStatus.INCONCLUSIVE
+    if cut:
+        summary["message"] = (
+            f"the wall-clock budget of {args.time_limit:g} s ran out: "
+            f"{summary['counts']['not_run']} of {summary['n']} initial conditions were not run "
+            + ("(no plot drawn); run the same command again to resume from the completed chunks"
+               if args.out else "(no plot drawn); give --out DIR to make a run resumable")
+        )  # fmt: skip
+    if plot and not cut:
         from roa.plotting.basin import plot_slice
 
         plot_slice(system, sampler, result.code, plot, regions=regs,
@@ -351,9 +365,16 @@ def run(args: argparse.Namespace) -> int:
         c = summary["counts"]
         lo, hi = summary["fraction_converged_ci95"]
         print(f"n = {summary['n']}: " + ", ".join(f"{k} {v}" for k, v in c.items()))
-        print(f"fraction converged {summary['fraction_converged']:.4f} (95 % CI {lo:.4f}-{hi:.4f})")
+        frac = summary["fraction_converged"]
+        print(f"fraction converged {'unknown' if frac is None else f'{frac:.4f}'} "
+              f"(95 % CI {lo:.4f}-{hi:.4f})")  # fmt: skip
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
+    if cut:
+        import sys
+
+        print(f"roa basin: inconclusive: {summary['message']}", file=sys.stderr)
+        return 1
     return 0
 
 

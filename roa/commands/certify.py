@@ -53,6 +53,14 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "coefficients are in the JSON (candidate_kind)")  # fmt: skip
     p.add_argument("--rounds", type=int, default=VsOptions().rounds,
                    help=f"V-s rounds with --degree, 1..50 (default {VsOptions().rounds})")  # fmt: skip
+    p.add_argument("--budget", type=float, default=VsOptions().budget, metavar="SEC",
+                   help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
+                   f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
+    p.add_argument("--validator", choices=("auto", "interval", "sos"), default="auto",
+                   help="what proves the level: auto (default: the interval branch and bound up "
+                   "to 4 states and parameters, the exact SOS certificate above, each backing up "
+                   "the other), interval (branch and bound only) or sos (exact SOS certificate "
+                   "of a polynomial or exactly recast field)")  # fmt: skip
     p.add_argument("--nominal", action="store_true",
                    help="for a system with uncertain parameters: certify at their nominal values "
                    "only (default: for every parameter of the box)")  # fmt: skip
@@ -85,12 +93,13 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
     if args.degree is not None:
         if args.level is not None or args.method is not None:
             raise RoaInputError("--degree searches V and its level: drop --level and --method")
-        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds), {"VsOptions.rounds": "--rounds"})
+        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds, budget=args.budget),
+                       {"VsOptions.rounds": "--rounds", "VsOptions.budget": "--budget"})  # fmt: skip
         return roa.certify(system, V, degree=args.degree, vs=vs, interval=interval,
-                           check_above=args.check_above)  # fmt: skip
+                           check_above=args.check_above, validator=args.validator)  # fmt: skip
     method = args.method or ("interval" if args.level is not None else "both")
     return roa.certify(system, V, level=args.level, method=method, interval=interval,
-                       check_above=args.check_above)  # fmt: skip
+                       check_above=args.check_above, validator=args.validator)  # fmt: skip
 
 
 def run(args: argparse.Namespace) -> int:

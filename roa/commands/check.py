@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from roa.errors import RoaInputError
 from roa.io import to_json
 
 
@@ -20,6 +21,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--reference", default="results/reference.json",
                    help="reference file (default results/reference.json of the checkout)")  # fmt: skip
+    p.add_argument(
+        "--recompute",
+        nargs="*",
+        metavar="EXPERIMENT",
+        default=None,
+        help="run these experiments again (all with results if none named) in their stored mode "
+        "and compare every value of their summaries with the stored ones: catches deliberate "
+        "edits that the hashes cannot (the reference values are not checked in this mode)",
+    )
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
     p.set_defaults(func=run)
 
@@ -27,6 +37,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 def run(args: argparse.Namespace) -> int:
     from roa import reference, studies
 
+    if args.recompute is not None:
+        if args.update or args.only:
+            raise RoaInputError(
+                "--recompute compares experiments' results: not with --update or --only"
+            )
+        return _report(args, _recompute(args))
     registry = studies.get(args.study).registry()
     if args.update:
         stored = reference.update(registry, args.only, path=args.reference)
@@ -49,6 +65,29 @@ def run(args: argparse.Namespace) -> int:
                     {"key": f"outputs of {summary.parent.name}",
                      "status": "modified" if problems else "ok", "error": "; ".join(problems)}
                 )  # fmt: skip
+    return _report(args, rows)
+
+
+def _recompute(args: argparse.Namespace) -> list[dict]:
+    """Rows of ``--recompute`` (:mod:`roa.recompute`)."""
+    from pathlib import Path
+
+    from roa import studies
+    from roa.experiment import experiments_dir
+    from roa.recompute import recompute
+
+    results = Path(args.reference).parent
+    configs = experiments_dir(studies.get(args.study))
+    names = list(args.recompute) or sorted(
+        p.parent.name for p in results.glob("*/summary.json")
+        if (configs / f"{p.parent.name}.toml").is_file()
+    )  # fmt: skip
+    if not names:
+        raise RoaInputError(f"--recompute: no experiment results in {results}")
+    return recompute(configs, results, names)
+
+
+def _report(args: argparse.Namespace, rows: list[dict]) -> int:
     bad = [r for r in rows if r["status"] != "ok"]
     if args.json:
         print(to_json({"rows": rows, "failed": [r["key"] for r in bad]}))

@@ -18,7 +18,7 @@ import numpy as np
 from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
-from roa.montecarlo.engine import run_basin, wilson_interval
+from roa.montecarlo.engine import converged_interval, run_basin
 from roa.montecarlo.robust_basin import DEFAULT_PARAM_SAMPLES
 from roa.montecarlo.sampling import GridSlice
 from roa.montecarlo.terminal import TerminalSet
@@ -34,11 +34,14 @@ class BasinResult:
     Attributes
     ----------
     status : BasinStatus
-        ``all_converged``, ``partly_converged`` or ``none_converged``.
+        ``all_converged``, ``partly_converged`` or ``none_converged``; ``inconclusive`` when the
+        wall-clock budget (``RunOptions.time_limit``) ran out first.
     counts : dict
-        Count per :class:`roa.status.RunStatus` value (converged, left_domain, diverged, undecided).
-    fraction_converged, ci95 : float, (float, float)
-        Share of converged runs and its 95 % Wilson interval.
+        Count per :class:`roa.status.RunStatus` value (converged, left_domain, diverged, undecided),
+        and ``not_run`` (initial conditions without a status) when the budget ran out.
+    fraction_converged, ci95 : float or None, (float, float)
+        Share of converged runs and its 95 % Wilson interval; for an ``inconclusive`` run None and
+        an interval that holds whatever the runs not run would give.
     code, t_end : ndarray
         Per initial condition: status code (:mod:`roa.montecarlo.integrator`) and stop time.
     entered_certified_set : int
@@ -51,7 +54,7 @@ class BasinResult:
     status: BasinStatus
     n: int
     counts: dict[str, int]
-    fraction_converged: float
+    fraction_converged: float | None
     ci95: tuple[float, float]
     code: np.ndarray = field(repr=False)
     t_end: np.ndarray = field(repr=False)
@@ -204,11 +207,15 @@ def basin(
         progress=run.progress,
         fresh=run.fresh,
         terminal=terminal,
+        time_limit=run.time_limit,
     )
     counts = res.counts()
     k = counts["converged"]
+    not_run = counts.get("not_run", 0)
     status = (
-        BasinStatus.ALL_CONVERGED
+        BasinStatus.INCONCLUSIVE
+        if not_run
+        else BasinStatus.ALL_CONVERGED
         if k == res.n
         else (BasinStatus.NONE_CONVERGED if k == 0 else BasinStatus.PARTLY_CONVERGED)
     )
@@ -216,8 +223,8 @@ def basin(
         status,
         res.n,
         counts,
-        k / res.n if res.n else 0.0,
-        wilson_interval(k, res.n),
+        None if not_run else (k / res.n if res.n else 0.0),
+        converged_interval(k, not_run, res.n),
         res.code,
         res.t_end,
         time.perf_counter() - t0,

@@ -107,3 +107,76 @@ def close_quietly(client: Any, results: Any = None) -> None:
     finally:
         for name, level in saved.items():
             logging.getLogger(name).setLevel(level)
+
+
+#: Seconds between two looks at the cluster while waiting for results.
+POLL = 0.5
+
+
+def run_tasks(
+    client: Any, fn: Any, tasks: Any, timeout: float, *, address: str = "?", window: int = 64
+) -> Any:
+    """Run ``fn(*args)`` on the cluster for each ``args`` of ``tasks``; yield results as they finish.
+
+    Claims: at most ``window`` tasks are pending at once (``tasks`` is consumed lazily); a task
+    lost with its worker is re-run by the scheduler on another worker (the scheduler's policy); a
+    cluster that has had no worker (or no reachable scheduler) for ``timeout`` seconds, or a task
+    that killed its workers, ends the run with a :class:`roa.errors.SolverError` within about
+    ``timeout + POLL`` seconds, never a silent wait. Pending futures are released on the way out
+    (closing the client, :func:`close_quietly`, cancels them).
+    """
+    import time
+
+    from distributed import KilledWorker, wait
+
+    pending: set[Any] = set()
+    it = iter(tasks)
+    more = True
+    lost_since: float | None = None
+    try:
+        while True:
+            while more and len(pending) < window:
+                try:
+                    args = next(it)
+                except StopIteration:
+                    more = False
+                    break
+                pending.add(client.submit(fn, *args, pure=False))
+            if not pending:
+                return
+            try:
+                with client.as_current():  # wait() looks for the default client
+                    done, not_done = wait(pending, timeout=POLL, return_when="FIRST_COMPLETED")
+                pending = set(not_done)
+            except TimeoutError:
+                done = set()
+            for fut in done:
+                try:
+                    result = fut.result()
+                except KilledWorker as exc:
+                    raise SolverError(
+                        f"scheduler {address}: a task killed the workers that "
+                        f"ran it ({exc}); completed chunks are kept (resume with --out)"
+                    ) from None
+                yield result
+            if done:
+                lost_since = None
+                continue
+            try:
+                workers = len(client.nthreads(callback_timeout=timeout))
+            except Exception:  # noqa: BLE001 - an unreachable scheduler counts as no worker
+                workers = 0
+            if workers:
+                lost_since = None
+                continue
+            lost_since = time.monotonic() if lost_since is None else lost_since
+            if time.monotonic() - lost_since > timeout:
+                raise SolverError(
+                    f"scheduler {address}: no Dask worker for {timeout:g} s "
+                    f"with {len(pending)} task(s) pending (the workers died or left); completed "
+                    "chunks are kept (resume with --out); start workers with `dask worker ADDRESS`"
+                )
+    finally:
+        # pending futures are released with this generator; the caller closes the client
+        # (close_quietly, bounded), which cancels whatever still runs: no unbounded call here
+        pending.clear()

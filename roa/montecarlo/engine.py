@@ -12,8 +12,10 @@ binding matches this run and its contents; any other chunk (rewritten, truncated
 another run, with unknown status codes) is deleted, recomputed and counted (``chunks_rejected`` in
 the run's ``meta``, and a :class:`ChunkRejectedWarning`). A directory holding a different run is
 refused (:class:`roa.errors.ResultsError`) unless ``fresh=True`` (recompute everything) or
-``replace_stale=True``. ``scheduler`` runs the chunks on a Dask cluster through joblib's dask
-backend, with bounded waits for the scheduler and its workers.
+``replace_stale=True``. ``scheduler`` runs the chunks on a Dask cluster as futures
+(:func:`roa.montecarlo.dask_client.run_tasks`), with bounded waits for the scheduler and its
+workers: a cluster left without workers ends the run with an error, its completed chunks kept.
+``time_limit`` bounds the run's wall-clock time (:mod:`roa.montecarlo.budget`).
 
 Bounds, checked before any allocation: at most :data:`roa.montecarlo.sampling.MAX_SAMPLES`
 initial conditions (and at most half of the physical memory for their statuses), ``chunk_size`` in
@@ -23,6 +25,7 @@ exceed the number of chunks to compute. Chunk start indices are generated lazily
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import math
 import os
@@ -35,6 +38,7 @@ import numpy as np
 
 from roa.errors import ResultsError, RoaInputError
 from roa.io import code_hash, to_json
+from roa.montecarlo import budget
 from roa.montecarlo import integrator as I  # noqa: N812
 from roa.montecarlo.chunks import (  # noqa: F401  (re-exported)
     CHUNK_FORMAT,
@@ -45,7 +49,7 @@ from roa.montecarlo.chunks import (  # noqa: F401  (re-exported)
     prepare_out_dir,
     save_chunk,
 )
-from roa.montecarlo.dask_client import close_quietly, connect
+from roa.montecarlo.dask_client import close_quietly, connect, run_tasks
 from roa.montecarlo.sampling import MAX_SAMPLES
 from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
@@ -75,6 +79,19 @@ def wilson_interval(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     return (max(0.0, center - half), min(1.0, center + half))
 
 
+def converged_interval(k: int, not_run: int, n: int) -> tuple[float, float]:
+    """95 % interval of the converged fraction of ``n`` runs, ``k`` converged and ``not_run`` not
+    run (cut by the budget): Wilson's lower bound with none of them converging and upper bound
+    with all of them converging (conservative; Wilson's interval when every run was run)."""
+    lo, _ = wilson_interval(k, n)
+    _, hi = wilson_interval(k + not_run, n)
+    return lo, hi
+
+
+#: Status code of an initial condition that was not run (the wall-clock budget ran out first).
+NOT_RUN = -1
+
+
 @dataclass
 class BasinRun:
     """Statuses of ``n`` initial conditions (codes of :mod:`roa.montecarlo.integrator`)."""
@@ -99,7 +116,11 @@ class BasinRun:
         """
         code = np.asarray(self.code)
         b = {v: int(np.count_nonzero(code == v)) for v in VALID_CODES}  # no int64 copy of code
-        if sum(b.values()) != self.n:
+        not_run = int(self.meta.get("not_run", 0))  # the budget ran out first (code NOT_RUN)
+        if not_run and int(np.count_nonzero(code == NOT_RUN)) != not_run:
+            raise ResultsError(f"internal error: {not_run} runs recorded as not run, not the "
+                               f"{int(np.count_nonzero(code == NOT_RUN))} without a status")  # fmt: skip
+        if sum(b.values()) + not_run != self.n:
             bad = np.unique(code[~np.isin(code, VALID_CODES)])
             raise ResultsError(
                 f"{self.n - sum(b.values())} of {self.n} initial conditions have an unknown status "
@@ -113,18 +134,20 @@ class BasinRun:
             "undecided": int(b[I.UNDECIDED] + b[I.STEP_FAILURE]),
             "converged_elsewhere": int(b[I.CONVERGED_ELSEWHERE]),
         }
+        if not_run:
+            counts["not_run"] = not_run
         assert sum(counts.values()) == self.n, f"status counts {counts} do not sum to n = {self.n}"
         return counts
 
     def summary(self) -> dict[str, Any]:
         counts = self.counts()
         k = counts["converged"]
-        lo, hi = wilson_interval(k, self.n)
+        lo, hi = converged_interval(k, counts.get("not_run", 0), self.n)
         return {
             "n": self.n,
             "counts": counts,
             "undecided_step_size_failures": int(np.sum(self.code == I.STEP_FAILURE)),
-            "fraction_converged": k / self.n if self.n else None,
+            "fraction_converged": k / self.n if self.n and "not_run" not in counts else None,
             "fraction_converged_ci95": [lo, hi],
             "ci_method": "Wilson score, 95 %",
             "chunks_computed": self.chunks_computed,
@@ -134,11 +157,16 @@ class BasinRun:
         }
 
 
-def _chunk(
-    system: System, sampler: Any, start: int, stop: int, opts: dict[str, Any]
-) -> tuple[int, np.ndarray, np.ndarray, int]:
-    x0 = sampler.points(start, stop)
-    res = I.integrate_batch(system, x0, **opts)
+def _chunk(system: System, sampler: Any, start: int, stop: int, opts: dict[str, Any],
+           deadline: float | None = None) -> tuple[int, np.ndarray | None, np.ndarray | None, int]:  # fmt: skip
+    """Statuses, stop times and terminal-set entries of rows ``start:stop``; ``None`` arrays when
+    the budget ``deadline`` ran out before or during the chunk (nothing of it is kept)."""
+    try:
+        budget.check(deadline)
+        x0 = sampler.points(start, stop)
+        res = I.integrate_batch(system, x0, deadline=deadline, **opts)
+    except budget.BudgetExhausted:
+        return start, None, None, 0
     entered = getattr(res, "entered", None)
     n_in = 0 if entered is None else int(np.count_nonzero(entered))
     return start, res.code, res.t_end.astype(np.float32), n_in
@@ -202,6 +230,8 @@ def _pending(n: int, chunk_size: int, done: set[int]) -> Iterator[int]:
     return (s for s in range(0, n, chunk_size) if s not in done)
 
 
+#: Largest wall-clock budget of a run (seconds; about 31 years).
+MAX_TIME_LIMIT = 1e9
 #: Seconds an idle worker process waits for work before it exits.
 IDLE_WORKERS = 30
 
@@ -236,6 +266,7 @@ def _run_basin(
     fresh: bool = False,
     scheduler_timeout: float = SCHEDULER_TIMEOUT,
     terminal: TerminalSet | None = None,
+    time_limit: float | None = None,
     _stop_after: int | None = None,
 ) -> BasinRun:
     """Integrate every initial condition of ``sampler`` and return their statuses.
@@ -273,6 +304,12 @@ def _run_basin(
     terminal : TerminalSet, optional
         A certified set of the closed loop: runs entering it stop as converged (counted in
         ``entered_certified_set``; :mod:`roa.montecarlo.terminal`). Part of the run fingerprint.
+    time_limit : float, optional
+        Wall-clock budget in seconds (:mod:`roa.montecarlo.budget`). When it runs out, no new
+        chunk starts, a chunk under way is discarded, the completed ones are kept (and saved with
+        ``out_dir``, so the same call resumes from them), and the initial conditions without a
+        status get :data:`NOT_RUN` (``meta["not_run"]``, ``counts()["not_run"]``). Not part of
+        the fingerprint: it never changes a status.
     """
     rules = StopRules() if rules is None else rules
     I.check_tolerances(rtol, atol, margin_tol)
@@ -302,6 +339,14 @@ def _run_basin(
             raise RoaInputError(f"terminal must be a TerminalSet, got {type(terminal).__name__}")
         terminal.bind(system)  # checked before any work
         opts["terminal"] = terminal  # its repr is exact: part of the fingerprint
+    if time_limit is not None:
+        ok = isinstance(time_limit, int | float) and not isinstance(time_limit, bool)
+        if not (ok and math.isfinite(time_limit) and 0 < time_limit <= MAX_TIME_LIMIT):
+            raise RoaInputError(
+                f"time_limit must be a number of seconds in (0, {MAX_TIME_LIMIT:.0e}], "
+                f"got {time_limit!r}"
+            )
+    deadline = budget.deadline_of(time_limit)
     n = int(sampler.n)
     _check_size(n)
     n_chunks = -(-n // chunk_size)
@@ -326,14 +371,14 @@ def _run_basin(
     if n_todo:
         import joblib
 
+        starts = (s for s in _pending(n, chunk_size, done) if not budget.expired(deadline))
         tasks = (
-            joblib.delayed(_chunk)(system, sampler, s, min(s + chunk_size, n), opts)
-            for s in _pending(n, chunk_size, done)
+            joblib.delayed(_chunk)(system, sampler, s, min(s + chunk_size, n), opts, deadline)
+            for s in starts
         )
         if scheduler is not None:
             client = connect(scheduler, float(scheduler_timeout))
-            ctx = joblib.parallel_config(backend="dask", n_jobs=-1, client=client,
-                                         wait_for_workers_timeout=float(scheduler_timeout))  # fmt: skip
+            ctx = contextlib.nullcontext()
             jobs = -1
         else:
             client = None
@@ -349,12 +394,21 @@ def _run_basin(
         bar = None
         try:
             with ctx:
-                results = joblib.Parallel(return_as="generator_unordered")(tasks)
+                if client is not None:  # futures watched for lost workers (bounded waits)
+                    args = ((system, sampler, s, min(s + chunk_size, n), opts, deadline)
+                            for s in starts)  # fmt: skip
+                    results = run_tasks(
+                        client, _chunk, args, float(scheduler_timeout), address=str(scheduler)
+                    )
+                else:
+                    results = joblib.Parallel(return_as="generator_unordered")(tasks)
                 if progress:  # a bar on a terminal only: logs get no flood of bar updates
                     from roa.progress import bar as progress_bar
 
                     bar = progress_bar(n_todo, f"basin {system.name}", unit="chunk")
                 for s, c, te, k in results:
+                    if c is None or te is None:  # cut by the budget: the chunk is not run
+                        continue
                     length = min(s + chunk_size, n) - s
                     if c.size != length or te.size != length:
                         raise ResultsError(
@@ -375,10 +429,13 @@ def _run_basin(
             if client is not None:
                 close_quietly(client, results)
     missing = int(np.count_nonzero(code < 0))
-    if missing:
+    if missing and deadline is None:
         raise ResultsError(f"internal error: {missing} of {n} initial conditions have no status")
     # n_jobs_used: local worker processes actually started (1: in-process), -1 on a Dask cluster
     meta: dict[str, Any] = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs}
+    if missing:
+        meta["not_run"] = missing
+        meta["time_limit"] = float(time_limit)  # type: ignore[arg-type]
     if rejected:
         meta["chunks_rejected_reasons"] = dict(rejected)
     return BasinRun(code, t_end, chunks_computed=computed, chunks_resumed=len(done), meta=meta,

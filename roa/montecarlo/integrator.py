@@ -47,6 +47,7 @@ from numba.extending import models, register_model, typeof_impl
 
 from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
+from roa.montecarlo import budget
 from roa.montecarlo import dopri as _base
 from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tableau)
     CODE_STATUS,
@@ -94,6 +95,7 @@ def integrate_batch(
     margin_tol: float = 0.0,
     backend: str = "auto",
     terminal: TerminalSet | None = None,
+    deadline: float | None = None,
 ) -> BatchResult:
     """Integrate ``system`` from every row of ``x0`` (shape ``(m, n)``) until its own event.
 
@@ -114,6 +116,10 @@ def integrate_batch(
     terminal : TerminalSet, optional
         A certified set: runs entering it stop as ``converged`` (``entered`` marks them; see
         :mod:`roa.montecarlo.terminal`).
+    deadline : float, optional
+        Absolute wall-clock deadline (:mod:`roa.montecarlo.budget`): past it the batch stops with
+        :class:`roa.montecarlo.budget.BudgetExhausted` and returns nothing (checked between slices
+        of ``budget.SLICE`` rows on the numba kernel, at every field evaluation with numpy).
     """
     rules = StopRules() if rules is None else rules
     check_tolerances(rtol, atol, margin_tol)
@@ -138,15 +144,17 @@ def integrate_batch(
         t_end = np.empty(m)
         x_end = np.empty_like(x0)
         steps = np.empty(m, np.int64)
-        run(
-            np.ascontiguousarray(params, dtype=float), x0, system.x_eq, rules.converge_tol,
-            rules.diverge_bound, margin_tol, rules.t_final, rtol, atol, T, code, t_end, x_end,
-            steps,
-        )  # fmt: skip
+        p = np.ascontiguousarray(params, dtype=float)
+        step = m if deadline is None else budget.SLICE
+        for a in range(0, m, max(step, 1)):  # contiguous row slices: the same runs bit for bit
+            budget.check(deadline)
+            b = min(a + step, m)
+            run(p, x0[a:b], system.x_eq, rules.converge_tol, rules.diverge_bound, margin_tol,
+                rules.t_final, rtol, atol, T, code[a:b], t_end[a:b], x_end[a:b], steps[a:b])  # fmt: skip
         res = _base.BatchResult(code, t_end, x_end, steps)
     else:
         res = integrate_numpy(system, x0, rules=rules, rtol=rtol, atol=atol, margin_tol=margin_tol,
-                              terminal=bound)  # fmt: skip
+                              terminal=bound, deadline=deadline)  # fmt: skip
     entered = res.code == ENTERED
     res.code[entered] = CONVERGED
     res = BatchResult(res.code, res.t_end, res.x_end, res.steps, entered)

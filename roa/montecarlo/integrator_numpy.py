@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from roa.montecarlo import budget
 from roa.montecarlo import dopri as I  # noqa: N812
 from roa.montecarlo.terminal import ENTERED, BoundTerminal
 from roa.status import StopRules
@@ -46,10 +47,13 @@ def integrate_numpy(
     atol: float,
     margin_tol: float,
     terminal: BoundTerminal | None = None,
+    deadline: float | None = None,
 ) -> I.BatchResult:
     """See :func:`roa.montecarlo.integrator.integrate_batch` (``backend="numpy"``).
 
     Runs that enter ``terminal`` get the internal code :data:`roa.montecarlo.terminal.ENTERED`.
+    Past ``deadline`` (absolute wall-clock time) the next field evaluation raises
+    :class:`roa.montecarlo.budget.BudgetExhausted`.
     """
     m, n = x0.shape
     code = np.full(m, -1, np.int8)
@@ -69,6 +73,7 @@ def integrate_numpy(
         return I.BatchResult(code, t_end, x_end, steps)
 
     def f(t: np.ndarray, y: np.ndarray) -> np.ndarray:
+        budget.check(deadline)
         with np.errstate(all="ignore"):
             return system.f(y, t)
 

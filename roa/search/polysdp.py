@@ -16,7 +16,26 @@ import numpy as np
 import scipy.sparse as sps
 import sympy as sp
 
+from roa.errors import RoaInputError
+
 Poly = dict[tuple[int, ...], float]
+
+
+class ProgramTooLarge(RoaInputError):
+    """An SOS program whose Gram blocks exceed :data:`roa.search.sos.MAX_GRAM_BLOCK` (not built)."""
+
+
+def check_block(size: int) -> None:
+    """Refuse a Gram block of ``size`` monomials above :data:`roa.search.sos.MAX_GRAM_BLOCK`
+    before any work (such programs made the solver request terabytes and abort)."""
+    from roa.search.sos import MAX_GRAM_BLOCK
+
+    if size > MAX_GRAM_BLOCK:
+        raise ProgramTooLarge(
+            f"the SOS program's Gram block would hold {size} monomials, more than the "
+            f"{MAX_GRAM_BLOCK} built here (memory would run out): not built; use a lower degree "
+            "or fewer states"
+        )
 
 
 def monomials(nvars: int, max_deg: int, min_deg: int = 0) -> list[tuple[int, ...]]:
@@ -169,8 +188,9 @@ class Identity:
 
         if not basis:
             return
-        times = times or {tuple([0] * self.nv): 1.0}
         nb = len(basis)
+        check_block(nb)
+        times = times or {tuple([0] * self.nv): 1.0}
         Q = cp.Variable((nb, nb), symmetric=True)
         self.psd.append(Q >> 0)
         r, c, v = [], [], []
@@ -238,3 +258,16 @@ class Identity:
             lam = {b: float(x) for b, x in zip(basis, q.value, strict=True) if x != 0.0}
         val = objective.value
         return True, float(np.asarray(val).reshape(-1)[0]), lam
+
+
+#: Memory budget of one SOS program's interior-point solve (bytes). Clarabel's step on a PSD block
+#: of B monomials forms a dense matrix over its B (B + 1) / 2 entries; the process peaked at about
+#: 3 x its 8-byte size (16.9 GB for B = 231, a 20-state cubic V'). Beyond the budget a program is
+#: refused before it is built (about B = 160 for 4 GiB).
+MAX_SDP_BYTES = 4 * 2**30
+
+
+def sdp_bytes(block: int) -> int:
+    """Estimated peak memory of the interior-point solve of a PSD block of ``block`` monomials."""
+    entries = block * (block + 1) // 2
+    return 3 * 8 * entries**2

@@ -19,8 +19,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
-from roa.levelset_core import problem
-from roa.levelset_sampled import crossings
+from roa.levelset_core import crossings, problem
 from roa.lyapunov import QuadraticLyapunov
 from roa.regions import symmetric_extent
 from roa.system import System

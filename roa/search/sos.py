@@ -38,7 +38,7 @@ import sympy as sp
 from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
-from roa.search.polysdp import monomials, poly_of
+from roa.search.polysdp import MAX_SDP_BYTES, monomials, poly_of, sdp_bytes
 from roa.status import SosStatus
 from roa.system import System
 
@@ -261,7 +261,9 @@ def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
     return SOSResult(SosStatus.TOO_LARGE, None, "not built", time.perf_counter() - t0, "",
                      sizes={"gram_block": block, "variables": nvars},
                      message=f"the SOS program needs a Gram block of {block} monomials in "
-                     f"{nvars} variables (at most {MAX_GRAM_BLOCK} here): not built; the level "
+                     f"{nvars} variables (at most {MAX_GRAM_BLOCK} here, and an estimated "
+                     f"{sdp_bytes(block) / 2**30:.3g} GiB of solver memory, at most "
+                     f"{MAX_SDP_BYTES / 2**30:.3g}): not built; the level "
                      "comes from the sampled search instead")  # fmt: skip
 
 
@@ -307,7 +309,7 @@ def sos_level(
     least = math.comb(
         system.n + 2, 2
     )  # V' has degree >= 2: the Gram basis holds all of degree <= 2
-    if least > MAX_GRAM_BLOCK:
+    if least > MAX_GRAM_BLOCK or sdp_bytes(least) > MAX_SDP_BYTES:
         return _too_large(least, system.n, t0)
     try:
         rc = recast(system, lyap, mode=recast_mode)
@@ -359,7 +361,7 @@ def sos_level(
         return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
 
     biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
-    if biggest > MAX_GRAM_BLOCK:
+    if biggest > MAX_GRAM_BLOCK or sdp_bytes(biggest) > MAX_SDP_BYTES:
         return _too_large(biggest, nv, t0)
     asm = _Assembler()
     lam_basis = keep(monomials(nv, multiplier_degree))

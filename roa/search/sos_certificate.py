@@ -26,7 +26,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from roa.proof.sos_check import ExactData, norm_power
-from roa.search.polysdp import monomials
+from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
 
 Mono = tuple[int, ...]
 
@@ -89,6 +89,12 @@ def propose_certificate(
     D = (top + 1) // 2
     basis0 = monomials(n, D, max(k, 1))
     basis1 = monomials(n, L, 1) if L >= 1 else []
+    if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
+        status = (f"too large: a Gram block of {len(basis0)} monomials needs an estimated "
+                  f"{sdp_bytes(len(basis0)) / 2**30:.3g} GiB (budget "
+                  f"{MAX_SDP_BYTES / 2**30:.3g} GiB); not built")  # fmt: skip
+        return SosCandidate(basis0, None, basis1, None, eps, None, status,
+                            time.perf_counter() - t0)  # fmt: skip
     target: dict[Mono, float] = {}
     for m, c in data.Vdot.items():
         target[m] = target.get(m, 0.0) - float(c)

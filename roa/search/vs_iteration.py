@@ -21,6 +21,7 @@ interval branch and bound; the SDPs are solved in floating point and prove nothi
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass, field
 from typing import Any
@@ -34,6 +35,7 @@ from roa.progress import step
 from roa.search.polysdp import (
     Identity,
     Poly,
+    ProgramTooLarge,
     add,
     diff,
     is_even,
@@ -52,6 +54,11 @@ from roa.status import SosStatus
 from roa.system import System
 
 SOLVERS = ("auto", "clarabel", "scs")
+
+
+#: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
+#: bounded on their own by :data:`roa.search.sos.MAX_GRAM_BLOCK` (roa.search.polysdp.check_block).
+MAX_V_TERMS = 5000
 
 
 @dataclass(frozen=True)
@@ -140,6 +147,12 @@ class _Problem:
         self.D = degree // 2
         self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
         self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
+        if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
+            raise ProgramTooLarge(
+                f"a V of degree {degree} in {self.nd} states has {len(self.vbasis)} coefficients, "
+                f"more than the {MAX_V_TERMS} searched here (its SOS programs would not fit in "
+                "memory): not built; use a lower degree or fewer states"
+            )
         efy = max(sum(m) for p in self.fy for m in p)
         deg_vd = degree - 1 + efy
         if multiplier_degree is None:
@@ -283,13 +296,17 @@ def vs_search(
     tol: float = 1e-3,
     solver_options: dict[str, Any] | None = None,
     solver: str = "auto",
+    budget: float | None = None,
 ) -> VsResult:
     """Polynomial Lyapunov candidates of degree ``degree`` by V-s iteration (module docstring).
 
     ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
     shape function ``p(x) = (x - x_eq)' S (x - x_eq)`` (default ``V0.P``). Stops after ``rounds``
     V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
-    ``clarabel`` or ``scs`` (:meth:`roa.search.polysdp.Identity.solve`).
+    ``clarabel`` or ``scs`` (:meth:`roa.search.polysdp.Identity.solve`). ``budget``: wall-clock
+    seconds for the whole search; no SDP starts past it and each gets the time left as its solver
+    time limit, so the search stops with the candidates of the rounds it completed (``message``
+    says so).
     """
     if solver not in SOLVERS:
         raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
@@ -298,15 +315,41 @@ def vs_search(
     if not (isinstance(rounds, int) and 1 <= rounds <= 50):
         raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
     t0 = time.perf_counter()
+    # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
+    # level search, which alone takes a while in tens of states
+    even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
+    if even > MAX_V_TERMS:
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], time.perf_counter() - t0,
+                        message=f"a V of degree {degree} in {system.n} states has at least {even} "
+                        f"coefficients, more than the {MAX_V_TERMS} searched here (its SOS "
+                        "programs would not fit in memory): not built; use a lower degree or "
+                        "fewer states")  # fmt: skip
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
     scale = seed_level(system, V0)
     try:
         pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
                       scale)  # fmt: skip
+    except ProgramTooLarge as exc:
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], time.perf_counter() - t0,
+                        message=str(exc))  # fmt: skip
     except (RoaInputError, sp.PolynomialError) as exc:
         return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], time.perf_counter() - t0,
                         message=str(exc))  # fmt: skip
-    opts = solver_options or {}
+    base = dict(solver_options or {})
+
+    def left() -> float | None:
+        return None if budget is None else budget - (time.perf_counter() - t0)
+
+    def options() -> dict[str, Any]:
+        rest = left()
+        if rest is None:
+            return base
+        return {**base, "time_limit": min(base.get("time_limit", rest), max(rest, 1e-3))}
+
+    def spent() -> bool:
+        rest = left()
+        return rest is not None and rest <= 0
+
     # the seed in y: V0 = y'y
     Vc = np.array([1.0 if sum(m) == 2 and max(m) == 2 else 0.0 for m in pb.vbasis])
     sizes = {"variables": [str(g) for g in pb.gens], "degree_V": degree, "degree": pb.total,
@@ -318,12 +361,18 @@ def vs_search(
     status, message = SosStatus.SOLVED, ""
     for r in range(rounds + 1):
         t1 = time.perf_counter()
+        if spent():
+            message = (
+                f"time budget of {budget} s spent before round {r}: kept {len(cands)} candidates"
+            )
+            status = SosStatus.FAILED if not cands else status
+            break
         # gamma step: the level of the current V, then V / gamma (level 1)
         ident = Identity(pb.nv)
         gamma = ident.scalar()
         pb.decrease(ident, Vc, None, gamma)
         with step(f"V-s round {r}: gamma step"):
-            ok, gval, lam = ident.solve(gamma, options=opts, free_index=0, solver=solver)
+            ok, gval, lam = ident.solve(gamma, options=options(), free_index=0, solver=solver)
         if not ok or gval is None or gval <= 0:
             status, message = SosStatus.FAILED, f"round {r}: gamma step {ident.status}"
             log.append(VsRound(r, None, None, time.perf_counter() - t1, ident.status))
@@ -336,13 +385,18 @@ def vs_search(
         beta = ident.scalar()
         pb.contain(ident, Vc, None, beta)
         with step(f"V-s round {r}: beta step"):
-            ok, bval, lam2 = ident.solve(beta, options=opts, free_index=0, solver=solver)
+            ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
         if not ok or bval is None:
             status, message = SosStatus.FAILED, f"round {r}: beta step {ident.status}"
             log.append(VsRound(r, gval, None, time.perf_counter() - t1, ident.status))
             break
         cands.append(pb.to_lyapunov(Vc, f"V-s degree {degree}, round {r}"))
         betas.append(float(bval))
+        if spent():
+            log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, "budget"))
+            message = (f"time budget of {budget} s spent in round {r}: kept {len(cands)} "
+                       "candidates")  # fmt: skip
+            break
         if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
             log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, "final"))
             message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
@@ -358,7 +412,8 @@ def vs_search(
         pb.positive(ident3, vvar, eps)
         pb.linear_decrease(ident, vvar, 0.01)
         with step(f"V-s round {r}: V step"):
-            ok, bnew, _ = ident.solve(beta, options=opts, also=[ident2, ident3], solver=solver)
+            ok, bnew, _ = ident.solve(beta, options=options(), also=[ident2, ident3],
+                                      solver=solver)  # fmt: skip
         log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, ident.status))
         if not ok or bnew is None or vvar.value is None:
             message = f"round {r}: V step {ident.status}; kept the V of round {r}"

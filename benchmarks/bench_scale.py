@@ -1,0 +1,320 @@
+"""Benchmark ladder of the certification from 2 to 30 states (scale issue #23, item 6).
+
+Run: ``python benchmarks/bench_scale.py [--quick] [--only NAME ...]``. Each system runs in its own
+process (its peak memory is that process's ``ru_maxrss``) and gets one row:
+
+* ``n``; the SOS level (roa's SOS proposal, ``roa.search.sos.sos_level``, or why there is none);
+* the certified level and its route: ``roa.certify(system, validator=roa.SosValidator())`` (the
+  proposer: the SOS level, else the sampled level search; the exact SOS check, block by block
+  when V and V' split over independent blocks of variables);
+* the independent optimum of its V: ``min V(x) s.t. V'(x) = 0, V(x) >= 1e-6``, by multistart SLSQP
+  (scipy) from the first crossings of V' >= 0 along random rays, with the field written again in
+  this file (not roa's) and checked against roa's at random points; closed forms where known
+  (Van der Pol: 2.3045 published; poly3d and its rotated copies: 3; the LyZNet 10-state example
+  and its decoupled copies: 2025/8, derived in ``tests/test_levelset_scale.py``);
+* certified / optimum, and a refutation just above: the optimum's point moved out along its ray to
+  ``V = 1.0005 x`` the optimum, where ``V' >= 0`` is re-checked at 50 digits (mpmath);
+* the SOS proposal's (or level search's), the validation's and the whole certification's seconds,
+  and the process's peak memory (``ru_maxrss``) after the certification, before anything else;
+* for ``n <= 6``, the interval branch and bound on the same level (``roa.certify(level=...)``).
+
+Targets: certified >= 0.99 x the optimum (never above it), 10 states < 60 s, 30 states < 10 min,
+peak memory < 8 GiB. The exit status is 1 when a certified level is not below the refuting point,
+a refutation is not confirmed at 50 digits, or a level is certified below 0.99 x the optimum (or
+not at all); timings and memory are reported, not asserted.
+
+Systems (all polynomial; ``V = (x - x_eq)' P (x - x_eq)``):
+
+* ``vanderpol`` (2): the time-reversed Van der Pol oscillator, the published P;
+* ``poly3d`` (3): ``examples/systems/poly3d.py``, V = |x|^2, level 3 (AM-GM);
+* ``poly3d-rot-2``, ``poly3d-rot-4`` (6, 12): 2 and 4 copies of poly3d in rotated coordinates
+  ``y = Q x`` (Q a seeded random orthogonal matrix): every variable coupled, V = |y|^2, level 3;
+* ``lyznet-10d`` (10): LyZNet HSCC'24 example 4 (``examples/systems/lyznet_10d.py``), P from
+  A'P + PA = -I;
+* ``lyznet-10d-x2``, ``lyznet-10d-x3`` (20, 30): two and three decoupled copies of it.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import subprocess
+import sys
+import time
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from scipy import optimize
+
+ROOT = Path(__file__).resolve().parents[1]
+QUICK = ("vanderpol", "poly3d", "poly3d-rot-2")
+LADDER = ("vanderpol", "poly3d", "poly3d-rot-2", "lyznet-10d", "poly3d-rot-4", "lyznet-10d-x2",
+          "lyznet-10d-x3")  # fmt: skip
+#: Known optima of V (closed forms or published), beside the SLSQP value.
+KNOWN = {"vanderpol": 2.3045, "poly3d": 3.0, "poly3d-rot-2": 3.0, "poly3d-rot-4": 3.0,
+         "lyznet-10d": 2025 / 8, "lyznet-10d-x2": 2025 / 8, "lyznet-10d-x3": 2025 / 8}  # fmt: skip
+
+
+# -- the fields, written here again (arithmetic only: floats, numpy arrays, mpmath numbers) --------
+def vanderpol(x: Sequence[Any]) -> list[Any]:
+    return [-x[1], x[0] + (x[0] ** 2 - 1) * x[1]]
+
+
+def poly3d(x: Sequence[Any]) -> list[Any]:
+    return [-x[0] + x[1] * x[2], -x[1] + x[0] * x[2], -x[2] + x[0] * x[1]]
+
+
+def lyznet(x: Sequence[Any]) -> list[Any]:
+    x1, x2, x3, x4, x5, x6, x7, x8, x9, x10 = x
+    return [-x1 + 0.5 * x2 - 0.1 * x9**2, -0.5 * x1 - x2, -x3 + 0.5 * x4 - 0.1 * x1**2,
+            -0.5 * x3 - x4, -x5 + 0.5 * x6 + 0.1 * x7**2, -0.5 * x5 - x6, -x7 + 0.5 * x8,
+            -0.5 * x7 - x8, -x9 + 0.5 * x10, -0.5 * x9 - x10 + 0.1 * x2**2]  # fmt: skip
+
+
+def copies(block: Callable, size: int, k: int) -> Callable:
+    def field(x: Sequence[Any]) -> list[Any]:
+        return [v for c in range(k) for v in block(list(x[c * size : (c + 1) * size]))]
+
+    return field
+
+
+def rotated(field: Callable, Q: list[list[float]]) -> Callable:
+    """``y' = Q g(Q' y)`` for ``x' = g(x)``: the same system in coordinates ``y = Q x``."""
+    n = len(Q)
+
+    def out(y: Sequence[Any]) -> list[Any]:
+        x = [sum(Q[j][i] * y[j] for j in range(n)) for i in range(n)]
+        g = field(x)
+        return [sum(Q[i][j] * g[j] for j in range(n)) for i in range(n)]
+
+    return out
+
+
+def case(name: str) -> tuple[Any, Callable, np.ndarray]:
+    """roa's system, this file's field and the P of V."""
+    import roa
+
+    if name == "vanderpol":
+        system = roa.load_system("vanderpol")
+        return system, vanderpol, np.asarray(roa.default_lyapunov(system).P)
+    if name == "poly3d":
+        return roa.load_system(f"{ROOT / 'examples/systems/poly3d.py'}:SYSTEM"), poly3d, np.eye(3)
+    if name.startswith("poly3d-rot-"):
+        k = int(name.rsplit("-", 1)[1])
+        n = 3 * k
+        Q = np.linalg.qr(np.random.default_rng(7).standard_normal((n, n)))[0].tolist()
+        f = rotated(copies(poly3d, 3, k), Q)
+        system = roa.System(name, lambda t, x, xp: tuple(f(x)), (0.0,) * n,
+                            tuple(f"y{i + 1}" for i in range(n)), lyapunov=np.eye(n))  # fmt: skip
+        return system, f, np.eye(n)
+    if name.startswith("lyznet-10d"):
+        k = 1 if name == "lyznet-10d" else int(name.rsplit("x", 1)[1])
+        attr = {1: "SYSTEM", 2: "SYSTEM_20", 3: "SYSTEM_30"}[k]
+        system = roa.load_system(f"{ROOT / 'examples/systems/lyznet_10d.py'}:{attr}")
+        return system, copies(lyznet, 10, k), np.asarray(roa.default_lyapunov(system).P)
+    raise SystemExit(f"unknown system {name!r}; known: {', '.join(LADDER)}")
+
+
+# -- the independent optimum -----------------------------------------------------------------------
+def _vdot(field: Callable, P: np.ndarray, X: np.ndarray) -> np.ndarray:
+    F = np.stack([np.broadcast_to(v, X.shape[:-1]) for v in field(list(np.moveaxis(X, -1, 0)))],
+                 axis=-1)  # fmt: skip
+    return 2.0 * np.einsum("...i,ij,...j->...", X, P, F)
+
+
+def independent_optimum(field: Callable, P: np.ndarray, *, rays: int = 4000, starts: int = 24,
+                        seed: int = 0) -> tuple[float, np.ndarray]:  # fmt: skip
+    """min V s.t. V' = 0, V >= 1e-6 (x_eq = 0): multistart SLSQP from the first V' >= 0 along
+    random rays (the best ``starts`` of ``rays``). Returns the optimum and its point."""
+    n = len(P)
+    rng = np.random.default_rng(seed)
+    U = rng.standard_normal((rays, n))
+    U /= np.sqrt(np.einsum("mi,ij,mj->m", U, P, U))[:, None]  # V(U) = 1
+    t = np.geomspace(1e-2, 1e3, 400)
+    bad = _vdot(field, P, t[None, :, None] * U[:, None, :]) >= 0
+    hit = bad.any(axis=1)
+    k = np.argmax(bad, axis=1)
+    lo, hi = np.where(k > 0, t[np.maximum(k - 1, 0)], 0.0), t[k]
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        b = _vdot(field, P, mid[:, None] * U) >= 0
+        hi, lo = np.where(b, mid, hi), np.where(b, lo, mid)
+    order = [i for i in np.argsort(np.where(hit, hi, np.inf)) if hit[i]][:starts]
+    if not order:
+        raise RuntimeError("no ray reaches V' >= 0 up to V = 1e6")
+
+    def V(x: np.ndarray) -> float:
+        return float(x @ P @ x)
+
+    cons = [{"type": "eq", "fun": lambda x: _vdot(field, P, x) / V(x)},
+            {"type": "ineq", "fun": lambda x: V(x) - 1e-6}]  # fmt: skip
+    best, point = np.inf, None
+    for i in order:
+        res = optimize.minimize(V, hi[i] * U[i], jac=lambda x: 2 * P @ x, constraints=cons,
+                                method="SLSQP", options={"ftol": 1e-14, "maxiter": 1000})  # fmt: skip
+        x = res.x
+        if V(x) > 1e-6 and abs(_vdot(field, P, x)) <= 1e-9 * V(x) and V(x) < best:
+            best, point = V(x), x
+    if point is None:
+        raise RuntimeError("SLSQP found no point with V' = 0")
+    return best, point
+
+
+def refutation(field: Callable, P: np.ndarray, point: np.ndarray, optimum: float) -> dict:
+    """The optimum's point moved out along its ray to V = f x optimum (f = 1.0002 .. 1.001), with
+    V' there at 50 digits: the first f where V' >= 0."""
+    import mpmath as mp
+
+    with mp.workdps(50):
+        Pm = [[mp.mpf(float(v)) for v in row] for row in P]
+        n = len(P)
+        for f in ("1.0002", "1.0005", "1.001"):
+            s = mp.sqrt(mp.mpf(f) * mp.mpf(float(optimum)) / mp.mpf(float(point @ P @ point)))
+            x = [s * mp.mpf(float(v)) for v in point]
+            fx = field(x)
+            Vx = mp.fsum(x[i] * Pm[i][j] * x[j] for i in range(n) for j in range(n))
+            Vd = 2 * mp.fsum(x[i] * Pm[i][j] * fx[j] for i in range(n) for j in range(n))
+            if Vd >= 0:
+                return {"confirmed": bool(Vx <= mp.mpf("1.001") * mp.mpf(float(optimum))),
+                        "V": float(Vx), "ratio": float(Vx / mp.mpf(float(optimum))),
+                        "vdot": mp.nstr(Vd, 8), "digits": 50}  # fmt: skip
+    return {"confirmed": False, "V": None, "ratio": None, "vdot": None, "digits": 50}
+
+
+# -- one system ------------------------------------------------------------------------------------
+def measure(name: str, *, bnb: bool = True) -> dict[str, Any]:
+    import roa
+
+    system, field, P = case(name)
+    n = len(P)
+    X = np.random.default_rng(1).uniform(-1, 1, (5, n))
+    ours = np.stack([np.asarray(v, float) for v in field(list(X.T))], axis=1)
+    theirs = np.asarray(system.f(X), float)
+    assert np.allclose(ours, theirs, rtol=1e-12, atol=1e-12), f"{name}: the fields differ"
+    assert np.allclose(P, roa.default_lyapunov(system).P, rtol=1e-10, atol=1e-12)
+    row: dict[str, Any] = {"system": name, "n": n}
+    t0 = time.perf_counter()
+    cert = roa.certify(system, validator=roa.SosValidator())  # SOS level, else the sampled one
+    row["certify_seconds"] = time.perf_counter() - t0
+    # the process's peak so far: loading, the fields' check and the certification
+    row["peak_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    row["status"] = cert.status.value
+    row["level"] = cert.level
+    row["route"] = f"{cert.level_source} -> {cert.method}"
+    row["sos_level"] = None if cert.sos is None else cert.sos.level
+    row["sos_message"] = "" if cert.sos is None or cert.sos.level else cert.sos.message[:90]
+    row["sos_seconds"] = None if cert.sos is None else cert.sos.seconds
+    row["search_seconds"] = None if cert.search is None else cert.search.seconds
+    checks = [s for s in cert.trace if str(s.get("stage", "")).startswith("validate")]
+    row["check_seconds"] = sum(float(s.get("seconds", 0.0)) for s in checks)
+    meta = cert.validation.meta if cert.validation is not None else {}
+    row["gram_sizes"] = meta.get("gram_sizes")
+    row["message"] = cert.message[:160]
+    if bnb and n <= 6 and cert.level is not None:
+        t0 = time.perf_counter()
+        box = roa.certify(system, level=cert.level)
+        row["bnb"] = {"status": box.status.value, "seconds": time.perf_counter() - t0,
+                      "boxes": None if box.validation is None else box.validation.boxes}  # fmt: skip
+    t0 = time.perf_counter()
+    opt, point = independent_optimum(field, P)
+    row["optimum"], row["optimum_seconds"] = opt, time.perf_counter() - t0
+    row["known"] = KNOWN.get(name)
+    row["refutation"] = refutation(field, P, point, opt)
+    return row
+
+
+def verdicts(row: dict[str, Any]) -> list[str]:
+    """What fails in a row (an empty list: it passes)."""
+    out = []
+    ref = row["refutation"]
+    if not ref["confirmed"]:
+        out.append("refutation above not confirmed at 50 digits")
+    if row["status"] != "certified" or row["level"] is None:
+        out.append(f"not certified ({row['status']})")
+        return out
+    if ref["V"] is not None and row["level"] >= ref["V"]:
+        out.append(f"certified level {row['level']} is not below the refuting point V = {ref['V']}")
+    if row["level"] < 0.99 * row["optimum"]:
+        out.append(f"certified {row['level'] / row['optimum']:.4f} < 0.99 of the optimum")
+    return out
+
+
+def _fmt(x: Any, spec: str = ".4g") -> str:
+    return "-" if x is None else format(x, spec)
+
+
+def table(rows: list[dict[str, Any]]) -> str:
+    head = ("| system | n | SOS level | certified level (route) | certified / optimum | optimum "
+            "(SLSQP; known) | refuted at V / optimum | propose s (SOS; search) | check s | "
+            "total s | peak MiB | Gram blocks (largest) | B&B same level |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
+    lines = [head]
+    for r in rows:
+        if "error" in r:
+            lines.append(f"| {r['system']} | {r.get('n', '-')} | {r['error']} |" + " |" * 11)
+            continue
+        ratio = None if r["level"] is None else r["level"] / r["optimum"]
+        bnb = r.get("bnb")
+        bnb_s = "-" if bnb is None else f"{bnb['status']}, {bnb['seconds']:.1f} s"
+        sos = _fmt(r["sos_level"], ".7g") if r["sos_level"] else "none (too large)"
+        g = r["gram_sizes"] or []
+        grams = f"{len(g)} ({max(g)})" if g else "-"
+        ref = r["refutation"]
+        refuted = f"{ref['ratio']:.4f}" if ref["confirmed"] else "not confirmed"
+        lines.append(
+            f"| {r['system']} | {r['n']} | {sos} | {_fmt(r['level'], '.7g')} ({r['route']}) | "
+            f"{_fmt(ratio, '.5f')} | {r['optimum']:.7g}; {_fmt(r['known'], '.7g')} | {refuted} | "
+            f"{_fmt(r['sos_seconds'], '.1f')}; {_fmt(r['search_seconds'], '.1f')} | "
+            f"{r['check_seconds']:.1f} | "
+            f"{r['certify_seconds']:.1f} | {r['peak_mib']:.0f} | {grams} | {bnb_s} |"
+        )
+    return "\n".join(lines)
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help=f"only {', '.join(QUICK)}")
+    ap.add_argument("--only", nargs="+", default=None, help="these systems")
+    ap.add_argument("--one", default=None, help=argparse.SUPPRESS)  # the child process
+    ap.add_argument("--no-bnb", action="store_true", help="skip the branch and bound column")
+    ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
+    ap.add_argument("--from-json", default=None, help="print the table of rows written by --json")
+    args = ap.parse_args(argv)
+    if args.from_json:
+        print(table(json.loads(Path(args.from_json).read_text())))
+        return 0
+    if args.one:
+        print("RESULT " + json.dumps(measure(args.one, bnb=not args.no_bnb), default=float))
+        return 0
+    names = args.only or (QUICK if args.quick else LADDER)
+    rows = []
+    for name in names:
+        cmd = [sys.executable, __file__, "--one", name] + (["--no-bnb"] if args.no_bnb else [])
+        try:
+            out = subprocess.run(cmd, capture_output=True, text=True, timeout=1800)
+        except subprocess.TimeoutExpired:
+            rows.append({"system": name, "error": "timed out after 1800 s"})
+            continue
+        lines = [ln for ln in out.stdout.splitlines() if ln.startswith("RESULT ")]
+        if out.returncode or not lines:
+            rows.append({"system": name, "error": f"failed: {out.stderr.strip()[-300:]}"})
+            continue
+        rows.append(json.loads(lines[-1][len("RESULT ") :]))
+        r = rows[-1]
+        print(f"{name}: n = {r['n']}, {r['status']} {r['level']}, optimum {r['optimum']:.9g}, "
+              f"{r['certify_seconds']:.1f} s, {r['peak_mib']:.0f} MiB", flush=True)  # fmt: skip
+    print(table(rows))
+    if args.json:
+        Path(args.json).write_text(json.dumps(rows, indent=1, default=float))
+    failed = [(r["system"], v) for r in rows for v in (["error"] if "error" in r else verdicts(r))]
+    for name, why in failed:
+        print(f"FAIL {name}: {why}")
+    print("all ladder checks hold" if not failed else f"{len(failed)} check(s) failed")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

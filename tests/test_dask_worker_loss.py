@@ -1,0 +1,86 @@
+"""A Dask worker that dies mid-run (reliability issue, finding 3 and Deliver 3): the client used to
+wait silently for ever; now the run ends with a :class:`roa.errors.SolverError` once the cluster
+has had no worker for ``scheduler_timeout`` seconds, the completed chunks are kept, and the run
+resumes from them to the result of a local run.
+
+The worker is a real ``dask worker`` process (no nanny, so nothing restarts it), killed with
+SIGKILL once the first chunk file is written. A watchdog fails the test instead of hanging.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from roa.errors import SolverError
+from roa.montecarlo.engine import run_basin
+from roa.montecarlo.sampling import grid_slice
+from roa.status import StopRules
+from roa.systems.vanderpol import vanderpol
+
+ROOT = Path(__file__).resolve().parents[1]
+SYSTEM = vanderpol()
+RULES = StopRules(t_final=5.0)
+
+pytest.importorskip("distributed")
+
+
+def test_a_killed_worker_ends_the_run_within_a_bounded_time_and_it_resumes(tmp_path):
+    from dask.distributed import LocalCluster
+
+    smp = grid_slice(SYSTEM, ("x1", "x2"), [(-3, 3), (-3, 3)], (40, 40))
+    out = tmp_path / "run"
+    env = {
+        **os.environ,
+        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
+    }
+    with LocalCluster(n_workers=0, processes=False, protocol="tcp://", host="127.0.0.1",
+                      dashboard_address=None) as cluster:  # fmt: skip
+        worker = subprocess.Popen(
+            [sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
+             "--no-nanny", "--nthreads", "1", "--no-dashboard", "--local-directory",
+             str(tmp_path / "worker")],
+            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+        t0 = time.monotonic()  # a loaded machine starts the worker slowly: wait until it joined
+        while not cluster.scheduler.workers and time.monotonic() - t0 < 120:
+            time.sleep(0.1)
+        assert cluster.scheduler.workers, "the dask worker did not join within 120 s"
+        killed = threading.Event()
+
+        def kill_after_first_chunk() -> None:
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 120 and worker.poll() is None:
+                if list((out / "chunks").glob("chunk_*.npz")):
+                    worker.send_signal(signal.SIGKILL)
+                    killed.set()
+                    return
+                time.sleep(0.05)
+
+        watcher = threading.Thread(target=kill_after_first_chunk, daemon=True)
+        watcher.start()
+        try:
+            with pytest.raises(SolverError, match="no Dask worker for 2 s") as info:
+                run_basin(SYSTEM, smp, rules=RULES, chunk_size=100, out_dir=out,
+                          scheduler=cluster.scheduler_address, scheduler_timeout=2.0)  # fmt: skip
+        finally:
+            if worker.poll() is None:
+                worker.kill()
+            worker.wait(30)
+            watcher.join(5)
+    assert killed.is_set(), "the worker finished before it could be killed: enlarge the grid"
+    assert "completed chunks are kept" in str(info.value)
+    kept = len(list((out / "chunks").glob("chunk_*.npz")))
+    assert 1 <= kept < 16
+    resumed = run_basin(SYSTEM, smp, rules=RULES, chunk_size=100, out_dir=out, n_jobs=1)
+    assert resumed.chunks_resumed == kept and resumed.chunks_computed == 16 - kept
+    local = run_basin(SYSTEM, smp, rules=RULES, chunk_size=1600, n_jobs=1)  # same statuses
+    np.testing.assert_array_equal(resumed.code, local.code)

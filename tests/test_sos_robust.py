@@ -287,3 +287,18 @@ def test_cli_verify_rechecks_a_box_certificate(box_cert, worst, tmp_path, capsys
     assert out["status"] == "inconclusive" and "refused" in out["message"]
     rc = main(["verify", str(good), "--system", "vanderpol", "--param", "mu=0.9..1.2"])
     assert rc != 0 and "another system" in capsys.readouterr().err
+
+
+def test_cli_certify_box_with_the_sos_validator(worst, capsys):
+    """``roa certify --system vanderpol --param mu=0.8..1.2 --validator sos``: the exact SOS
+    certificate decides for the box (method sos-exact), at most the worst case, and the branch
+    and bound refutes 1 % above it naming mu = 0.8."""
+    from roa.cli import main
+
+    rc = main(["certify", "--system", "vanderpol", "--param", "mu=0.8..1.2", "--validator",
+               "sos", "--check-above", "1.01", "--json"])  # fmt: skip
+    out = json.loads(capsys.readouterr().out)
+    assert rc == 0 and out["status"] == "certified" and out["method"] == "sos-exact"
+    assert 0.95 * worst <= out["level"] <= worst
+    assert out["certificate"]["parameters"] == {"mu": [str(Fraction(0.8)), str(Fraction(1.2))]}
+    assert out["above"]["status"] == "refuted" and out["above"]["witness_parameters"] == {"mu": 0.8}

@@ -19,6 +19,7 @@ SECTIONS = (
     ("M", "Monte Carlo basins and Remark 3.1"),
     ("C", "Certified regions and beyond the paper"),
     ("D", "Polynomial Lyapunov functions by degree (SOS V-s iteration + interval validation)"),
+    ("R", "Robust regions: the plant's mass ratio differs from the controller's design"),
 )
 
 HEADER = """# Reproduction report: a flatness-based controller for the inverted pendulum on a cart

@@ -253,4 +253,5 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     ev["seconds"] = round(time.perf_counter() - t0, 1)
     atomic_write_json(out / "evidence.json", ev)
     figure(ev, out / "robust.png")
-    return {"claims": claims(ev, quick=quick), "evidence": ev}
+    return {"claims": claims(ev, quick=quick), "evidence": ev,
+            "figures": ["results/robust/robust.png"]}  # fmt: skip

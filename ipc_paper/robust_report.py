@@ -97,20 +97,26 @@ def figure(ev: dict[str, Any], path: Path) -> None:
     d = np.asarray(c["delta_plant"])
     labels = {"paper": "paper's V (3.11)", "box_optimised": "box-optimised V (C5)",
               "robust_quadratic": "V designed for the box"}  # fmt: skip
+    found = [v for name in labels for v in c[name] if v is not None and v > 0]
+    floor = 0.5 * min(found) if found else 1e-3
     for k, name in enumerate(labels):
         lv = np.array([np.nan if v is None else v for v in c[name]], dtype=float)
         ax.plot(d, lv, "o-", color=f"C{k}", label=f"{labels[name]}: sampled optimum")
+        none = np.isnan(lv)
+        if none.any():
+            ax.plot(d[none], np.full(none.sum(), floor), "x", color=f"C{k}", ms=8,
+                    label=f"{labels[name]}: no level (V' >= 0 next to x_eq)")  # fmt: skip
     r = ev["robust_quadratic"]
     if r["status"] == "certified":
         ax.axhline(r["level"], color="C2", ls="--",
                    label=f"certified for every delta_plant: {r['level']:.4g}")  # fmt: skip
     ax.axvline(1.0, color="k", lw=0.6, ls=":", label="design delta = 1")
     ax.set_xscale("log")
-    ax.set_yscale("symlog", linthresh=0.1)
+    ax.set_yscale("log")
     ax.set_xlabel("plant mass ratio delta_plant = M/m [-]")
     ax.set_ylabel("largest level with V' < 0 (sampled) [-]")
     ax.set_title("(a) each V's level against the plant's mass ratio")
-    ax.legend(fontsize=7.5, loc="lower center")
+    ax.legend(fontsize=7, loc="upper right")
     ax = axes[1]
     th = np.linspace(-np.pi / 2 + 0.02, np.pi / 2 - 0.02, 301)
     thd = np.linspace(-3.0, 3.0, 241)

@@ -20,14 +20,17 @@ Cases (V fixed, quadratic):
   for ``max q`` and ``28/33 = 0.848485`` for the level, the same for every case.
 
 Per case: ``roa.certify(box, V)`` (the robust pipeline: a level proposed at the box's sample
-points, validated for every parameter of the box), and ``roa.certify`` at ``0.99 x`` the
-independent worst case for the box (the validation alone); the naive alternative certifies at a
+points, validated for every parameter of the box), ``roa.certify`` at ``0.99 x`` the
+independent worst case for the box (the branch and bound's validation alone), the exact SOS
+validator (``roa.SosValidator``, parameters as indeterminates, :mod:`roa.proof.recast_box`) at
+``0.99 x`` and at ``1.01 x`` the worst case (``sos99``, ``t_sos``, ``sos101``); the naive alternative certifies at a
 grid of ``G`` values per uncertain parameter, ``roa.certify(box.at(...), V)`` at each (its own
 level), and takes the minimum, which proves nothing between grid points: the last column asks
 ``roa.certify(box, V, level=that minimum)`` whether it holds for the box.
 
 Checks (exit 1 otherwise): no certified robust level above the independent worst case; the Van der
-Pol robust level within 1 % of it; the box certified at 0.99 x the worst case. Times are for the
+Pol robust level within 1 % of it; the box certified at 0.99 x the worst case; the SOS validator
+never certifies 1.01 x it. Times are for the
 machine at hand and are not checked.
 """
 
@@ -158,12 +161,17 @@ def main() -> int:
     grids = [int(g) for g in (args.grid or ("2" if args.quick else "2,3")).split(",")]
     failures = []
     head = (f"{'case':<28} {'worst':>8} {'robust':>13} {'t_rob':>6} {'0.99w':>9} {'t_099':>6} "
-            f"{'G':>2} {'naive min':>9} {'t_naive':>7} {'rob/naive':>9} {'rob/worst':>9} "
+            f"{'sos99':>9} {'t_sos':>6} {'sos101':>9} {'G':>2} {'naive min':>9} {'t_naive':>7} {'rob/naive':>9} {'rob/worst':>9} "
             f"{'t_rob/t_naive':>13} {'naive min for box':>17}")  # fmt: skip
     print(head)
+    sos = roa.SosValidator(fallback=False)
     for case in cases(args.quick):
         rob, t_rob = timed(lambda c=case: roa.certify(c.system, c.V))
         at99, t99 = timed(lambda c=case: roa.certify(c.system, c.V, level=0.99 * c.worst))
+        sos99, t_sos = timed(lambda c=case: sos.check(c.system, c.V, 0.99 * c.worst))
+        sos101 = sos.check(case.system, case.V, 1.01 * case.worst)
+        if sos101.status is roa.Verdict.CERTIFIED:
+            failures.append(f"{case.name}: SOS certified 1.01 x the worst case")
         level = float(rob.level) if rob.status is roa.Verdict.CERTIFIED else float("nan")
         if rob.status is roa.Verdict.CERTIFIED and level > case.worst * (1 + 1e-9):
             failures.append(f"{case.name}: robust level {level} above the worst case {case.worst}")
@@ -176,7 +184,8 @@ def main() -> int:
             low, t_naive, _ = naive(case, g)
             check = roa.certify(case.system, case.V, level=low).status.value
             print(f"{case.name:<28} {case.worst:8.5f} {level:8.5f} {rob.status.value[:4]:>4} "
-                  f"{t_rob:6.1f} {at99.status.value[:9]:>9} {t99:6.1f} {g:2d} {low:9.5f} "
+                  f"{t_rob:6.1f} {at99.status.value[:9]:>9} {t99:6.1f} "
+                  f"{sos99.status.value[:9]:>9} {t_sos:6.2f} {sos101.status.value[:9]:>9} {g:2d} {low:9.5f} "
                   f"{t_naive:7.1f} {level / low:9.4f} {level / case.worst:9.4f} "
                   f"{t_rob / t_naive:13.2f} {check:>17}", flush=True)  # fmt: skip
     for f in failures:

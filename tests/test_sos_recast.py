@@ -232,11 +232,11 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     assert not off.ok and off.residual == pytest.approx(float(-2 * a))
 
 
-def test_uncertain_parameters_are_not_proved_by_the_sos_routes():
+def test_one_field_certificate_is_not_one_for_a_box():
     """A stored SOS certificate of Van der Pol (mu = 1) is refused for the family mu in
     [0.5, 2] (it proves one field; at mu = 2 the level 2.30 is refuted): by the file's system
-    fingerprint, and by the exact re-check itself; the SOS validator refuses an uncertain
-    system (the check sees one field)."""
+    fingerprint, and by the exact re-check itself; the SOS validator proves the family's box
+    (tests/test_sos_robust.py) and cannot at 2.30 (below mu = 0.5's V' is indefinite at 0)."""
     import json
 
     from roa.proof.sos_check import recheck_stored
@@ -251,4 +251,4 @@ def test_uncertain_parameters_are_not_proved_by_the_sos_routes():
     again = recheck_stored(family, cert.V, 2.30, cert.validation.meta)
     assert again.status is roa.Verdict.INCONCLUSIVE and "uncertain parameters" in again.message
     v = roa.SosValidator(fallback=False).check(family, roa.default_lyapunov(vanderpol()), 2.30)
-    assert v.status is roa.Verdict.INCONCLUSIVE and "uncertain parameters" in v.message
+    assert v.status is roa.Verdict.INCONCLUSIVE and "SOS check failed" in v.message

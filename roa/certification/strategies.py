@@ -90,6 +90,10 @@ class SosValidator:
     cost grows polynomially with the dimension (the Gram basis), not exponentially as the branch
     and bound's boxes do.
 
+    A system with uncertain parameters is proved for every parameter of its box: the parameters
+    are indeterminates of the certificate, constrained to the box by Putinar multipliers
+    (:mod:`roa.proof.recast_box`, through the recast route even for a polynomial field).
+
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof.recast`) and proved by a constrained certificate
     (:mod:`roa.proof.sos_putinar`, proposed by :mod:`roa.search.sos_putinar`); a field that
@@ -120,8 +124,6 @@ class SosValidator:
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:
             return False
-        if system.parameters:  # parameters as indeterminates: not yet
-            return False
         if system.time_varying:
             return False
         return self.fallback or self.recast_error(system, V) is None
@@ -133,15 +135,14 @@ class SosValidator:
         from roa.proof.recast import recast_exact
         from roa.proof.sos_check import NotPolynomial, exact_data
 
-        try:
-            exact_data(system, V)
-            return None
-        except NotPolynomial:
-            pass
+        if not getattr(system, "parameters", None):  # a box goes to the recast route
+            try:
+                exact_data(system, V)
+                return None
+            except NotPolynomial:
+                pass
         if getattr(system, "margin", None) is not None:
             return "the system has a domain (margin): the recast route does not bound it"
-        if getattr(system, "parameters", None):
-            return "the system has uncertain parameters: the SOS check proves one field"
         try:
             recast_exact(system, V, taylor=1)
             return None
@@ -237,6 +238,7 @@ class SosValidator:
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
         """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
         from roa.proof.recast import level_scale
+        from roa.proof.recast_box import box_json
         from roa.proof.sos_putinar import check_putinar, recast_preconditions
         from roa.search.sos_putinar import default_eps, propose_putinar
 
@@ -259,6 +261,8 @@ class SosValidator:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
             cert = {"putinar": res.blocks.to_json(), "taylor": data.taylor,
                     "scale": [str(r) for r in data.scale]}  # fmt: skip
+            if data.parameters:  # the box it holds for (a re-check takes the system's)
+                cert["parameters"] = box_json(data.parameters)
             return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
                        f"checked exactly: {res.reason}", certificate=cert,
                        M=np.eye(V.n).tolist(), **figures)  # fmt: skip

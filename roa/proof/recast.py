@@ -15,6 +15,12 @@ So a Putinar identity ``-N - eps |d|^2k = sigma0 + lambda (c - V) + sum sigma_j 
 there for the ORIGINAL field. Soundness needs only that the constraints hold at ``z(x)``, never
 that they pin ``z`` down (loose constraints cost level, not truth).
 
+**Uncertain parameters** (:mod:`roa.proof.recast_box`): a system with a parameter box gets one
+more variable per parameter, last in ``z``, its normalised value ``w_j`` in ``[-1, 1]``, and the
+inequality ``1 - w_j^2 >= 0``; every polynomial above is then one in ``(z, w)`` and the claims
+hold at ``(z(x), w(p))`` for every state ``x`` and every parameter ``p`` of the box. ``low`` is
+the lowest degree of ``N`` in the state variables (the parameters not counted).
+
 **The inequalities** (orders up to ``taylor``, odd; ``T_m``, ``C_m`` the Taylor polynomials of
 ``sin`` and ``cos`` of degree ``m``):
 
@@ -62,6 +68,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
+from roa.proof.recast_box import box_constraints, box_variables, describe
 from roa.proof.sos_check import Mono, NotPolynomial, QPoly, _fraction, poly_lin, poly_mul
 
 #: Highest Taylor order of the sin bounds (the cos bounds go one further).
@@ -91,20 +98,36 @@ class RecastData:
     description: str
     Den: QPoly  # V' = N / Den at z(x), Den > 0 there (in y and the aux)
     roots: tuple[tuple[int, Fraction, QPoly], ...]  # (index of u, t0, b in y): u = sqrt(b) - t0
+    #: uncertain parameters ``(name, low, high)``, exact: the LAST variables of ``z`` are their
+    #: normalised values ``w = (p - mid) / half`` in ``[-1, 1]`` (:mod:`roa.proof.recast_box`)
+    parameters: tuple[tuple[str, Fraction, Fraction], ...] = ()
+
+    @property
+    def nz(self) -> int:
+        """Number of state variables of ``z`` (states and auxiliaries, not the parameters)."""
+        return self.nv - len(self.parameters)
+
+    def state_degree(self, m: Mono) -> int:
+        """Degree of the monomial ``m`` in the state variables (the parameters not counted)."""
+        return sum(m[: self.nz])
 
     def aux(self, a: int) -> tuple[int, int]:
         """Variable indices of ``s`` and ``q`` of the ``a``-th angle."""
         return self.n + 2 * a, self.n + 2 * a + 1
 
-    def point(self, x: Any) -> list[float]:
+    def point(self, x: Any, p: Any = None) -> list[float]:
         """``z(x)`` in floats (for tests and plots, never for a proof): ``y = d / scale``,
-        ``sin``, ``1 - cos`` of each angle, ``sqrt(b) - t0`` of each square root."""
+        ``sin``, ``1 - cos`` of each angle, ``sqrt(b) - t0`` of each square root, and the
+        normalised parameters ``(p - mid) / half`` (``p``: their values, by name)."""
         import numpy as np
 
         d = [float(xi) - float(c) for xi, c in zip(x, self.center, strict=True)]
         z = [di / float(r) for di, r in zip(d, self.scale, strict=True)] + [0.0] * (
             self.nv - self.n
         )
+        for j, (name, lo, hi) in enumerate(self.parameters):
+            value = float((lo + hi) / 2) if p is None else float(p[name])
+            z[self.nz + j] = (value - float((lo + hi) / 2)) / float((hi - lo) / 2)
         for a, i in enumerate(self.angles):
             si, qi = self.aux(a)
             z[si], z[qi] = float(np.sin(d[i])), float(1 - np.cos(d[i]))
@@ -364,12 +387,15 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     center = tuple(Fraction(float(c)) for c in V.center)
     xs = list(sp.symbols(f"x0:{n}", real=True))
     d = list(sp.symbols(f"d0:{n}", real=True))
+    box = box_variables(system)  # uncertain parameters: the last variables (roa.proof.recast_box)
     try:
         with sp.evaluate(False):
-            f = system.field(0.0, xs, namespace("sympy"))
+            f = (system if box is None else box.system).field(0.0, xs, namespace("sympy"))
         shift = {xs[i]: d[i] + sp.Rational(c.numerator, c.denominator)
                  for i, c in enumerate(center)}  # fmt: skip
         f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        if box is not None:
+            f = [fi.xreplace(box.subs) for fi in f]
         f = [sp.expand_trig(fi.replace(sp.tan, lambda a: sp.sin(a) / sp.cos(a))) for fi in f]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
@@ -390,8 +416,9 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     f = [fi.xreplace(subs) for fi in f]
     roots = _square_roots(f, d + aux)
     aux += [u for u, _, _, _ in roots]
-    gens = d + aux
+    gens = d + aux + ([] if box is None else list(box.symbols))
     nv = len(gens)
+    nz = nv - (0 if box is None else len(box.symbols))  # states and auxiliaries
     roots = [(u, t0, {m + (0,) * (nv - len(m)): c for m, c in b.items()}, rep)
              for u, t0, b, rep in roots]  # fmt: skip
     f = [sp.together(fi.xreplace({p: r for _, _, _, rep in roots for p, r in rep.items()}))
@@ -407,8 +434,9 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     L = dens[0]
     for q in dens[1:]:
         L = sp.lcm(L, q)
-    if any(p.subs({g: 0 for g in gens}) != 0 for p in nums):
-        raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
+    if any(sum(m[:nz]) == 0 for p in nums for m, c in p.terms() if c != 0):
+        raise NotPolynomial("f(x_eq) != 0 exactly (for some parameter of the box): V's centre "
+                            "is not an equilibrium")  # fmt: skip
     Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): _fraction(c)
                  for a, c in terms.items() if c != 0}  # fmt: skip
     Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
@@ -423,9 +451,9 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
             "positive constant plus even terms with positive coefficients, or sqrt(b) >= 0)"
         )
     Nq: QPoly = {tuple(m): sign * _fraction(c) for m, c in Np.terms() if c != 0}
-    if any(sum(m) == 0 for m in Nq):
+    if any(sum(m[:nz]) == 0 for m in Nq):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
-    low = min((sum(m) for m in Nq), default=2)
+    low = min((sum(m[:nz]) for m in Nq), default=2)  # lowest degree in the state variables
     sc = tuple(Fraction(1) for _ in range(n)) if scale is None else tuple(map(Fraction, scale))
     if len(sc) != n or any(r <= 0 for r in sc):
         raise NotPolynomial(f"scale must be {n} positive rationals")
@@ -454,6 +482,8 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         h = {m: c for m, c in h.items() if c}
         eqs.append((f"(sqrt(b{k}(0)) + {u})^2 = b{k}, b{k} = {_pretty(b, gens)}", h))
         ineqs.append((f"{u} >= 0 (b{k} >= b{k}(0))", {unit: Fraction(1)}))
+    params = () if box is None else box.parameters
+    ineqs += box_constraints(nv, params)
     pad = sc + (Fraction(1),) * (nv - n)
     Vq, Nq = scaled(Vq, pad), scaled(Nq, pad)
     eqs = [(w, scaled(h, pad)) for w, h in eqs]
@@ -464,9 +494,17 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     desc = ", ".join(
         [f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]
         + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in roots]
+    ) or ("polynomial (no recast)" if params else "")
+    desc = "; ".join(
+        x
+        for x in (
+            desc,
+            f"V' multiplied by {den} > 0" if den != "1" else "",
+            f"for every {describe(params)}" if params else "",
+        )
+        if x
     )
-    desc = "; ".join(x for x in (desc, f"V' multiplied by {den} > 0" if den != "1" else "") if x)
     return RecastData(n, nv, tuple(str(g) for g in gens), center, Vq, Nq, low, tuple(angles),
                       order, sc, None if bounds is None else Fraction(level), tuple(eqs),
                       tuple(ineqs), den, desc or "polynomial (no recast)", Lq,
-                      root_data)  # fmt: skip
+                      root_data, params)  # fmt: skip

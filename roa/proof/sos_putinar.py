@@ -14,6 +14,11 @@ coefficients. At ``z(x)`` with ``V(x) <= c``: every ``h_e = 0``, ``g_j >= 0``, s
 for the original field (``V' = N / Den``, ``Den > 0``). ``{V <= c}`` is bounded by the Gram cover
 of ``V`` as in :mod:`roa.proof.sos_check`; then it lies in the region of attraction (LaSalle).
 
+**Parameter boxes** (:mod:`roa.proof.recast_box`): the uncertain parameters are the last
+variables of ``z`` (normalised to ``[-1, 1]``) and their box constraints ``1 - w_j^2 >= 0`` the
+last inequalities; the argument above then holds for every parameter of the box. A stored
+certificate's box must equal the system's (:func:`recheck_recast`), which alone is used.
+
 **Rounding and projection.** The multipliers' float Gram matrices and coefficients are rounded to
 dyadic rationals (never projected; a stored certificate is taken as it is). The linear monomial
 ``q_a`` of each circle cannot be matched by ``Q0`` (its basis has no constant): the constant
@@ -31,6 +36,7 @@ from typing import Any
 
 from roa.proof.exact import exact_positive_definite
 from roa.proof.recast import RecastData
+from roa.proof.recast_box import box_json
 from roa.proof.sos_check import (
     Mono,
     QPoly,
@@ -209,8 +215,6 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
     from roa.proof.recast import recast_exact
     from roa.proof.sos_check import NotPolynomial
 
-    if getattr(system, "parameters", None):
-        return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
         return None, "V must be centred at the system's equilibrium"
     try:
@@ -262,6 +266,10 @@ def recheck_recast(system: Any, V: Any, level: float, cert: dict[str, Any], eps:
     data, why = recast_preconditions(system, V, level, taylor, scale)
     if data is None:
         return False, why, None
+    stored_box = cert.get("parameters")
+    if (stored_box or None) != (box_json(data.parameters) or None):  # the system's box decides
+        return False, (f"the certificate was made for the parameter box {stored_box}, the system's "
+                       f"is {box_json(data.parameters) or 'none'}"), None  # fmt: skip
     blocks = parse_blocks(cert.get("putinar"), data.nv)
     res = check_putinar(data, level, eps, blocks, rounded=True)
     return res.ok, res.reason, res

@@ -49,7 +49,8 @@ class PutinarCandidate:
 
 def default_eps(data: RecastData, scale: float = 1e-6) -> Fraction:
     """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (a dyadic)."""
-    top = max((abs(float(c)) for m, c in data.N.items() if sum(m) == data.low), default=1.0)
+    top = max((abs(float(c)) for m, c in data.N.items() if data.state_degree(m) == data.low),
+              default=1.0)  # fmt: skip
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
@@ -87,7 +88,24 @@ def bases(data: RecastData) -> tuple[list[Mono], list[Mono], list[list[Mono]], l
                   [tuple([0] * nv)])  # fmt: skip
     me = [monomials(nv, 2 * D - 2, 0) + (angle_powers[a] if a < len(angle_powers) else [])
           for a in range(len(data.equalities))]  # fmt: skip
+    if data.parameters:  # V' = 0 at x_eq for every parameter: no block may be > 0 there
+        boxes = len(data.parameters)
+        m0, m1 = _moving(data, m0), _moving(data, m1)
+        mj = [_moving(data, B, keep_one=True) for B in mj[:-boxes]] + [
+            _moving(data, B) for B in mj[-boxes:]
+        ]
+        me = [_moving(data, B, keep_one=True) for B in me]
     return m0, m1, mj, me
+
+
+def _moving(data: RecastData, basis: list[Mono], keep_one: bool = False) -> list[Mono]:
+    """The monomials of ``basis`` that vanish at the equilibrium (state degree >= 1), and the
+    constant with ``keep_one``: with the parameters as variables, a monomial in the parameters
+    alone would make its block positive at ``x_eq`` where the identity's other side is 0 (no
+    strictly feasible Gram matrix), or (times a constraint linear in a circle's ``q``) give a
+    monomial ``w q`` that no block matches (only the plain ``q`` is matched, by the circle's
+    multiplier's constant)."""
+    return [m for m in basis if data.state_degree(m) >= 1 or (keep_one and sum(m) == 0)]
 
 
 def _columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]

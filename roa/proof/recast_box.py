@@ -1,0 +1,103 @@
+"""Uncertain parameters as indeterminates of an exact SOS certificate (a parameter box).
+
+**Claim.** For a system with uncertain parameters ``p_j`` in ``[low_j, high_j]``,
+:func:`box_variables` gives exact sympy substitutions ``p_j = mid_j + half_j w_j`` (``mid_j``,
+``half_j`` the exact rationals of ``(low_j + high_j) / 2`` and ``(high_j - low_j) / 2`` computed
+from the doubles of the box, ``half_j > 0``), and :func:`box_constraints` the polynomials
+``g_j(w) = 1 - w_j^2``. Every parameter value of the box, ``p_j in [low_j, high_j]``, is
+``w_j = (p_j - mid_j) / half_j`` in ``[-1, 1]``, where ``g_j(w) >= 0``; ``g_j`` is
+``(p_j - low_j)(high_j - p_j) / half_j^2``, the box constraint of Putinar's form up to a positive
+factor. So a polynomial identity in ``(z, w)``
+
+    -N(z, w) - eps |d|^2k - lambda(z, w) (c - V) - sum_i sigma_i g_i(z) - sum_j tau_j(z, w) g_j(w)
+        - sum_e mu_e h_e = sigma0(z, w)
+
+with every ``sigma``, ``tau``, ``lambda`` SOS and ``eps > 0`` a constant (the same for every
+parameter) proves ``-N(z(x), w(p)) >= eps |d|^2k > 0`` for every state ``x != x_eq`` of
+``{V <= c}`` and every ``p`` of the box, i.e. ``V' < 0`` there for every parameter of the box
+(:mod:`roa.proof.sos_putinar` checks the identity; the parameters are the last variables of
+``z``, and nothing else about them is assumed).
+
+**Assumptions, checked exactly.** The field evaluated in sympy sees each uncertain parameter as a
+real symbol (:class:`roa.parameters.RangeField`); the fixed parameters are floats taken as their
+exact rationals. ``f(x_eq, p) = 0`` must hold identically in ``p`` (no monomial of state degree 0
+in the field), so ``V'`` vanishes at ``x_eq`` for every parameter. The box is read from the
+system (never from a certificate file).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+from roa.proof.sos_check import Mono, NotPolynomial, QPoly
+
+#: Names of the recast's own variables: a parameter named like one of them is refused.
+_RESERVED = re.compile(r"[xdsqu]\d+")
+
+
+@dataclass(frozen=True)
+class BoxVariables:
+    """The system over its box (``system``: its sympy field sees real symbols), the normalised
+    variables ``w_j`` (sympy Dummies), the substitution ``p_j -> mid_j + half_j w_j`` and the
+    exact box ``(name, low, high)`` per parameter."""
+
+    system: Any
+    symbols: tuple[Any, ...]
+    subs: dict[Any, Any]
+    parameters: tuple[tuple[str, Fraction, Fraction], ...]
+
+
+def box_variables(system: Any) -> BoxVariables | None:
+    """The exact parameter variables of ``system`` (None when it declares no uncertain
+    parameter); raises :class:`NotPolynomial` for a parameter name that clashes with the recast's
+    variables (``x0``, ``d1``, ``s0``, ``q0``, ``u0``...)."""
+    import sympy as sp
+
+    from roa.parameters import ParameterBox, over
+
+    if not getattr(system, "parameters", None):
+        return None
+    box = ParameterBox.of(system)
+    clash = [k for k in box.names if _RESERVED.fullmatch(k)]
+    if clash:
+        raise NotPolynomial(f"parameter name {clash[0]!r} clashes with the recast's variables")
+    ws, subs, params = [], {}, []
+    for name, lo, hi in zip(box.names, box.lo, box.hi, strict=True):
+        low, high = Fraction(float(lo)), Fraction(float(hi))
+        if not low < high:
+            raise NotPolynomial(f"parameter {name!r}: empty box [{lo}, {hi}]")
+        mid, half = (low + high) / 2, (high - low) / 2
+        w = sp.Dummy(f"w_{name}", real=True)
+        ws.append(w)
+        subs[sp.Symbol(name, real=True)] = sp.Rational(mid.numerator, mid.denominator) + (
+            sp.Rational(half.numerator, half.denominator) * w
+        )
+        params.append((name, low, high))
+    return BoxVariables(over(system), tuple(ws), subs, tuple(params))
+
+
+def box_constraints(nv: int, parameters: tuple[tuple[str, Fraction, Fraction], ...]
+                    ) -> list[tuple[str, QPoly]]:  # fmt: skip
+    """``1 - w_j^2 >= 0`` per parameter, ``w_j`` the ``j``-th of the last ``len(parameters)``
+    variables of ``nv``."""
+    out = []
+    first = nv - len(parameters)
+    for j, (name, low, high) in enumerate(parameters):
+        sq: Mono = tuple(2 if i == first + j else 0 for i in range(nv))
+        g: QPoly = {tuple([0] * nv): Fraction(1), sq: Fraction(-1)}
+        out.append((f"({name} - {low})({high} - {name}) >= 0 (box of {name}, normalised)", g))
+    return out
+
+
+def describe(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> str:
+    """``mu in [0.8, 1.2]``, ... (the doubles of the box, shortest repr)."""
+    return ", ".join(f"{k} in [{float(lo)!r}, {float(hi)!r}]" for k, lo, hi in parameters)
+
+
+def box_json(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> dict[str, list[str]]:
+    """The exact box as stored with a certificate (informational: a re-check reads the box from
+    the system and refuses a certificate whose stored box differs)."""
+    return {k: [str(lo), str(hi)] for k, lo, hi in parameters}

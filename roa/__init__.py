@@ -19,6 +19,7 @@ certification and Monte Carlo all work on the same definition.
 from __future__ import annotations
 
 import importlib
+import importlib.util
 from typing import TYPE_CHECKING, Any
 
 #: Public name -> the module defining it. Each is imported on first use (PEP 562), so that
@@ -180,10 +181,13 @@ __version__ = "0.1.0"
 
 
 def __getattr__(name: str) -> Any:
-    """Import the public name ``name`` from its module on first access and cache it here."""
+    """Import the public name ``name`` from its module on first access and cache it here; a
+    submodule (``roa.io``) is imported as ``import roa.io`` would."""
     module = _LAZY.get(name)
     if module is None:
-        raise AttributeError(f"module 'roa' has no attribute {name!r}")
+        if importlib.util.find_spec(f"{__name__}.{name}") is None:
+            raise AttributeError(f"module 'roa' has no attribute {name!r}")
+        return importlib.import_module(f"{__name__}.{name}")
     value = getattr(importlib.import_module(module), name)
     globals()[name] = value
     return value

@@ -69,7 +69,7 @@ from fractions import Fraction
 from typing import Any
 
 from roa.proof.recast_box import box_constraints, box_variables, describe
-from roa.proof.sos_check import Mono, NotPolynomial, QPoly, _fraction, poly_lin, poly_mul
+from roa.proof.sos_check import Mono, NotPolynomial, QPoly, exact_fraction, poly_lin, poly_mul
 
 #: Highest Taylor order of the sin bounds (the cos bounds go one further).
 MAX_TAYLOR = 11
@@ -248,7 +248,7 @@ def _square_roots(
                 bp = sp.Poly(base, *gens, domain="QQ")
             except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed):
                 continue
-            b = {tuple(m): _fraction(c) for m, c in bp.terms() if c != 0}
+            b = {tuple(m): exact_fraction(c) for m, c in bp.terms() if c != 0}
             if not positive_everywhere(b):
                 continue
             b0 = b[tuple([0] * len(gens))]
@@ -273,7 +273,7 @@ def denominator_sign(L: Any, gens: list[Any], roots: list[int]) -> int | None:
     sign = 1 if const > 0 else -1
     for fac, mult in factors:
         fp = sp.Poly(fac, *gens, domain="QQ")
-        q = {tuple(m): _fraction(c) for m, c in fp.terms() if c != 0}
+        q = {tuple(m): exact_fraction(c) for m, c in fp.terms() if c != 0}
         if positive_everywhere(q):
             s = 1
         elif positive_everywhere({m: -c for m, c in q.items()}):
@@ -343,7 +343,7 @@ def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
     from roa.proof.exact import exact_positive_definite
 
     n, c = int(V.n), Fraction(level)
-    terms = {tuple(int(k) for k in m): _fraction(v) for m, v in V.terms.items() if v != 0}
+    terms = {tuple(int(k) for k in m): exact_fraction(v) for m, v in V.terms.items() if v != 0}
     if all(sum(m) == 2 for m in terms):
         P = [[Fraction(0)] * n for _ in range(n)]
         for m, v in terms.items():
@@ -437,7 +437,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     if any(sum(m[:nz]) == 0 for p in nums for m, c in p.terms() if c != 0):
         raise NotPolynomial("f(x_eq) != 0 exactly (for some parameter of the box): V's centre "
                             "is not an equilibrium")  # fmt: skip
-    Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): _fraction(c)
+    Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): exact_fraction(c)
                  for a, c in terms.items() if c != 0}  # fmt: skip
     Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
                            *gens, domain="QQ")  # fmt: skip
@@ -450,7 +450,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
             f"cannot prove the denominator {L.as_expr()} positive (needs factors that are a "
             "positive constant plus even terms with positive coefficients, or sqrt(b) >= 0)"
         )
-    Nq: QPoly = {tuple(m): sign * _fraction(c) for m, c in Np.terms() if c != 0}
+    Nq: QPoly = {tuple(m): sign * exact_fraction(c) for m, c in Np.terms() if c != 0}
     if any(sum(m[:nz]) == 0 for m in Nq):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
     low = min((sum(m[:nz]) for m in Nq), default=2)  # lowest degree in the state variables
@@ -488,7 +488,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     Vq, Nq = scaled(Vq, pad), scaled(Nq, pad)
     eqs = [(w, scaled(h, pad)) for w, h in eqs]
     ineqs = [(w, scaled(g, pad)) for w, g in ineqs]
-    Lq = scaled({tuple(m): sign * _fraction(c) for m, c in L.terms() if c != 0}, pad)
+    Lq = scaled({tuple(m): sign * exact_fraction(c) for m, c in L.terms() if c != 0}, pad)
     root_data = tuple((gens.index(u), t0, scaled(b, pad)) for u, t0, b, _ in roots)
     den = "1" if L.is_one else str(L.as_expr())
     desc = ", ".join(

@@ -104,9 +104,9 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
 
     from roa.proof.sos_check import (
         MAX_DIGITS,
-        _parse_basis,
-        _parse_matrix,
         check_certificate,
+        parse_basis,
+        parse_matrix,
         preconditions,
         recheck_stored,
     )
@@ -132,10 +132,10 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
                                  for b in stored or []], data.n)  # fmt: skip
         for block, raw in zip(parts, stored or [], strict=True):
             sub = restrict(data, block)
-            b0 = _parse_basis(raw.get("basis0"), len(block), "basis0")
-            b1 = _parse_basis(raw.get("basis1") or [], len(block), "basis1")
-            Q0 = _parse_matrix(raw.get("Q0"), len(b0), "Q0")
-            Q1 = _parse_matrix(raw.get("Q1") or [], len(b1), "Q1")
+            b0 = parse_basis(raw.get("basis0"), len(block), "basis0")
+            b1 = parse_basis(raw.get("basis1") or [], len(block), "basis1")
+            Q0 = parse_matrix(raw.get("Q0"), len(b0), "Q0")
+            Q1 = parse_matrix(raw.get("Q1") or [], len(b1), "Q1")
             raw_eps = str(raw.get("eps"))
             if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
                 raise ValueError("eps must be a rational like '1/1048576'")

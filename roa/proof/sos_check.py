@@ -62,7 +62,7 @@ class ExactData:
     low: int  # lowest total degree of V' (2k)
 
 
-def _fraction(x: Any) -> Fraction:
+def exact_fraction(x: Any) -> Fraction:
     if isinstance(x, Fraction):
         return x
     import sympy as sp
@@ -108,14 +108,14 @@ def exact_data(system: Any, V: Any) -> ExactData:
         ) from None
     if any(p.coeff_monomial(1) != 0 for p in fp):
         raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
-    Vq: QPoly = {tuple(int(k) for k in a): _fraction(c) for a, c in terms.items() if c != 0}
+    Vq: QPoly = {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
     Vp = sp.Poly.from_dict(
         {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
     )
     poly = sp.Poly(0, *d, domain="QQ")
     for i in range(n):
         poly = poly + Vp.diff(d[i]) * fp[i]
-    Vd: QPoly = {tuple(m): _fraction(c) for m, c in poly.terms() if c != 0}
+    Vd: QPoly = {tuple(m): exact_fraction(c) for m, c in poly.terms() if c != 0}
     if any(sum(m) == 0 for m in Vd):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")  # cannot happen, grad V(0)=0
     low = min((sum(m) for m in Vd), default=2)
@@ -123,7 +123,7 @@ def exact_data(system: Any, V: Any) -> ExactData:
 
 
 # -- exact polynomial arithmetic ---------------------------------------------------------------------
-def _add(a: Mono, b: Mono) -> Mono:
+def mono_add(a: Mono, b: Mono) -> Mono:
     return tuple(x + y for x, y in zip(a, b, strict=True))
 
 
@@ -133,15 +133,15 @@ def gram_poly(basis: list[Mono], Q: Any) -> QPoly:
     for (i, bi), (j, bj) in itertools.product(enumerate(basis), enumerate(basis)):
         q = Q[i][j]
         if q:
-            key = _add(bi, bj)
-            out[key] = out.get(key, Fraction(0)) + _fraction(q)
+            key = mono_add(bi, bj)
+            out[key] = out.get(key, Fraction(0)) + exact_fraction(q)
     return {m: c for m, c in out.items() if c}
 
 
 def poly_mul(a: QPoly, b: QPoly) -> QPoly:
     out: QPoly = {}
     for (ma, ca), (mb, cb) in itertools.product(a.items(), b.items()):
-        key = _add(ma, mb)
+        key = mono_add(ma, mb)
         out[key] = out.get(key, Fraction(0)) + ca * cb
     return {m: c for m, c in out.items() if c}
 
@@ -201,6 +201,34 @@ class SosCheck:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
+def project_gram(
+    basis0: list[Mono], R0: list[list[Fraction]], target: QPoly
+) -> tuple[list[list[Fraction]] | None, Fraction | None, str]:
+    """``(P, residual, why)``: the rounded Gram matrix ``R0`` projected orthogonally (Frobenius,
+    exact rationals) onto the affine space where ``m0' P m0 = target`` (module doc: each
+    monomial's ``N_a`` entries move by ``(r_a - s_a) / N_a``), the largest coefficient moved,
+    and ``P`` None with the reason when the identity cannot hold."""
+    pairs: dict[Mono, list[tuple[int, int]]] = {}
+    for (i, bi), (j, bj) in itertools.product(enumerate(basis0), enumerate(basis0)):
+        pairs.setdefault(mono_add(bi, bj), []).append((i, j))
+    outside = [m for m in target if m not in pairs]
+    if outside:
+        return None, None, (f"the identity cannot hold: monomial {outside[0]} of the residual "
+                            "is outside the Gram basis")  # fmt: skip
+    P = [row[:] for row in R0]
+    residual = Fraction(0)
+    for m, idx in pairs.items():
+        diff = target.get(m, Fraction(0)) - sum((R0[i][j] for i, j in idx), Fraction(0))
+        residual = max(residual, abs(diff))
+        if diff:
+            share = diff / len(idx)
+            for i, j in idx:
+                P[i][j] += share
+    if gram_poly(basis0, P) != target:  # the identity must now hold exactly
+        return None, residual, "the projection did not reproduce the identity exactly"
+    return P, residual, ""
+
+
 def check_certificate(
     data: ExactData,
     level: Any,
@@ -221,7 +249,7 @@ def check_certificate(
     """
     c, e = Fraction(level), Fraction(eps)
     if not (c > 0 and e > 0):
-        return SosCheck(False, f"level and eps must be > 0 (got {_float(c)}, {_float(e)})")
+        return SosCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
     k, rem = divmod(data.low, 2)
     if rem or k < 1:
         return SosCheck(False, f"the lowest degree of V' is {data.low}, not even: V' is not "
@@ -229,7 +257,7 @@ def check_certificate(
     n = data.n
     if any(len(b) != n for b in basis0) or len(Q0) != len(basis0):
         return SosCheck(False, "basis0 and Q0 do not match")
-    R0 = [[_fraction(v) for v in row] for row in Q0] if rounded else round_matrix(Q0)
+    R0 = [[exact_fraction(v) for v in row] for row in Q0] if rounded else round_matrix(Q0)
     if any(R0[i][j] != R0[j][i] for i in range(len(R0)) for j in range(i)):
         return SosCheck(False, "Q0 is not symmetric")
     target = poly_lin((Fraction(-1), data.Vdot), (-e, norm_power(n, k)))
@@ -237,7 +265,7 @@ def check_certificate(
     if basis1:
         if len(Q1) != len(basis1) or any(len(b) != n for b in basis1):
             return SosCheck(False, "basis1 and Q1 do not match")
-        R1 = [[_fraction(v) for v in row] for row in Q1] if rounded else round_matrix(Q1)
+        R1 = [[exact_fraction(v) for v in row] for row in Q1] if rounded else round_matrix(Q1)
         if any(R1[i][j] != R1[j][i] for i in range(len(R1)) for j in range(i)):
             return SosCheck(False, "Q1 is not symmetric")
         lam = gram_poly(basis1, R1)
@@ -246,35 +274,20 @@ def check_certificate(
     ok1, piv1 = exact_positive_definite(R1)
     if not ok1:
         return SosCheck(False, "the multiplier's Gram matrix Q1 is not positive definite (exact)",
-                        min_pivot=_float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
-    pairs: dict[Mono, list[tuple[int, int]]] = {}
-    for (i, bi), (j, bj) in itertools.product(enumerate(basis0), enumerate(basis0)):
-        pairs.setdefault(_add(bi, bj), []).append((i, j))
-    outside = [m for m in target if m not in pairs]
-    if outside:
-        return SosCheck(False, f"the identity cannot hold: monomial {outside[0]} of the residual "
-                        "is outside the Gram basis")  # fmt: skip
-    P = [row[:] for row in R0]
-    residual = Fraction(0)
-    for m, idx in pairs.items():
-        diff = target.get(m, Fraction(0)) - sum((R0[i][j] for i, j in idx), Fraction(0))
-        residual = max(residual, abs(diff))
-        if diff:
-            share = diff / len(idx)
-            for i, j in idx:
-                P[i][j] += share
-    if gram_poly(basis0, P) != target:  # the identity must now hold exactly
-        return SosCheck(False, "the projection did not reproduce the identity exactly",
-                        _float(residual))  # fmt: skip
+                        min_pivot=as_float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
+    P, residual, why = project_gram(basis0, R0, target)
+    if P is None:
+        return SosCheck(False, why, None if residual is None else as_float(residual))
+    assert residual is not None
     ok0, piv0 = exact_positive_definite(P)
     pivots = piv0 + piv1
-    mp = _float(min(pivots)) if pivots else None
+    mp = as_float(min(pivots)) if pivots else None
     meta = {"digest": matrix_digest(P, R1), "eps": str(e), "k": k}
     if not ok0:
         return SosCheck(False, "the projected Gram matrix Q0 is not positive definite (exact)",
-                        _float(residual), mp, P, R1, meta)  # fmt: skip
+                        as_float(residual), mp, P, R1, meta)  # fmt: skip
     return SosCheck(True, "identity exact, Q0 and Q1 positive definite (exact)",
-                    _float(residual), mp, P, R1, meta)  # fmt: skip
+                    as_float(residual), mp, P, R1, meta)  # fmt: skip
 
 
 def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, str]:
@@ -282,8 +295,6 @@ def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, 
     not polynomial, V's centre not an exact equilibrium, ``{V <= level}`` not proved bounded
     (V >= mu |d|^2 from its Gram matrix, :func:`roa.proof.cover.gram_cover`), or V' starting
     at an odd degree."""
-    from roa.proof.cover import gram_cover
-
     if getattr(system, "parameters", None):
         return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
@@ -292,12 +303,20 @@ def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, 
         data = exact_data(system, V)  # refuses f(x_eq) != 0 (exact constant terms)
     except NotPolynomial as exc:
         return None, f"not polynomial: {exc}"
+    why = bounded_and_even(V, level, data.low)
+    return (None, why) if why else (data, "")
+
+
+def bounded_and_even(V: Any, level: float, low: int) -> str:
+    """Why the check does not apply to V at ``level`` whatever the field (``{V <= level}`` not
+    proved bounded by V's Gram matrix, :func:`roa.proof.cover.gram_cover`; V' starting at an
+    odd degree ``low``), or "" when it does."""
+    from roa.proof.cover import gram_cover
+
     if gram_cover(V, level) is None:
-        return None, ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the "
-                      "linear monomials): {V <= level} may be unbounded")  # fmt: skip
-    if data.low % 2:
-        return None, "the lowest degree of V' is odd"
-    return data, ""
+        return ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the linear "
+                "monomials): {V <= level} may be unbounded")  # fmt: skip
+    return "the lowest degree of V' is odd" if low % 2 else ""
 
 
 #: Bounds on a stored certificate (beyond them it is refused before any arithmetic).
@@ -305,7 +324,7 @@ MAX_BASIS = 5000
 MAX_DIGITS = 2000
 
 
-def _float(x: Fraction) -> float:
+def as_float(x: Fraction) -> float:
     """``x`` as a float for reports (+-inf beyond the float range)."""
     try:
         return float(x)
@@ -313,7 +332,7 @@ def _float(x: Fraction) -> float:
         return float("inf") if x > 0 else float("-inf")
 
 
-def _parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
+def parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
     if not isinstance(raw, list) or len(raw) > MAX_BASIS:
         raise ValueError(f"{what} must be a list of at most {MAX_BASIS} exponent lists")
     out = []
@@ -325,7 +344,7 @@ def _parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
     return out
 
 
-def _parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
+def parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
     if not (isinstance(raw, list) and len(raw) == m and all(isinstance(r, list) and len(r) == m
                                                             for r in raw)):  # fmt: skip
         raise ValueError(f"{what} must be a {m}x{m} matrix of rationals")
@@ -374,10 +393,10 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
             assert rres is not None
             return out(Verdict.CERTIFIED, "stored SOS certificate (recast field) re-checked "
                        f"exactly: {reason}", **fig, **rres.meta)  # fmt: skip
-        basis0 = _parse_basis(cert.get("basis0"), n, "basis0")
-        basis1 = _parse_basis(cert.get("basis1") or [], n, "basis1")
-        Q0 = _parse_matrix(cert.get("Q0"), len(basis0), "Q0")
-        Q1 = _parse_matrix(cert.get("Q1") or [], len(basis1), "Q1")
+        basis0 = parse_basis(cert.get("basis0"), n, "basis0")
+        basis1 = parse_basis(cert.get("basis1") or [], n, "basis1")
+        Q0 = parse_matrix(cert.get("Q0"), len(basis0), "Q0")
+        Q1 = parse_matrix(cert.get("Q1") or [], len(basis1), "Q1")
         raw_eps = str(meta.get("eps"))
         if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
             raise ValueError("eps must be a rational like '1/1048576'")

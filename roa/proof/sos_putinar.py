@@ -29,7 +29,6 @@ re-evaluated exactly after the projection.
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
@@ -40,14 +39,15 @@ from roa.proof.recast_box import box_json
 from roa.proof.sos_check import (
     Mono,
     QPoly,
-    _add,
-    _float,
-    _fraction,
+    as_float,
+    bounded_and_even,
+    exact_fraction,
     gram_poly,
     matrix_digest,
     norm_power,
     poly_lin,
     poly_mul,
+    project_gram,
     round_matrix,
 )
 
@@ -105,7 +105,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     they are (``Q0`` is projected and the circles' constants set in both cases)."""
     c, e = Fraction(level), Fraction(eps)
     if not (c > 0 and e > 0):
-        return PutinarCheck(False, f"level and eps must be > 0 (got {_float(c)}, {_float(e)})")
+        return PutinarCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
     k, rem = divmod(data.low, 2)
     if rem or k < 1:
         return PutinarCheck(False, f"the lowest degree of V' is {data.low}, not even")
@@ -113,7 +113,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
         return PutinarCheck(
             False,
             f"the recast's angle bounds hold on {{V <= "
-            f"{_float(data.bounded_level)}}} only, not at level {_float(c)}",
+            f"{as_float(data.bounded_level)}}} only, not at level {as_float(c)}",
         )
     times = times_polys(data, c)
     if len(blocks.grams) != len(times) or len(blocks.free) != len(data.equalities):
@@ -126,7 +126,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     for idx, (basis, Q) in enumerate(blocks.grams):
         if any(len(b) != data.nv for b in basis) or len(Q) != len(basis):
             return PutinarCheck(False, f"Gram block {idx}: basis and matrix do not match")
-        R = [[_fraction(v) for v in row] for row in Q] if rounded else round_matrix(Q)
+        R = [[exact_fraction(v) for v in row] for row in Q] if rounded else round_matrix(Q)
         if not _symmetric(R):
             return PutinarCheck(False, f"Gram block {idx} is not symmetric")
         grams.append((basis, R))
@@ -134,7 +134,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     for idx, (basis, coeffs) in enumerate(blocks.free):
         if any(len(b) != data.nv for b in basis) or len(coeffs) != len(basis):
             return PutinarCheck(False, f"equality multiplier {idx}: basis and coefficients differ")
-        cs = [_fraction(v) for v in coeffs] if rounded else [
+        cs = [exact_fraction(v) for v in coeffs] if rounded else [
             round_matrix([[float(v)]])[0][0] for v in coeffs]  # fmt: skip
         free.append((list(basis), cs))
     target = target_poly(data, e)
@@ -159,25 +159,10 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
             cs[basis.index(zero)] += delta
             target = poly_lin((Fraction(1), target), (-delta, h))
     basis0, R0 = grams[0]
-    pairs: dict[Mono, list[tuple[int, int]]] = {}
-    for (i, bi), (j, bj) in itertools.product(enumerate(basis0), enumerate(basis0)):
-        pairs.setdefault(_add(bi, bj), []).append((i, j))
-    outside = [m for m in target if m not in pairs]
-    if outside:
-        return PutinarCheck(False, f"the identity cannot hold: monomial {outside[0]} of the "
-                            "residual is outside the Gram basis")  # fmt: skip
-    P = [row[:] for row in R0]
-    residual = Fraction(0)
-    for m, idx2 in pairs.items():
-        diff = target.get(m, Fraction(0)) - sum((R0[i][j] for i, j in idx2), Fraction(0))
-        residual = max(residual, abs(diff))
-        if diff:
-            share = diff / len(idx2)
-            for i, j in idx2:
-                P[i][j] += share
-    if gram_poly(basis0, P) != target:
-        return PutinarCheck(False, "the projection did not reproduce the identity exactly",
-                            _float(residual))  # fmt: skip
+    P, residual, why = project_gram(basis0, R0, target)
+    if P is None:
+        return PutinarCheck(False, why, None if residual is None else as_float(residual))
+    assert residual is not None
     final = Blocks([(basis0, P), *grams[1:]], free)
     pivots: list[Fraction] = []
     for idx, (_, R) in enumerate(final.grams):
@@ -188,16 +173,16 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
                 "the level multiplier's Q1" if idx == 1 else
                 f"the multiplier of '{data.inequalities[idx - 2][0]}'")  # fmt: skip
             return PutinarCheck(False, f"the Gram matrix of {what} is not positive definite "
-                                "(exact)", _float(residual),
-                                _float(min(piv)) if piv else None)  # fmt: skip
-    mp = _float(min(pivots)) if pivots else None
+                                "(exact)", as_float(residual),
+                                as_float(min(piv)) if piv else None)  # fmt: skip
+    mp = as_float(min(pivots)) if pivots else None
     meta = {"digest": matrix_digest(*[R for _, R in final.grams],
                                     [[v] for _, cs in free for v in cs]),
             "eps": str(e), "k": k, "recast": data.description}  # fmt: skip
     return PutinarCheck(
         True,
         "identity exact with the recast's constraints, every Gram matrix positive definite (exact)",
-        _float(residual),
+        as_float(residual),
         mp,
         final,
         meta,
@@ -211,7 +196,6 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
     (:func:`roa.proof.cover.gram_cover`), V' starting at an odd degree."""
     import numpy as np
 
-    from roa.proof.cover import gram_cover
     from roa.proof.recast import recast_exact
     from roa.proof.sos_check import NotPolynomial
 
@@ -221,26 +205,22 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
         data = recast_exact(system, V, taylor=taylor, scale=scale, level=level)
     except NotPolynomial as exc:
         return None, f"no exact recast: {exc}"
-    if gram_cover(V, level) is None:
-        return None, ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the "
-                      "linear monomials): {V <= level} may be unbounded")  # fmt: skip
-    if data.low % 2:
-        return None, "the lowest degree of V' is odd"
-    return data, ""
+    why = bounded_and_even(V, level, data.low)
+    return (None, why) if why else (data, "")
 
 
 def parse_blocks(raw: Any, nv: int) -> Blocks:
     """A stored certificate's blocks (``Blocks.to_json``), bounded before any arithmetic."""
-    from roa.proof.sos_check import MAX_DIGITS, _parse_basis, _parse_matrix
+    from roa.proof.sos_check import MAX_DIGITS, parse_basis, parse_matrix
 
     if not isinstance(raw, dict):
         raise ValueError("no constrained certificate in the file")
     grams, free = [], []
     for k, g in enumerate(raw.get("grams") or []):
-        basis = _parse_basis(g.get("basis"), nv, f"grams[{k}].basis")
-        grams.append((basis, _parse_matrix(g.get("Q"), len(basis), f"grams[{k}].Q")))
+        basis = parse_basis(g.get("basis"), nv, f"grams[{k}].basis")
+        grams.append((basis, parse_matrix(g.get("Q"), len(basis), f"grams[{k}].Q")))
     for k, f in enumerate(raw.get("free") or []):
-        basis = _parse_basis(f.get("basis"), nv, f"free[{k}].basis")
+        basis = parse_basis(f.get("basis"), nv, f"free[{k}].basis")
         coeffs = f.get("coeffs")
         if not isinstance(coeffs, list) or len(coeffs) != len(basis):
             raise ValueError(f"free[{k}].coeffs must match its basis")

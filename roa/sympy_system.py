@@ -30,19 +30,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from roa.errors import RoaInputError
+from roa.lyapunov.symbolic import FUNCTIONS
 
-#: sympy function class name -> the namespace function of :mod:`roa.backend`.
-FUNCTIONS = {
-    "sin": "sin",
-    "cos": "cos",
-    "tan": "tan",
-    "exp": "exp",
-    "log": "log",
-    "atan": "arctan",
-    "asinh": "arcsinh",
-    "atanh": "arctanh",
-    "Abs": "abs",
-}
 #: What :func:`compile_exprs` accepts, for messages.
 SUPPORTED = (
     "+, -, *, /, integer and half-integer powers, sqrt, " + ", ".join(FUNCTIONS) + ", Min, Max, "
@@ -81,9 +70,9 @@ def _run(ins: Instruction, vals: list[Any], x: Any, xp: Any, p: Any) -> Any:
     if op == "p":
         return p[ins[1]]
     if op == "rat":
-        from roa.lyapunov.symbolic import _const
+        from roa.lyapunov.symbolic import exact_constant
 
-        return _const(ins[1], ins[2], xp)
+        return exact_constant(ins[1], ins[2], xp)
     if op == "float":
         return ins[1]
     if op == "pi":

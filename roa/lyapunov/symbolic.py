@@ -19,7 +19,7 @@ if TYPE_CHECKING:
 _EXACT = ("interval", "interval-jet")
 
 
-def _const(p: int, q: int, xp: Any) -> Any:
+def exact_constant(p: int, q: int, xp: Any) -> Any:
     """The rational p/q as a constant of namespace ``xp`` (enclosed, or at working precision)."""
     name = getattr(xp, "name", "")
     if q == 1:
@@ -43,7 +43,8 @@ def _big(p: int, xp: Any) -> Any:
     return float(p)
 
 
-_FUNCS = {
+#: sympy function class name -> the namespace function of :mod:`roa.backend`.
+FUNCTIONS = {
     "sin": "sin",
     "cos": "cos",
     "tan": "tan",
@@ -63,7 +64,7 @@ def sympy_eval(e: Any, env: dict[Any, Any], xp: Any) -> Any:
     if e.is_Symbol:
         return env[e]
     if e.is_Rational:
-        return _const(int(e.p), int(e.q), xp)
+        return exact_constant(int(e.p), int(e.q), xp)
     if e.is_Add:
         out: Any = 0.0
         for a in e.args:
@@ -90,8 +91,8 @@ def sympy_eval(e: Any, env: dict[Any, Any], xp: Any) -> Any:
             p = int(k.p)
             return r**p if p > 0 else 1.0 / r ** (-p)
         raise RoaInputError(f"V: unsupported power {e} (integer and half-integer powers only)")
-    if isinstance(e, sp.Function) and type(e).__name__ in _FUNCS:
-        return getattr(xp, _FUNCS[type(e).__name__])(sympy_eval(e.args[0], env, xp))
+    if isinstance(e, sp.Function) and type(e).__name__ in FUNCTIONS:
+        return getattr(xp, FUNCTIONS[type(e).__name__])(sympy_eval(e.args[0], env, xp))
     if e.is_Number:  # an irrational sympy number (pi, E, ...)
         raise RoaInputError(f"V: unsupported constant {e} (write it as a float)")
     raise RoaInputError(f"V: unsupported expression {type(e).__name__} {e}")

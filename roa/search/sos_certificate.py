@@ -51,8 +51,10 @@ def default_eps(data: ExactData, scale: float = 1e-6) -> Fraction:
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
-def _gram_columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
-                  ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
+def gram_columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
+                 ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
+    """Sparse columns of ``m' Q m * times`` over the vectorised Gram matrix ``Q``: row indices
+    of the resulting monomials (``rows`` grows with new ones), column ``i * nb + j``, value."""
     r, c, v = [], [], []
     nb = len(basis)
     for i, j in itertools.product(range(nb), range(nb)):
@@ -104,11 +106,11 @@ def propose_certificate(
     for m in target:
         rows.setdefault(m, len(rows))
     zero = tuple([0] * n)
-    parts = [_gram_columns(rows, basis0, {zero: 1.0})]
+    parts = [gram_columns(rows, basis0, {zero: 1.0})]
     c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
     c_minus_V[zero] = float(level)
     if basis1:
-        parts.append(_gram_columns(rows, basis1, c_minus_V))
+        parts.append(gram_columns(rows, basis1, c_minus_V))
     nrow = len(rows)
     b = np.zeros(nrow)
     for m, value in target.items():

@@ -19,7 +19,6 @@ matches with the multiplier's constant.
 
 from __future__ import annotations
 
-import itertools
 import time
 from dataclasses import dataclass
 from fractions import Fraction
@@ -31,6 +30,7 @@ import scipy.sparse as sps
 from roa.proof.recast import RecastData
 from roa.proof.sos_putinar import Blocks, target_poly, times_polys
 from roa.search.polysdp import monomials
+from roa.search.sos_certificate import gram_columns
 
 Mono = tuple[int, ...]
 
@@ -108,19 +108,6 @@ def _moving(data: RecastData, basis: list[Mono], keep_one: bool = False) -> list
     return [m for m in basis if data.state_degree(m) >= 1 or (keep_one and sum(m) == 0)]
 
 
-def _columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
-             ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
-    r, c, v = [], [], []
-    nb = len(basis)
-    for i, j in itertools.product(range(nb), range(nb)):
-        bij = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
-        for m, coef in times.items():
-            r.append(rows.setdefault(tuple(p + q for p, q in zip(bij, m, strict=True)), len(rows)))
-            c.append(i * nb + j)
-            v.append(coef)
-    return r, c, v
-
-
 def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = None,
                     solver_options: dict[str, Any] | None = None) -> PutinarCandidate:  # fmt: skip
     """Solve the constrained SOS program for ``level`` (module docstring)."""
@@ -135,7 +122,7 @@ def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = No
     target = {m: float(c) for m, c in target_poly(data, eps).items()}
     for m in target:
         rows.setdefault(m, len(rows))
-    gparts = [_columns(rows, B, T) for B, T in zip(gram_bases, times, strict=True)]
+    gparts = [gram_columns(rows, B, T) for B, T in zip(gram_bases, times, strict=True)]
     fparts = []
     for B, (_, h) in zip(me, data.equalities, strict=True):
         r: list[int] = []

@@ -6,8 +6,7 @@ for a family of fields. Here:
 * :func:`sample_points`: parameter values where a search looks for the worst case (the nominal
   value, the vertices of the box, and a few points along each axis). They only *propose*: a
   property found at all of them is not proved between them.
-* :class:`ParameterBox` and :meth:`ParameterBox.split`: the pieces a robust proof splits the box
-  into.
+* :class:`ParameterBox`: the box, its midpoint and vertices.
 * :class:`RangeField` and :func:`over`: one system whose field, on the proof namespaces, sees the
   *whole* piece: every uncertain parameter is the interval ``[low, high]`` under the interval and
   jet namespaces (so an enclosure of ``V'`` on a state box holds for every parameter of the
@@ -74,16 +73,6 @@ class ParameterBox:
         for i, name in enumerate(self.names):
             out += [{**mid, name: self.lo[i]}, {**mid, name: self.hi[i]}]
         return out
-
-    def split(self, widths: Sequence[float]) -> tuple[ParameterBox, ParameterBox]:
-        """The two halves along the parameter whose width relative to ``widths`` (the full
-        box's) is largest."""
-        rel = [(b - a) / w for a, b, w in zip(self.lo, self.hi, widths, strict=True)]
-        i = int(np.argmax(rel))
-        mid = 0.5 * self.lo[i] + 0.5 * self.hi[i]
-        hi1, lo2 = list(self.hi), list(self.lo)
-        hi1[i], lo2[i] = mid, mid
-        return (dataclasses.replace(self, hi=tuple(hi1)), dataclasses.replace(self, lo=tuple(lo2)))
 
     def describe(self) -> str:
         return ", ".join(f"{k} in [{a:.6g}, {b:.6g}]"

@@ -102,6 +102,10 @@ def enclose_constant(c: Any) -> Interval:
     return Interval(round_down(fa), round_up(fa))
 
 
+class DefersToOther(TypeError):
+    """An operand that takes an Interval as a constant of its own arithmetic (a jet)."""
+
+
 class Interval:
     """Arrays of closed intervals ``[lo, hi]`` with outward-rounded arithmetic."""
 
@@ -138,6 +142,8 @@ class Interval:
             return x
         if type(x) is float:
             return Interval(x)
+        if getattr(x, "defers_to_interval", False):
+            raise DefersToOther  # a jet: the operator returns NotImplemented, the jet's runs
         return enclose_constant(x)
 
     @property
@@ -163,27 +169,30 @@ class Interval:
         return self
 
     def __add__(self, other: Any) -> Interval:
-        if getattr(other, "defers_to_interval", False):
-            return NotImplemented  # a jet: its reflected operator treats self as a constant
         if type(other) is float and other == 0.0:
             return self  # exact
-        o = Interval.of(other)
+        try:
+            o = Interval.of(other)
+        except DefersToOther:
+            return NotImplemented
         return Interval(round_down(self.lo + o.lo), round_up(self.hi + o.hi))
 
     __radd__ = __add__
 
     def __sub__(self, other: Any) -> Interval:
-        if getattr(other, "defers_to_interval", False):
-            return NotImplemented  # a jet: its reflected operator treats self as a constant
         if type(other) is float and other == 0.0:
             return self
-        o = Interval.of(other)
+        try:
+            o = Interval.of(other)
+        except DefersToOther:
+            return NotImplemented
         return Interval(round_down(self.lo - o.hi), round_up(self.hi - o.lo))
 
     def __rsub__(self, other: Any) -> Interval:
-        if getattr(other, "defers_to_interval", False):
-            return NotImplemented  # a jet: its reflected operator treats self as a constant
-        return Interval.of(other) - self
+        try:
+            return Interval.of(other) - self
+        except DefersToOther:
+            return NotImplemented
 
     def square(self) -> Interval:
         """``x^2`` as one operation: never negative, 0 included when the interval straddles 0."""
@@ -193,8 +202,6 @@ class Interval:
         return Interval(np.maximum(lo, 0.0), hi)
 
     def __mul__(self, other: Any) -> Interval:
-        if getattr(other, "defers_to_interval", False):
-            return NotImplemented  # a jet: its reflected operator treats self as a constant
         if other is self:
             return self.square()
         if type(other) is float:
@@ -202,7 +209,10 @@ class Interval:
                 return self  # exact
             if other == 0.0:
                 return Interval(np.zeros(np.shape(self.lo)))  # x * 0 = 0 for every real x
-        o = Interval.of(other)
+        try:
+            o = Interval.of(other)
+        except DefersToOther:
+            return NotImplemented
         if o.lo.ndim == 0 and (o.lo >= 0 or o.hi <= 0):
             return self._scaled(o)
         if self.lo.ndim == 0 and (self.lo >= 0 or self.hi <= 0):
@@ -239,14 +249,16 @@ class Interval:
         return Interval(lo, hi)
 
     def __truediv__(self, other: Any) -> Interval:
-        if getattr(other, "defers_to_interval", False):
-            return NotImplemented  # a jet: its reflected operator treats self as a constant
-        return self * Interval.of(other).reciprocal()
+        try:
+            return self * Interval.of(other).reciprocal()
+        except DefersToOther:
+            return NotImplemented
 
     def __rtruediv__(self, other: Any) -> Interval:
-        if getattr(other, "defers_to_interval", False):
-            return NotImplemented  # a jet: its reflected operator treats self as a constant
-        return Interval.of(other) * self.reciprocal()
+        try:
+            return Interval.of(other) * self.reciprocal()
+        except DefersToOther:
+            return NotImplemented
 
     def __pow__(self, p: Any) -> Interval:
         if isinstance(p, int | np.integer) or float(p).is_integer():

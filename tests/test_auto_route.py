@@ -40,3 +40,30 @@ def test_validator_names_are_checked():
     cert = roa.certify(vanderpol(), level=2.0, validator="auto")
     assert cert.status is Verdict.CERTIFIED and cert.method == "interval"
     assert roa.certify(vanderpol(), level=2.0, validator="sos").method == "sos-exact"
+
+
+@pytest.mark.parametrize(
+    ("args", "words"),
+    [
+        (["--validator", "magic"], "invalid choice: 'magic'"),
+        (["--time-limit", "0"], "--time-limit must be a number of seconds in (0, 1e9]"),
+        (["--time-limit", "abc"], "--time-limit: invalid float value"),
+    ],
+)
+def test_bad_route_options_exit_2_naming_them(args, words, capsys):
+    try:
+        rc = main(["certify", "--system", "vanderpol", "--level", "2.0", *args])
+    except SystemExit as exc:  # argparse's own errors
+        rc = exc.code
+    assert rc == 2 and words in capsys.readouterr().err
+
+
+def test_robust_experiment_parameters_are_checked():
+    from ipc_paper.robust import RobustParams
+
+    for kw, words in [({"delta_low": 1.5}, "delta_low < 1 < delta_high"),
+                      ({"safety": 1.5}, "safety must be in"),
+                      ({"sector_k": (0.5,)}, "sector_k must be in"),
+                      ({"cases": ("nope",)}, "unknown cases")]:  # fmt: skip
+        with pytest.raises(roa.RoaInputError, match=words):
+            RobustParams(**kw)

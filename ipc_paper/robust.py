@@ -19,7 +19,7 @@ Cases (each a :func:`roa.certify` call; refutations name the ``delta_plant`` of 
   ``q = q' = theta' = 0`` (certified lower bound) and the share of the reference box are measured
   as in the certify experiment.
 * the paper's 60 deg sector for every ``delta_plant`` of ``[1 / k, k]``: no quadratic V certifies
-  60 deg even at the nominal value (C5, C6: 56.5 deg), so the question goes to a V that does
+  60 deg even at the nominal value (claims C5, C6), so the question goes to a V that does
   there: the degree-4 V of the degrees experiment (D2). For each ``k`` of ``sector_k``, the level
   whose sublevel set holds the 60 deg sector is checked for the box ``[1 / k, k]``
   (certified / refuted with a witness / inconclusive within ``max_boxes``).

@@ -15,6 +15,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from roa.backend import NP
+from roa.divergence import blows_up, growth_message
 from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
 from roa.status import RunStatus, StopRules
@@ -116,7 +117,9 @@ def simulate(
 
     Events (terminal): entering the convergence ball (autonomous systems with an equilibrium),
     reaching the domain boundary, exceeding the divergence bound. Non-finite states end the run as
-    ``diverged``; nothing is returned as a silent NaN.
+    ``diverged``; nothing is returned as a silent NaN. A run still going at ``t_final`` that grows
+    exponentially far out is ``diverged`` too (:func:`roa.divergence.blows_up`, the factor
+    ``rules.diverge_growth``).
 
     Parameters
     ----------
@@ -125,7 +128,7 @@ def simulate(
     x0 : sequence of float
         Initial state (n components, inside the domain).
     rules : StopRules, optional
-        ``t_final``, ``converge_tol``, ``diverge_bound``.
+        ``t_final``, ``converge_tol``, ``diverge_bound``, ``diverge_growth``.
     rtol, atol, method, t_eval, max_step
         Passed to :func:`scipy.integrate.solve_ivp`.
     time_limit : float, optional
@@ -284,7 +287,12 @@ def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, 
             system.name,
             meta={"equilibrium_reached": points[0].tolist()},
         )
-    speed = float(np.linalg.norm(system.f(x[-1])))
+    f_end = system.f(x[-1])
+    if blows_up(t, x, f_end, system.x_eq, rules):
+        r_end = float(np.linalg.norm(x[-1] - system.x_eq))
+        return Trajectory(RunStatus.DIVERGED, t, x, growth_message(r_end, rules), system.name,
+                          meta={"reason": "growth"})  # fmt: skip
+    speed = float(np.linalg.norm(f_end))
     return Trajectory(
         RunStatus.UNDECIDED,
         t,

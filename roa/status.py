@@ -42,7 +42,11 @@ class RunStatus(_Status):
         "settled within converge_tol of another equilibrium (the point is reported)",
     )
     LEFT_DOMAIN = "left_domain", "crossed the boundary of the system's domain"
-    DIVERGED = "diverged", "norm above diverge_bound, or a non-finite state"
+    DIVERGED = (
+        "diverged",
+        "norm above diverge_bound, a non-finite state, or growing exponentially at t_final "
+        "(see StopRules.diverge_growth)",
+    )
     UNDECIDED = "undecided", "none of the above by t_final (or the step size collapsed)"
     COMPLETED = "completed", "time-varying run (tracking) that reached t_final inside the domain"
 
@@ -120,11 +124,18 @@ class StopRules:
         Radius of the ball around the equilibrium that counts as converged.
     diverge_bound : float
         Norm above which a run is ``diverged``.
+    diverge_growth : float or None
+        Factor ``G > 1`` of the growth rule (:func:`roa.divergence.blows_up`): a run still going
+        at ``t_final`` is ``diverged`` when ``||x - x_eq||`` is then at least ``diverge_bound / G``,
+        at least ``G`` times its largest value over ``[0, t_final / 2]``, and still growing at
+        no less than half its mean exponential rate over ``[t_final / 2, t_final]``. ``None``: no
+        growth rule (only ``diverge_bound`` makes a run ``diverged``).
     """
 
     t_final: float = 60.0
     converge_tol: float = 1e-3
     diverge_bound: float = 1e6
+    diverge_growth: float | None = 100.0
 
     def __post_init__(self) -> None:
         for name in ("t_final", "converge_tol", "diverge_bound"):
@@ -132,4 +143,15 @@ class StopRules:
             if not (isinstance(value, int | float) and 0 < value < math.inf):
                 raise RoaInputError(f"rules.{name} must be a finite number > 0, got {value!r}")
         if self.converge_tol >= self.diverge_bound:
-            raise RoaInputError("rules.converge_tol must be smaller than rules.diverge_bound")
+            raise RoaInputError(
+                f"rules.converge_tol ({self.converge_tol:g}) must be smaller than "
+                f"rules.diverge_bound ({self.diverge_bound:g})"
+            )
+        g = self.diverge_growth
+        if g is not None and not (
+            isinstance(g, int | float) and not isinstance(g, bool) and 1 < g < math.inf
+        ):
+            raise RoaInputError(
+                f"rules.diverge_growth must be a finite factor > 1 or None (no growth rule), "
+                f"got {g!r}"
+            )

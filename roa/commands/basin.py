@@ -61,10 +61,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="ranges of the slice axes or of the sampled box, every one of them "
                    "(default without --box: equilibrium +- 1)")  # fmt: skip
     p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
-    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
-    p.add_argument("--converge-tol", type=float, default=1e-3,
-                   help="radius of the ball around the equilibrium that counts as converged "
-                   "(default 1e-3)")  # fmt: skip
+    C.add_stop_rules(p)
     p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
     p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
     p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
@@ -167,10 +164,8 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
 
 def build(args: argparse.Namespace):
     """Validate everything and return ``(system, sampler, rules)`` before any work."""
-    import numpy as np
 
     from roa.montecarlo.sampling import box_sample, grid_slice
-    from roa.status import StopRules
 
     system = C.system(args)
     if getattr(args, "nominal", False):
@@ -194,10 +189,7 @@ def build(args: argparse.Namespace):
         raise RoaInputError(
             f"--system {args.system}: basins need an autonomous system with an equilibrium"
         )
-    for flag, value in (("--t-final", args.t_final), ("--converge-tol", args.converge_tol)):
-        if not (np.isfinite(value) and value > 0):
-            raise RoaInputError(f"{flag} must be a finite number > 0, got {value}")
-    rules = StopRules(t_final=args.t_final, converge_tol=args.converge_tol)
+    rules = C.stop_rules(args)
     names = system.state_names
     box = parse_box(args.box, names)
     fixed = parse_fix(args.fix, names)

@@ -284,3 +284,42 @@ def fmt(value: Any, spec: str = ".6g", missing: str = "none") -> str:
         return format(float(value), spec)
     except (TypeError, ValueError):
         return str(value)
+
+
+def add_stop_rules(p: argparse.ArgumentParser) -> None:
+    """``--t-final``, ``--converge-tol``, ``--diverge-bound``, ``--diverge-growth``
+    (:class:`roa.StopRules`; read back by :func:`stop_rules`)."""
+    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
+    p.add_argument("--converge-tol", type=float, default=1e-3,
+                   help="radius of the ball around the equilibrium that counts as converged "
+                   "(default 1e-3)")  # fmt: skip
+    p.add_argument("--diverge-bound", type=float, default=1e6, metavar="NORM",
+                   help="a run whose norm ||x|| reaches NORM is diverged; finite, > --converge-tol "
+                   "(default 1e6)")  # fmt: skip
+    p.add_argument("--diverge-growth", type=float, default=100.0, metavar="G",
+                   help="a run still going at --t-final is diverged when ||x - x_eq|| is then >= "
+                   "NORM/G, >= G x its largest value over the first half of the run, and still "
+                   "growing exponentially; G finite > 1, or 0 for no growth rule (default 100)")  # fmt: skip
+
+
+def stop_rules(args: argparse.Namespace) -> Any:
+    """The :class:`roa.StopRules` of :func:`add_stop_rules`' flags; a bad value exits 2 naming
+    its flag and the allowed range."""
+    from roa.status import StopRules
+
+    for flag, value in (("--t-final", args.t_final), ("--converge-tol", args.converge_tol),
+                        ("--diverge-bound", args.diverge_bound)):  # fmt: skip
+        if not (math.isfinite(value) and value > 0):
+            raise RoaInputError(f"{flag} must be a finite number > 0, got {value}")
+    if not args.converge_tol < args.diverge_bound:
+        raise RoaInputError(
+            f"--diverge-bound ({args.diverge_bound:g}) must be larger than --converge-tol "
+            f"({args.converge_tol:g})"
+        )
+    g = args.diverge_growth
+    if not (g == 0 or (math.isfinite(g) and g > 1)):
+        raise RoaInputError(
+            f"--diverge-growth must be a finite factor > 1, or 0 for no growth rule, got {g}"
+        )
+    return StopRules(t_final=args.t_final, converge_tol=args.converge_tol,
+                     diverge_bound=args.diverge_bound, diverge_growth=g or None)  # fmt: skip

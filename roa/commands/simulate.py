@@ -12,15 +12,14 @@ def register(sub: argparse._SubParsersAction) -> None:
         "simulate",
         help="simulate a system from one initial state (status: converged, left_domain, ...)",
         description="One trajectory by scipy's solve_ivp (DOP853) until it converges to the "
-        "equilibrium, leaves the domain, diverges or reaches --t-final. Exit code 1 iff diverged.",
+        "equilibrium, leaves the domain, diverges (its norm reaches --diverge-bound, or it is "
+        "still growing exponentially far out at --t-final: --diverge-growth) or reaches "
+        "--t-final. Exit code 1 iff diverged.",
     )
     C.add_system(p)
     p.add_argument("--x0", "--ic", dest="x0", required=True, metavar="X1,X2,...",
                    help="initial state, one number per state of the system")  # fmt: skip
-    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
-    p.add_argument("--converge-tol", type=float, default=1e-3,
-                   help="radius of the ball around the equilibrium that counts as converged "
-                   "(default 1e-3)")  # fmt: skip
+    C.add_stop_rules(p)
     p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
                    help="wall-clock budget of the run (> 0); then it ends undecided")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
@@ -36,10 +35,7 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
 
     system = C.system(args)
     x0 = np.array(C.floats(args.x0, "--x0", system.n))
-    for flag, value in (("--t-final", args.t_final), ("--converge-tol", args.converge_tol)):
-        if not (np.isfinite(value) and value > 0):
-            raise RoaInputError(f"{flag} must be a finite number > 0, got {value}")
-    rules = roa.StopRules(t_final=args.t_final, converge_tol=args.converge_tol)
+    rules = C.stop_rules(args)
     try:
         return roa.simulate(system, x0, rules=rules, time_limit=args.time_limit)
     except RoaInputError as exc:

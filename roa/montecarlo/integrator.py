@@ -9,7 +9,10 @@ Every trajectory has its own step size and stops at its own first event, with th
 * ``diverged``: ``diverge_bound - ||x||`` goes from >= 0 to <= 0 (non-finite stage values make the
   step be rejected and shrunk, as in scipy);
 * ``undecided``: none of the above by ``t_final`` (code :data:`UNDECIDED`), or the step size fell
-  below scipy's minimum (code :data:`STEP_FAILURE`, counted as undecided but reported apart).
+  below scipy's minimum (code :data:`STEP_FAILURE`, counted as undecided but reported apart);
+  after the batch, undecided runs sitting at another equilibrium are ``converged_elsewhere`` and
+  those blowing up (:func:`roa.divergence.blows_up`, confirmed by the reference integrator)
+  ``diverged``.
 
 When several events trigger in one step, each root is located on the step's dense output (bisection
 to machine precision) and the earliest wins, as in ``solve_ivp``. Step-size control, the initial step
@@ -159,7 +162,8 @@ def integrate_batch(
     entered = res.code == ENTERED
     res.code[entered] = CONVERGED
     res = BatchResult(res.code, res.t_end, res.x_end, res.steps, entered)
-    return _elsewhere(system, res, rules.converge_tol)
+    res = _elsewhere(system, res, rules.converge_tol)
+    return _grown(system, x0, res, rules, rtol, atol)
 
 
 def kernel_terminal(terminal: TerminalSet | None, n: int) -> tuple[Any, ...]:
@@ -262,6 +266,31 @@ def _elsewhere(system: System, res: BatchResult, converge_tol: float) -> BatchRe
     if undecided.size:
         mask, _ = settled_elsewhere(system, res.x_end[undecided], converge_tol)
         res.code[undecided[mask]] = CONVERGED_ELSEWHERE
+    return res
+
+
+def _grown(system: System, x0: np.ndarray, res: BatchResult, rules: StopRules, rtol: float,
+           atol: float) -> BatchResult:  # fmt: skip
+    """Undecided runs blowing up at t_final become DIVERGED (:func:`roa.divergence.blows_up`).
+
+    The batch keeps no history, so runs ending far out (``||x_end - x_eq|| >= diverge_bound /
+    diverge_growth``, the rule's first condition) are run again by the reference integrator
+    (scipy's RK45 at the batch's tolerances), which applies the whole rule; only its
+    ``diverged`` verdict changes the code. Runs ending nearer stay as they are, uninspected."""
+    if rules.diverge_growth is None:
+        return res
+    undecided = np.flatnonzero(res.code == UNDECIDED)
+    if not undecided.size:
+        return res
+    with np.errstate(all="ignore"):
+        far = np.linalg.norm(res.x_end[undecided] - system.x_eq, axis=1)
+    from roa.simulation import _integrate
+    from roa.status import RunStatus
+
+    ivp = {"rtol": rtol, "atol": atol, "method": "RK45", "t_eval": None, "max_step": np.inf}
+    for i in undecided[far >= rules.diverge_bound / rules.diverge_growth]:
+        if _integrate(system, x0[i], rules, ivp).status is RunStatus.DIVERGED:
+            res.code[i] = DIVERGED
     return res
 
 

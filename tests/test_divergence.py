@@ -61,7 +61,9 @@ def test_exponential_blow_up_is_diverged(spec, capsys):
     out = capsys.readouterr().out
     assert "status: diverged (diverged by growth" in out and "1.63e+05" in out
     # without the growth rule the same run is undecided at t_final
-    assert main(["simulate", "--system", spec(UNSTABLE), "--x0", "1,1", "--diverge-growth", "0"]) == 0
+    assert (
+        main(["simulate", "--system", spec(UNSTABLE), "--x0", "1,1", "--diverge-growth", "0"]) == 0
+    )
     assert "status: undecided" in capsys.readouterr().out
 
 

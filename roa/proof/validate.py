@@ -65,6 +65,7 @@ local proof, or the level set leaves the domain).
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from dataclasses import dataclass
 from fractions import Fraction
@@ -458,6 +459,7 @@ def _branch_and_bound(
     queue_lo = [np.concatenate([lo0, plo])[None, :]]
     queue_hi = [np.concatenate([hi0, phi])[None, :]]
     boxes = proved = proved_F = outside = 0
+    progress = _Progress(np.concatenate([lo0, plo]), np.concatenate([hi0, phi]))
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
         queue_lo = [lo[batch:]] if len(lo) > batch else []
@@ -471,6 +473,7 @@ def _branch_and_bound(
         undecided = ~((V.lo > level) | in_local | decreasing)
         proved += int(np.count_nonzero(decreasing))
         proved_F += int(np.count_nonzero(decreasing & ~(Vd.hi < 0)))
+        progress.batch(len(undecided), int(np.count_nonzero(undecided)))
         lo, hi, score = lo[undecided], hi[undecided], score[undecided]
         not_in = ~inside[undecided]
         outside += int(np.count_nonzero(not_in))
@@ -501,16 +504,19 @@ def _branch_and_bound(
                                "digits)", witness=[float(v) for v in w], witness_check=check,
                                meta={**info, **local})  # fmt: skip
         if len(lo) and deadline is not None and time.perf_counter() > deadline:
+            reach = progress.reach(lo, hi, queue_lo, queue_hi, boxes, timed=True)
             return out(Verdict.INCONCLUSIVE, boxes,
-                       f"time limit reached with {len(lo)} boxes undecided ({boxes} evaluated)",
-                       meta={**info, **local, "time_limit": True})  # fmt: skip
+                       f"time limit reached with {len(lo)} boxes undecided ({boxes} evaluated); "
+                       + reach.pop("message"),
+                       meta={**info, **local, "time_limit": True, **reach})  # fmt: skip
         if len(lo) and boxes + 2 * len(lo) > max_boxes:
+            reach = progress.reach(lo, hi, queue_lo, queue_hi, boxes)
             return out(Verdict.INCONCLUSIVE, boxes,
                        f"box budget {max_boxes} exhausted with {len(lo)} boxes undecided"
                        + (f" ({outside} box evaluations not provably inside the domain "
                           f"{system.domain_description}: the level set may reach its boundary)"
-                          if outside else ""),
-                       meta={**info, **local})  # fmt: skip
+                          if outside else "") + "; " + reach.pop("message"),
+                       meta={**info, **local, **reach})  # fmt: skip
         if len(lo):
             width = hi - lo
             sc = np.where(np.isnan(score), np.inf, score) * (width > 0)
@@ -534,6 +540,73 @@ def _branch_and_bound(
                f"V' < 0 proved on {proved} boxes of the cover; local proof on a box around x_eq",
                meta={"proved_boxes": proved, "proved_by_multiplier": proved_F, **info,
                      **local})  # fmt: skip
+
+
+class _Progress:
+    """How far a branch and bound got: the share of the cover's volume decided and an estimate
+    of the boxes a full run needs.
+
+    The estimate models the refinement as a branching process: each box evaluated stays
+    undecided (and is split in two) with the probability ``q`` seen over the last quarter of
+    the evaluations, the deepest so far (children are evaluated first). Each pending box then
+    costs ``1 / (1 - 2 q)`` evaluations in expectation when ``2 q < 1``; there is no estimate
+    when the undecided boxes still double per split. Deeper boxes are decided more often, so
+    the estimate tends to be high; it is a guide, not a bound."""
+
+    def __init__(self, lo: np.ndarray, hi: np.ndarray) -> None:
+        width = hi - lo
+        self.axes = width > 0  # degenerate axes (fixed parameters) carry no volume
+        self.total = float(np.prod(width[self.axes]))
+        self.log: list[tuple[int, int]] = []
+
+    def batch(self, evaluated: int, undecided: int) -> None:
+        self.log.append((evaluated, undecided))
+
+    def volume(self, lo: np.ndarray, hi: np.ndarray) -> float:
+        return float(np.sum(np.prod((hi - lo)[:, self.axes], axis=1))) if len(lo) else 0.0
+
+    def reach(self, lo: np.ndarray, hi: np.ndarray, queue_lo: list[np.ndarray],
+              queue_hi: list[np.ndarray], boxes: int, timed: bool = False) -> dict[str, Any]:  # fmt: skip
+        """Message and meta of a search stopped with ``lo, hi`` undecided (not yet split) and
+        the queue pending, after ``boxes`` evaluations (``timed``: by the time limit, else by
+        the box budget)."""
+        from roa.shares import share
+
+        left = self.volume(lo, hi) + sum(
+            self.volume(a, b) for a, b in zip(queue_lo, queue_hi, strict=True)
+        )
+        decided = max(0.0, 1.0 - left / self.total) if self.total > 0 else 0.0
+        pending = 2 * len(lo) + sum(len(a) for a in queue_lo)
+        recent, seen = [], 0
+        for ev, und in reversed(self.log):
+            recent.append((ev, und))
+            seen += ev
+            if seen >= boxes / 4:
+                break
+        q = sum(u for _, u in recent) / max(1, sum(e for e, _ in recent))
+        meta: dict[str, Any] = {"volume_decided": decided, "undecided_per_box": q}
+        text = f"{share(decided)} of the cover's volume decided"
+        if 2 * q < 1:
+            need = boxes + pending / (1 - 2 * q)
+            meta["boxes_estimate"] = int(math.ceil(need))
+            what = (f"~{int(_round_up(need))} boxes in all would likely finish it (raise "
+                    "--time-limit)" if timed else
+                    f"--max-boxes ~{int(_round_up(need))} would likely suffice")  # fmt: skip
+            text += f"; {what} (estimate: {q:.3g} of the recent boxes stayed undecided)"
+        else:
+            text += (f"; the undecided boxes still double with each split ({q:.3g} of the recent "
+                     "boxes stayed undecided): more boxes alone may not finish; try a smaller "
+                     "level, another V (--lyapunov, --degree) or --validator sos")  # fmt: skip
+        meta["message"] = text
+        return meta
+
+
+def _round_up(x: float) -> float:
+    """``x`` rounded up to two significant digits."""
+    if x <= 0:
+        return 0.0
+    e = 10 ** (math.floor(math.log10(x)) - 1)
+    return math.ceil(x / e) * e
 
 
 #: Pieces of the parameter box at most for the local proof near the equilibrium.

@@ -301,9 +301,9 @@ def sos_level(
         Largest degree of the auxiliary variables in Gram bases and multipliers (default: no
         cap). A cap is a restriction of the relaxation: rho can only decrease.
     """
+    t0 = time.perf_counter()  # seconds include importing cvxpy: the whole step, as reported
     import cvxpy as cp
 
-    t0 = time.perf_counter()
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     least = math.comb(

@@ -1,0 +1,61 @@
+"""Printing shares and fractions: a value below 1 never reads as 1 (nor one above 0 as 0).
+
+``f"{0.99989:.3f}"`` is ``"1.000"``: a report saying "box share 1.000" when 23 of 200,000 samples
+lie outside claims what was not found. :func:`share` prints as many decimals as it takes::
+
+    >>> share(0.868123)
+    '0.868'
+    >>> share(0.99989)
+    '0.9999'
+    >>> share(0.99989, count=23, of=200_000, what="outside")
+    '0.9999 (23 of 200000 outside)'
+    >>> share(1.0), share(0.0)
+    ('1.000', '0.000')
+"""
+
+from __future__ import annotations
+
+import math
+
+#: Decimals at most: 17 tell any two float64 values in [0, 1] apart.
+MAX_DECIMALS = 17
+
+
+def share(
+    x: float, decimals: int = 3, *, count: int | None = None, of: int | None = None,
+    what: str = "",
+) -> str:  # fmt: skip
+    """``x`` (a share in [0, 1]) with ``decimals`` decimals, or more where that would round it
+    to 1 or 0 when it is not; with ``count`` and ``of``, followed by ``(count of of what)``.
+
+    Values outside [0, 1] and non-finite values print with ``decimals`` decimals (``nan``,
+    ``inf``): the guarantee is that ``0 < x < 1`` never prints as a string whose value is 0 or 1.
+    """
+    x = float(x)
+    d = max(0, int(decimals))
+    text = f"{x:.{d}f}"
+    if math.isfinite(x) and 0 < x < 1:
+        while d < MAX_DECIMALS and not 0 < float(text) < 1:
+            d += 1
+            text = f"{x:.{d}f}"
+        if not 0 < float(text) < 1:  # below 1e-17 or within 1e-17 of 1: the shortest repr
+            text = repr(x)
+    if count is not None and of is not None:
+        text += f" ({count} of {of}{' ' + what if what else ''})"
+    return text
+
+
+def percent(x: float, decimals: int = 2) -> str:
+    """``100 x`` followed by `` %``, with the guarantee of :func:`share` (a share below 1 never
+    prints as ``100.00 %``, one above 0 never as ``0.00 %``)."""
+    x = float(x)
+    p = 100 * x
+    d = max(0, int(decimals))
+    text = f"{p:.{d}f}"
+    if math.isfinite(x) and 0 < x < 1:
+        while d < MAX_DECIMALS and not 0 < float(text) < 100:
+            d += 1
+            text = f"{p:.{d}f}"
+        if not 0 < float(text) < 100:  # 100 x rounded to 100 or is below 1e-17
+            text = repr(p) if p < 100 else "99.99999999999999"
+    return f"{text} %"

@@ -54,6 +54,12 @@ def step(label: str, *, stream: TextIO | None = None, min_seconds: float = 0.0) 
             print(f"  {label}: {dt:.1f} s", file=stream, flush=True)
 
 
+def note(text: str, *, stream: TextIO | None = None) -> None:
+    """One line on stderr (when enabled): progress between steps, such as an estimate."""
+    if _ENABLED:
+        print(f"  {text}", file=sys.stderr if stream is None else stream, flush=True)
+
+
 def bar(total: int, desc: str, **kw: Any) -> Any:
     """A tqdm bar on a terminal, ``None`` elsewhere (callers skip ``update`` when ``None``)."""
     if not interactive():

@@ -91,6 +91,10 @@ class SosStatus(_Status):
     FAILED = "failed", "the solver failed (iterations, time limit, numerical trouble)"
     NOT_POLYNOMIAL = "not_polynomial", "V' is not polynomial after recasting: SOS does not apply"
     TOO_LARGE = "too_large", "the program's Gram blocks exceed the size solved here: not built"
+    STOPPED = (
+        "stopped",
+        "the time budget ran out: the candidates of the rounds completed are kept (best first)",
+    )
 
 
 class RegionStatus(_Status):

@@ -59,7 +59,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
     p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
                    help="wall-clock budget of each interval validation, in (0, 1e9] seconds: "
-                   "when it runs out the verdict is inconclusive, saying so (default: none)")  # fmt: skip
+                   "when it runs out the verdict is inconclusive, saying so; with --degree also "
+                   "of the V-s iteration (the least of it and --budget), which then stops with "
+                   "the rounds completed, status stopped (default: none)")  # fmt: skip
     p.add_argument("--validator", choices=("auto", "interval", "sos"), default="auto",
                    help="what proves the level: auto (default: the interval branch and bound up "
                    "to 4 states and parameters, the exact SOS certificate above, each backing up "
@@ -97,7 +99,9 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
     if args.degree is not None:
         if args.level is not None or args.method is not None:
             raise RoaInputError("--degree searches V and its level: drop --level and --method")
-        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds, budget=args.budget),
+        # --time-limit bounds the V-s iteration too: it stops with the best round so far
+        budget = args.budget if args.time_limit is None else min(args.budget, args.time_limit)
+        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds, budget=budget),
                        {"VsOptions.rounds": "--rounds", "VsOptions.budget": "--budget"})  # fmt: skip
         return roa.certify(system, V, degree=args.degree, vs=vs, interval=interval,
                            check_above=args.check_above, validator=args.validator)  # fmt: skip

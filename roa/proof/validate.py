@@ -473,7 +473,7 @@ def _branch_and_bound(
         undecided = ~((V.lo > level) | in_local | decreasing)
         proved += int(np.count_nonzero(decreasing))
         proved_F += int(np.count_nonzero(decreasing & ~(Vd.hi < 0)))
-        progress.batch(len(undecided), int(np.count_nonzero(undecided)))
+        progress.batch(lo, hi, undecided)
         lo, hi, score = lo[undecided], hi[undecided], score[undecided]
         not_in = ~inside[undecided]
         outside += int(np.count_nonzero(not_in))
@@ -546,24 +546,64 @@ class _Progress:
     """How far a branch and bound got: the share of the cover's volume decided and an estimate
     of the boxes a full run needs.
 
-    The estimate models the refinement as a branching process: each box evaluated stays
-    undecided (and is split in two) with the probability ``q`` seen over the last quarter of
-    the evaluations, the deepest so far (children are evaluated first). Each pending box then
-    costs ``1 / (1 - 2 q)`` evaluations in expectation when ``2 q < 1``; there is no estimate
-    when the undecided boxes still double per split. Deeper boxes are decided more often, so
-    the estimate tends to be high; it is a guide, not a bound."""
+    The estimate models the refinement as a branching process over depths (halvings of the
+    cover's volume): a box evaluated at depth ``k`` stays undecided, and is split in two, with
+    probability ``q_k``, read off the last :data:`DEPTHS` depths reached. When their mean ``q``
+    is below 1/2, each pending box costs ``1 / (1 - 2 q)`` evaluations in expectation. Otherwise,
+    when ``q_k`` falls with depth (a weighted linear fit), the pending boxes are carried forward
+    depth by depth with the extrapolated ``q_k`` until none is left. When ``q_k >= 1/2`` and not
+    falling there is no estimate. A guide, not a bound: it assumes the recent trend holds."""
+
+    #: Depths the estimate reads (the deepest reached).
+    DEPTHS = 8
 
     def __init__(self, lo: np.ndarray, hi: np.ndarray) -> None:
         width = hi - lo
         self.axes = width > 0  # degenerate axes (fixed parameters) carry no volume
         self.total = float(np.prod(width[self.axes]))
-        self.log: list[tuple[int, int]] = []
+        #: per depth: boxes evaluated, boxes undecided
+        self.depths: dict[int, list[int]] = {}
 
-    def batch(self, evaluated: int, undecided: int) -> None:
-        self.log.append((evaluated, undecided))
+    def batch(self, lo: np.ndarray, hi: np.ndarray, undecided: np.ndarray) -> None:
+        if not self.total > 0:
+            return
+        vol = np.prod((hi - lo)[:, self.axes], axis=1)
+        with np.errstate(divide="ignore"):
+            k = np.clip(np.rint(np.log2(self.total / vol)), 0, 10_000).astype(int)
+        ev = np.bincount(k)
+        un = np.bincount(k[undecided], minlength=len(ev))
+        for d in np.flatnonzero(ev):
+            row = self.depths.setdefault(int(d), [0, 0])
+            row[0] += int(ev[d])
+            row[1] += int(un[d])
 
     def volume(self, lo: np.ndarray, hi: np.ndarray) -> float:
         return float(np.sum(np.prod((hi - lo)[:, self.axes], axis=1))) if len(lo) else 0.0
+
+    def estimate(self, pending: int) -> tuple[float | None, float]:
+        """Expected evaluations of the ``pending`` boxes (None: no estimate) and the mean
+        ``q`` of the last depths."""
+        rows = sorted(self.depths.items())[-self.DEPTHS :]
+        if not rows:
+            return None, 1.0
+        k = np.array([d for d, _ in rows], dtype=float)
+        e = np.array([r[0] for _, r in rows], dtype=float)
+        u = np.array([r[1] for _, r in rows], dtype=float)
+        q = float(u.sum() / e.sum())
+        if q < 0.5:
+            return pending / (1 - 2 * q), q
+        if len(rows) < 3:
+            return None, q
+        kbar = float(np.average(k, weights=e))
+        slope = float(np.sum(e * (k - kbar) * (u / e - q)) / np.sum(e * (k - kbar) ** 2))
+        if not slope < 0:
+            return None, q
+        need, n, depth = 0.0, float(pending), k[-1] + 1
+        while n >= 1 and need < 1e12:
+            need += n
+            n *= 2 * min(1.0, max(0.0, q + slope * (depth - kbar)))
+            depth += 1
+        return (need, q) if need < 1e12 else (None, q)
 
     def reach(self, lo: np.ndarray, hi: np.ndarray, queue_lo: list[np.ndarray],
               queue_hi: list[np.ndarray], boxes: int, timed: bool = False) -> dict[str, Any]:  # fmt: skip
@@ -577,26 +617,21 @@ class _Progress:
         )
         decided = max(0.0, 1.0 - left / self.total) if self.total > 0 else 0.0
         pending = 2 * len(lo) + sum(len(a) for a in queue_lo)
-        recent, seen = [], 0
-        for ev, und in reversed(self.log):
-            recent.append((ev, und))
-            seen += ev
-            if seen >= boxes / 4:
-                break
-        q = sum(u for _, u in recent) / max(1, sum(e for e, _ in recent))
+        more, q = self.estimate(pending)
         meta: dict[str, Any] = {"volume_decided": decided, "undecided_per_box": q}
         text = f"{share(decided)} of the cover's volume decided"
-        if 2 * q < 1:
-            need = boxes + pending / (1 - 2 * q)
+        if more is not None:
+            need = boxes + more
             meta["boxes_estimate"] = int(math.ceil(need))
             what = (f"~{int(_round_up(need))} boxes in all would likely finish it (raise "
                     "--time-limit)" if timed else
                     f"--max-boxes ~{int(_round_up(need))} would likely suffice")  # fmt: skip
-            text += f"; {what} (estimate: {q:.3g} of the recent boxes stayed undecided)"
+            text += (f"; {what} (extrapolated from the share of boxes left undecided at the "
+                     f"deepest levels, {q:.3g})")  # fmt: skip
         else:
-            text += (f"; the undecided boxes still double with each split ({q:.3g} of the recent "
-                     "boxes stayed undecided): more boxes alone may not finish; try a smaller "
-                     "level, another V (--lyapunov, --degree) or --validator sos")  # fmt: skip
+            text += (f"; no estimate of the boxes needed: at the deepest levels {q:.3g} of the "
+                     "boxes stay undecided, not falling; try a smaller level, another V "
+                     "(--lyapunov, --degree) or --validator sos")  # fmt: skip
         meta["message"] = text
         return meta
 

@@ -31,7 +31,7 @@ import sympy as sp
 
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
-from roa.progress import step
+from roa.progress import note, step
 from roa.search.polysdp import (
     Identity,
     Poly,
@@ -305,8 +305,10 @@ def vs_search(
     V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
     ``clarabel`` or ``scs`` (:meth:`roa.search.polysdp.Identity.solve`). ``budget``: wall-clock
     seconds for the whole search; no SDP starts past it and each gets the time left as its solver
-    time limit, so the search stops with the candidates of the rounds it completed (``message``
-    says so).
+    time limit, so the search stops with the candidates of the rounds it completed: status
+    ``stopped``, ``message`` saying when. With progress on (:func:`roa.progress.enable`), each
+    round after the first starts with a line giving the last shape level and an estimate of the
+    time the rounds left take at the pace so far.
     """
     if solver not in SOLVERS:
         raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
@@ -314,12 +316,12 @@ def vs_search(
         raise RoaInputError(f"degree must be 2, 4, 6 or 8, got {degree!r}")
     if not (isinstance(rounds, int) and 1 <= rounds <= 50):
         raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
-    t0 = time.perf_counter()
+    t0 = _now()
     # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
     # level search, which alone takes a while in tens of states
     even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
     if even > MAX_V_TERMS:
-        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], time.perf_counter() - t0,
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
                         message=f"a V of degree {degree} in {system.n} states has at least {even} "
                         f"coefficients, more than the {MAX_V_TERMS} searched here (its SOS "
                         "programs would not fit in memory): not built; use a lower degree or "
@@ -330,15 +332,15 @@ def vs_search(
         pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
                       scale)  # fmt: skip
     except ProgramTooLarge as exc:
-        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], time.perf_counter() - t0,
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
                         message=str(exc))  # fmt: skip
     except (RoaInputError, sp.PolynomialError) as exc:
-        return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], time.perf_counter() - t0,
+        return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], _now() - t0,
                         message=str(exc))  # fmt: skip
     base = dict(solver_options or {})
 
     def left() -> float | None:
-        return None if budget is None else budget - (time.perf_counter() - t0)
+        return None if budget is None else budget - (_now() - t0)
 
     def options() -> dict[str, Any]:
         rest = left()
@@ -360,13 +362,15 @@ def vs_search(
     log: list[VsRound] = []
     status, message = SosStatus.SOLVED, ""
     for r in range(rounds + 1):
-        t1 = time.perf_counter()
+        t1 = _now()
         if spent():
             message = (
                 f"time budget of {budget} s spent before round {r}: kept {len(cands)} candidates"
             )
-            status = SosStatus.FAILED if not cands else status
+            status = SosStatus.FAILED if not cands else SosStatus.STOPPED
             break
+        if r:
+            _pace(r, rounds, t0, log, budget)
         # gamma step: the level of the current V, then V / gamma (level 1)
         ident = Identity(pb.nv)
         gamma = ident.scalar()
@@ -375,7 +379,7 @@ def vs_search(
             ok, gval, lam = ident.solve(gamma, options=options(), free_index=0, solver=solver)
         if not ok or gval is None or gval <= 0:
             status, message = SosStatus.FAILED, f"round {r}: gamma step {ident.status}"
-            log.append(VsRound(r, None, None, time.perf_counter() - t1, ident.status))
+            log.append(VsRound(r, None, None, _now() - t1, ident.status))
             break
         Vc = Vc / gval
         sizes.setdefault("gram_blocks_gamma_step", ident.sizes())
@@ -388,17 +392,18 @@ def vs_search(
             ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
         if not ok or bval is None:
             status, message = SosStatus.FAILED, f"round {r}: beta step {ident.status}"
-            log.append(VsRound(r, gval, None, time.perf_counter() - t1, ident.status))
+            log.append(VsRound(r, gval, None, _now() - t1, ident.status))
             break
         cands.append(pb.to_lyapunov(Vc, f"V-s degree {degree}, round {r}"))
         betas.append(float(bval))
         if spent():
-            log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, "budget"))
+            log.append(VsRound(r, float(gval), float(bval), _now() - t1, "budget"))
             message = (f"time budget of {budget} s spent in round {r}: kept {len(cands)} "
                        "candidates")  # fmt: skip
+            status = SosStatus.STOPPED
             break
         if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
-            log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, "final"))
+            log.append(VsRound(r, float(gval), float(bval), _now() - t1, "final"))
             message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
             break
         # V step: V free, lambda and lambda2 fixed, maximise beta
@@ -414,12 +419,37 @@ def vs_search(
         with step(f"V-s round {r}: V step"):
             ok, bnew, _ = ident.solve(beta, options=options(), also=[ident2, ident3],
                                       solver=solver)  # fmt: skip
-        log.append(VsRound(r, float(gval), float(bval), time.perf_counter() - t1, ident.status))
+        log.append(VsRound(r, float(gval), float(bval), _now() - t1, ident.status))
         if not ok or bnew is None or vvar.value is None:
             message = f"round {r}: V step {ident.status}; kept the V of round {r}"
+            if spent():
+                status = SosStatus.STOPPED
+                message = f"time budget of {budget} s spent in the V step of {message}"
             break
         Vc = np.asarray(vvar.value, dtype=float)
     if not cands:
-        return VsResult(status, degree, [], [], log, time.perf_counter() - t0, sizes, message)
-    return VsResult(SosStatus.SOLVED, degree, cands, betas, log, time.perf_counter() - t0, sizes,
+        return VsResult(status, degree, [], [], log, _now() - t0, sizes, message)
+    final = SosStatus.STOPPED if status is SosStatus.STOPPED else SosStatus.SOLVED
+    return VsResult(final, degree, cands, betas, log, _now() - t0, sizes,
                     message)  # fmt: skip
+
+
+def _now() -> float:
+    """The clock of the budget and the progress lines (a counter in tests)."""
+    return time.perf_counter()
+
+
+def _pace(r: int, rounds: int, t0: float, log: list[VsRound], budget: float | None) -> None:
+    """Progress line before round ``r``: the last shape level and the time the rounds left
+    (``r .. rounds``) take at the mean pace of the rounds done, capped by the budget."""
+    spent = _now() - t0
+    per = spent / r
+    more = per * (rounds + 1 - r)
+    beta = log[-1].beta if log else None
+    cap = "" if budget is None else f", budget {budget:g} s"
+    if budget is not None and spent + more > budget:
+        more = max(0.0, budget - spent)
+        cap += " (stops there with the best round)"
+    note(f"V-s: {r} of at most {rounds + 1} rounds in {spent:.0f} s (beta "
+         f"{'none' if beta is None else f'{beta:.6g}'}); about {more:.0f} s more at this "
+         f"pace{cap}")  # fmt: skip

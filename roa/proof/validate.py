@@ -552,7 +552,11 @@ class _Progress:
     is below 1/2, each pending box costs ``1 / (1 - 2 q)`` evaluations in expectation. Otherwise,
     when ``q_k`` falls with depth (a weighted linear fit), the pending boxes are carried forward
     depth by depth with the extrapolated ``q_k`` until none is left. When ``q_k >= 1/2`` and not
-    falling there is no estimate. A guide, not a bound: it assumes the recent trend holds."""
+    falling there is no estimate. A guide, not a bound: it assumes the recent trend holds, so the
+    message suggests twice the extrapolation (``boxes_estimate`` in the meta is the extrapolation
+    itself). Measured: on the planar quadrotor of examples/systems at level 0.1303, from 300,000
+    boxes it extrapolates 560,000 and the run needs 858,903; on Van der Pol at level 2.3042,
+    from 200 to 360 boxes it extrapolates 250 to 570 and the run needs 387."""
 
     #: Depths the estimate reads (the deepest reached).
     DEPTHS = 8
@@ -621,8 +625,8 @@ class _Progress:
         meta: dict[str, Any] = {"volume_decided": decided, "undecided_per_box": q}
         text = f"{share(decided)} of the cover's volume decided"
         if more is not None:
-            need = boxes + more
-            meta["boxes_estimate"] = int(math.ceil(need))
+            meta["boxes_estimate"] = int(math.ceil(boxes + more))
+            need = 2 * (boxes + more)
             what = (f"~{int(_round_up(need))} boxes in all would likely finish it (raise "
                     "--time-limit)" if timed else
                     f"--max-boxes ~{int(_round_up(need))} would likely suffice")  # fmt: skip

@@ -316,8 +316,11 @@ def _settings(opts: dict[str, Any]) -> dict[str, Any]:
 
 def _frac(res: BasinResult) -> str:
     lo, hi = res.ci95
-    share = res.counts["converged"] / res.n if res.n else 0.0  # every run was run (no time limit)
-    return f"{res.counts['converged']}/{res.n} converged ({100 * share:.2f} %, 95 % CI {100 * lo:.3f}-{100 * hi:.3f} %)"
+    from roa.shares import percent
+
+    k = res.counts["converged"] / res.n if res.n else 0.0  # every run was run (no time limit)
+    return (f"{res.counts['converged']}/{res.n} converged ({percent(k)}, 95 % CI "
+            f"{percent(lo, 3).removesuffix(' %')}-{percent(hi, 3)})")  # fmt: skip
 
 
 def sector_line_scan(
@@ -371,9 +374,9 @@ def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list
     Every estimate here is of the closed loop without saturation: the saturated loop gets one panel
     with the paper's ball, drawn as a reference, and the certified sets of the saturated loop
     itself (regions with a ``saturation`` in their meta, claim C11 of the certify experiment).
-    Otherwise (a) the paper's estimates against ours (sampled and certified), (b) the best
-    certified regions (largest box share, widest sector, per coordinates, the one around the
-    paper's ball) against the empirical basin, plus any refuted or inconclusive level.
+    Otherwise (a) the paper's estimates against ours (Khalil's sampled ball, the certified level
+    of the paper's V), (b) the best certified regions (largest box share, widest sector, the one
+    around the paper's ball) against the empirical basin, plus any refuted or inconclusive level.
     """
     ball_name = paper_ball().name
     if saturated:
@@ -385,13 +388,14 @@ def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list
         own = [r for r in regs if r.meta.get("saturation") is not None]
         words = "empirical basin of the saturated loop" + (" and its certified set" if own else "")
         return [(words, (ref + own)[:MAX_PER_PANEL])]
+    # what a reader takes in at a glance: the paper's two estimates, the ball Khalil's search
+    # really allows, and the level of the paper's V we certify (the sampled V level coincides
+    # with the certified one, the corrected bound is in paper_repro.md)
     paper = (
         _pick(regs, lambda r: r.name == ball_name)
         + _pick(regs, lambda r: r.status == "claimed" and _source(r) == "paper c~ = 2.25")
         + _pick(regs, lambda r: _source(r) == "Khalil search, ball shape")
-        + _pick(regs, lambda r: _source(r) == "Khalil search, V-level shape")
         + _pick(regs, lambda r: r.status == "certified" and r.name.startswith("paper V (3.11)"))
-        + _pick(regs, lambda r: _source(r).startswith("corrected analytic bound"))
     )
     optimised = [r for r in regs if r.status == "certified" and "box_fraction" in r.meta
                  and not r.name.startswith("paper V (3.11)")]  # fmt: skip
@@ -402,12 +406,9 @@ def slice_panels(regs: list[Region], *, saturated: bool) -> list[tuple[str, list
             if r not in best:
                 best.append(r)
 
-    if optimised:
+    if optimised:  # the largest (by box share and by sector) and the one around the paper's ball
         add([max(optimised, key=lambda r: float(r.meta.get("box_fraction") or 0.0))])
         add([max(optimised, key=lambda r: float(r.meta.get("sector_deg") or 0.0))])
-        for coords in sorted({str(r.meta.get("coords", "flat")) for r in optimised}):
-            same = [r for r in optimised if str(r.meta.get("coords", "flat")) == coords]
-            add([max(same, key=lambda r: float(r.meta.get("sector_deg") or 0.0))])
         add([r for r in optimised if "paper's ball" in r.name][:1])
     doubtful = [r for r in regs if r.status in ("refuted", "inconclusive")]
     best = (best + doubtful)[:MAX_PER_PANEL]
@@ -461,30 +462,20 @@ def slice_map(
     """The basin map of a slice run as a matplotlib Figure (unsaved): panels of
     :func:`slice_panels`, converged points by time to converge (with a terminal set, described by
     ``terminal`` of :func:`terminal_set`: by the time to converge or to enter that set, said on the
-    colorbar and in the legend), failures by status."""
-    from matplotlib.lines import Line2D
-    from matplotlib.patches import Patch
-
+    colorbar, in short: the set and ``converge_tol`` are in the run's summary), failures by
+    status. Converged points are coloured by time, so they get no legend swatch of their own."""
     from ipc_paper.figures import IPC_LABELS
-    from roa.plotting.basin import TIME_CMAP, slice_figure
+    from roa.plotting.basin import slice_figure
 
     panels = slice_panels(regs, saturated=saturation is not None)
     lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
-    empirical = Patch(color=TIME_CMAP(0.45), label="empirical basin: converged grid points")
-    handles: list[Any] = [empirical]
-    time_label = f"time to converge t [-] (normalised; until |x| < {converge_tol:g})"
+    time_label = "time to converge [-]"
     if terminal and terminal.get("used"):
-        time_label = (f"time to converge or enter the certified set t [-]\n(normalised; until "
-                      f"|x| < {converge_tol:g} or V <= {terminal['level']:.4g})")  # fmt: skip
-        handles.append(Line2D([], [], linestyle="none", label=(
-            "runs stop on entering the certified set (time: entry time)\n"
-            + terminal["label"].removeprefix("our ")
-        )))  # fmt: skip
+        time_label = "time to reach the certified set [-]"
     return slice_figure(
         system, grid, run.code, t_end=run.t_end, panels=panels, lines=lines,
         title=_basin_title(title, run.code, saturation, grid, regs), axis_labels=IPC_LABELS,
-        state_names=STATE_WORDS, extra_handles=handles, time_label=time_label,
-        zoom=[0] if len(panels) > 1 else [],
+        state_names=STATE_WORDS, time_label=time_label, zoom=[0] if len(panels) > 1 else [],
     )  # fmt: skip
 
 

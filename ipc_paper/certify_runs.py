@@ -10,8 +10,10 @@ from typing import Any
 
 import numpy as np
 
-# re-exported: ipc_paper.degrees and tests use these helpers of the cases
 from ipc_paper.certify_cases import _box_fraction, _level, _physical, _sector_curve  # noqa: F401
+
+# re-exported: ipc_paper.degrees and tests use these helpers of the cases
+from ipc_paper.degrees_report import box_ci, box_share
 from roa.errors import RoaInputError
 from roa.experiment import accepts
 from roa.io import atomic_write_json
@@ -309,7 +311,7 @@ def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
             "claim": "Sector at q = q' = theta' = 0 certified with the paper's V",
             "paper": "|theta(0)| < 60 deg",
             "ours": f"{_floor2(phys_p['sector_deg'])} deg (certified lower bound); box fraction "
-            f"{phys_p['box']['fraction']:.3f}",
+            f"{box_share(phys_p['box'])}",
             "verdict": "not reproduced",
             "evidence": E,
         },
@@ -317,8 +319,8 @@ def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
             "id": "C5",
             "claim": "Optimised quadratic V: certified sector and reference-box fraction",
             "paper": "|theta(0)| < 60 deg",
-            "ours": f"sector {_floor2(phys_o['sector_deg'])} deg; box fraction {phys_o['box']['fraction']:.3f} "
-            f"(95% CI {phys_o['box']['ci95'][0]:.3f}-{phys_o['box']['ci95'][1]:.3f}); interval {pair(po)}",
+            "ours": f"sector {_floor2(phys_o['sector_deg'])} deg; box fraction {box_share(phys_o['box'])} "
+            f"({box_ci(phys_o['box'])}); interval {pair(po)}",
             "verdict": "reproduced" if phys_o["sector_deg"] >= 60 and ok(po) else "not reproduced",
             "evidence": E,
         },
@@ -327,8 +329,7 @@ def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
             "claim": "Sector-optimised quadratic V: certified |theta(0)| at q = q' = theta' = 0",
             "paper": "|theta(0)| < 60 deg",
             "ours": f"sector {_floor2(phys_s['sector_deg'])} deg; box fraction "
-            f"{phys_s['box']['fraction']:.3f} (95% CI {phys_s['box']['ci95'][0]:.3f}-"
-            f"{phys_s['box']['ci95'][1]:.3f}); interval {pair(ps)}",
+            f"{box_share(phys_s['box'])} ({box_ci(phys_s['box'])}); interval {pair(ps)}",
             "verdict": "reproduced" if phys_s["sector_deg"] >= 60 and ok(ps) else "not reproduced",
             "evidence": E,
             "details": "Nelder-Mead over P = LL' maximising the sector, the level recomputed by rays "
@@ -374,8 +375,8 @@ def _claims(ev: dict[str, Any]) -> list[dict[str, Any]]:
                 "id": cid,
                 "claim": claim,
                 "paper": "|theta(0)| < 60 deg",
-                "ours": f"sector {_floor2(ph['sector_deg'])} deg; box fraction {ph['box']['fraction']:.3f} "
-                f"(95% CI {ph['box']['ci95'][0]:.3f}-{ph['box']['ci95'][1]:.3f}); interval {pair(blk)}",
+                "ours": f"sector {_floor2(ph['sector_deg'])} deg; box fraction {box_share(ph['box'])} "
+                f"({box_ci(ph['box'])}); interval {pair(blk)}",
                 "verdict": "reproduced" if ph["sector_deg"] >= 60 and ok(blk) else "not reproduced",
                 "evidence": E,
                 "details": "q = z1 - arsinh(w1) makes the sector the straight line "

@@ -7,12 +7,23 @@ from typing import Any
 
 import numpy as np
 
+from roa.shares import percent, sampled_share, share
+
 E = "results/degrees/summary.json"
 QUAD_SECTOR_DEG = 56.46  # C5: the box-optimised quadratic V (certify experiment)
 
 
 def _certified(rows: dict[str, Any]) -> dict[str, Any]:
     return {d: r for d, r in rows.items() if r.get("status") == "certified"}
+
+
+def box_share(b: dict[str, Any]) -> str:
+    """A reference-box share (``fraction`` of ``samples``) with the samples outside when below 1."""
+    return sampled_share(b["fraction"], b.get("samples"))
+
+
+def box_ci(b: dict[str, Any]) -> str:
+    return f"95% CI {share(b['ci95'][0])}-{share(b['ci95'][1])}"
 
 
 def _times(r: dict[str, Any]) -> str:
@@ -29,7 +40,7 @@ def _ipc_texts(irows: dict[str, Any]) -> list[str]:
             sizes = vs.get("sizes", {})
             statuses = sorted({x["status"] for x in vs.get("rounds", [])})
             head = (f"degree {d}: sector {r['sector_deg']:.2f} deg (certified lower bound), "
-                    f"box share {b['fraction']:.3f} (95% CI {b['ci95'][0]:.3f}-{b['ci95'][1]:.3f})")  # fmt: skip
+                    f"box share {box_share(b)} ({box_ci(b)})")  # fmt: skip
             if "sampled" in d:
                 lowered = r.get("sampled_optimum") not in (None, r.get("candidate"))
                 opt = (f"V's optimum at most {r.get('candidate') or 0:.6g} (a 50-digit witness; "
@@ -60,7 +71,7 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
     parts = []
     for d, r in vrows.items():
         if r.get("status") == "certified":
-            parts.append(f"degree {d}: {r['area_ratio']:.3f} (level {r['level']:.4g}, "
+            parts.append(f"degree {d}: {share(r['area_ratio'])} (level {r['level']:.4g}, "
                          f"refuted x1.001: {r['above']}; {_times(r)})")  # fmt: skip
         else:
             msg = (r.get("vs") or {}).get("message", "")
@@ -88,6 +99,7 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
     txt = _ipc_texts(irows)
     best_sector = max((r["sector_deg"] for r in cert.values()), default=0.0)
     best_box = max((r["box"]["fraction"] for r in cert.values()), default=0.0)
+    best_row = max(cert.values(), key=lambda r: r["box"]["fraction"], default=None)
     out.append(
         {
             "id": "D2",
@@ -106,8 +118,10 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
             "claim": "IPC: certified share of the reference box by a polynomial V (target >= 0.95; "
             "every simulation from the box converges, M5)",
             "paper": "not claimed",
-            "ours": f"best certified share {best_box:.3f} (quadratic V: 0.865, C5); "
-            + "; ".join(f"degree {d}: {r['box']['fraction']:.3f}" for d, r in cert.items()),
+            "ours": "best certified share "
+            + (box_share(best_row["box"]) if best_row else share(0.0))
+            + " (quadratic V: 0.865, C5); "
+            + "; ".join(f"degree {d}: {share(r['box']['fraction'])}" for d, r in cert.items()),
             "verdict": "beyond the paper" if best_box >= 0.95 else "inconclusive",
             "evidence": E,
         }
@@ -116,7 +130,7 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
     if hrows:
         hc = _certified(hrows)
         hs = max((r["sector_deg"] for r in hc.values()), default=0.0)
-        hb = max((r["box"]["fraction"] for r in hc.values()), default=0.0)
+        hb = max((r["box"] for r in hc.values()), key=lambda b: b["fraction"], default=None)
         out.append(
             {
                 "id": "D4",
@@ -124,8 +138,9 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
                 "straight line: certified sector and box share per degree of V (degree 2: the "
                 "box-optimised quadratic V there, C9; degree 4: sampled cutting planes from it)",
                 "paper": "60 deg (Section 3.2.1)",
-                "ours": "; ".join(_ipc_texts(hrows)) + f"; best: sector {hs:.2f} deg, box share "
-                f"{hb:.3f}",
+                "ours": "; ".join(_ipc_texts(hrows))
+                + f"; best: sector {hs:.2f} deg, box share "
+                + (box_share(hb) if hb else share(0.0)),
                 "verdict": "reproduced" if hs >= 60.0 else "not reproduced",
                 "evidence": E,
             }
@@ -138,7 +153,12 @@ def figure(ev: dict[str, Any], path: Path) -> None:
 
     from roa.lyapunov import from_json as lyapunov_from_json
 
-    fig, axes = plt.subplots(1, 2, figsize=(11, 5.2))
+    rows = ev["ipc"]["degrees"]
+    hrows = (ev.get("ipc_hybrid") or {}).get("degrees") or {}
+    # the IPC panel only when the IPC was run (quick mode skips it): no empty panel
+    fig, axes = plt.subplots(1, 2 if rows or hrows else 1, figsize=(11 if rows or hrows else 6, 5.2),
+                             squeeze=False)  # fmt: skip
+    axes = axes[0]
     ax = axes[0]
     lc = np.asarray(ev["vanderpol"]["limit_cycle"])
     ax.plot(lc[:, 0], lc[:, 1], "k-", lw=2, label="limit cycle (true region's edge)")
@@ -152,16 +172,17 @@ def figure(ev: dict[str, Any], path: Path) -> None:
         V = lyapunov_from_json(r["V"], np.zeros(2))
         ax.contour(X1, X2, V.value(pts).reshape(X1.shape), [r["level"]], colors=[colors[k]])
         ax.plot(
-            [], [], color=colors[k], label=f"certified, degree {d} ({r['area_ratio']:.0%} of area)"
+            [],
+            [],
+            color=colors[k],
+            label=f"certified, degree {d} ({percent(r['area_ratio'], 0)} of area)",
         )
     ax.set_xlabel("x1 [-]")
     ax.set_ylabel("x2 [-]")
     ax.set_title("Van der Pol: certified level sets by degree")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, ncol=1)
-    ax = axes[1]
-    rows = ev["ipc"]["degrees"]
-    hrows = (ev.get("ipc_hybrid") or {}).get("degrees") or {}
     if rows or hrows:
+        ax = axes[1]
         from ipc_paper.system import physical_to_flat_or_inf
         from ipc_paper.system.hybrid import physical_to_hybrid_or_inf
 
@@ -191,12 +212,10 @@ def figure(ev: dict[str, Any], path: Path) -> None:
             ax.axvline(s, color="grey", ls="--", lw=1)
         ax.plot([], [], color="grey", ls="--", label="paper's claim: |theta(0)| < 60 deg")
         ax.set_title("IPC, slice q = q' = 0: certified sets by degree")
-    else:
-        ax.set_title("IPC: not run (quick mode)")
-    ax.set_xlabel("theta [deg]")
-    ax.set_ylabel("theta' [rad/s]")
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, ncol=1)
+        ax.set_xlabel("theta [deg]")
+        ax.set_ylabel("theta' [rad/s]")
+        if ax.get_legend_handles_labels()[0]:
+            ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), fontsize=8, ncol=1)
     fig.tight_layout()
     from roa.io import atomic_savefig
 

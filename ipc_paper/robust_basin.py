@@ -23,6 +23,7 @@ import numpy as np
 from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import Options
+from roa.shares import share
 
 E = "results/basin_robust/summary.json"
 
@@ -88,8 +89,8 @@ def _claims(ev: dict[str, Any], box: tuple[float, float], quick: bool) -> list[d
     ours = (f"{ev['parameter_samples']['count']} sampled values of delta_plant in [{box[0]:g}, "
             f"{box[1]:g}] (nominal, ends, {ev['parameter_samples']['random']} seeded), "
             f"{n} grid points of the (theta, theta') slice at q = q' = 0: converged for every "
-            f"sample {wc['converged']}/{n} ({wc['fraction']:.3f}); per sample between "
-            f"{min(fr):.3f} and {max(fr):.3f}")  # fmt: skip
+            f"sample {wc['converged']}/{n} ({share(wc['fraction'])}); per sample between "
+            f"{share(min(fr))} and {share(max(fr))}")  # fmt: skip
     verdict = "beyond the paper"
     if chk is not None:
         ours += (f"; the set certified for the box (R3, V <= {chk['level']:.4g}) holds "

@@ -7,6 +7,8 @@ from typing import Any
 
 import numpy as np
 
+from ipc_paper.degrees_report import box_share
+
 E = "results/robust/summary.json"
 
 
@@ -45,7 +47,7 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
     txt = _verdict_text(r)
     if r["status"] == "certified":
         txt += (f"; sector |theta(0)| <= {r['sector_deg']:.2f} deg at q = q' = theta' = 0 (certified "
-                f"lower bound), reference-box share {r['box']['fraction']:.3f}; x1.001 of the "
+                f"lower bound), reference-box share {box_share(r['box'])}; x1.001 of the "
                 f"worst sampled optimum: {r['above']}")  # fmt: skip
     if "design" in r:
         txt += (f" (P nearest C5 with A'P + PA <= -2 alpha P at both ends of 1/delta_plant, "

@@ -59,3 +59,15 @@ def percent(x: float, decimals: int = 2) -> str:
         if not 0 < float(text) < 100:  # 100 x rounded to 100 or is below 1e-17
             text = repr(p) if p < 100 else "99.99999999999999"
     return f"{text} %"
+
+
+def sampled_share(
+    fraction: float, samples: int | None, what: str = "outside", decimals: int = 3
+) -> str:
+    """A share measured on ``samples`` samples; where ``decimals`` decimals would round it to 1,
+    followed by how many samples it misses (``0.9999 (23 of 200000 outside)``), else
+    :func:`share` alone."""
+    if samples and 0 <= fraction < 1 and float(f"{fraction:.{decimals}f}") >= 1:
+        missed = round((1 - fraction) * samples)
+        return share(fraction, decimals, count=missed, of=int(samples), what=what)
+    return share(fraction, decimals)

@@ -36,3 +36,12 @@ def test_known_values():
     assert percent(0.99989) == "99.99 %" and percent(0.999999) == "99.9999 %"
     assert percent(1.0) == "100.00 %"
     assert share(math.nan) == "nan"
+
+
+def test_sampled_share_counts_the_misses_only_where_rounding_hides_them():
+    from roa.shares import sampled_share
+
+    assert sampled_share(0.999885, 200000) == "0.9999 (23 of 200000 outside)"
+    assert sampled_share(0.867565, 200000) == "0.868"
+    assert sampled_share(1.0, 200000) == "1.000"
+    assert sampled_share(0.999885, None) == "0.9999"

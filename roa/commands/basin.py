@@ -12,6 +12,7 @@ from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
 from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
+from roa.shares import share
 
 if TYPE_CHECKING:
     from roa.system import System
@@ -387,8 +388,8 @@ def run(args: argparse.Namespace) -> int:
         lo, hi = summary["fraction_converged_ci95"]
         print(f"n = {summary['n']}: " + ", ".join(f"{k} {v}" for k, v in c.items()))
         frac = summary["fraction_converged"]
-        print(f"fraction converged {'unknown' if frac is None else f'{frac:.4f}'} "
-              f"(95 % CI {lo:.4f}-{hi:.4f})")  # fmt: skip
+        print(f"fraction converged {'unknown' if frac is None else share(frac, 4)} "
+              f"(95 % CI {share(lo, 4)}-{share(hi, 4)})")  # fmt: skip
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
     if cut:
@@ -428,8 +429,8 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
     w = summary["worst_case"]
     lo, hi = w["fraction_ci95"]
     print(f"converged for every sampled parameter value: {w['converged']} "
-          f"({w['fraction']:.4f}, 95 % CI {lo:.4f}-{hi:.4f}); mean converged share "
-          f"{summary['converged_share']['mean']:.4f}")  # fmt: skip
+          f"({share(w['fraction'], 4)}, 95 % CI {share(lo, 4)}-{share(hi, 4)}); mean converged "
+          f"share {share(summary['converged_share']['mean'], 4)}")  # fmt: skip
     if terminal is not None:
         print(f"terminal set (proved for the whole box): {terminal.name}")
     return 0

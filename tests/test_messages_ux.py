@@ -164,3 +164,16 @@ def test_box_budget_message_says_how_far_and_what_next(capsys):
     assert 0 < float(m[1]) < 1 and 300 < int(m[2]) < 3000
     assert main([*argv, "--max-boxes", m[2], "--json"]) == 0
     assert '"status": "certified"' in capsys.readouterr().out
+
+
+def test_khalil_names_the_system_not_the_file(tmp_path, capsys):
+    path = tmp_path / "mine.py"
+    path.write_text(
+        "from roa import System\n\n"
+        "def field(t, x, xp):\n    return (-x[0] + x[1] * x[1], -x[1])\n\n"
+        'SYSTEM = System(name="my-system", field=field, equilibrium=(0.0, 0.0), '
+        'state_names=("a", "b"))\n'
+    )
+    main(["khalil", "--system", f"{path}:SYSTEM", "--method", "sampled", "--directions", "64"])
+    out = capsys.readouterr().out
+    assert out.startswith("my-system: largest ball level") and str(path) not in out

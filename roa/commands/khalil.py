@@ -58,7 +58,8 @@ def run(args: argparse.Namespace) -> int:
         C.emit(args, res.to_dict())
         return 0 if res.ok else 1
     what = "V" if args.shape == "level" else "ball"
-    print(f"{args.system}: largest {what} level with V' < 0: {C.fmt(res.level, '.10g')}  "
+    name = res.system.name if res.system is not None else args.system
+    print(f"{name}: largest {what} level with V' < 0: {C.fmt(res.level, '.10g')}  "
           f"[{res.method}, {res.status.value}]")  # fmt: skip
     if args.shape == "ball":  # the default differs from certify's: say which one this is
         print("  shape ball: the level c bounds (x - x_eq)' S (x - x_eq) with the system's norm S; "

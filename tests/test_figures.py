@@ -97,7 +97,7 @@ def test_basin_maps_colour_time_and_say_where_the_basin_ends(experiment_figures,
     (fig,) = experiment_figures[name]
     title = fig._suptitle.get_text()
     assert "the basin is the whole slice" in title or "basin edge inside the slice" in title
-    bars = [ax.get_ylabel() for ax in fig.axes if "time to converge" in ax.get_ylabel()]
+    bars = [ax.get_ylabel() for ax in fig.axes if ax.get_ylabel().startswith("time to ")]
     assert bars and all("[-]" in b for b in bars), "no colorbar of the time to converge"
     panels = [ax for ax in fig.axes if ax.get_legend() is not None]
     assert panels and all(len(ax.get_legend().get_texts()) <= 6 for ax in panels)

@@ -63,3 +63,33 @@ def test_certify_time_limit_bounds_the_vs_iteration(sdp_clock, capsys):
     out = json.loads(capsys.readouterr().out)
     vs = out["vs_search"]
     assert vs["status"] == "stopped" and "time budget of 25.0 s" in vs["message"]
+
+
+def test_a_budget_spent_while_building_gives_the_solver_a_positive_limit(monkeypatch):
+    """The budget can run out between the check before a step and its solve (building a program
+    in 10 states takes seconds): the solver then gets 1e-3 s, never a negative limit (SCS refuses
+    one with a ValueError)."""
+    clock = [0.0]
+    seen = []
+    solve = VS.Identity.solve
+
+    def spy(self, *args, **kw):
+        seen.append(kw["options"]["time_limit"])
+        clock[0] += 10.0
+        return solve(self, *args, **kw)
+
+    monkeypatch.setattr(VS, "_now", lambda: clock[0])
+    monkeypatch.setattr(VS.Identity, "solve", spy)
+    real_decrease = VS._Problem.decrease
+
+    def slow_decrease(self, *args, **kw):  # building the gamma step passes the budget
+        clock[0] += 100.0
+        return real_decrease(self, *args, **kw)
+
+    monkeypatch.setattr(VS._Problem, "decrease", slow_decrease)
+    system = vanderpol()
+    res = VS.vs_search(system, roa.default_lyapunov(system), degree=4, rounds=2, budget=50.0)
+    assert seen and seen[0] == 1e-3
+    assert (
+        res.status is SosStatus.FAILED and "time budget of 50.0 s spent in round 0" in res.message
+    )

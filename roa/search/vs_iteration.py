@@ -346,7 +346,10 @@ def vs_search(
         rest = left()
         if rest is None:
             return base
-        return {**base, "time_limit": min(base.get("time_limit", rest), max(rest, 1e-3))}
+        # never below 1e-3 s (a solver refuses a negative limit): the budget may run out
+        # between the check before a step and its solve
+        limit = max(rest, 1e-3)
+        return {**base, "time_limit": min(base.get("time_limit") or limit, limit)}
 
     def spent() -> bool:
         rest = left()
@@ -378,7 +381,7 @@ def vs_search(
         with step(f"V-s round {r}: gamma step"):
             ok, gval, lam = ident.solve(gamma, options=options(), free_index=0, solver=solver)
         if not ok or gval is None or gval <= 0:
-            status, message = SosStatus.FAILED, f"round {r}: gamma step {ident.status}"
+            status, message = _failed(r, "gamma", ident.status, spent(), budget, len(cands))
             log.append(VsRound(r, None, None, _now() - t1, ident.status))
             break
         Vc = Vc / gval
@@ -391,7 +394,7 @@ def vs_search(
         with step(f"V-s round {r}: beta step"):
             ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
         if not ok or bval is None:
-            status, message = SosStatus.FAILED, f"round {r}: beta step {ident.status}"
+            status, message = _failed(r, "beta", ident.status, spent(), budget, len(cands))
             log.append(VsRound(r, gval, None, _now() - t1, ident.status))
             break
         cands.append(pb.to_lyapunov(Vc, f"V-s degree {degree}, round {r}"))
@@ -432,6 +435,17 @@ def vs_search(
     final = SosStatus.STOPPED if status is SosStatus.STOPPED else SosStatus.SOLVED
     return VsResult(final, degree, cands, betas, log, _now() - t0, sizes,
                     message)  # fmt: skip
+
+
+def _failed(r: int, what: str, solver: str, spent: bool, budget: float | None,
+            kept: int) -> tuple[SosStatus, str]:  # fmt: skip
+    """Status and message of a gamma or beta step that gave no answer: ``stopped`` when the
+    budget ran out (with candidates kept), else ``failed``."""
+    if spent:
+        return (SosStatus.STOPPED if kept else SosStatus.FAILED,
+                f"time budget of {budget} s spent in round {r} ({what} step: {solver}): kept "
+                f"{kept} candidates")  # fmt: skip
+    return SosStatus.FAILED, f"round {r}: {what} step {solver}"
 
 
 def _now() -> float:

@@ -127,5 +127,6 @@ def test_basin_counts_blow_ups_as_diverged(spec):
     off = roa.basin(system, g, rules=roa.StopRules(diverge_growth=None),
                     run=roa.RunOptions(n_jobs=1))  # fmt: skip
     assert off.counts["diverged"] == 0 and off.counts["undecided"] == 12
+    assert res.to_dict()["diverge_growth"] == 100.0 and off.to_dict()["diverge_growth"] is None
     X = g.points(0, g.n)
     assert np.array_equal(np.asarray(res.code) == 2, np.abs(X[:, 0]) > 0.075)

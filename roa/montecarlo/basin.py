@@ -83,6 +83,8 @@ class BasinResult:
             "ci_method": "Wilson score, 95 %",
             "t_final": self.rules.t_final,
             "converge_tol": self.rules.converge_tol,
+            "diverge_bound": self.rules.diverge_bound,
+            "diverge_growth": self.rules.diverge_growth,
             "rtol": self.integrator.rtol,
             "atol": self.integrator.atol,
             "chunks_computed": self.chunks_computed,

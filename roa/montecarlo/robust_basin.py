@@ -213,6 +213,8 @@ class RobustBasinResult:
             "ci_method": "Wilson score, 95 %",
             "t_final": first.rules.t_final,
             "converge_tol": first.rules.converge_tol,
+            "diverge_bound": first.rules.diverge_bound,
+            "diverge_growth": first.rules.diverge_growth,
             "rtol": first.integrator.rtol,
             "atol": first.integrator.atol,
             "terminal_set": None

@@ -117,7 +117,9 @@ def closed_loop(
         ``x_eq`` (default the origin).
     u_eq : sequence of float, optional
         The input holding the plant at ``x_eq`` (default zero): ``field(t, x_eq, u_eq) = 0``.
-    name, **kwargs
+    name : str
+        As :class:`roa.System`.
+    **kwargs
         As :class:`roa.System` (``state_units``, ``margin``, ``lyapunov``, ...).
 
     Returns

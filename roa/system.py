@@ -233,7 +233,9 @@ class System:
             Uncertain parameters: symbol or name -> ``(low, nominal, high)`` (as ``System``).
         params : mapping, optional
             Fixed parameters: symbol or name -> value (as ``System``; ``with_params`` changes them).
-        name, state_units, **kwargs
+        name, state_units
+            As :class:`System`.
+        **kwargs
             As :class:`System` (``margin``, ``lyapunov``, ``norm``, ``domain_description``, ...).
 
         The field is compiled once (:mod:`roa.sympy_system`) and runs in every namespace: numpy,
@@ -286,8 +288,10 @@ class System:
             ``x_eq`` and the input holding the plant there (default zero).
         params : mapping, optional
             Values overriding ``sys.params`` (fixed when the system is built).
-        name, **kwargs
-            As :class:`System` (default name: ``sys.name``).
+        name : str, optional
+            Default: ``sys.name``.
+        **kwargs
+            As :class:`System` (``state_units``, ``margin``, ``lyapunov``, ...).
 
         The analysed field (traced or ``field=``) is checked against ``updfcn`` on numpy at
         sample points around ``x_eq`` (:mod:`roa.control_system`); a difference is an error.

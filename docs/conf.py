@@ -43,9 +43,7 @@ rst_prolog = """
 .. |theta| replace:: \\|theta\\|
 .. |u| replace:: \\|u\\|
 """
-templates_path = ["_templates"]
 exclude_patterns = ["_build"]
 html_theme = "alabaster"
-html_static_path = ["_static"]
 html_title = f"roa {release}"
 html_theme_options = {"description": "region-of-attraction verification", "page_width": "1100px"}

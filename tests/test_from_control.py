@@ -126,3 +126,12 @@ def test_not_a_control_system_and_discrete_time_are_refused():
     discrete = control.nlsys(_pendulum, None, inputs=1, states=2, params={"g": G}, dt=0.1)
     with pytest.raises(roa.RoaInputError, match=r"discrete-time"):
         roa.System.from_control(discrete, K)
+
+
+def test_docstring_examples_run():
+    import doctest
+    import importlib
+
+    for mod in ("roa.control_system", "roa.system"):
+        failed, tried = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)
+        assert failed == 0 and tried > 0, mod

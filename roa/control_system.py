@@ -370,12 +370,8 @@ def from_control(
             _check_agreement(system, sys, all_params, loop.inputs, "field=")
         return system
     if isinstance(sys, control.StateSpace):
-        A, B = np.asarray(sys.A, dtype=float), np.asarray(sys.B, dtype=float)
-
-        def affine(t: Any, x: Any, u: Any, xp: Any) -> tuple[Any, ...]:
-            return tuple(_dot(A[i], x) + _dot(B[i], u) for i in range(n))
-
-        return closed_loop(affine, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
+        plant = AffinePlant(_matrix(sys.A, (n, n), "sys.A"), _matrix(sys.B, (n, m), "sys.B"))
+        return closed_loop(plant, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
     from roa.system import System
 
     try:
@@ -397,9 +393,21 @@ def _no_plant(t: Any, x: Any, u: Any, xp: Any) -> tuple[Any, ...]:
     return ()
 
 
-def _dot(row: np.ndarray, v: Sequence[Any]) -> Any:
+@dataclass(frozen=True)
+class AffinePlant:
+    """``x' = A x + B u`` of a ``control.StateSpace`` as a plant ``field(t, x, u, xp)``
+    (zero entries skipped; picklable)."""
+
+    A: tuple[tuple[float, ...], ...]
+    B: tuple[tuple[float, ...], ...]
+
+    def __call__(self, t: Any, x: Any, u: Any, xp: Any) -> tuple[Any, ...]:
+        return tuple(_dot(a, x) + _dot(b, u) for a, b in zip(self.A, self.B, strict=True))
+
+
+def _dot(row: Sequence[float], v: Sequence[Any]) -> Any:
     out: Any = 0.0
     for a, vi in zip(row, v, strict=True):
         if a != 0.0:
-            out = out + float(a) * vi
+            out = out + a * vi
     return out

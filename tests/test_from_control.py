@@ -135,3 +135,14 @@ def test_docstring_examples_run():
     for mod in ("roa.control_system", "roa.system"):
         failed, tried = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)
         assert failed == 0 and tried > 0, mod
+
+
+def test_closed_loops_pickle():
+    import pickle
+
+    for cl in (
+        roa.System.from_control(PLANT, K),
+        roa.System.from_control(control.ss(A, B, np.eye(2), 0), K),
+    ):
+        back = pickle.loads(pickle.dumps(cl))
+        np.testing.assert_array_equal(back.f([0.3, -0.2]), cl.f([0.3, -0.2]))

@@ -74,6 +74,7 @@ _LAZY: dict[str, str] = {
     "StopRules": "roa.status",
     "Verdict": "roa.status",
     "System": "roa.system",
+    "closed_loop": "roa.control_system",
     "load_system": "roa.systems",
 }
 
@@ -91,6 +92,7 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         VsIteration,
         certify,
     )
+    from roa.control_system import closed_loop
     from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
     from roa.levelset import LevelSearchResult, level_search
     from roa.lyapunov import (
@@ -170,6 +172,7 @@ __all__ = [
     "parameter_samples",
     "box_sample",
     "certify",
+    "closed_loop",
     "default_lyapunov",
     "grid_slice",
     "level_search",

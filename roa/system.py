@@ -233,7 +233,9 @@ class System:
             Uncertain parameters: symbol or name -> ``(low, nominal, high)`` (as ``System``).
         params : mapping, optional
             Fixed parameters: symbol or name -> value (as ``System``; ``with_params`` changes them).
-        name, state_units, **kwargs
+        name, state_units
+            As :class:`System`.
+        **kwargs
             As :class:`System` (``margin``, ``lyapunov``, ``norm``, ``domain_description``, ...).
 
         The field is compiled once (:mod:`roa.sympy_system`) and runs in every namespace: numpy,
@@ -253,6 +255,63 @@ class System:
         return system_from_sympy(exprs, states, equilibrium=equilibrium, parameters=parameters,
                                  params=params, name=name, state_units=state_units,
                                  **kwargs)  # fmt: skip
+
+    @classmethod
+    def from_control(
+        cls,
+        sys: Any,
+        K: Any = None,
+        *,
+        field: Callable[..., Sequence[Any]] | None = None,
+        equilibrium: Sequence[float] | None = None,
+        u_eq: Sequence[float] | None = None,
+        params: Mapping[str, Any] | None = None,
+        name: str | None = None,
+        **kwargs: Any,
+    ) -> System:
+        """The closed loop of a python-control model under ``u = u_eq - K (x - x_eq)``.
+
+        Parameters
+        ----------
+        sys : control.NonlinearIOSystem or control.StateSpace
+            The continuous-time plant ``x' = updfcn(t, x, u, params)``; its state labels become
+            ``state_names`` (``x[0]`` -> ``x0``).
+        K : m x n matrix, optional
+            The gain, e.g. ``control.lqr(sys.linearize(x_eq, u_eq), Q, R)[0]`` (default zero:
+            the open loop, for a model without inputs).
+        field : callable, optional
+            ``field(t, x, u, xp)``: the same equations written with arithmetic and ``xp``
+            functions. Without it, a ``NonlinearIOSystem``'s numpy ``updfcn`` is traced
+            symbolically; an ``updfcn`` that branches on the state or leaves numpy's ufuncs
+            cannot be, and the error says to pass ``field=``.
+        equilibrium, u_eq : sequence of float, optional
+            ``x_eq`` and the input holding the plant there (default zero).
+        params : mapping, optional
+            Values overriding ``sys.params`` (fixed when the system is built).
+        name : str, optional
+            Default: ``sys.name``.
+        **kwargs
+            As :class:`System` (``state_units``, ``margin``, ``lyapunov``, ...).
+
+        The analysed field (traced or ``field=``) is checked against ``updfcn`` on numpy at
+        sample points around ``x_eq`` (:mod:`roa.control_system`); a difference is an error.
+        Needs ``pip install roa[control]``.
+
+        Examples
+        --------
+        >>> import control, numpy as np
+        >>> def upd(t, x, u, params):
+        ...     return [x[1], -np.sin(x[0]) - 0.1 * x[1] + u[0]]
+        >>> plant = control.nlsys(upd, None, inputs=1, states=2, name="pendulum")
+        >>> K, _, _ = control.lqr(plant.linearize([0, 0], [0]), np.eye(2), np.eye(1))
+        >>> closed = System.from_control(plant, K)
+        >>> closed.state_names
+        ('x0', 'x1')
+        """
+        from roa.control_system import from_control
+
+        return from_control(sys, K, field=field, equilibrium=equilibrium, u_eq=u_eq,
+                            params=params, name=name, **kwargs)  # fmt: skip
 
     def _bind_params(self) -> None:
         func = self.field.func if isinstance(self.field, BoundField) else self.field

@@ -137,7 +137,7 @@ class Lyapunov:
         return 0.5 * (H + H.T)
 
     def whitening(self) -> np.ndarray:
-        """``M`` with ``x = c + M y`` making V ~ |y|^2 near the centre (identity if not definite)."""
+        """``M`` with ``x = c + M y`` making ``V ~ |y|^2`` near the centre (identity if not definite)."""
         H = 0.5 * self.hessian_at_center()
         try:
             return np.linalg.inv(np.linalg.cholesky(H).T)

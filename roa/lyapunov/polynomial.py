@@ -211,7 +211,7 @@ class PolynomialLyapunov(Lyapunov):
 
 class QuadraticLyapunov(PolynomialLyapunov):
     """``V(x) = (x - center)' P (x - center)``: the polynomial of degree 2 whose Gram matrix over
-    the linear monomials ``d_1 .. d_n`` is ``P`` (symmetric positive definite).
+    the linear monomials ``d_1, ..., d_n`` is ``P`` (symmetric positive definite).
 
     It is a :class:`PolynomialLyapunov` (its ``terms``, ``degree`` and ``gram`` are those of the
     polynomial) with closed-form overrides of the numpy paths and of its expressions, and ``P``.

@@ -1,0 +1,413 @@
+"""Closed loops from python-control models: :meth:`roa.System.from_control`, :func:`closed_loop`.
+
+python-control users hold a plant ``x' = f(t, x, u)`` (a ``control.NonlinearIOSystem`` whose
+``updfcn(t, x, u, params)`` is written with numpy, or a ``control.StateSpace``) and a gain ``K``
+from ``control.lqr``. roa analyses the closed loop ``x' = f(t, x, u_eq - K (x - x_eq))``.
+
+Claims and assumptions:
+
+* roa evaluates a field in several array namespaces (numpy, CasADi, sympy, mpmath, intervals), so a
+  certificate needs the field as arithmetic and namespace functions. A numpy ``updfcn`` runs on
+  numpy arrays only. :meth:`System.from_control` therefore *traces* it once: it is called on
+  symbolic states and inputs (numpy object arrays whose elements record every operation as a sympy
+  expression), and the expressions are compiled by :meth:`roa.System.from_sympy`. The analysed
+  field is that expression; it is checked against ``updfcn`` on numpy at sample points (relative
+  difference below :data:`AGREEMENT_RTOL`). Its float arithmetic is sympy's order, so values may
+  differ from ``updfcn`` in the last bits.
+* Tracing fails, with a message saying what to write instead, when ``updfcn`` branches on the
+  state (``if x[0] > 0``, ``np.clip``, ``np.where``), converts it to a float (``float(x[0])``,
+  ``math.sin``, writing into ``np.zeros(n)``) or calls a function outside numpy's ufuncs listed in
+  :data:`roa.sympy_system.SUPPORTED`. The remedy is ``field=``: the same equations written once as
+  ``field(t, x, u, xp)`` with ``xp.sin``, ``xp.cos``, ... (checked against ``updfcn`` the same way).
+* ``params`` of the model are fixed at their values when the system is built.
+* ``control`` is imported only by :meth:`System.from_control` (``pip install roa[control]``);
+  :func:`closed_loop` needs no python-control.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from roa.errors import RoaInputError
+
+#: Largest relative difference |f_roa - updfcn| / (1 + |updfcn|) accepted at the sample points.
+AGREEMENT_RTOL = 1e-9
+#: Sample points of the agreement check (normal around the equilibrium, standard deviation 0.5).
+AGREEMENT_POINTS = 64
+
+ControlField = Callable[..., Sequence[Any]]
+
+
+@dataclass(frozen=True)
+class ClosedLoopField:
+    """``field(t, x, xp) = plant(t, x, u, xp)`` with ``u = u_eq - K (x - x_eq)`` (picklable).
+
+    Zero gains are skipped, so an input depends only on the states its row of ``K`` names.
+    """
+
+    plant: ControlField
+    gain: tuple[tuple[float, ...], ...]
+    x_eq: tuple[float, ...]
+    u_eq: tuple[float, ...]
+
+    def inputs(self, x: Any) -> list[Any]:
+        us: list[Any] = []
+        for row, u0 in zip(self.gain, self.u_eq, strict=True):
+            u: Any = u0
+            for j, k in enumerate(row):
+                if k != 0.0:
+                    d = x[j] - self.x_eq[j] if self.x_eq[j] != 0.0 else x[j]
+                    u = u - k * d
+            us.append(u)
+        return us
+
+    def __call__(self, t: Any, x: Any, xp: Any) -> Sequence[Any]:
+        return self.plant(t, x, self.inputs(x), xp)
+
+
+def _matrix(value: Any, shape: tuple[int, int], what: str) -> tuple[tuple[float, ...], ...]:
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise RoaInputError(f"{what} must be a {shape[0]}x{shape[1]} matrix of numbers") from None
+    if arr.ndim == 1 and shape[0] == 1:
+        arr = arr.reshape(1, -1)
+    if arr.shape != shape or not np.all(np.isfinite(arr)):
+        raise RoaInputError(
+            f"{what} must be a finite {shape[0]}x{shape[1]} matrix (inputs x states), "
+            f"got shape {arr.shape}"
+        )
+    return tuple(tuple(float(v) for v in row) for row in arr)
+
+
+def _vector(value: Any, n: int, what: str) -> tuple[float, ...]:
+    arr = np.zeros(n) if value is None else np.asarray(value, dtype=float).reshape(-1)
+    if arr.shape != (n,) or not np.all(np.isfinite(arr)):
+        raise RoaInputError(f"{what} must be {n} finite numbers, got {value!r}")
+    return tuple(float(v) for v in arr)
+
+
+def closed_loop(
+    field: ControlField,
+    K: Any,
+    states: Sequence[str],
+    *,
+    equilibrium: Sequence[float] | None = None,
+    u_eq: Sequence[float] | None = None,
+    name: str = "closed-loop",
+    **kwargs: Any,
+) -> Any:
+    """The :class:`roa.System` of ``x' = field(t, x, u, xp)`` under ``u = u_eq - K (x - x_eq)``.
+
+    Parameters
+    ----------
+    field : callable
+        ``field(t, x, u, xp) -> n components``, written with arithmetic and ``xp`` functions only
+        (as a :class:`roa.System` field, plus the inputs ``u``, a sequence of m values).
+    K : m x n matrix
+        The state-feedback gain (``control.lqr(A, B, Q, R)[0]``).
+    states : sequence of str
+        State names (n of them).
+    equilibrium : sequence of float, optional
+        ``x_eq`` (default the origin).
+    u_eq : sequence of float, optional
+        The input holding the plant at ``x_eq`` (default zero): ``field(t, x_eq, u_eq) = 0``.
+    name : str
+        As :class:`roa.System`.
+    **kwargs
+        As :class:`roa.System` (``state_units``, ``margin``, ``lyapunov``, ...).
+
+    Returns
+    -------
+    roa.System
+        Its field evaluates ``field`` in every namespace; roa's checks (``f(x_eq) = 0``, the
+        linearisation ``A - B K`` Hurwitz) run when it is analysed.
+
+    Examples
+    --------
+    >>> from roa.control_system import closed_loop
+    >>> def pendulum(t, x, u, xp):
+    ...     return (x[1], -xp.sin(x[0]) - 0.1 * x[1] + u[0])
+    >>> cl = closed_loop(pendulum, [[1.0, 2.0]], ("theta", "omega"))
+    >>> cl.f([0.0, 1.0]).tolist()
+    [1.0, -2.1]
+    """
+    from roa.system import System
+
+    names = tuple(states)
+    n = len(names)
+    rows = np.asarray(K, dtype=float)
+    m = rows.shape[0] if rows.ndim == 2 else 1
+    gain = _matrix(K, (m, n), "K")
+    x_eq = _vector(equilibrium, n, "equilibrium")
+    u0 = _vector(u_eq, m, "u_eq")
+    return System(
+        name=name,
+        field=ClosedLoopField(field, gain, x_eq, u0),
+        equilibrium=x_eq,
+        state_names=names,
+        **kwargs,
+    )
+
+
+# --- python-control ------------------------------------------------------------------------
+
+
+class Untraceable(RoaInputError):
+    """An ``updfcn`` did something a symbolic trace cannot follow."""
+
+
+#: numpy ufunc name -> sympy function name; numpy calls the method of that name on each element of
+#: an object array (``np.sin(a)`` calls ``a[i].sin()``).
+_UFUNCS = {
+    "sin": "sin",
+    "cos": "cos",
+    "tan": "tan",
+    "exp": "exp",
+    "log": "log",
+    "sqrt": "sqrt",
+    "arctan": "atan",
+    "arcsinh": "asinh",
+    "arctanh": "atanh",
+    "sinh": "sinh",
+    "cosh": "cosh",
+    "tanh": "tanh",
+    "arcsin": "asin",
+    "arccos": "acos",
+    "absolute": "Abs",
+}
+
+
+def _expr(value: Any) -> Any:
+    import sympy as sp
+
+    if isinstance(value, Traced):
+        return value.e
+    if isinstance(value, bool | np.bool_):
+        raise Untraceable(f"a boolean ({value!r}) enters the arithmetic")
+    if isinstance(value, int | np.integer):
+        return sp.Integer(int(value))
+    if isinstance(value, float | np.floating):
+        v = float(value)
+        return sp.Integer(int(v)) if np.isfinite(v) and v == int(v) else sp.Float(v)
+    raise Untraceable(f"an operand of type {type(value).__name__} ({value!r})")
+
+
+class Traced:
+    """A sympy expression standing for a value of ``updfcn``: arithmetic and numpy's ufuncs on
+    object arrays build the expression; comparisons and conversions to numbers raise
+    :class:`Untraceable` (the control flow would depend on the state)."""
+
+    __slots__ = ("e",)
+    __array_priority__ = 1000
+
+    def __init__(self, e: Any) -> None:
+        self.e = e
+
+    def __add__(self, o: Any) -> Traced:
+        return Traced(self.e + _expr(o))
+
+    def __radd__(self, o: Any) -> Traced:
+        return Traced(_expr(o) + self.e)
+
+    def __sub__(self, o: Any) -> Traced:
+        return Traced(self.e - _expr(o))
+
+    def __rsub__(self, o: Any) -> Traced:
+        return Traced(_expr(o) - self.e)
+
+    def __mul__(self, o: Any) -> Traced:
+        return Traced(self.e * _expr(o))
+
+    def __rmul__(self, o: Any) -> Traced:
+        return Traced(_expr(o) * self.e)
+
+    def __truediv__(self, o: Any) -> Traced:
+        return Traced(self.e / _expr(o))
+
+    def __rtruediv__(self, o: Any) -> Traced:
+        return Traced(_expr(o) / self.e)
+
+    def __pow__(self, o: Any) -> Traced:
+        return Traced(self.e ** _expr(o))
+
+    def __rpow__(self, o: Any) -> Traced:
+        return Traced(_expr(o) ** self.e)
+
+    def __neg__(self) -> Traced:
+        return Traced(-self.e)
+
+    def __pos__(self) -> Traced:
+        return self
+
+    def __abs__(self) -> Traced:
+        import sympy as sp
+
+        return Traced(sp.Abs(self.e))
+
+    def __getattr__(self, name: str) -> Any:
+        if name in _UFUNCS:
+            import sympy as sp
+
+            fn = getattr(sp, _UFUNCS[name])
+            return lambda: Traced(fn(self.e))
+        raise AttributeError(name)  # numpy then names the ufunc it could not apply
+
+    def _refuse(self, *_: Any) -> Any:
+        raise Untraceable(
+            "a comparison or a conversion to a number (if/np.where/np.clip/float()/math.*/"
+            "assignment into a float array) depends on the state"
+        )
+
+    __lt__ = __le__ = __gt__ = __ge__ = _refuse
+    __float__ = __int__ = __bool__ = __index__ = __complex__ = _refuse
+
+    def __eq__(self, other: object) -> bool:
+        return bool(self._refuse())
+
+    __hash__ = None  # type: ignore[assignment]
+
+
+def _labels(labels: Sequence[str]) -> tuple[str, ...]:
+    """python-control's labels as identifiers (``x[0]`` -> ``x0``), unique, else ``x0, x1, ...``."""
+    names = tuple(re.sub(r"\W", "", str(s)) for s in labels)
+    ok = all(s.isidentifier() for s in names) and len(set(names)) == len(names)
+    return names if ok else tuple(f"x{i}" for i in range(len(labels)))
+
+
+def _trace(sys: Any, params: Mapping[str, Any], x_eq: Sequence[float], u_eq: Sequence[float],
+           gain: Sequence[Sequence[float]], names: Sequence[str]) -> list[Any]:  # fmt: skip
+    """The closed loop's right-hand side as sympy expressions of the state symbols ``names``."""
+    import sympy as sp
+
+    syms = [sp.Symbol(s) for s in names]
+    x = np.array([Traced(s) for s in syms], dtype=object)
+    loop = ClosedLoopField(_no_plant, tuple(map(tuple, gain)), tuple(x_eq), tuple(u_eq))
+    u = np.array(loop.inputs(list(x)), dtype=object)
+    u = np.array([v if isinstance(v, Traced) else Traced(_expr(v)) for v in u], dtype=object)
+    try:
+        out = sys.updfcn(0.0, x, u, dict(params))
+    except Untraceable:
+        raise
+    except Exception as exc:  # anything the updfcn raised on symbolic arguments
+        raise Untraceable(f"it raised {type(exc).__name__}: {exc}") from exc
+    values = list(np.asarray(out, dtype=object).reshape(-1))
+    if len(values) != len(names):
+        raise RoaInputError(
+            f"System.from_control: updfcn returned {len(values)} components for {len(names)} states"
+        )
+    return [_expr(v) if not isinstance(v, sp.Basic) else v for v in values]
+
+
+def _check_agreement(system: Any, sys: Any, params: Mapping[str, Any],
+                     inputs: Callable[[list[float]], list[Any]], origin: str) -> None:  # fmt: skip
+    """``system.f`` against ``sys.updfcn`` under the same feedback at sample points (numpy)."""
+    rng = np.random.default_rng(0)
+    X = system.x_eq + 0.5 * rng.standard_normal((AGREEMENT_POINTS, system.n))
+    for x in X:
+        u = np.array(inputs(list(x)), dtype=float)
+        with np.errstate(all="ignore"):
+            ref = np.asarray(sys.updfcn(0.0, x, u, dict(params)), dtype=float).reshape(-1)
+            got = system.f(x)
+        if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(got))):
+            continue
+        err = np.max(np.abs(got - ref) / (1.0 + np.abs(ref)))
+        if not err <= AGREEMENT_RTOL:
+            raise RoaInputError(
+                f"System.from_control: the {origin} differs from {sys.name}'s updfcn at "
+                f"x = {x.tolist()}, u = {u.tolist()}: {got.tolist()} vs {ref.tolist()} "
+                f"(relative {err:.2e} > {AGREEMENT_RTOL:g}); write the same equations"
+            )
+
+
+def from_control(
+    sys: Any,
+    K: Any = None,
+    *,
+    field: ControlField | None = None,
+    equilibrium: Sequence[float] | None = None,
+    u_eq: Sequence[float] | None = None,
+    params: Mapping[str, Any] | None = None,
+    name: str | None = None,
+    **kwargs: Any,
+) -> Any:
+    """The closed loop of a python-control model under ``u = u_eq - K (x - x_eq)``; see
+    :meth:`roa.System.from_control`."""
+    try:
+        import control
+    except ImportError:
+        raise RoaInputError(
+            "System.from_control needs python-control: pip install 'roa[control]'"
+        ) from None
+    if not isinstance(sys, control.NonlinearIOSystem):
+        raise RoaInputError(
+            f"System.from_control: sys must be a control.NonlinearIOSystem or StateSpace, got "
+            f"{type(sys).__name__}"
+        )
+    if not sys.isctime():
+        raise RoaInputError(
+            f"System.from_control: {sys.name} is discrete-time (dt={sys.dt}); roa analyses "
+            "continuous-time systems (dt=0)"
+        )
+    n, m = sys.nstates, sys.ninputs
+    names = _labels(sys.state_labels)
+    x_eq = _vector(equilibrium, n, "equilibrium")
+    u0 = _vector(u_eq, m, "u_eq")
+    if K is None:
+        K = np.zeros((m, n))
+    gain = _matrix(K, (m, n), "K")
+    label = name or sys.name
+    loop = ClosedLoopField(_no_plant, gain, x_eq, u0)
+    all_params = {**(sys.params or {}), **(params or {})}
+    if field is not None:
+        system = closed_loop(field, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
+        if not isinstance(sys, control.StateSpace):
+            _check_agreement(system, sys, all_params, loop.inputs, "field=")
+        return system
+    if isinstance(sys, control.StateSpace):
+        plant = AffinePlant(_matrix(sys.A, (n, n), "sys.A"), _matrix(sys.B, (n, m), "sys.B"))
+        return closed_loop(plant, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
+    from roa.system import System
+
+    try:
+        exprs = _trace(sys, all_params, x_eq, u0, gain, names)
+        system = System.from_sympy(exprs, names, equilibrium=x_eq, name=label, **kwargs)
+    except RoaInputError as exc:  # Untraceable, or a function from_sympy cannot evaluate
+        raise RoaInputError(
+            f"System.from_control: {sys.name}'s updfcn cannot be traced into an expression roa "
+            f"can evaluate with intervals, CasADi and sympy ({exc}). A numpy updfcn runs on "
+            "numpy only; pass the same equations as field=lambda t, x, u, xp: (...) written "
+            "with arithmetic and xp.sin, xp.cos, xp.sqrt, ... (roa checks it against the "
+            "updfcn)"
+        ) from None
+    _check_agreement(system, sys, all_params, loop.inputs, "traced field")
+    return system
+
+
+def _no_plant(t: Any, x: Any, u: Any, xp: Any) -> tuple[Any, ...]:
+    return ()
+
+
+@dataclass(frozen=True)
+class AffinePlant:
+    """``x' = A x + B u`` of a ``control.StateSpace`` as a plant ``field(t, x, u, xp)``
+    (zero entries skipped; picklable)."""
+
+    A: tuple[tuple[float, ...], ...]
+    B: tuple[tuple[float, ...], ...]
+
+    def __call__(self, t: Any, x: Any, u: Any, xp: Any) -> tuple[Any, ...]:
+        return tuple(_dot(a, x) + _dot(b, u) for a, b in zip(self.A, self.B, strict=True))
+
+
+def _dot(row: Sequence[float], v: Sequence[Any]) -> Any:
+    out: Any = 0.0
+    for a, vi in zip(row, v, strict=True):
+        if a != 0.0:
+            out = out + a * vi
+    return out

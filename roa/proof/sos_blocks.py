@@ -93,7 +93,8 @@ def check_partition(parts: Any, n: int) -> list[Block]:
 
 def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     """Re-check a stored exact SOS certificate without any solver: one certificate
-    (:func:`roa.proof.sos_check.recheck_stored`) or, when it has ``blocks``, one per block.
+    (:func:`roa.proof.sos_check.recheck_stored`), a sparse one (``sum``: sums of Gram blocks,
+    :func:`roa.proof.sos_sum.recheck_sum`) or, when it has ``blocks``, one per block.
 
     A block certificate is ``{"variables": [...], "eps": "p/q", "basis0", "Q0", "basis1", "Q1"}``
     in the block's variables. ``certified`` only if the stored blocks partition the variables, no
@@ -114,6 +115,10 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     from roa.status import Verdict
 
     cert = meta.get("certificate")
+    if isinstance(cert, dict) and "sum" in cert:  # a sparse certificate (sums of Gram blocks)
+        from roa.proof.sos_sum import recheck_sum
+
+        return recheck_sum(system, V, level, meta)
     if not (isinstance(cert, dict) and "blocks" in cert):
         return recheck_stored(system, V, level, meta)
     t0 = time.perf_counter()

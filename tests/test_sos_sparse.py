@@ -214,3 +214,30 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
     for forged in (negated, shifted, raised, malformed):
         v = Certificate.from_dict(forged, system).reverify()
         assert v.status is roa.Verdict.INCONCLUSIVE, v.message
+
+
+def test_decoupled_rings_get_one_sparse_certificate_per_block(ring):
+    """Two decoupled copies of the ring (12 states): V and V' split into the two copies
+    (:mod:`roa.proof.sos_blocks`), each proved by its own sparse certificate at the same level
+    (the optimum is one copy's: the other copy at 0 gives the witness); the file is re-checked
+    block by block and a copy's clique block negated is refused (one entry changed is not enough:
+    the re-check projects the stored blocks again, which may well restore a valid certificate)."""
+    _, _, opt = ring
+
+    def field(t, x, xp):
+        return tuple(_field(list(x[:N]))) + tuple(_field(list(x[N:])))
+
+    system = roa.System("ring-6-x2", field, (0.0,) * (2 * N),
+                        tuple(f"x{i}" for i in range(2 * N)), lyapunov=np.eye(2 * N))  # fmt: skip
+    cert = roa.certify(system, level=0.99 * opt, validator=roa.SosValidator(route="sparse"))
+    assert cert.certified, cert.message
+    stored = cert.validation.meta["certificate"]["blocks"]
+    assert [b["variables"] for b in stored] == [list(range(N)), list(range(N, 2 * N))]
+    assert all("sum" in b for b in stored)
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    assert Certificate.from_dict(data, system).reverify().certified
+    bad = json.loads(json.dumps(data))
+    block = bad["certificate"]["blocks"][1]["sum"]["sigma"][0]
+    block["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in block["Q"]]
+    again = Certificate.from_dict(bad, system).reverify()
+    assert again.status is roa.Verdict.INCONCLUSIVE and "block [6," in again.message

@@ -166,6 +166,7 @@ class SosValidator:
         from roa.proof.sos_blocks import blocks, restrict
         from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
+        from roa.search.sos_sparse import choose_route
 
         t0 = time.perf_counter()
 
@@ -194,8 +195,6 @@ class SosValidator:
             parts = blocks(data)
             whole = len(parts) == 1
             if whole:
-                from roa.search.sos_sparse import choose_route
-
                 route, plan, why = choose_route(data, self.multiplier_degree, self.route)
                 if route == "sparse":
                     return self._check_sparse(data, level, plan, why, out)
@@ -207,9 +206,30 @@ class SosValidator:
             margins: list[float | None] = []
             sizes: list[int] = []
             sdp_seconds = 0.0
+            figures: dict[str, Any] = {}
             for block in parts:
                 sub = data if whole else restrict(data, block)
                 eps = default_eps(sub, self.eps)
+                route_b, plan_b, why_b = ("dense", None, "") if whole else choose_route(
+                    sub, self.multiplier_degree, self.route)  # fmt: skip
+                if route_b == "sparse" and plan_b is not None:
+                    cand_s, res_s, fig = self._sparse(sub, level, plan_b, why_b)
+                    sdp_seconds += cand_s.seconds
+                    statuses.append(cand_s.solver_status)
+                    margins.append(cand_s.margin)
+                    sizes.append(plan_b.largest)
+                    figures = {"solver_status": statuses, "margin": margins,
+                               "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
+                    if res_s is None or not res_s.ok:
+                        why_not = (f"solver failed ({cand_s.solver_status})" if res_s is None
+                                   else f"check failed: {res_s.reason}")  # fmt: skip
+                        return out(Verdict.INCONCLUSIVE, f"sparse SOS {why_not} (block "
+                                   f"{list(block)})", **figures)  # fmt: skip
+                    certs.append({"variables": list(block), "sum": fig.pop("certificate"),
+                                  "residual": res_s.residual, "min_pivot": res_s.min_pivot,
+                                  **res_s.meta})  # fmt: skip
+                    res = res_s
+                    continue
                 cand = propose_certificate(sub, level, eps=eps,
                                            multiplier_degree=self.multiplier_degree,
                                            solver_options=self.solver_options)  # fmt: skip
@@ -217,7 +237,7 @@ class SosValidator:
                 margins.append(cand.margin)
                 sizes.append(len(cand.basis0))
                 sdp_seconds += cand.seconds
-                figures: dict[str, Any] = {
+                figures = {
                     "solver_status": statuses[0] if whole else statuses,
                     "margin": margins[0] if whole else margins,
                     "sdp_seconds": round(sdp_seconds, 3),
@@ -255,11 +275,11 @@ class SosValidator:
                        certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
                        **figures)  # fmt: skip
 
-    def _check_sparse(self, data: Any, level: float, plan: Any, why: str,
-                      out: Any) -> Validation:  # fmt: skip
+    def _sparse(self, data: Any, level: float, plan: Any, why: str) -> tuple[Any, Any, dict]:
         """The correlative-sparsity certificate (:mod:`roa.search.sos_sparse` proposes,
-        :func:`roa.proof.sos_sum.check_sum` proves) of a coupled system whose dense program does
-        not fit the memory budget (``why``)."""
+        :func:`roa.proof.sos_sum.check_sum` proves) of coupled data whose dense program does not
+        fit the memory budget (``why``): ``(candidate, check or None, figures)``, the figures
+        holding the stored ``certificate`` when the check passed."""
         import resource
 
         from roa.proof.sos_sum import check_sum, to_json
@@ -273,19 +293,29 @@ class SosValidator:
             "margin": cand.margin, "sdp_seconds": round(cand.seconds, 3), **cand.figures,
             "blocks": plan.sizes, "gram_sizes": [len(b) for b in plan.sigma]}  # fmt: skip
         if cand.sigma is None or cand.lam is None:
-            return out(Verdict.INCONCLUSIVE, f"sparse SOS solver failed ({cand.solver_status})",
-                       **figures)  # fmt: skip
+            return cand, None, figures
         t0 = time.perf_counter()
         res = check_sum(data, level, eps, list(zip(plan.sigma, cand.sigma, strict=True)),
                         list(zip(plan.lam, cand.lam, strict=True)))  # fmt: skip
         figures.update(check_seconds=round(time.perf_counter() - t0, 3), residual=res.residual,
                        min_pivot=res.min_pivot,
                        peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024))  # fmt: skip
-        if not res.ok or res.sigma is None or res.lam is None:
+        if res.ok and res.sigma is not None and res.lam is not None:
+            figures["certificate"] = to_json(list(zip(plan.sigma, res.sigma, strict=True)),
+                                             list(zip(plan.lam, res.lam, strict=True)),
+                                             cliques=[list(c) for c in plan.cliques])  # fmt: skip
+        return cand, res, figures
+
+    def _check_sparse(self, data: Any, level: float, plan: Any, why: str,
+                      out: Any) -> Validation:  # fmt: skip
+        """The sparse certificate of the whole (:meth:`_sparse`) as a validation."""
+        cand, res, figures = self._sparse(data, level, plan, why)
+        if res is None:
+            return out(Verdict.INCONCLUSIVE, f"sparse SOS solver failed ({cand.solver_status})",
+                       **figures)  # fmt: skip
+        if not res.ok:
             return out(Verdict.INCONCLUSIVE, f"sparse SOS check failed: {res.reason}", **figures)
-        cert = {"sum": to_json(list(zip(plan.sigma, res.sigma, strict=True)),
-                               list(zip(plan.lam, res.lam, strict=True)),
-                               cliques=[list(c) for c in plan.cliques])}  # fmt: skip
+        cert = {"sum": figures.pop("certificate")}
         return out(Verdict.CERTIFIED, f"sparse SOS certificate ({len(plan.cliques)} cliques of "
                    f"sizes <= {max(map(len, plan.cliques))}) checked exactly: {res.reason}",
                    certificate=cert, M=np.eye(data.n).tolist(), **figures, **res.meta)  # fmt: skip

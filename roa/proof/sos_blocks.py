@@ -97,8 +97,9 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     :func:`roa.proof.sos_sum.recheck_sum`) or, when it has ``blocks``, one per block.
 
     A block certificate is ``{"variables": [...], "eps": "p/q", "basis0", "Q0", "basis1", "Q1"}``
-    in the block's variables. ``certified`` only if the stored blocks partition the variables, no
-    monomial of ``V`` or ``V'`` couples two of them (:func:`restrict`), and every block's identity
+    in the block's variables, or ``{"variables", "eps", "sum"}`` for a sparse one
+    (:func:`roa.proof.sos_sum.check_sum`). ``certified`` only if the stored blocks partition the
+    variables, no monomial of ``V`` or ``V'`` couples two of them (:func:`restrict`), and every block's identity
     and Gram matrices pass :func:`roa.proof.sos_check.check_certificate` exactly."""
     import time
     from fractions import Fraction
@@ -137,6 +138,18 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
                                  for b in stored or []], data.n)  # fmt: skip
         for block, raw in zip(parts, stored or [], strict=True):
             sub = restrict(data, block)
+            if "sum" in raw:  # a sparse certificate of this block (sums of Gram blocks)
+                from roa.proof.sos_sum import check_sum, parse
+
+                raw_eps = str(raw.get("eps"))
+                if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
+                    raise ValueError("eps must be a rational like '1/1048576'")
+                sigma, lam = parse(raw["sum"], len(block))
+                rs = check_sum(sub, level, Fraction(raw_eps), sigma, lam, rounded=True)
+                if not rs.ok:
+                    return out(Verdict.INCONCLUSIVE, f"stored SOS certificate of block "
+                               f"{list(block)} refused: {rs.reason}")  # fmt: skip
+                continue
             b0 = parse_basis(raw.get("basis0"), len(block), "basis0")
             b1 = parse_basis(raw.get("basis1") or [], len(block), "basis1")
             Q0 = parse_matrix(raw.get("Q0"), len(b0), "Q0")

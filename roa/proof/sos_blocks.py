@@ -13,8 +13,9 @@ one ``I_j``, and neither has a constant term. Then ``V = sum_j V_j(d_j)`` and
 The blocks are the connected components of the graph on the variables that joins two variables
 when they occur in one monomial of ``V`` or ``V'`` (:func:`scipy.sparse.csgraph.connected_components`).
 Coupled systems have one block, and nothing changes; decoupled copies of a system have one per copy,
-so their Gram matrices are as small as one copy's. (Chordal cliques of a connected but sparse graph,
-as CS-TSSOS, are not used here.)
+so their Gram matrices are as small as one copy's. A connected but sparse graph is handled by
+the chordal cliques of :mod:`roa.search.sos_sparse` (checked by :mod:`roa.proof.sos_sum`), for the
+whole or for a block.
 """
 
 from __future__ import annotations

@@ -2,8 +2,8 @@
 
 The program of :mod:`roa.search.sos_certificate` (``-V' - eps|d|^2k - lambda (c - V) = sigma``,
 ``lambda``, ``sigma`` SOS) with one Gram matrix over all monomials of degree ``k..D`` in ``n``
-variables needs ``O(n^2D)`` entries: at 20-30 states and degree 4, more memory than an
-interior-point solver has. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
+variables needs ``O(n^2D)`` entries: at 20-30 states and degree 4, far more solver memory than
+the budget :data:`roa.search.polysdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
 Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials instead:
 
 * the **interaction graph** joins two variables when they occur in one monomial of ``V'`` or
@@ -13,12 +13,15 @@ Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials inste
   and ``lambda = sum_j lambda_j`` one block per clique over the monomials of degree ``1..L``;
 * ``lambda_j V`` has monomials across cliques: for ``V = sum_q p_q d_q^2`` (diagonal, the only V
   this route takes) they are ``m m' d_q^2`` with ``m, m'`` in ``lambda_j``'s basis, and ``sigma``
-  gets one more block per clique ``j`` and variable ``q`` outside it over ``{m d_q}`` (its natural
-  value is ``p_q`` times ``lambda_j``'s Gram matrix, so the blocks cost no feasibility that the
-  cross terms need).
+  gets one more block per clique ``j`` and variable ``q`` outside it over ``{m d_q}`` (``p_q``
+  times ``lambda_j``'s Gram matrix is a feasible value: ``lambda_j p_q d_q^2`` is exactly such a
+  Gram form).
 
 Every block is an ordinary Gram form, so :func:`roa.proof.sos_sum.check_sum` proves the result
-exactly whatever the structure. Each block is kept ``>= t I`` with the common margin ``t``
+exactly whatever the structure. The program is a restriction of the dense one (a sum of these
+blocks is one Gram matrix with zeros elsewhere): whatever it certifies the dense program could,
+not conversely; it loses most where ``V' >= 0`` is first reached with many variables at once,
+since each clique's blocks see only the part of ``V`` they hold. Each block is kept ``>= t I`` with the common margin ``t``
 maximised (``t <= 1``), as in the dense program.
 
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the

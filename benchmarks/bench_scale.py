@@ -31,7 +31,11 @@ Systems (all polynomial; ``V = (x - x_eq)' P (x - x_eq)``):
   ``y = Q x`` (Q a seeded random orthogonal matrix): every variable coupled, V = |y|^2, level 3;
 * ``lyznet-10d`` (10): LyZNet HSCC'24 example 4 (``examples/systems/lyznet_10d.py``), P from
   A'P + PA = -I;
-* ``lyznet-10d-x2``, ``lyznet-10d-x3`` (20, 30): two and three decoupled copies of it.
+* ``lyznet-10d-x2``, ``lyznet-10d-x3`` (20, 30): two and three decoupled copies of it;
+* ``ring-20``, ``ring-30`` (20, 30): ``examples/systems/ring.py``, ``x_i' = -x_i + x_{i+1} / 2 +
+  x_i^3`` on a ring, V = |x|^2: every variable coupled to its neighbours (no independent blocks),
+  a dense program too large for the memory budget, certified by the sparse (chordal clique)
+  route; no closed form (SLSQP only; ``x = e_1`` has V' = 0 at V = 1, an upper bound).
 """
 
 from __future__ import annotations
@@ -52,7 +56,7 @@ from scipy import optimize
 ROOT = Path(__file__).resolve().parents[1]
 QUICK = ("vanderpol", "poly3d", "poly3d-rot-2")
 LADDER = ("vanderpol", "poly3d", "poly3d-rot-2", "lyznet-10d", "poly3d-rot-4", "lyznet-10d-x2",
-          "lyznet-10d-x3")  # fmt: skip
+          "lyznet-10d-x3", "ring-20", "ring-30")  # fmt: skip
 #: Known optima of V (closed forms or published), beside the SLSQP value.
 KNOWN = {"vanderpol": 2.3045, "poly3d": 3.0, "poly3d-rot-2": 3.0, "poly3d-rot-4": 3.0,
          "lyznet-10d": 2025 / 8, "lyznet-10d-x2": 2025 / 8, "lyznet-10d-x3": 2025 / 8}  # fmt: skip
@@ -72,6 +76,11 @@ def lyznet(x: Sequence[Any]) -> list[Any]:
     return [-x1 + 0.5 * x2 - 0.1 * x9**2, -0.5 * x1 - x2, -x3 + 0.5 * x4 - 0.1 * x1**2,
             -0.5 * x3 - x4, -x5 + 0.5 * x6 + 0.1 * x7**2, -0.5 * x5 - x6, -x7 + 0.5 * x8,
             -0.5 * x7 - x8, -x9 + 0.5 * x10, -0.5 * x9 - x10 + 0.1 * x2**2]  # fmt: skip
+
+
+def ring(x: Sequence[Any]) -> list[Any]:
+    n = len(x)
+    return [-x[i] + 0.5 * x[(i + 1) % n] + x[i] ** 3 for i in range(n)]
 
 
 def copies(block: Callable, size: int, k: int) -> Callable:
@@ -115,6 +124,9 @@ def case(name: str) -> tuple[Any, Callable, np.ndarray]:
         attr = {1: "SYSTEM", 2: "SYSTEM_20", 3: "SYSTEM_30"}[k]
         system = roa.load_system(f"{ROOT / 'examples/systems/lyznet_10d.py'}:{attr}")
         return system, copies(lyznet, 10, k), np.asarray(roa.default_lyapunov(system).P)
+    if name in ("ring-20", "ring-30"):
+        system = roa.load_system(f"{ROOT / 'examples/systems/ring.py'}:SYSTEM_{name[-2:]}")
+        return system, ring, np.eye(len(system.x_eq))
     raise SystemExit(f"unknown system {name!r}; known: {', '.join(LADDER)}")
 
 
@@ -203,14 +215,17 @@ def measure(name: str, *, bnb: bool = True) -> dict[str, Any]:
     row["peak_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     row["status"] = cert.status.value
     row["level"] = cert.level
+    meta = cert.validation.meta if cert.validation is not None else {}
     row["route"] = f"{cert.level_source} -> {cert.method}"
+    if meta.get("route") == "sparse":
+        cl = meta["blocks"]["cliques"]
+        row["route"] += f", sparse: {len(cl)} cliques <= {max(cl)}"
     row["sos_level"] = None if cert.sos is None else cert.sos.level
     row["sos_message"] = "" if cert.sos is None or cert.sos.level else cert.sos.message[:90]
     row["sos_seconds"] = None if cert.sos is None else cert.sos.seconds
     row["search_seconds"] = None if cert.search is None else cert.search.seconds
     checks = [s for s in cert.trace if str(s.get("stage", "")).startswith("validate")]
     row["check_seconds"] = sum(float(s.get("seconds", 0.0)) for s in checks)
-    meta = cert.validation.meta if cert.validation is not None else {}
     row["gram_sizes"] = meta.get("gram_sizes")
     row["message"] = cert.message[:160]
     if bnb and n <= 6 and cert.level is not None:

@@ -17,6 +17,7 @@ Proposers and sources prove nothing; only a validator's verdict reaches ``certif
 from __future__ import annotations
 
 import dataclasses
+import time
 from dataclasses import dataclass, field
 from typing import Any, Protocol, runtime_checkable
 
@@ -103,7 +104,12 @@ class SosValidator:
 
     When ``V`` and ``V'`` of a polynomial field split over independent blocks of variables
     (:mod:`roa.proof.sos_blocks`: decoupled subsystems), each block gets its own certificate at the
-    same level, which proves the whole.
+    same level, which proves the whole. A coupled system whose dense program does not fit the
+    memory budget (``route="auto"``; ``"sparse"`` forces it) gets the correlative-sparsity
+    program instead (:mod:`roa.search.sos_sparse`: one Gram block per maximal clique of a chordal
+    extension of the variables' interaction graph), proved by the same exact identity over the sum
+    of its blocks (:mod:`roa.proof.sos_sum`); its ``meta`` reports the cliques' and blocks' sizes,
+    the solver's and the check's seconds and the process's peak memory (``peak_mib``).
 
     Examples
     --------
@@ -120,6 +126,13 @@ class SosValidator:
     fallback: bool = True  # a field that cannot be recast goes to the branch and bound
     taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
     refutes: bool = False  # the pipeline refutes above with the branch and bound
+    route: str = "auto"  # "dense", "sparse" (chordal cliques) or "auto" (by the memory budget)
+
+    def __post_init__(self) -> None:
+        from roa.search.sos_sparse import ROUTES
+
+        if self.route not in ROUTES:
+            raise RoaInputError(f"SosValidator route must be one of {ROUTES}, got {self.route!r}")
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:
@@ -150,11 +163,10 @@ class SosValidator:
             return str(exc)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
-        import time
-
         from roa.proof.sos_blocks import blocks, restrict
         from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
+        from roa.search.sos_sparse import choose_route
 
         t0 = time.perf_counter()
 
@@ -182,14 +194,42 @@ class SosValidator:
                 return out(Verdict.INCONCLUSIVE, why)
             parts = blocks(data)
             whole = len(parts) == 1
+            if whole:
+                route, plan, why = choose_route(data, self.multiplier_degree, self.route)
+                if route == "sparse":
+                    return self._check_sparse(data, level, plan, why, out)
+                if route == "too_large":
+                    return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built: {why}",
+                               route=route)  # fmt: skip
             certs: list[dict[str, Any]] = []
             statuses: list[str] = []
             margins: list[float | None] = []
             sizes: list[int] = []
             sdp_seconds = 0.0
+            figures: dict[str, Any] = {}
             for block in parts:
                 sub = data if whole else restrict(data, block)
                 eps = default_eps(sub, self.eps)
+                route_b, plan_b, why_b = ("dense", None, "") if whole else choose_route(
+                    sub, self.multiplier_degree, self.route)  # fmt: skip
+                if route_b == "sparse" and plan_b is not None:
+                    cand_s, res_s, fig = self._sparse(sub, level, plan_b, why_b)
+                    sdp_seconds += cand_s.seconds
+                    statuses.append(cand_s.solver_status)
+                    margins.append(cand_s.margin)
+                    sizes.append(plan_b.largest)
+                    figures = {"solver_status": statuses, "margin": margins,
+                               "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
+                    if res_s is None or not res_s.ok:
+                        why_not = (f"solver failed ({cand_s.solver_status})" if res_s is None
+                                   else f"check failed: {res_s.reason}")  # fmt: skip
+                        return out(Verdict.INCONCLUSIVE, f"sparse SOS {why_not} (block "
+                                   f"{list(block)})", **figures)  # fmt: skip
+                    certs.append({"variables": list(block), "sum": fig.pop("certificate"),
+                                  "residual": res_s.residual, "min_pivot": res_s.min_pivot,
+                                  **res_s.meta})  # fmt: skip
+                    res = res_s
+                    continue
                 cand = propose_certificate(sub, level, eps=eps,
                                            multiplier_degree=self.multiplier_degree,
                                            solver_options=self.solver_options)  # fmt: skip
@@ -197,7 +237,7 @@ class SosValidator:
                 margins.append(cand.margin)
                 sizes.append(len(cand.basis0))
                 sdp_seconds += cand.seconds
-                figures: dict[str, Any] = {
+                figures = {
                     "solver_status": statuses[0] if whole else statuses,
                     "margin": margins[0] if whole else margins,
                     "sdp_seconds": round(sdp_seconds, 3),
@@ -234,6 +274,51 @@ class SosValidator:
             return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
                        certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
                        **figures)  # fmt: skip
+
+    def _sparse(self, data: Any, level: float, plan: Any, why: str) -> tuple[Any, Any, dict]:
+        """The correlative-sparsity certificate (:mod:`roa.search.sos_sparse` proposes,
+        :func:`roa.proof.sos_sum.check_sum` proves) of coupled data whose dense program does not
+        fit the memory budget (``why``): ``(candidate, check or None, figures)``, the figures
+        holding the stored ``certificate`` when the check passed."""
+        import resource
+
+        from roa.proof.sos_sum import check_sum, to_json
+        from roa.search.sos_certificate import default_eps
+        from roa.search.sos_sparse import propose_sparse
+
+        eps = default_eps(data, self.eps)
+        cand = propose_sparse(data, level, plan, eps=eps, solver_options=self.solver_options)
+        figures: dict[str, Any] = {
+            "route": "sparse", "why_sparse": why, "solver_status": cand.solver_status,
+            "margin": cand.margin, "sdp_seconds": round(cand.seconds, 3), **cand.figures,
+            "blocks": plan.sizes, "gram_sizes": [len(b) for b in plan.sigma]}  # fmt: skip
+        if cand.sigma is None or cand.lam is None:
+            return cand, None, figures
+        t0 = time.perf_counter()
+        res = check_sum(data, level, eps, list(zip(plan.sigma, cand.sigma, strict=True)),
+                        list(zip(plan.lam, cand.lam, strict=True)))  # fmt: skip
+        figures.update(check_seconds=round(time.perf_counter() - t0, 3), residual=res.residual,
+                       min_pivot=res.min_pivot,
+                       peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024))  # fmt: skip
+        if res.ok and res.sigma is not None and res.lam is not None:
+            figures["certificate"] = to_json(list(zip(plan.sigma, res.sigma, strict=True)),
+                                             list(zip(plan.lam, res.lam, strict=True)),
+                                             cliques=[list(c) for c in plan.cliques])  # fmt: skip
+        return cand, res, figures
+
+    def _check_sparse(self, data: Any, level: float, plan: Any, why: str,
+                      out: Any) -> Validation:  # fmt: skip
+        """The sparse certificate of the whole (:meth:`_sparse`) as a validation."""
+        cand, res, figures = self._sparse(data, level, plan, why)
+        if res is None:
+            return out(Verdict.INCONCLUSIVE, f"sparse SOS solver failed ({cand.solver_status})",
+                       **figures)  # fmt: skip
+        if not res.ok:
+            return out(Verdict.INCONCLUSIVE, f"sparse SOS check failed: {res.reason}", **figures)
+        cert = {"sum": figures.pop("certificate")}
+        return out(Verdict.CERTIFIED, f"sparse SOS certificate ({len(plan.cliques)} cliques of "
+                   f"sizes <= {max(map(len, plan.cliques))}) checked exactly: {res.reason}",
+                   certificate=cert, M=np.eye(data.n).tolist(), **figures, **res.meta)  # fmt: skip
 
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
         """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
@@ -433,8 +518,10 @@ class SosLevel:
 def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     """The SOS level of a polynomial system whose V and V' split over independent blocks of
     variables (:func:`roa.search.sos_bisection.block_levels`: bisection per distinct block, the
-    least level), as an ``SOSResult``; None when the data are not polynomial or do not split
-    (then the one program of :func:`roa.search.sos.sos_level` is used)."""
+    least level), or of a coupled one whose dense program does not fit the memory budget but
+    whose sparse program does (:func:`roa.search.sos_sparse.choose_route`: bisection with the
+    chordal clique program), as an ``SOSResult``; None when the data are not polynomial or
+    neither applies (then the one program of :func:`roa.search.sos.sos_level` is used)."""
     from roa.proof.sos_blocks import blocks
     from roa.proof.sos_check import NotPolynomial, exact_data
     from roa.search.sos import SOSResult
@@ -447,11 +534,27 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     except NotPolynomial:
         return None
     parts = blocks(data)
+    sparse, plan = False, None
     if len(parts) < 2:
-        return None
-    with step(f"SOS level by bisection over {len(parts)} independent blocks of variables"):
+        from roa.search.sos_sparse import choose_route
+
+        route, plan, _ = choose_route(data)
+        if route != "sparse":
+            return None
+        sparse = True
+    what = ("the sparse (chordal clique) program" if sparse
+            else f"{len(parts)} independent blocks of variables")  # fmt: skip
+    with step(f"SOS level by bisection with {what}"):
         bl = block_levels(data, solver_options=o.solver_options())
     sizes = {**bl.sizes, "programs": bl.programs}
+    if sparse:
+        assert plan is not None
+        sizes["sparse"] = plan.sizes
+        res = SOSResult(SosStatus.SOLVED if bl.level is not None else SosStatus.FAILED, bl.level,
+                        "bisection", bl.seconds, "none (polynomial)", sizes,
+                        f"SOS bisection with {what}: {bl.message}" if bl.level is None
+                        else f"largest level of {what} (bisection)")  # fmt: skip
+        return res
     if bl.level is None:
         return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds, "none (polynomial)",
                          sizes, f"SOS bisection over independent blocks: {bl.message}")  # fmt: skip

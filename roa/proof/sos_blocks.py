@@ -13,8 +13,9 @@ one ``I_j``, and neither has a constant term. Then ``V = sum_j V_j(d_j)`` and
 The blocks are the connected components of the graph on the variables that joins two variables
 when they occur in one monomial of ``V`` or ``V'`` (:func:`scipy.sparse.csgraph.connected_components`).
 Coupled systems have one block, and nothing changes; decoupled copies of a system have one per copy,
-so their Gram matrices are as small as one copy's. (Chordal cliques of a connected but sparse graph,
-as CS-TSSOS, are not used here.)
+so their Gram matrices are as small as one copy's. A connected but sparse graph is handled by
+the chordal cliques of :mod:`roa.search.sos_sparse` (checked by :mod:`roa.proof.sos_sum`), for the
+whole or for a block.
 """
 
 from __future__ import annotations
@@ -93,11 +94,13 @@ def check_partition(parts: Any, n: int) -> list[Block]:
 
 def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     """Re-check a stored exact SOS certificate without any solver: one certificate
-    (:func:`roa.proof.sos_check.recheck_stored`) or, when it has ``blocks``, one per block.
+    (:func:`roa.proof.sos_check.recheck_stored`), a sparse one (``sum``: sums of Gram blocks,
+    :func:`roa.proof.sos_sum.recheck_sum`) or, when it has ``blocks``, one per block.
 
     A block certificate is ``{"variables": [...], "eps": "p/q", "basis0", "Q0", "basis1", "Q1"}``
-    in the block's variables. ``certified`` only if the stored blocks partition the variables, no
-    monomial of ``V`` or ``V'`` couples two of them (:func:`restrict`), and every block's identity
+    in the block's variables, or ``{"variables", "eps", "sum"}`` for a sparse one
+    (:func:`roa.proof.sos_sum.check_sum`). ``certified`` only if the stored blocks partition the
+    variables, no monomial of ``V`` or ``V'`` couples two of them (:func:`restrict`), and every block's identity
     and Gram matrices pass :func:`roa.proof.sos_check.check_certificate` exactly."""
     import time
     from fractions import Fraction
@@ -114,6 +117,10 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     from roa.status import Verdict
 
     cert = meta.get("certificate")
+    if isinstance(cert, dict) and "sum" in cert:  # a sparse certificate (sums of Gram blocks)
+        from roa.proof.sos_sum import recheck_sum
+
+        return recheck_sum(system, V, level, meta)
     if not (isinstance(cert, dict) and "blocks" in cert):
         return recheck_stored(system, V, level, meta)
     t0 = time.perf_counter()
@@ -132,6 +139,18 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
                                  for b in stored or []], data.n)  # fmt: skip
         for block, raw in zip(parts, stored or [], strict=True):
             sub = restrict(data, block)
+            if "sum" in raw:  # a sparse certificate of this block (sums of Gram blocks)
+                from roa.proof.sos_sum import check_sum, parse
+
+                raw_eps = str(raw.get("eps"))
+                if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
+                    raise ValueError("eps must be a rational like '1/1048576'")
+                sigma, lam = parse(raw["sum"], len(block))
+                rs = check_sum(sub, level, Fraction(raw_eps), sigma, lam, rounded=True)
+                if not rs.ok:
+                    return out(Verdict.INCONCLUSIVE, f"stored SOS certificate of block "
+                               f"{list(block)} refused: {rs.reason}")  # fmt: skip
+                continue
             b0 = parse_basis(raw.get("basis0"), len(block), "basis0")
             b1 = parse_basis(raw.get("basis1") or [], len(block), "basis1")
             Q0 = parse_matrix(raw.get("Q0"), len(b0), "Q0")

@@ -208,25 +208,40 @@ def project_gram(
     exact rationals) onto the affine space where ``m0' P m0 = target`` (module doc: each
     monomial's ``N_a`` entries move by ``(r_a - s_a) / N_a``), the largest coefficient moved,
     and ``P`` None with the reason when the identity cannot hold."""
-    pairs: dict[Mono, list[tuple[int, int]]] = {}
-    for (i, bi), (j, bj) in itertools.product(enumerate(basis0), enumerate(basis0)):
-        pairs.setdefault(mono_add(bi, bj), []).append((i, j))
+    Ps, residual, why = project_grams([(basis0, R0)], target)
+    return (None if Ps is None else Ps[0]), residual, why
+
+
+def project_grams(
+    blocks: list[tuple[list[Mono], list[list[Fraction]]]], target: QPoly
+) -> tuple[list[list[list[Fraction]]] | None, Fraction | None, str]:
+    """:func:`project_gram` for a sum of Gram forms ``sum_b m_b' P_b m_b = target``, projected
+    jointly (Frobenius norm over all blocks): every entry ``(b, i, j)`` yields one monomial
+    ``m_bi m_bj``, so the constraints of distinct monomials still touch disjoint entries and each
+    monomial's ``N_a`` entries, over all blocks, move by ``(r_a - s_a) / N_a``."""
+    pairs: dict[Mono, list[tuple[int, int, int]]] = {}
+    for b, (basis, _) in enumerate(blocks):
+        for (i, bi), (j, bj) in itertools.product(enumerate(basis), enumerate(basis)):
+            pairs.setdefault(mono_add(bi, bj), []).append((b, i, j))
     outside = [m for m in target if m not in pairs]
     if outside:
         return None, None, (f"the identity cannot hold: monomial {outside[0]} of the residual "
                             "is outside the Gram basis")  # fmt: skip
-    P = [row[:] for row in R0]
+    Ps = [[row[:] for row in R] for _, R in blocks]
     residual = Fraction(0)
     for m, idx in pairs.items():
-        diff = target.get(m, Fraction(0)) - sum((R0[i][j] for i, j in idx), Fraction(0))
+        diff = target.get(m, Fraction(0)) - sum((blocks[b][1][i][j] for b, i, j in idx),
+                                                Fraction(0))  # fmt: skip
         residual = max(residual, abs(diff))
         if diff:
             share = diff / len(idx)
-            for i, j in idx:
-                P[i][j] += share
-    if gram_poly(basis0, P) != target:  # the identity must now hold exactly
+            for b, i, j in idx:
+                Ps[b][i][j] += share
+    total = poly_lin(*((Fraction(1), gram_poly(basis, P))
+                       for (basis, _), P in zip(blocks, Ps, strict=True)))  # fmt: skip
+    if total != target:  # the identity must now hold exactly
         return None, residual, "the projection did not reproduce the identity exactly"
-    return P, residual, ""
+    return Ps, residual, ""
 
 
 def check_certificate(

@@ -48,15 +48,32 @@ def _feasible(data: ExactData, c: float, solver_options: dict[str, Any] | None) 
     return cand.Q0 is not None and cand.margin is not None and cand.margin > 0
 
 
+#: Relative tolerance of the bisection with the sparse program (each step a re-solve).
+SPARSE_REL_TOL = 1e-5
+
+
 def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
                  solver_options: dict[str, Any] | None = None) -> tuple[float | None, int]:  # fmt: skip
     """Largest numerically feasible level of one block (``inf``: unlimited; None: not even at
-    ``2^-MAX_DOUBLINGS``), and the number of programs solved."""
+    ``2^-MAX_DOUBLINGS``), and the number of programs solved. A block whose dense program does
+    not fit the memory budget is bisected with the sparse program
+    (:func:`roa.search.sos_sparse.choose_route`; compiled once, ``rel_tol`` at least
+    :data:`SPARSE_REL_TOL`)."""
+    from roa.search.sos_sparse import SparseProgram, choose_route
+
     count = 0
+    route, plan, _ = choose_route(data)
+    program = None
+    if route == "sparse" and plan is not None:
+        program = SparseProgram(data, plan, eps=default_eps(data), solver_options=solver_options)
+        rel_tol = max(rel_tol, SPARSE_REL_TOL)
 
     def ok(c: float) -> bool:
         nonlocal count
         count += 1
+        if program is not None:
+            cand = program.solve(c)
+            return cand.sigma is not None and cand.margin is not None and cand.margin > 0
         return _feasible(data, c, solver_options)
 
     lo, hi = 1.0, 1.0

@@ -298,7 +298,9 @@ def robust_basin(
     from roa.montecarlo.kernel_cache import compiled_system
 
     backend = "auto" if integrator is None else integrator.backend
-    system, _, _ = compiled_system(system, backend, terminal, int(getattr(sampler, "n", 0)) * len(samples))
+    system, _, _ = compiled_system(
+        system, backend, terminal, int(getattr(sampler, "n", 0)) * len(samples)
+    )
     runs = []
     for s in samples:
         sub = run if run.out_dir is None else replace(

@@ -147,7 +147,8 @@ system = roa.System(name="cached", field=lambda t, x, xp: (x[1], -xp.sin(x[0]) -
                     equilibrium=(0.0, 0.0), state_names=("a", "b"))
 res = integrate_batch(system, np.array([[1.0, 0.0], [2.5, 0.0]]), backend="numba")
 f = kc.generate(system)
-print(json.dumps({"digest": f.digest, "codes": res.code.tolist(), "x": res.x_end.tolist()}))
+print(json.dumps({"digest": f.digest, "codes": res.code.tolist(), "x": res.x_end.tolist(),
+                  "traced": "sympy" in sys.modules}))
 """
 
 
@@ -163,16 +164,20 @@ def _run(cache: Path, gain: float) -> tuple[dict, str]:
 
 @pytest.mark.slow
 def test_disk_cache_hit_miss_and_invalidation(tmp_path):
-    """A new process compiles (progress line), the next loads (no line, same text), a changed
-    field writes another module and compiles again."""
+    """A new process traces and compiles (progress line), the next finds the kernel by its
+    field's code and loads it (no sympy, no line, same text), a changed field writes another
+    module and compiles again."""
     first, err1 = _run(tmp_path, 0.5)
     assert "compiling the integrator" in err1 and "compiled in" in err1
+    assert first.pop("traced")
     files = sorted(p.name for p in tmp_path.glob("roa_kernel_*.py"))
     assert files == [f"roa_kernel_{first['digest'][:32]}.py"]
     assert list((tmp_path / "__pycache__").glob("roa_kernel_*.run-*.nbi"))  # numba's cache
     second, err2 = _run(tmp_path, 0.5)
+    assert not second.pop("traced")  # found in the index by the field's code
     assert second == first and "compiling" not in err2  # loaded from the cache
     changed, err3 = _run(tmp_path, 0.7)
+    assert changed.pop("traced")  # another gain: another code key, traced again
     assert changed["digest"] != first["digest"] and "compiling the integrator" in err3
     assert len(list(tmp_path.glob("roa_kernel_*.py"))) == 2
     assert changed["x"] != first["x"]  # the new gain's trajectories
@@ -188,3 +193,35 @@ def test_generated_factory_survives_pickling_and_with_params(tmp_path, monkeypat
     assert isinstance(other.numba_fast, kc.GeneratedKernels) and other.numba_fast.values == (1.5,)
     own = dataclasses.replace(system, numba_fast=None)
     assert kc.compiled_system(own, "numpy")[1] == kc.NUMPY
+
+
+def test_code_key_follows_constants_closures_and_globals():
+    from roa.montecarlo.code_identity import code_key
+
+    def make(gain):
+        return lambda t, x, xp: (x[1], -gain * x[0])
+
+    assert code_key(make(1.0)) == code_key(make(1.0))
+    assert code_key(make(1.0)) != code_key(make(2.0))  # a closure value
+    assert code_key(lambda t, x, xp: (x[1], -x[0])) != code_key(lambda t, x, xp: (x[1], -2 * x[0]))
+
+    class Opaque:  # no picklable state (a local class): no key, the field is traced
+        pass
+
+    thing = Opaque()
+    assert code_key(lambda t, x, xp: (thing, x[0])) is None
+
+
+def test_stale_index_entry_is_caught_by_the_numpy_check(tmp_path, monkeypatch):
+    """An index entry pointing at another field's kernel is not used."""
+    import json
+
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    kc._TRACES.clear()
+    a = kc.generate(_pendulum(0.5))
+    b_sys = _pendulum(0.9)
+    path = kc._index_path(b_sys)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps({"digest": a.digest, "names": [], "baked": {}}))
+    assert kc._from_index(b_sys, path) is None
+    assert kc.generate(b_sys).digest != a.digest

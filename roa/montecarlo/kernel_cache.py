@@ -217,13 +217,74 @@ def check_against_numpy(system: System, factory: GeneratedKernels, *, seed: int 
 
 
 def kernel_stamp() -> str:
-    """SHA-256 (first 16 hex digits) of the sources the generated kernels compile in: the
-    integrator's and :data:`roa.montecarlo.integrator.KERNEL_STAMP` (dopri.py, terminal.py,
-    terminal_poly.py). Part of the generated text, so a change there gives a new kernel file."""
+    """SHA-256 (first 16 hex digits) of the sources the generated kernels come from: the
+    integrator's, :data:`roa.montecarlo.integrator.KERNEL_STAMP` (dopri.py, terminal.py,
+    terminal_poly.py), the tracer's and the code generator's. Part of the generated text, so a
+    change there gives a new kernel file."""
     from roa.montecarlo import integrator
 
-    mine = integrator._source_digest(str(Path(integrator.__file__)))
-    return hashlib.sha256(f"{integrator.KERNEL_STAMP}:{mine}".encode()).hexdigest()[:16]
+    here = Path(__file__).parent
+    mine = [integrator._source_digest(str(here / f))
+            for f in ("integrator.py", "trace.py", "codegen.py")]  # fmt: skip
+    blob = ":".join([str(integrator.KERNEL_STAMP), *mine])
+    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+
+def _index_path(system: System) -> Path | None:
+    """Where the digest of ``system``'s generated kernel is remembered, keyed by its field's and
+    margin's code (:mod:`roa.montecarlo.code_identity`); None when the code has no key."""
+    from roa.montecarlo.code_identity import code_key
+
+    field = system.field
+    func = getattr(field, "func", field)
+    key = code_key(func, system.margin)
+    if key is None:
+        return None
+    blob = repr((key, kernel_stamp(), system.n, tuple(system.params or {})))
+    return kernel_dir() / "index" / f"{hashlib.sha256(blob.encode()).hexdigest()[:32]}.json"
+
+
+def _from_index(system: System, path: Path | None) -> GeneratedKernels | None:
+    """The kernel the index names for ``system``, if its text is on disk, it was built for these
+    parameter values (when they are compiled in) and it matches the numpy field; else None."""
+    import json
+
+    if path is None or not path.exists():
+        return None
+    try:
+        entry = json.loads(path.read_text())
+        digest, names = str(entry["digest"]), tuple(entry["names"])
+        baked = {str(k): float(v) for k, v in entry["baked"].items()}
+        text = (kernel_dir() / f"roa_kernel_{digest[:32]}.py").read_text()
+    except (OSError, ValueError, KeyError, TypeError):
+        return None
+    params = dict(system.params or {})
+    if hashlib.sha256(text.encode()).hexdigest() != digest or any(
+        params.get(k) != v for k, v in baked.items()
+    ):
+        return None
+    factory = GeneratedKernels(text, digest, system.name, names,
+                               tuple(float(params[k]) for k in names))  # fmt: skip
+    try:
+        check_against_numpy(system, factory)
+    except Untraceable:
+        return None
+    return factory
+
+
+def _remember(path: Path | None, factory: GeneratedKernels, baked: dict[str, float]) -> None:
+    import json
+
+    if path is None:
+        return
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
+        with os.fdopen(fd, "w") as fh:
+            json.dump({"digest": factory.digest, "names": list(factory.names), "baked": baked}, fh)
+        os.replace(tmp, path)
+    except OSError:
+        pass  # no index: the next process traces again
 
 
 _TRACES: dict[Any, GeneratedKernels | Untraceable] = {}
@@ -244,7 +305,9 @@ def _key(system: System) -> Any:
 
 def generate(system: System) -> GeneratedKernels:
     """The kernel factory of ``system``'s traced field (checked against numpy);
-    :class:`Untraceable` with the reason if there is none. Cached per process."""
+    :class:`Untraceable` with the reason if there is none. Cached per process, and on disk by
+    the field's code (``kernel_dir()/index``: a later process finds the kernel without tracing,
+    after the same check against numpy)."""
     from roa.montecarlo.codegen import kernel_source
 
     key = _key(system)
@@ -253,6 +316,12 @@ def generate(system: System) -> GeneratedKernels:
         if isinstance(hit, Untraceable):
             raise hit
         return hit.with_params(dict(system.params or {})) or hit
+    index = _index_path(system)
+    found = _from_index(system, index)
+    if found is not None:
+        if key is not None:
+            _TRACES[key] = found
+        return found
     try:
         try:
             trace = trace_system(system)
@@ -271,6 +340,7 @@ def generate(system: System) -> GeneratedKernels:
         raise
     if key is not None:
         _TRACES[key] = factory
+    _remember(index, factory, dict(trace.values))
     return factory
 
 

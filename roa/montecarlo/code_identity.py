@@ -35,7 +35,7 @@ def _value(v: Any, depth: int, seen: set[int]) -> Any:
             "ndarray",
             str(v.dtype),
             v.shape,
-            hashlib.sha256(np.ascontiguousarray(v)).hexdigest(),
+            hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest(),
         )
     if isinstance(v, np.generic):
         return ("np", repr(v))

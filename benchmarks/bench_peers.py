@@ -12,8 +12,8 @@ set-ups, each in its own process:
 * ``jit(vmap)``: one jitted ``vmap`` of the solve over every initial condition;
 * ``tuned``: 2 XLA host devices (``--xla_force_host_platform_device_count=2``), ``pmap`` over
   them and ``lax.map`` over batches of ``--batch`` vmapped solves on each (a batch runs until
-  its slowest member, so small batches waste fewer lockstep steps; ``--batch`` 64 was the fastest
-  of 16-512 tried on VdP).
+  its slowest member, so small batches waste fewer lockstep steps, large ones less per-batch
+  overhead; ``--batch`` 256 and 1024 were the fastest of 16-4096 tried on VdP, 20,000 states).
 
 The field is the system's own ``field(t, x, xp)`` with a ``jax.numpy`` namespace, so both sides
 integrate the same expressions. Systems: Van der Pol (``roa.systems.vanderpol``), the planar
@@ -35,7 +35,7 @@ times. Needs the optional extra ``bench`` (``pip install roa[bench]``: jax, diff
 prints a message and exits 0.
 
     python benchmarks/bench_peers.py [--n 20000] [--reps 3] [--systems vdp,quad,lyznet,ipc]
-        [--setups tuned,vmap] [--batch 64]
+        [--setups tuned,vmap] [--batch 256]
 """
 
 from __future__ import annotations
@@ -241,7 +241,7 @@ def main() -> None:
     ap.add_argument("--reps", type=int, default=3, help="timed runs after a first one")
     ap.add_argument("--systems", default="vdp,quad,lyznet,ipc")
     ap.add_argument("--setups", default="tuned,vmap")
-    ap.add_argument("--batch", type=int, default=64, help="lax.map batch of the tuned set-up")
+    ap.add_argument("--batch", type=int, default=256, help="lax.map batch of the tuned set-up")
     ap.add_argument("--peer", help=argparse.SUPPRESS)
     ap.add_argument("--setup", help=argparse.SUPPRESS)
     ap.add_argument("--out", help=argparse.SUPPRESS)

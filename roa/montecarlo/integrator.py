@@ -20,7 +20,9 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 ``field(t, x, params, out)`` and ``margin(x, params) -> float``, both ``numba.cfunc`` compiled with
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
-``system.f``. Built-in systems add a fast path, ``system.numba_fast``: the same functions
+``system.f``. A system with neither gets a fast path generated from its field
+(:mod:`roa.montecarlo.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
+disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path, ``system.numba_fast``: the same functions
 as ``numba.njit`` functions, compiled into a kernel of their own (:func:`compile_kernel`: no call
 through a pointer, the field fused with the map to a terminal set's coordinates), bit for bit the
 same trajectories. Measured on the IPC (20,000 states of the box q, q' in [-3, 3], theta in

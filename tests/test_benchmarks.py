@@ -18,6 +18,7 @@ solve_ivp in tests/test_montecarlo.py.
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -67,3 +68,12 @@ def test_robust_benchmark_checks_hold():
     lines = [ln for ln in out.splitlines() if ln.startswith(("vdp", "poly"))]
     assert len(lines) == 2 and "FAILED" not in out
     assert lines[1].split()[-1] == "refuted"
+
+
+@pytest.mark.slow
+def test_peer_benchmark_statuses_agree_with_diffrax():
+    if importlib.util.find_spec("diffrax") is None or importlib.util.find_spec("jax") is None:
+        pytest.skip("jax and diffrax (the optional extra 'bench') are not installed")
+    out = _run("bench_peers.py", "--n", "400", "--reps", "1", "--systems", "vdp",
+               "--setups", "vmap")  # fmt: skip
+    assert "peer vdp vmap" in out and "statuses=400/400" in out

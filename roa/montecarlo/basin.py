@@ -48,6 +48,10 @@ class BasinResult:
         their stop time is the entry time).
     terminal : TerminalSet or None
         The certified terminal set of the run, if any.
+    backend : str
+        What integrated the runs: ``numba`` (the system's own compiled field), ``numba-generated``
+        (a kernel compiled from its traced field, :mod:`roa.montecarlo.kernel_cache`) or
+        ``numpy``; ``backend_note`` says why a field was not compiled.
     """
 
     status: BasinStatus
@@ -69,6 +73,8 @@ class BasinResult:
     entered_certified_set: int = 0
     terminal: TerminalSet | None = field(default=None, repr=False, compare=False)
     regions: tuple[Any, ...] = field(default=(), repr=False, compare=False)
+    backend: str = "numpy"
+    backend_note: str | None = None
 
     def to_dict(self) -> dict[str, Any]:
         """What ``roa basin --json`` prints (with the command's description of the samples)."""
@@ -96,6 +102,8 @@ class BasinResult:
             else {"name": self.terminal.name, "level": self.terminal.level,
                   "coords": self.terminal.coords, "margin": "V <= level (1 - 1e-9)"},
             "seconds": round(self.seconds, 3),
+            "backend": self.backend,
+            **({"backend_note": self.backend_note} if self.backend_note else {}),
             **(self.sampler.describe(self.system.state_names)
                if hasattr(self.sampler, "describe") else {}),
             **({"regions": [region_entry(r, self.sampler, self.code) for r in self.regions]}
@@ -240,6 +248,8 @@ def basin(
         res.entered_certified_set,
         terminal,
         tuple(regions),
+        str(res.meta.get("backend", "numpy")),
+        res.meta.get("backend_note"),
     )
 
 

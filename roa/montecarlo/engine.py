@@ -349,6 +349,15 @@ def _run_basin(
     deadline = budget.deadline_of(time_limit)
     n = int(sampler.n)
     _check_size(n)
+    # the backend is chosen (and a generated kernel compiled) once, here: workers load it
+    from roa.montecarlo.kernel_cache import compiled_system
+
+    system, ran, note = compiled_system(system, backend, terminal, n)
+    if ran == "numpy":
+        opts = {**opts, "backend": "numpy"}  # the workers do not choose again
+    warm = getattr(system.numba_fast, "kernel", None)
+    if n and warm is not None:
+        warm()  # compiled here (a progress line while it compiles); the workers load it
     n_chunks = -(-n // chunk_size)
     code = np.full(n, -1, np.int8)
     t_end = np.full(n, np.nan, np.float32)
@@ -358,7 +367,7 @@ def _run_basin(
     rejected: dict[str, int] = {}
     entered = [0]
     if out_dir is not None:
-        digest = _fingerprint(system, sampler, opts, chunk_size)
+        digest = _fingerprint(system, sampler, {**opts, "ran": ran}, chunk_size)
         chunk_dir, done, rejected = prepare_out_dir(
             out_dir, digest, n, chunk_size, code, t_end, fresh=fresh, replace_stale=replace_stale,
             entered=entered,
@@ -432,7 +441,10 @@ def _run_basin(
     if missing and deadline is None:
         raise ResultsError(f"internal error: {missing} of {n} initial conditions have no status")
     # n_jobs_used: local worker processes actually started (1: in-process), -1 on a Dask cluster
-    meta: dict[str, Any] = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs}
+    meta: dict[str, Any] = {"chunks_rejected": int(sum(rejected.values())), "n_jobs_used": jobs,
+                            "backend": ran}  # fmt: skip
+    if note is not None:
+        meta["backend_note"] = note
     if missing:
         meta["not_run"] = missing
         meta["time_limit"] = float(time_limit)  # type: ignore[arg-type]

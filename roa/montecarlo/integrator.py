@@ -23,7 +23,9 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 ``field(t, x, params, out)`` and ``margin(x, params) -> float``, both ``numba.cfunc`` compiled with
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
-``system.f``. Built-in systems add a fast path, ``system.numba_fast``: the same functions
+``system.f``. A system with neither gets a fast path generated from its field
+(:mod:`roa.montecarlo.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
+disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path, ``system.numba_fast``: the same functions
 as ``numba.njit`` functions, compiled into a kernel of their own (:func:`compile_kernel`: no call
 through a pointer, the field fused with the map to a terminal set's coordinates), bit for bit the
 same trajectories. Measured on the IPC (20,000 states of the box q, q' in [-3, 3], theta in
@@ -116,7 +118,11 @@ def integrate_batch(
     margin_tol : float
         The domain is left when ``margin(x) <= margin_tol`` (default 0: the boundary itself).
     backend : {"auto", "numba", "numpy"}
-        ``auto`` uses the numba kernel when ``system.numba`` exists.
+        ``auto`` uses the system's numba kernel (``system.numba`` / ``numba_fast``) when it has
+        one, else for 2000 rows or more (``kernel_cache.COMPILE_FROM``) a kernel generated from its
+        field (:mod:`roa.montecarlo.kernel_cache`), else numpy (for a field that cannot be
+        compiled with a :class:`~roa.montecarlo.kernel_cache.KernelFallbackWarning` saying why);
+        ``numba`` refuses the fallback (:class:`roa.RoaInputError`).
     terminal : TerminalSet, optional
         A certified set: runs entering it stop as ``converged`` (``entered`` marks them; see
         :mod:`roa.montecarlo.terminal`).
@@ -136,11 +142,11 @@ def integrate_batch(
         raise RoaInputError(f"x0 must have shape (m, {system.n}); got {x0.shape}")
     if backend not in ("auto", "numba", "numpy"):
         raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
-    use_numba = backend == "numba" or (backend == "auto" and system.numba is not None)
     bound = None if terminal is None else terminal.bind(system)
-    if use_numba:
-        if system.numba is None:
-            raise RoaInputError(f"system {system.name!r} provides no numba field (System.numba)")
+    from roa.montecarlo.kernel_cache import NUMPY, compiled_system
+
+    system, ran, _ = compiled_system(system, backend, terminal, x0.shape[0])
+    if ran != NUMPY:
         run, params = _numba_kernel(system, terminal)
         T = kernel_terminal(terminal, system.n)
         m = x0.shape[0]
@@ -194,6 +200,9 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
     """
     fast = system.numba_fast
     name = None if terminal is None else terminal.coords
+    ready = getattr(fast, "kernel", None)  # a generated kernel (roa.montecarlo.kernel_cache)
+    if ready is not None and name is None:
+        return ready()
     if fast is not None:
         try:
             # (field, margin, params), with coordinates (..., coords, field_coords)
@@ -239,8 +248,10 @@ def _public_kernel() -> Callable[..., None]:
                coords, code, t_end, x_end, steps):  # fmt: skip
         if stamp < 0:  # never: the stamp is here for the cache key
             return
-        _kernel(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
-                coords, code, t_end, x_end, steps, None)  # fmt: skip
+        for k in range(X0.shape[0]):  # the batch: one run per row
+            code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
+                                               margin_tol, t_final, rtol, atol, T, coords,
+                                               x_end[k], None)  # fmt: skip
 
     return kernel
 
@@ -328,7 +339,7 @@ def _source_digest(filename: str) -> str:
 #: caching limitation), so the kernels' entry points (:func:`compile_kernel`, ``_public_kernel``)
 #: are closures over :data:`KERNEL_STAMP`,
 #: whose value numba hashes into their cache key, and the functions they call that reach into
-#: these modules (``_member``, ``_inside``, ``_one``, ``_kernel``), or take an inlined function
+#: these modules (``_member``, ``_inside``, ``_one``), or take an inlined function
 #: of the fast path (``_events``: its cache key would name the function by its address only),
 #: are not cached on their own.
 KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
@@ -393,6 +404,13 @@ def _events(x, x_eq, tol, bound, margin, params, margin_tol, g):
 
 
 @numba.njit(cache=True, error_model="numpy")
+def _copy(src, dst):
+    # dst[:] = src without slice assignment (whose shape-error path costs seconds to compile)
+    for i in range(src.shape[0]):
+        dst[i] = src[i]
+
+
+@numba.njit(cache=True, error_model="numpy")
 def _dense(y, h, Q, s, out):
     # y(t + s h) = y + h * sum_j Q[:, j] s^(j+1)
     for i in range(y.shape[0]):
@@ -432,7 +450,7 @@ def _inside(y, coords, params, T, w, d, pw):
     return _member(w, T, d, pw)
 
 
-@numba.njit(error_model="numpy")  # compiled into the entry points
+@numba.njit(error_model="numpy")  # compiled into the entry points (which loop over the rows)
 def _one(
     field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
     T, coords, x_out, field_coords,
@@ -440,7 +458,8 @@ def _one(
     n = y0.shape[0]
     A, B, C, E, P = TABLEAU_A, TABLEAU_B, TABLEAU_C, ERROR_E, DENSE_P
     K = np.empty((7, n))
-    y = y0.copy()
+    y = np.empty(n)
+    _copy(y0, y)
     y_new = np.empty(n)
     tmp = np.empty(n)
     err = np.empty(n)
@@ -450,23 +469,23 @@ def _one(
     _events(y, x_eq, tol, bound, margin, params, margin_tol, g_old)
     for i in range(n):
         if not np.isfinite(y[i]):
-            x_out[:] = y
+            _copy(y, x_out)
             return DIVERGED, 0.0, 0
     if g_old[0] <= 0.0:
-        x_out[:] = y
+        _copy(y, x_out)
         return CONVERGED, 0.0, 0
     if g_old[1] <= 0.0:
-        x_out[:] = y
+        _copy(y, x_out)
         return LEFT_DOMAIN, 0.0, 0
     if g_old[2] <= 0.0:
-        x_out[:] = y
+        _copy(y, x_out)
         return DIVERGED, 0.0, 0
     w = np.empty(n)
     term = T[0] != 0
     d = np.empty(n)
     pw = np.empty((n, T[9] + 1))
     if term and _inside(y, coords, params, T, w, d, pw):
-        x_out[:] = y
+        _copy(y, x_out)
         return ENTERED, 0.0, 0
     t = 0.0
     f = K[0]
@@ -497,7 +516,7 @@ def _one(
     steps = 0
     while True:
         if t >= t_final:
-            x_out[:] = y
+            _copy(y, x_out)
             return UNDECIDED, t, steps
         min_step = 10 * abs(np.nextafter(t, np.inf) - t)
         if h_abs < min_step:
@@ -505,7 +524,7 @@ def _one(
         step_rejected = False
         while True:
             if not (h_abs >= min_step):  # NaN (a field not finite here) fails too: never loops
-                x_out[:] = y
+                _copy(y, x_out)
                 return STEP_FAILURE, t, steps
             h = h_abs
             t_new = t + h
@@ -594,7 +613,7 @@ def _one(
         else:
             inside = False
         if inside:
-            x_out[:] = y_new
+            _copy(y_new, x_out)
             return ENTERED, t_new, steps
         t = t_new
         for i in range(n):
@@ -602,50 +621,6 @@ def _one(
             K[0, i] = K[6, i]
         for e in range(3):
             g_old[e] = g_new[e]
-
-
-@numba.njit(error_model="numpy")  # compiled into the entry points
-def _kernel(
-    field,
-    margin,
-    params,
-    X0,
-    x_eq,
-    tol,
-    bound,
-    margin_tol,
-    t_final,
-    rtol,
-    atol,
-    T,
-    coords,
-    code,
-    t_end,
-    x_end,
-    steps,
-    field_coords,
-):
-    for k in range(X0.shape[0]):
-        c, te, ns = _one(
-            field,
-            margin,
-            params,
-            X0[k],
-            x_eq,
-            tol,
-            bound,
-            margin_tol,
-            t_final,
-            rtol,
-            atol,
-            T,
-            coords,
-            x_end[k],
-            field_coords,
-        )
-        code[k] = c
-        t_end[k] = te
-        steps[k] = ns
 
 
 def _no_margin(x: np.ndarray, params: np.ndarray) -> float:
@@ -719,8 +694,9 @@ def compile_kernel(
             steps):  # fmt: skip
         if stamp < 0:  # never: the stamp is here for the cache key
             return
-        _kernel(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c, code,
-                t_end, x_end, steps, fc)  # fmt: skip
+        for k in range(X0.shape[0]):  # the batch: one run per row
+            code[k], t_end[k], steps[k] = _one(f, m, params, X0[k], x_eq, tol, bound, margin_tol,
+                                               t_final, rtol, atol, T, c, x_end[k], fc)  # fmt: skip
 
     _COMPILED[key] = run
     return run

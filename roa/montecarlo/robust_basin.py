@@ -25,8 +25,10 @@ output directory each sample's run is resumable in its own folder ``param_NNN`` 
 fingerprint includes the parameter values, so a folder of other values is never resumed).
 
 Kernels: ``system.at(...)`` keeps a compiled numba field only when its factory can be rebuilt for
-the new values (``factory.with_params``, :meth:`roa.system.System._rekernel`); otherwise the run
-uses the numpy backend, never a kernel compiled for other parameter values.
+the new values (``factory.with_params``, :meth:`roa.system.System._rekernel`), never a kernel
+compiled for other parameter values. A system without one gets a kernel generated from its field
+once (:mod:`roa.montecarlo.kernel_cache`), with the parameters as kernel arguments, used by every
+sample; a field that cannot be compiled runs on the numpy backend.
 """
 
 from __future__ import annotations
@@ -180,7 +182,7 @@ class RobustBasinResult:
                         "fraction_converged_ci95": list(r.ci95),
                         "entered_certified_set": r.entered_certified_set,
                         "chunks_computed": r.chunks_computed, "chunks_resumed": r.chunks_resumed,
-                        "chunks_rejected": r.chunks_rejected})  # fmt: skip
+                        "chunks_rejected": r.chunks_rejected, "backend": r.backend})  # fmt: skip
         box = {k: {"low": u.low, "nominal": u.nominal, "high": u.high}
                for k, u in self.system.parameters.items()}  # fmt: skip
         out: dict[str, Any] = {
@@ -294,6 +296,13 @@ def robust_basin(
         atomic_write_json(Path(run.out_dir) / "parameter_samples.json",
                           {"seed": int(param_seed), "random": int(param_samples),
                            "samples": [s.to_dict() for s in samples]})  # fmt: skip
+    # one traced and compiled kernel for every sample (parameters are its arguments)
+    from roa.montecarlo.kernel_cache import compiled_system
+
+    backend = "auto" if integrator is None else integrator.backend
+    system, _, _ = compiled_system(
+        system, backend, terminal, int(getattr(sampler, "n", 0)) * len(samples)
+    )
     runs = []
     for s in samples:
         sub = run if run.out_dir is None else replace(

@@ -565,15 +565,18 @@ class _Progress:
         width = hi - lo
         self.axes = width > 0  # degenerate axes (fixed parameters) carry no volume
         self.total = float(np.prod(width[self.axes]))
+        # depths in log space: a cover near the float range (level 1e308) overflows the product
+        with np.errstate(divide="ignore"):
+            self.log_total = float(np.sum(np.log2(width[self.axes])))
         #: per depth: boxes evaluated, boxes undecided
         self.depths: dict[int, list[int]] = {}
 
     def batch(self, lo: np.ndarray, hi: np.ndarray, undecided: np.ndarray) -> None:
-        if not self.total > 0:
+        if not self.total > 0 or not np.isfinite(self.log_total):
             return
-        vol = np.prod((hi - lo)[:, self.axes], axis=1)
-        with np.errstate(divide="ignore"):
-            k = np.clip(np.rint(np.log2(self.total / vol)), 0, 10_000).astype(int)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = self.log_total - np.sum(np.log2((hi - lo)[:, self.axes]), axis=1)
+        k = np.clip(np.rint(np.nan_to_num(depth, nan=0.0, posinf=1e4)), 0, 10_000).astype(int)
         ev = np.bincount(k)
         un = np.bincount(k[undecided], minlength=len(ev))
         for d in np.flatnonzero(ev):

@@ -177,3 +177,21 @@ def test_khalil_names_the_system_not_the_file(tmp_path, capsys):
     main(["khalil", "--system", f"{path}:SYSTEM", "--method", "sampled", "--directions", "64"])
     out = capsys.readouterr().out
     assert out.startswith("my-system: largest ball level") and str(path) not in out
+
+
+def test_progress_of_a_cover_beyond_double_precision_says_so():
+    """A cover whose volume overflows (level 1e308: widths ~1e154 in 3 states) gets depths in
+    log space and no share of volume (not a share computed from inf / inf)."""
+    import numpy as np
+
+    from roa.proof.validate import _Progress
+
+    lo, hi = np.full(3, -1e154), np.full(3, 1e154)
+    p = _Progress(lo, hi)
+    assert p.total == np.inf and np.isfinite(p.log_total)
+    half = np.array([[-1e154, -1e154, -1e154]]), np.array([[0.0, 1e154, 1e154]])
+    p.batch(*half, undecided=np.array([True]))
+    assert p.depths == {1: [1, 1]}  # half the cover: depth 1, by log2 of the widths
+    out = p.reach(*half, [], [], boxes=1)
+    assert out["volume_decided"] is None
+    assert "not representable" in out["message"]

@@ -622,11 +622,14 @@ class _Progress:
         left = self.volume(lo, hi) + sum(
             self.volume(a, b) for a, b in zip(queue_lo, queue_hi, strict=True)
         )
-        decided = max(0.0, 1.0 - left / self.total) if self.total > 0 else 0.0
+        finite = 0 < self.total < math.inf and math.isfinite(left)
+        decided = max(0.0, 1.0 - left / self.total) if finite else None
         pending = 2 * len(lo) + sum(len(a) for a in queue_lo)
         more, q = self.estimate(pending)
         meta: dict[str, Any] = {"volume_decided": decided, "undecided_per_box": q}
-        text = f"{share(decided)} of the cover's volume decided"
+        text = (f"{share(decided)} of the cover's volume decided" if decided is not None else
+                "the share of the cover's volume decided is not representable (the cover "
+                "overflows double precision)")  # fmt: skip
         if more is not None:
             meta["boxes_estimate"] = int(math.ceil(boxes + more))
             need = 2 * (boxes + more)

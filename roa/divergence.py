@@ -45,10 +45,10 @@ def blows_up(
     if r_end < rules.diverge_bound / G:
         return False
     first = r[t <= half]
-    r_first = max(float(first.max()) if first.size else 0.0, float(np.interp(half, t, r)))
+    r_half = float(np.interp(half, t, r))
+    r_first = max(float(first.max()) if first.size else 0.0, r_half)
     if not r_end >= G * r_first:
         return False
-    r_half = float(np.interp(half, t, r))
     if r_half <= 0:
         return False
     mean_rate = float(np.log(r_end / r_half)) / half

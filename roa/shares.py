@@ -21,6 +21,17 @@ import math
 MAX_DECIMALS = 17
 
 
+def _fixed(v: float, decimals: int, top: float, inside: bool) -> str:
+    """``v`` with ``decimals`` decimals; when ``inside`` (``0 < v < top``), with more decimals,
+    up to :data:`MAX_DECIMALS`, until the printed value is strictly between 0 and ``top``."""
+    d = max(0, int(decimals))
+    text = f"{v:.{d}f}"
+    while inside and d < MAX_DECIMALS and not 0 < float(text) < top:
+        d += 1
+        text = f"{v:.{d}f}"
+    return text
+
+
 def share(
     x: float, decimals: int = 3, *, count: int | None = None, of: int | None = None,
     what: str = "",
@@ -32,12 +43,8 @@ def share(
     ``inf``): the guarantee is that ``0 < x < 1`` never prints as a string whose value is 0 or 1.
     """
     x = float(x)
-    d = max(0, int(decimals))
-    text = f"{x:.{d}f}"
+    text = _fixed(x, decimals, 1.0, math.isfinite(x) and 0 < x < 1)
     if math.isfinite(x) and 0 < x < 1:
-        while d < MAX_DECIMALS and not 0 < float(text) < 1:
-            d += 1
-            text = f"{x:.{d}f}"
         if not 0 < float(text) < 1:  # below 1e-17 or within 1e-17 of 1: the shortest repr
             text = repr(x)
     if count is not None and of is not None:
@@ -50,12 +57,8 @@ def percent(x: float, decimals: int = 2) -> str:
     prints as ``100.00 %``, one above 0 never as ``0.00 %``)."""
     x = float(x)
     p = 100 * x
-    d = max(0, int(decimals))
-    text = f"{p:.{d}f}"
+    text = _fixed(p, decimals, 100.0, math.isfinite(x) and 0 < x < 1)
     if math.isfinite(x) and 0 < x < 1:
-        while d < MAX_DECIMALS and not 0 < float(text) < 100:
-            d += 1
-            text = f"{p:.{d}f}"
         if not 0 < float(text) < 100:  # 100 x rounded to 100 or is below 1e-17
             text = repr(p) if p < 100 else "99.99999999999999"
     return f"{text} %"

@@ -244,6 +244,19 @@ def project_grams(
     return Ps, residual, ""
 
 
+def identity_refusal(data: ExactData, level: Fraction, eps: Fraction) -> str | None:
+    """Why the identity ``-V' - eps|d|^2k - lambda (c - V) = sigma`` cannot prove the level
+    (``level`` or ``eps`` not positive, or ``V'`` not starting at an even degree >= 2), else
+    None."""
+    if not (level > 0 and eps > 0):
+        return f"level and eps must be > 0 (got {as_float(level)}, {as_float(eps)})"
+    k, rem = divmod(data.low, 2)
+    if rem or k < 1:
+        return (f"the lowest degree of V' is {data.low}, not even: V' is not negative definite "
+                "near x_eq")  # fmt: skip
+    return None
+
+
 def check_certificate(
     data: ExactData,
     level: Any,
@@ -263,13 +276,10 @@ def check_certificate(
     positive definite exactly and ``eps``, ``level`` > 0.
     """
     c, e = Fraction(level), Fraction(eps)
-    if not (c > 0 and e > 0):
-        return SosCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
-    k, rem = divmod(data.low, 2)
-    if rem or k < 1:
-        return SosCheck(False, f"the lowest degree of V' is {data.low}, not even: V' is not "
-                        "negative definite near x_eq")  # fmt: skip
-    n = data.n
+    refused = identity_refusal(data, c, e)
+    if refused:
+        return SosCheck(False, refused)
+    n, k = data.n, data.low // 2
     if any(len(b) != n for b in basis0) or len(Q0) != len(basis0):
         return SosCheck(False, "basis0 and Q0 do not match")
     R0 = [[exact_fraction(v) for v in row] for row in Q0] if rounded else round_matrix(Q0)

@@ -36,6 +36,7 @@ from roa.proof.sos_check import (
     as_float,
     exact_fraction,
     gram_poly,
+    identity_refusal,
     matrix_digest,
     norm_power,
     parse_basis,
@@ -83,12 +84,10 @@ def check_sum(data: ExactData, level: Any, eps: Any, sigma: list[Block], lam: li
     ``rounded=True``, rationals taken as they are. ``ok`` True only if the projected ``S_b`` and
     the ``L_j`` are all positive definite exactly and ``eps``, ``level`` > 0."""
     c, e = Fraction(level), Fraction(eps)
-    if not (c > 0 and e > 0):
-        return SumCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
-    k, rem = divmod(data.low, 2)
-    if rem or k < 1:
-        return SumCheck(False, f"the lowest degree of V' is {data.low}, not even: V' is not "
-                        "negative definite near x_eq")  # fmt: skip
+    refused = identity_refusal(data, c, e)
+    if refused:
+        return SumCheck(False, refused)
+    k = data.low // 2
     if not sigma:
         return SumCheck(False, "no Gram block for sigma")
     n = data.n

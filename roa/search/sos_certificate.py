@@ -67,6 +67,20 @@ def gram_columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, flo
     return r, c, v
 
 
+def degrees(data: ExactData, multiplier_degree: int | None = None) -> tuple[int, int, int]:
+    """``(k, D, L)`` of the program: ``sigma``'s monomials of degree ``k..D``, ``lambda``'s of
+    degree ``1..L`` (``multiplier_degree`` None: the lowest even degree that balances
+    ``lambda V`` against ``V'``)."""
+    k = data.low // 2
+    degV = max(sum(m) for m in data.V)
+    degVd = max((sum(m) for m in data.Vdot), default=2)
+    if multiplier_degree is None:
+        multiplier_degree = max(2, degVd - degV + (degVd - degV) % 2)
+    L = multiplier_degree // 2
+    D = (max(degVd, 2 * L + degV) + 1) // 2
+    return max(k, 1), D, L
+
+
 def propose_certificate(
     data: ExactData,
     level: float,
@@ -81,15 +95,8 @@ def propose_certificate(
     t0 = time.perf_counter()
     n = data.n
     eps = default_eps(data) if eps is None else Fraction(eps)
-    k = data.low // 2
-    degV = max(sum(m) for m in data.V)
-    degVd = max((sum(m) for m in data.Vdot), default=2)
-    if multiplier_degree is None:
-        multiplier_degree = max(2, degVd - degV + (degVd - degV) % 2)
-    L = multiplier_degree // 2
-    top = max(degVd, 2 * L + degV)
-    D = (top + 1) // 2
-    basis0 = monomials(n, D, max(k, 1))
+    low, D, L = degrees(data, multiplier_degree)
+    basis0 = monomials(n, D, low)
     basis1 = monomials(n, L, 1) if L >= 1 else []
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
         status = (f"too large: a Gram block of {len(basis0)} monomials needs an estimated "
@@ -100,7 +107,7 @@ def propose_certificate(
     target: dict[Mono, float] = {}
     for m, c in data.Vdot.items():
         target[m] = target.get(m, 0.0) - float(c)
-    for m, c in norm_power(n, k).items():
+    for m, c in norm_power(n, data.low // 2).items():
         target[m] = target.get(m, 0.0) - float(eps * c)
     rows: dict[Mono, int] = {}
     for m in target:

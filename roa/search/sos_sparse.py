@@ -43,20 +43,7 @@ import scipy.sparse as sps
 
 from roa.proof.sos_check import ExactData, Mono, norm_power
 from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search.sos_certificate import default_eps, gram_columns
-
-
-def degrees(data: ExactData, multiplier_degree: int | None = None) -> tuple[int, int, int]:
-    """``(k, D, L)`` of the dense program (:func:`roa.search.sos_certificate.propose_certificate`):
-    ``sigma``'s monomials of degree ``k..D``, ``lambda``'s of degree ``1..L``."""
-    k = data.low // 2
-    degV = max(sum(m) for m in data.V)
-    degVd = max((sum(m) for m in data.Vdot), default=2)
-    if multiplier_degree is None:
-        multiplier_degree = max(2, degVd - degV + (degVd - degV) % 2)
-    L = multiplier_degree // 2
-    D = (max(degVd, 2 * L + degV) + 1) // 2
-    return max(k, 1), D, L
+from roa.search.sos_certificate import default_eps, degrees, gram_columns
 
 
 def interaction_graph(data: ExactData) -> Any:

@@ -554,9 +554,7 @@ class _Progress:
     depth by depth with the extrapolated ``q_k`` until none is left. When ``q_k >= 1/2`` and not
     falling there is no estimate. A guide, not a bound: it assumes the recent trend holds, so the
     message suggests twice the extrapolation (``boxes_estimate`` in the meta is the extrapolation
-    itself). Measured: on the planar quadrotor of examples/systems at level 0.1303, from 300,000
-    boxes it extrapolates 560,000 and the run needs 858,903; on Van der Pol at level 2.3042,
-    from 200 to 360 boxes it extrapolates 250 to 570 and the run needs 387."""
+    itself)."""
 
     #: Depths the estimate reads (the deepest reached).
     DEPTHS = 8

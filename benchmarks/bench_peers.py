@@ -37,17 +37,25 @@ prints a message and exits 0.
     python benchmarks/bench_peers.py [--n 20000] [--reps 3] [--systems vdp,quad,lyznet,ipc]
         [--setups tuned,vmap] [--batch 256]
 
-Measured (jax 0.10.2, diffrax 0.7.2, numba 0.68.1; 20,000 initial conditions, median of 3-5
-runs; a 2-core machine shared with other jobs, load 4-8, so absolute rates are low and vary by
-10-20 % between runs; statuses 20,000/20,000 in every line):
+Measured (jax 0.10.2, diffrax 0.7.2, numba 0.68.1; 20,000 initial conditions, median of 3-7
+runs; an idle 2-core machine whose rates still vary by about 10 % between runs; statuses
+20,000/20,000 in every line):
 
-    system   roa (CPU)    diffrax tuned   ratio       diffrax jit(vmap)   ratio
-    vdp      43-48 k/s    21-24 k/s       1.99-2.03   14 k/s              3.1
-    quad     25 k/s       8.5 k/s         2.98        3.6 k/s             7.1
-    lyznet   41 k/s       12.6 k/s        3.23        3.5 k/s             11.6
-    ipc      14.1-14.4 k/s 3.2 k/s        4.47-4.49   1.6 k/s             9.2
+    system   roa (CPU)     diffrax tuned   ratio       diffrax jit(vmap)   ratio
+    vdp      42-46 k/s     20-24 k/s       1.97-2.24   10.8-14 k/s         3.1-3.9
+    quad     25-28 k/s     8.1-8.5 k/s     3.0-3.4     2.3-3.6 k/s         7.1-12.4
+    lyznet   41-47 k/s     12-13 k/s       3.2-3.9     2.2-3.5 k/s         11.6-21
+    ipc      13.4-14.4 k/s 3.2-3.4 k/s     4.0-4.5     1.5-1.6 k/s         9.2
 
-roa's kernel compile for a new user field 6-9 s (a fresh install, the library's own kernels not
+The IPC line is the study's hand-written kernel, as fast before the generated kernels as after
+(13.5-13.9 k/s CPU, 23.0-23.2 k/s wall, run side by side). Its wall-clock rate on 2 workers,
+23-25 k/s, over diffrax tuned's CPU rate, 3.2-3.4 k/s, is 6.9-7.8; on one clock for both the
+ratio is 4.0-4.5 (CPU) or 3.6-4.0 (wall). In the IPC kernel's profile, sincos, log and pow of
+libm take about 42 % of the time; a field evaluation costs about 55-60 ns and a step about 0.3
+microseconds more. Interleaving two runs per core (same arithmetic) gained 10 % on Van der Pol
+and lost 8 % on the IPC, so the kernels stay one run at a time.
+
+roa's kernel compile for a new user field 6-11 s (a fresh install, the library's own kernels not
 cached yet, about 10 s), loading it from the cache in a new process under 1 s; diffrax's compile
 3-6 s per set-up.
 """
@@ -277,7 +285,8 @@ def main() -> None:
             ours, theirs = a.n / mine["cpu"], a.n / peer["cpu"]
             print(f"peer {name} {setup} roa={ours:.0f}/s peer={theirs:.0f}/s "
                   f"ratio={ours / theirs:.2f} statuses={same}/{a.n}")  # fmt: skip
-            print(f"     wall: roa={a.n / mine['wall']:.0f}/s peer={a.n / peer['wall']:.0f}/s; "
+            print(f"     wall: roa={a.n / mine['wall']:.0f}/s peer={a.n / peer['wall']:.0f}/s "
+                  f"ratio={peer['wall'] / mine['wall']:.2f}; "
                   f"compile: roa={mine['compile']:.1f} s ({mine['backend']}) "
                   f"peer={peer['compile']:.1f} s ({peer['devices']} device(s))", flush=True)  # fmt: skip
             if same != a.n:

@@ -25,14 +25,11 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
 ``system.f``. A system with neither gets a fast path generated from its field
 (:mod:`roa.montecarlo.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
-disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path, ``system.numba_fast``: the same functions
-as ``numba.njit`` functions, compiled into a kernel of their own (:func:`compile_kernel`: no call
-through a pointer, the field fused with the map to a terminal set's coordinates), bit for bit the
-same trajectories. Measured on the IPC (20,000 states of the box q, q' in [-3, 3], theta in
-[-1.5, 1.5], theta' in [-3, 3], rtol 1e-6, T = 30, one core of a shared machine): fast path about
-18,000-19,000 trajectories/s (public cfuncs 16,000-17,000), with the certified terminal set of
-benchmarks/bench_montecarlo.py about 55,000-57,000/s (public cfuncs 41,000-48,000); numpy about
-600-800/s (benchmarks/bench_montecarlo.py for 2 cores).
+disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
+``system.numba_fast``: the same functions as ``numba.njit`` functions, compiled into a kernel of
+their own (:func:`compile_kernel`: no call through a pointer, the field fused with the map to a
+terminal set's coordinates), bit for bit the same trajectories. Throughputs:
+benchmarks/bench_montecarlo.py and benchmarks/bench_peers.py.
 """
 
 from __future__ import annotations

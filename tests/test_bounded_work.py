@@ -160,8 +160,11 @@ def test_a_validation_out_of_time_is_inconclusive_saying_so():
     from roa.systems.vanderpol import vanderpol
 
     itv = roa.IntervalOptions(time_limit=1e-9, batch=1)
-    cert = roa.certify(vanderpol(), level=2.3, interval=itv)
+    cert = roa.certify(vanderpol(), level=2.3, interval=itv, validator="interval")
     assert cert.status is roa.Verdict.INCONCLUSIVE and "time limit" in cert.message
+    # the default (auto) validator backs the branch and bound up with the exact SOS certificate
+    auto = roa.certify(vanderpol(), level=2.3, interval=itv)
+    assert auto.status is roa.Verdict.CERTIFIED and auto.validation.meta["method"] != "interval"
     assert roa.certify(vanderpol(), level=2.3).status is roa.Verdict.CERTIFIED
     with pytest.raises(roa.RoaInputError, match="time_limit must be a number of seconds"):
         roa.IntervalOptions(time_limit=-1)

@@ -104,6 +104,16 @@ def test_sparse_and_dense_routes_both_certify_099_of_the_optimum(ring):
             assert not roa.certify(system, level=level, validator=val).certified
 
 
+def test_the_library_default_validator_is_the_command_lines(ring):
+    """``roa.certify`` without ``validator`` routes as ``roa certify`` does (auto): at 6 states
+    the exact SOS certificate decides, with no branch and bound over the 6-dimensional set."""
+    system, _, opt = ring
+    cert = roa.certify(system, level=0.99 * opt)
+    assert cert.certified, cert.message
+    assert cert.validation.meta["method"] != "interval" and "certificate" in cert.validation.meta
+    assert not roa.certify(system, level=1.001 * opt).certified
+
+
 def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch):
     """The level proposer's bisection with the sparse program (forced by a small memory budget)
     is within 1 % below the dense program's and the optimum, never above the optimum; the

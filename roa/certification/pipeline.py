@@ -110,9 +110,11 @@ def certify(
     vs : VsOptions, optional
         Options of the search of V.
     validator : Validator or {"interval", "sos", "auto"}, optional
-        What decides a level: a validator object, or ``"interval"`` (the default,
-        :class:`roa.IntervalValidator`), ``"sos"`` (:class:`roa.SosValidator`) or ``"auto"``
-        (:class:`roa.AutoValidator`: the route that certifies for the problem's size and form).
+        What decides a level: a validator object, or ``"auto"`` (the default, as on the command
+        line: :class:`roa.AutoValidator`, the branch and bound up to 4 states and parameters,
+        the exact SOS certificate above, each backing up the other), ``"interval"``
+        (:class:`roa.IntervalValidator`, the branch and bound only) or ``"sos"``
+        (:class:`roa.SosValidator`).
     retries : int
         Times a proposed level is chosen again below a confirmed refutation witness (0 to 10).
 
@@ -171,9 +173,9 @@ VALIDATORS = ("interval", "sos", "auto")
 
 def _validator(validator: Any, interval: IntervalOptions, bounding_box: Any) -> Validator:
     """The validator object of ``certify``'s ``validator`` argument (an object or a name)."""
-    if validator is None or validator == "interval":
+    if validator == "interval":
         return IntervalValidator(interval, bounding_box)
-    if validator == "auto":
+    if validator is None or validator == "auto":
         return AutoValidator(interval, bounding_box)
     if validator == "sos":
         if bounding_box is not None:

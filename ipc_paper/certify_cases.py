@@ -101,7 +101,9 @@ def _certify_pair(system, V, opt: float, params: dict) -> dict[str, Any]:
     from roa.options import IntervalOptions
 
     opts = IntervalOptions(max_boxes=int(params["max_boxes"]), sampled_safety=params["below"])
-    cert = certify(system, V, candidate=opt, interval=opts, check_above=params["above"])
+    cert = certify(
+        system, V, candidate=opt, interval=opts, check_above=params["above"], validator="interval"
+    )
     assert cert.validation is not None and cert.above is not None
     return {
         "sampled_optimum": opt,

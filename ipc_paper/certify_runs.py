@@ -468,7 +468,13 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
     else:
         raise RoaInputError(f"case {case!r}: allowed ipc-paper, vanderpol")
     search = level_search(system, V, shape="level", method="casadi")
-    cert = certify(system, V, candidate=search, interval=IntervalOptions(sampled_safety=fraction))
+    cert = certify(
+        system,
+        V,
+        candidate=search,
+        interval=IntervalOptions(sampled_safety=fraction),
+        validator="interval",
+    )
     if not cert.certified or cert.level is None:
         raise RuntimeError(f"{case}: level {cert.level} is {cert.status.value}, not certified")
     return cert.level

@@ -123,7 +123,9 @@ def _vanderpol(p: dict[str, Any]) -> dict[str, Any]:
         with step(f"degrees: Van der Pol, degree {d}"):
             vs = roa.VsOptions(shape=np.eye(2), rounds=p["rounds"])
             itv = roa.IntervalOptions(max_boxes=p["max_boxes"])
-            cert = roa.certify(vdp, degree=int(d), vs=vs, interval=itv, check_above=1.001)
+            cert = roa.certify(
+                vdp, degree=int(d), vs=vs, interval=itv, check_above=1.001, validator="interval"
+            )
         row = _row(cert)
         if cert.certified and cert.V is not None and cert.level is not None:
             area = float(np.count_nonzero(cert.V.value(G) <= cert.level)) * cell
@@ -147,7 +149,8 @@ def _ipc(p: dict[str, Any], results: Path) -> dict[str, Any]:
                            max_iters=p["max_iters"])  # fmt: skip
         with step(f"degrees: IPC (flat), degree {d}"):
             cert = roa.certify(ipc, seed, degree=int(d), vs=vs, check_above=1.001,
-                               interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
+                               interval=roa.IntervalOptions(max_boxes=p["max_boxes"]),
+                               validator="interval")  # fmt: skip
         rows[str(d)] = _ipc_row(cert, p)
     for d in p.get("ipc_sampled_degrees", ()):
         with step(f"degrees: IPC (flat), degree {d}, sampled search"):
@@ -172,7 +175,8 @@ def _ipc_hybrid(p: dict[str, Any], results: Path) -> dict[str, Any]:
         if int(d) == 2:
             with step("degrees: IPC (hybrid), degree 2 (the quadratic seed)"):
                 cert = roa.certify(hyb, seed, method="both", check_above=1.001,
-                                   interval=roa.IntervalOptions(max_boxes=p["max_boxes"]))  # fmt: skip
+                                   interval=roa.IntervalOptions(max_boxes=p["max_boxes"]),
+                                   validator="interval")  # fmt: skip
             rows["2"] = _ipc_row(cert, p, "hybrid")
             continue
         with step(f"degrees: IPC (hybrid), degree {d}, sampled search"):
@@ -206,7 +210,7 @@ def _ipc_sampled(ipc: Any, seed: Any, d: int, p: dict[str, Any], coords: str = "
 
     search = roa.CuttingPlanes(opts, hard=hard, soft=soft, level=level, seed=seed)
     return roa.certify(ipc, search, interval=roa.IntervalOptions(max_boxes=p["max_boxes"]),
-                       check_above=1.001)  # fmt: skip
+                       check_above=1.001, validator="interval")  # fmt: skip
 
 
 def _components(coords: str) -> Any:

@@ -187,16 +187,20 @@ def _cases(p: dict[str, Any], results: Path) -> dict[str, Any]:
     ev["paper"] = ev["box_optimised"] = ev["robust_quadratic"] = skipped
     if "paper" in p["cases"]:
         with step("robust: the paper's V over the box"):
-            ev["paper"] = _row(roa.certify(system, None, method="interval", interval=itv))
+            ev["paper"] = _row(
+                roa.certify(system, None, method="interval", interval=itv, validator="interval")
+            )
     P_box = np.asarray(json.loads((results / "certify" / "V_optimised_box.json").read_text())["P"])
     if "box_optimised" in p["cases"]:
         with step("robust: the box-optimised V (C5) over the box"):
             ev["box_optimised"] = _row(roa.certify(system, P_box, method="interval",
-                                                   interval=itv))  # fmt: skip
+                                                   interval=itv, validator="interval"))  # fmt: skip
     P, design = robust_quadratic(system, P_box, p["alpha"])
     if "robust_quadratic" in p["cases"]:
         with step("robust: the quadratic V designed for the box"):
-            cert = roa.certify(system, P, method="interval", interval=itv, check_above=1.001)
+            cert = roa.certify(
+                system, P, method="interval", interval=itv, check_above=1.001, validator="interval"
+            )
         row = {**_row(cert), "P": P.tolist(), "design": design}
         if cert.certified and cert.level is not None:
             row.update(_sector_box(as_lyapunov(system, P), float(cert.level), p))
@@ -248,7 +252,7 @@ def _sector60(p: dict[str, Any], results: Path) -> dict[str, Any]:
     for k in sorted(p["sector_k"]):
         system = transformed_uncertain(delta_low=1.0 / k, delta_high=k)
         with step(f"robust: the 60 deg sector for delta_plant in [1/{k:g}, {k:g}]"):
-            cert = roa.certify(system, V, level=level, interval=itv)
+            cert = roa.certify(system, V, level=level, interval=itv, validator="interval")
         out["k"][f"{k:g}"] = _row(cert)
         if cert.status is roa.Verdict.REFUTED:
             break  # a wider box holds this one: refuted too

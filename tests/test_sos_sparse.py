@@ -114,6 +114,26 @@ def test_the_library_default_validator_is_the_command_lines(ring):
     assert not roa.certify(system, level=1.001 * opt).certified
 
 
+def test_above_the_branch_and_bounds_dimension_a_level_search_witness_refutes_just_above(ring):
+    """At 6 states the check above the certified level is refuted by a witness from the CasADi
+    level search (V' >= 0 at 50 digits, V(x) at the independent optimum), without running the
+    branch and bound over 6 dimensions; the search never refutes a level below the optimum."""
+    from roa.certification.pipeline import _witness_by_search
+
+    system, _, opt = ring
+    cert = roa.certify(system, check_above=1.001)
+    assert cert.certified and 0.99 * opt <= cert.level <= opt, cert.message
+    above = cert.above
+    assert above is not None and above.status is roa.Verdict.REFUTED, above
+    assert 1.001 * cert.level <= above.level <= 1.002 * opt  # 1.001 x the proposed level
+    x = np.asarray(above.witness)
+    assert x @ x == pytest.approx(opt, rel=1e-9) and above.witness_check["confirmed"]
+    stages = [(t["stage"], t["by"]) for t in cert.trace if t["stage"] == "refute above"]
+    assert stages == [("refute above", "witness (level search)")]
+    V = roa.default_lyapunov(system)
+    assert _witness_by_search(system, V, 0.999 * opt, []) is None
+
+
 def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch):
     """The level proposer's bisection with the sparse program (forced by a small memory budget)
     is within 1 % below the dense program's and the optimum, never above the optimum; the

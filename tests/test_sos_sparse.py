@@ -131,7 +131,8 @@ def test_above_the_branch_and_bounds_dimension_a_level_search_witness_refutes_ju
     stages = [(t["stage"], t["by"]) for t in cert.trace if t["stage"] == "refute above"]
     assert stages == [("refute above", "witness (level search)")]
     V = roa.default_lyapunov(system)
-    assert _witness_by_search(system, V, 0.999 * opt, []) is None
+    below, note = _witness_by_search(system, V, 0.999 * opt, [])
+    assert below is None and "no level at or above it can be certified" in note
 
 
 def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch):

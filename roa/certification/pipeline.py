@@ -416,9 +416,10 @@ def _refute_above(
     # above the dimension the branch and bound covers, a witness is looked for first (the
     # branch and bound would spend its whole budget before ending inconclusive)
     search = not system.parameters
+    note = ""
     if search and V.n > getattr(validator, "max_bnb_dim", 4):
         with step(f"witness search for level {top:.6g} (CasADi level search)"):
-            found = _witness_by_search(system, V, top, trace)
+            found, note = _witness_by_search(system, V, top, trace)
         if found is not None:
             return found
         search = False
@@ -426,35 +427,44 @@ def _refute_above(
         v = _validate(system, V, validator, top, trace, "refute above")
     if search and v.status is Verdict.INCONCLUSIVE:
         with step(f"witness search for level {top:.6g} (CasADi level search)"):
-            found = _witness_by_search(system, V, top, trace)
+            found, note = _witness_by_search(system, V, top, trace)
         if found is not None:
             return found
+    if note and v.status is Verdict.INCONCLUSIVE:
+        import dataclasses
+
+        v = dataclasses.replace(v, message=f"{v.message}; {note}")
     return v
 
 
 def _witness_by_search(
     system: System, V: Lyapunov, top: float, trace: list[dict[str, Any]]
-) -> Validation | None:
+) -> tuple[Validation | None, str]:
     """``top`` refuted by a witness the validator could not find (the branch and bound in more
     dimensions than it covers, or an SOS check, which never refutes): Khalil's level search
     (CasADi) gives a point of ``{V' >= 0}``, from which :func:`lowest_confirmed_witness` finds a
     local minimum of V whose ``V' >= 0`` holds at 50 digits, in the equilibrium's component of
-    its sublevel set; it refutes ``top`` when ``V(x) <= top``. None when there is none."""
+    its sublevel set; it refutes ``top`` when ``V(x) <= top``. Else ``(None, note)``, the note
+    naming a confirmed witness above ``top`` (an upper bound of the largest level of V)."""
     from roa.proof.witness import lowest_confirmed_witness, refuted_by
 
     try:
         search = level_search(system, V, method="casadi")
     except (RoaInputError, RuntimeError, ValueError, ArithmeticError) as exc:
         trace.append({"stage": "refute above", "by": "level search", "error": str(exc)[:200]})
-        return None
+        return None, ""
     if search.witness is None:
-        return None
+        return None, ""
     val, x, check = lowest_confirmed_witness(system, V, np.asarray(search.witness, dtype=float))
-    if x is None or check is None or not val * (1 + 1e-12) <= top:
-        return None
+    if x is None or check is None:
+        return None, ""
+    if not val * (1 + 1e-12) <= top:
+        trace.append({"stage": "refute above", "by": "level search", "witness_value": val})
+        return None, (f"the level search's witness, V' >= 0 at 50 digits, lies at V = {val:.10g} "
+                      f"({val / top:.6g} x this level): no level at or above it can be certified")  # fmt: skip
     trace.append({"stage": "refute above", "by": "witness (level search)", "level": top})
     how = f"local minimum of V on {{V' >= 0}} from the CasADi level search, V = {val:.10g}"
-    return refuted_by(x, check, top, how)
+    return refuted_by(x, check, top, how), ""
 
 
 def _from_source(

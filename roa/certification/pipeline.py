@@ -216,8 +216,8 @@ def _proposers(
     if level is not None:
         if method == "sos":
             raise RoaInputError(
-                "method='sos' with a given level: a given level is checked by interval "
-                "validation only; use method='interval', or drop level to let SOS find one"
+                "method='sos' with a given level: a given level is checked by the validator "
+                "only; use method='interval', or drop level to let SOS find one"
             )
         if candidate is not None:
             raise RoaInputError("give either level or candidate, not both")
@@ -229,8 +229,8 @@ def _proposers(
         if lyap.as_quadratic() is None:
             raise RoaInputError(
                 f"method='sos' needs a QuadraticLyapunov; V {lyap.name!r} is "
-                f"{type(lyap).__name__}: use method='both' or 'interval' (sampled search + "
-                "interval validation)"
+                f"{type(lyap).__name__}: use method='both' or 'interval' (sampled search, then "
+                "the validator)"
             )
         return [SosLevel(sos, only=True)]
     sampled_level = SampledLevel(sampled, interval.sampled_safety)
@@ -336,7 +336,7 @@ def run(
                    "not a bound between them: " + "; ".join(backoff))  # fmt: skip
     if skipped and not given:
         message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
-                   f"sampled search, checked by interval validation. {message}")  # fmt: skip
+                   f"sampled search, checked by the validator. {message}")  # fmt: skip
     if given and not fresh:
         return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                     level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
@@ -414,8 +414,10 @@ def _refute_above(
         half = ray_box(V, top)  # a cover from rays, proved by V > level on its faces
         validator = IntervalValidator(validator.options, None if half is None else 1.3 * half)
     # above the dimension the branch and bound covers, a witness is looked for first (the
-    # branch and bound would spend its whole budget before ending inconclusive)
-    search = not system.parameters
+    # branch and bound would spend its whole budget before ending inconclusive); not where the
+    # domain has a boundary (the witness's segment to the equilibrium is not checked to stay in
+    # the domain, and the branch and bound calls such levels inconclusive)
+    search = not system.parameters and system.margin is None
     note = ""
     if search and V.n > getattr(validator, "max_bnb_dim", 4):
         with step(f"witness search for level {top:.6g} (CasADi level search)"):
@@ -450,18 +452,20 @@ def _witness_by_search(
 
     try:
         search = level_search(system, V, method="casadi")
+        if search.witness is None:
+            return None, ""
+        w = np.asarray(search.witness, dtype=float)
+        val, x, check = lowest_confirmed_witness(system, V, w)
     except (RoaInputError, RuntimeError, ValueError, ArithmeticError) as exc:
         trace.append({"stage": "refute above", "by": "level search", "error": str(exc)[:200]})
         return None, ""
-    if search.witness is None:
-        return None, ""
-    val, x, check = lowest_confirmed_witness(system, V, np.asarray(search.witness, dtype=float))
     if x is None or check is None:
         return None, ""
     if not val * (1 + 1e-12) <= top:
         trace.append({"stage": "refute above", "by": "level search", "witness_value": val})
-        return None, (f"the level search's witness, V' >= 0 at 50 digits, lies at V = {val:.10g} "
-                      f"({val / top:.6g} x this level): no level at or above it can be certified")  # fmt: skip
+        return None, (f"a witness from the level search, V' >= 0 at 50 digits, lies at V = "
+                      f"{val:.10g} ({val / top:.6g} x this level): no level at or above it can "
+                      "be certified")  # fmt: skip
     trace.append({"stage": "refute above", "by": "witness (level search)", "level": top})
     how = f"local minimum of V on {{V' >= 0}} from the CasADi level search, V = {val:.10g}"
     return refuted_by(x, check, top, how), ""

@@ -87,6 +87,12 @@ def _umask() -> int:
     return mask
 
 
+def cache_dir() -> Path:
+    """roa's cache directory (``$ROA_CACHE_DIR``, else ``~/.cache/roa``)."""
+    root = os.environ.get("ROA_CACHE_DIR")
+    return Path(root) if root else Path.home() / ".cache" / "roa"
+
+
 def atomic_write_text(path: str | Path, text: str) -> Path:
     return atomic_write_bytes(path, text.encode("utf-8"))
 

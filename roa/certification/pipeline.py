@@ -20,6 +20,7 @@ Every stage leaves an entry in ``Certificate.trace``.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Sequence
 from typing import Any
@@ -391,7 +392,7 @@ def _refute_above(
 ) -> Validation:
     """``top`` refuted by a confirmed witness below it (a retry's, or for a freshly found V the
     level search's), else decided by the validator."""
-    from roa.proof.witness import lowest_confirmed_witness, refuted_by
+    from roa.proof.witness import WITNESS_SLACK, lowest_confirmed_witness, refuted_by
 
     # the proposal's own witness (a freshly found V's search, or the worst sample point of a
     # parameter box), proved again here (50 digits, in the equilibrium's component)
@@ -400,9 +401,9 @@ def _refute_above(
         w = np.asarray(prop.search.witness, dtype=float)
         wp = prop.parameters if system.parameters else None
         val, x, check = lowest_confirmed_witness(system.at(**wp) if wp else system, V, w)
-        if x is not None and val * (1 + 1e-12) <= top:
+        if x is not None and val * WITNESS_SLACK <= top:
             proof = (x, check, val, wp)
-    if proof is not None and proof[2] * (1 + 1e-12) <= top:  # checked at V(x) (1 + 1e-12)
+    if proof is not None and proof[2] * WITNESS_SLACK <= top:
         how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
         trace.append({"stage": "refute above", "by": "witness", "level": top})
         return refuted_by(proof[0], proof[1], top, how, parameters=proof[3])
@@ -413,28 +414,26 @@ def _refute_above(
 
         half = ray_box(V, top)  # a cover from rays, proved by V > level on its faces
         validator = IntervalValidator(validator.options, None if half is None else 1.3 * half)
-    # above the dimension the branch and bound covers, a witness is looked for first (the
-    # branch and bound would spend its whole budget before ending inconclusive); not where the
-    # domain has a boundary (the witness's segment to the equilibrium is not checked to stay in
-    # the domain, and the branch and bound calls such levels inconclusive)
-    search = not system.parameters and system.margin is None
-    note = ""
-    if search and V.n > getattr(validator, "max_bnb_dim", 4):
-        with step(f"witness search for level {top:.6g} (CasADi level search)"):
-            found, note = _witness_by_search(system, V, top, trace)
-        if found is not None:
-            return found
-        search = False
-    with step(f"refutation check of {V.name} at level {top:.6g}"):
-        v = _validate(system, V, validator, top, trace, "refute above")
-    if search and v.status is Verdict.INCONCLUSIVE:
-        with step(f"witness search for level {top:.6g} (CasADi level search)"):
-            found, note = _witness_by_search(system, V, top, trace)
-        if found is not None:
-            return found
+    # a witness of the level search refutes where the validator cannot: first above the
+    # dimension the branch and bound covers (it would spend its whole budget before ending
+    # inconclusive), else after an inconclusive validation; not for a parameter box, nor where
+    # the domain has a boundary (the witness's segment to the equilibrium is not checked to stay
+    # in the domain, and the branch and bound calls such levels inconclusive)
+    searchable = not system.parameters and system.margin is None
+    v = None
+    if not (searchable and V.n > getattr(validator, "max_bnb_dim", 4)):
+        with step(f"refutation check of {V.name} at level {top:.6g}"):
+            v = _validate(system, V, validator, top, trace, "refute above")
+        if v.status is not Verdict.INCONCLUSIVE or not searchable:
+            return v
+    with step(f"witness search for level {top:.6g} (CasADi level search)"):
+        found, note = _witness_by_search(system, V, top, trace)
+    if found is not None:
+        return found
+    if v is None:
+        with step(f"refutation check of {V.name} at level {top:.6g}"):
+            v = _validate(system, V, validator, top, trace, "refute above")
     if note and v.status is Verdict.INCONCLUSIVE:
-        import dataclasses
-
         v = dataclasses.replace(v, message=f"{v.message}; {note}")
     return v
 
@@ -448,7 +447,7 @@ def _witness_by_search(
     local minimum of V whose ``V' >= 0`` holds at 50 digits, in the equilibrium's component of
     its sublevel set; it refutes ``top`` when ``V(x) <= top``. Else ``(None, note)``, the note
     naming a confirmed witness above ``top`` (an upper bound of the largest level of V)."""
-    from roa.proof.witness import lowest_confirmed_witness, refuted_by
+    from roa.proof.witness import WITNESS_SLACK, lowest_confirmed_witness, refuted_by
 
     try:
         search = level_search(system, V, method="casadi")
@@ -461,7 +460,7 @@ def _witness_by_search(
         return None, ""
     if x is None or check is None:
         return None, ""
-    if not val * (1 + 1e-12) <= top:
+    if not val * WITNESS_SLACK <= top:
         trace.append({"stage": "refute above", "by": "level search", "witness_value": val})
         return None, (f"a witness from the level search, V' >= 0 at 50 digits, lies at V = "
                       f"{val:.10g} ({val / top:.6g} x this level): no level at or above it can "
@@ -483,8 +482,6 @@ def _from_source(
     t0: float,
 ) -> Certificate:
     """Certify the candidates of a source of V (see :func:`certify`)."""
-    import dataclasses
-
     res = source.search(system, seed)
     if isinstance(source, CuttingPlanes):
         return _cutting_planes(system, seed, source, res, validator, check_above, retries, t0)
@@ -521,8 +518,6 @@ def _cutting_planes(
     t0: float,
 ) -> Certificate:
     """The candidate of the cutting-plane search, validated at its chosen level."""
-    import dataclasses
-
     if res.V is None:
         return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="sampled search",
                            level_source=None, seconds=time.perf_counter() - t0,

@@ -37,6 +37,7 @@ from typing import Any
 
 import numpy as np
 
+from roa.io import atomic_write_json, atomic_write_text, cache_dir
 from roa.montecarlo.trace import Untraceable, trace_system
 from roa.system import System
 
@@ -61,23 +62,13 @@ def kernel_dir() -> Path:
     env = os.environ.get(CACHE_ENV)
     if env:
         return Path(env).expanduser()
-    root = os.environ.get("ROA_CACHE_DIR")  # as roa.proof.reverify.cache_dir (not imported: slow)
-    return (Path(root) if root else Path.home() / ".cache" / "roa") / "kernels"
+    return cache_dir() / "kernels"
 
 
 def _write_module(path: Path, text: str) -> None:
     """Write ``text`` atomically unless ``path`` already holds it (its name is the text's hash)."""
-    if path.exists():
-        return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".py")
-    try:
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    if not path.exists():
+        atomic_write_text(path, text)
 
 
 _MODULES: dict[str, Any] = {}
@@ -273,16 +264,11 @@ def _from_index(system: System, path: Path | None) -> GeneratedKernels | None:
 
 
 def _remember(path: Path | None, factory: GeneratedKernels, baked: dict[str, float]) -> None:
-    import json
-
     if path is None:
         return
     try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=".tmp-", suffix=".json")
-        with os.fdopen(fd, "w") as fh:
-            json.dump({"digest": factory.digest, "names": list(factory.names), "baked": baked}, fh)
-        os.replace(tmp, path)
+        atomic_write_json(path, {"digest": factory.digest, "names": list(factory.names),
+                                 "baked": baked})  # fmt: skip
     except OSError:
         pass  # no index: the next process traces again
 

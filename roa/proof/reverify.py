@@ -23,13 +23,12 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
-import os
 import time
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 from roa.fingerprint import system_identity
+from roa.io import cache_dir
 from roa.lyapunov import Lyapunov
 from roa.options import IntervalOptions
 from roa.status import Verdict
@@ -56,12 +55,6 @@ class Reverified:
     def frame(self) -> list[list[float]] | None:
         """The validation's frame ``M`` (``x = x_eq + M y``) of a non-quadratic V."""
         return self.validation.get("M")
-
-
-def cache_dir() -> Path:
-    """Where proved certificates are remembered (``$ROA_CACHE_DIR``, else ``~/.cache/roa``)."""
-    root = os.environ.get("ROA_CACHE_DIR")
-    return Path(root) if root else Path.home() / ".cache" / "roa"
 
 
 @functools.lru_cache(maxsize=1)

@@ -25,6 +25,10 @@ from roa.proof.validation import Validation
 from roa.status import Verdict
 from roa.system import System
 
+#: A confirmed witness ``x`` is checked in ``{V <= V(x) WITNESS_SLACK}``: it refutes the levels
+#: at or above ``V(x) WITNESS_SLACK``.
+WITNESS_SLACK = 1 + 1e-12
+
 
 def recheck_witness(
     system: System, lyap: Lyapunov, x: np.ndarray, level: float, *, digits: int = 50
@@ -101,7 +105,7 @@ def lowest_confirmed_witness(
             continue
         if system.margin is not None and not system.inside(x[None])[0]:
             continue
-        top = v * (1 + 1e-12)
+        top = v * WITNESS_SLACK
         check = recheck_witness(system, V, x, top)
         if check["confirmed"] and connected_to_center(V, x, top):
             return v, x, check

@@ -103,12 +103,11 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     variables, no monomial of ``V`` or ``V'`` couples two of them (:func:`restrict`), and every block's identity
     and Gram matrices pass :func:`roa.proof.sos_check.check_certificate` exactly."""
     import time
-    from fractions import Fraction
 
     from roa.proof.sos_check import (
-        MAX_DIGITS,
         check_certificate,
         parse_basis,
+        parse_eps,
         parse_matrix,
         preconditions,
         recheck_stored,
@@ -142,11 +141,9 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
             if "sum" in raw:  # a sparse certificate of this block (sums of Gram blocks)
                 from roa.proof.sos_sum import check_sum, parse
 
-                raw_eps = str(raw.get("eps"))
-                if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
-                    raise ValueError("eps must be a rational like '1/1048576'")
+                eps = parse_eps(raw.get("eps"))
                 sigma, lam = parse(raw["sum"], len(block))
-                rs = check_sum(sub, level, Fraction(raw_eps), sigma, lam, rounded=True)
+                rs = check_sum(sub, level, eps, sigma, lam, rounded=True)
                 if not rs.ok:
                     return out(Verdict.INCONCLUSIVE, f"stored SOS certificate of block "
                                f"{list(block)} refused: {rs.reason}")  # fmt: skip
@@ -155,10 +152,8 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
             b1 = parse_basis(raw.get("basis1") or [], len(block), "basis1")
             Q0 = parse_matrix(raw.get("Q0"), len(b0), "Q0")
             Q1 = parse_matrix(raw.get("Q1") or [], len(b1), "Q1")
-            raw_eps = str(raw.get("eps"))
-            if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
-                raise ValueError("eps must be a rational like '1/1048576'")
-            res = check_certificate(sub, level, Fraction(raw_eps), b0, Q0, b1, Q1, rounded=True)
+            eps = parse_eps(raw.get("eps"))
+            res = check_certificate(sub, level, eps, b0, Q0, b1, Q1, rounded=True)
             if not res.ok:
                 return out(Verdict.INCONCLUSIVE, f"stored SOS certificate of block "
                            f"{list(block)} refused: {res.reason}")  # fmt: skip

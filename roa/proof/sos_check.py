@@ -180,6 +180,17 @@ def round_matrix(Q: Any, bits: int = 30) -> list[list[Fraction]]:
     return out
 
 
+def exact_matrix(Q: Any, rounded: bool) -> list[list[Fraction]]:
+    """A Gram matrix in exact arithmetic: a stored (already rounded) one read entry by entry,
+    else a float matrix by :func:`round_matrix`."""
+    return [[exact_fraction(v) for v in row] for row in Q] if rounded else round_matrix(Q)
+
+
+def is_symmetric(R: list[list[Fraction]]) -> bool:
+    """Whether the exact square matrix ``R`` is symmetric."""
+    return all(R[i][j] == R[j][i] for i in range(len(R)) for j in range(i))
+
+
 def matrix_digest(*mats: list[list[Fraction]]) -> str:
     h = hashlib.sha256()
     for M in mats:
@@ -349,6 +360,15 @@ MAX_BASIS = 5000
 MAX_DIGITS = 2000
 
 
+def parse_eps(raw: Any) -> Fraction:
+    """The ``eps`` of a stored certificate: a rational written as a fraction or a decimal
+    (no exponent), at most :data:`MAX_DIGITS` characters; ValueError otherwise."""
+    text = str(raw)
+    if len(text) > MAX_DIGITS or "e" in text.lower():
+        raise ValueError("eps must be a rational like '1/1048576'")
+    return Fraction(text)
+
+
 def as_float(x: Fraction) -> float:
     """``x`` as a float for reports (+-inf beyond the float range)."""
     try:
@@ -404,13 +424,11 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
         if not isinstance(cert, dict):
             raise ValueError("no certificate (bases and Gram matrices) in the file")
         n = int(V.n)
-        raw_eps = str(meta.get("eps"))
-        if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
-            raise ValueError("eps must be a rational like '1/1048576'")
+        eps = parse_eps(meta.get("eps"))
         if "putinar" in cert:  # a recast (non-polynomial) field's constrained certificate
             from roa.proof.sos_putinar import recheck_recast
 
-            ok, reason, rres = recheck_recast(system, V, level, cert, Fraction(raw_eps))
+            ok, reason, rres = recheck_recast(system, V, level, cert, eps)
             fig = {} if rres is None else {"residual": rres.residual, "min_pivot": rres.min_pivot}
             if not ok:
                 return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {reason}",
@@ -422,10 +440,6 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
         basis1 = parse_basis(cert.get("basis1") or [], n, "basis1")
         Q0 = parse_matrix(cert.get("Q0"), len(basis0), "Q0")
         Q1 = parse_matrix(cert.get("Q1") or [], len(basis1), "Q1")
-        raw_eps = str(meta.get("eps"))
-        if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
-            raise ValueError("eps must be a rational like '1/1048576'")
-        eps = Fraction(raw_eps)
     except (ValueError, TypeError, ZeroDivisionError) as exc:
         return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
     data, why = preconditions(system, V, level)

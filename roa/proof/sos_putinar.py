@@ -42,7 +42,9 @@ from roa.proof.sos_check import (
     as_float,
     bounded_and_even,
     exact_fraction,
+    exact_matrix,
     gram_poly,
+    is_symmetric,
     matrix_digest,
     norm_power,
     poly_lin,
@@ -94,10 +96,6 @@ def target_poly(data: RecastData, eps: Fraction) -> QPoly:
     return poly_lin((Fraction(-1), data.N), (-eps, norm))
 
 
-def _symmetric(Q: list[list[Fraction]]) -> bool:
-    return all(Q[i][j] == Q[j][i] for i in range(len(Q)) for j in range(i))
-
-
 def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rounded: bool = False
                   ) -> PutinarCheck:  # fmt: skip
     """Exact check of the identity of the module docstring. ``rounded=False``: the float
@@ -126,8 +124,8 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
     for idx, (basis, Q) in enumerate(blocks.grams):
         if any(len(b) != data.nv for b in basis) or len(Q) != len(basis):
             return PutinarCheck(False, f"Gram block {idx}: basis and matrix do not match")
-        R = [[exact_fraction(v) for v in row] for row in Q] if rounded else round_matrix(Q)
-        if not _symmetric(R):
+        R = exact_matrix(Q, rounded)
+        if not is_symmetric(R):
             return PutinarCheck(False, f"Gram block {idx} is not symmetric")
         grams.append((basis, R))
     free: list[tuple[list[Mono], list[Fraction]]] = []

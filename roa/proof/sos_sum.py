@@ -30,21 +30,21 @@ import numpy as np
 
 from roa.proof.exact import exact_positive_definite
 from roa.proof.sos_check import (
-    MAX_DIGITS,
     ExactData,
     Mono,
     as_float,
-    exact_fraction,
+    exact_matrix,
     gram_poly,
     identity_refusal,
+    is_symmetric,
     matrix_digest,
     norm_power,
     parse_basis,
+    parse_eps,
     parse_matrix,
     poly_lin,
     poly_mul,
     project_grams,
-    round_matrix,
 )
 
 Block = tuple[list[Mono], Any]
@@ -68,14 +68,6 @@ class SumCheck:
     meta: dict[str, Any] = field(default_factory=dict)
 
 
-def _exact(Q: Any, rounded: bool) -> Matrix:
-    return [[exact_fraction(v) for v in row] for row in Q] if rounded else round_matrix(Q)
-
-
-def _symmetric(R: Matrix) -> bool:
-    return all(R[i][j] == R[j][i] for i in range(len(R)) for j in range(i))
-
-
 def check_sum(data: ExactData, level: Any, eps: Any, sigma: list[Block], lam: list[Block], *,
               rounded: bool = False) -> SumCheck:  # fmt: skip
     """Exact check of ``-V' - eps|d|^2k - (sum_j l_j' L_j l_j)(c - V) = sum_b s_b' S_b s_b``.
@@ -96,8 +88,8 @@ def check_sum(data: ExactData, level: Any, eps: Any, sigma: list[Block], lam: li
         for b, (basis, Q) in enumerate(parts):
             if any(len(m) != n for m in basis) or len(Q) != len(basis):
                 return SumCheck(False, f"{what} block {b}: basis and Gram matrix do not match")
-            R = _exact(Q, rounded)
-            if not _symmetric(R):
+            R = exact_matrix(Q, rounded)
+            if not is_symmetric(R):
                 return SumCheck(False, f"{what} block {b} is not symmetric")
             blocks.append((list(basis), R))
     S, L = blocks[: len(sigma)], blocks[len(sigma) :]
@@ -179,10 +171,7 @@ def recheck_sum(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
                           meta=m)  # fmt: skip
 
     try:
-        raw_eps = str(meta.get("eps"))
-        if len(raw_eps) > MAX_DIGITS or "e" in raw_eps.lower():
-            raise ValueError("eps must be a rational like '1/1048576'")
-        eps = Fraction(raw_eps)
+        eps = parse_eps(meta.get("eps"))
         sigma, lam = parse(meta["certificate"]["sum"], int(V.n))
     except (ValueError, TypeError, ZeroDivisionError, KeyError) as exc:
         return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")

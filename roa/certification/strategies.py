@@ -80,6 +80,15 @@ class IntervalValidator:
                                   time_limit=self.options.time_limit)  # fmt: skip
 
 
+def _sparse_refusal(cand: Any, res: Any) -> str | None:
+    """Why a sparse SOS candidate (:meth:`SosValidator._sparse`) certifies nothing, or None."""
+    if res is None:
+        return f"sparse SOS solver failed ({cand.solver_status})"
+    if not res.ok:
+        return f"sparse SOS check failed: {res.reason}"
+    return None
+
+
 @dataclass(frozen=True)
 class SosValidator:
     """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
@@ -87,7 +96,8 @@ class SosValidator:
     The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
     Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
     ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
-    reason). It never refutes (the pipeline's refutation above uses the branch and bound). Its
+    reason). It never refutes (the pipeline refutes above with the branch and bound or a
+    confirmed witness of the level search). Its
     cost grows polynomially with the dimension (the Gram basis), not exponentially as the branch
     and bound's boxes do.
 
@@ -220,11 +230,10 @@ class SosValidator:
                     sizes.append(plan_b.largest)
                     figures = {"solver_status": statuses, "margin": margins,
                                "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
-                    if res_s is None or not res_s.ok:
-                        why_not = (f"solver failed ({cand_s.solver_status})" if res_s is None
-                                   else f"check failed: {res_s.reason}")  # fmt: skip
-                        return out(Verdict.INCONCLUSIVE, f"sparse SOS {why_not} (block "
-                                   f"{list(block)})", **figures)  # fmt: skip
+                    refused = _sparse_refusal(cand_s, res_s)
+                    if refused is not None:
+                        return out(Verdict.INCONCLUSIVE, f"{refused} (block {list(block)})",
+                                   **figures)  # fmt: skip
                     certs.append({"variables": list(block), "sum": fig.pop("certificate"),
                                   "residual": res_s.residual, "min_pivot": res_s.min_pivot,
                                   **res_s.meta})  # fmt: skip
@@ -310,11 +319,9 @@ class SosValidator:
                       out: Any) -> Validation:  # fmt: skip
         """The sparse certificate of the whole (:meth:`_sparse`) as a validation."""
         cand, res, figures = self._sparse(data, level, plan, why)
-        if res is None:
-            return out(Verdict.INCONCLUSIVE, f"sparse SOS solver failed ({cand.solver_status})",
-                       **figures)  # fmt: skip
-        if not res.ok:
-            return out(Verdict.INCONCLUSIVE, f"sparse SOS check failed: {res.reason}", **figures)
+        refused = _sparse_refusal(cand, res)
+        if refused is not None:
+            return out(Verdict.INCONCLUSIVE, refused, **figures)
         cert = {"sum": figures.pop("certificate")}
         return out(Verdict.CERTIFIED, f"sparse SOS certificate ({len(plan.cliques)} cliques of "
                    f"sizes <= {max(map(len, plan.cliques))}) checked exactly: {res.reason}",

@@ -71,12 +71,12 @@ def test_a_budget_spent_while_building_gives_the_solver_a_positive_limit(monkeyp
     one with a ValueError)."""
     clock = [0.0]
     seen = []
-    solve = VS.Identity.solve
 
-    def spy(self, *args, **kw):
+    def spy(self, *args, **kw):  # the solver stops at its limit, as Clarabel does at 1e-3 s
         seen.append(kw["options"]["time_limit"])
         clock[0] += 10.0
-        return solve(self, *args, **kw)
+        self.solver, self.status = "clarabel", "user_limit"
+        return False, None, None
 
     monkeypatch.setattr(VS, "_now", lambda: clock[0])
     monkeypatch.setattr(VS.Identity, "solve", spy)
@@ -93,3 +93,4 @@ def test_a_budget_spent_while_building_gives_the_solver_a_positive_limit(monkeyp
     assert (
         res.status is SosStatus.FAILED and "time budget of 50.0 s spent in round 0" in res.message
     )
+    assert len(seen) == 1 and "gamma step: user_limit" in res.message

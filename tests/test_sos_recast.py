@@ -118,7 +118,7 @@ def test_pendulum_certified_at_095_of_its_optimum_and_rechecked():
         [v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in lam
     ]
     r = Certificate.from_dict(bad, system).reverify()
-    assert r.status is roa.Verdict.INCONCLUSIVE and "not positive definite" in r.message
+    assert r.status is roa.Verdict.INCONCLUSIVE and "does not hold exactly as stored" in r.message
     # Q0 made indefinite with the identity still exact: +a on the (y0^2, y1^2) pair and -2a on
     # (y0 y1, y0 y1) leave every coefficient unchanged (the projection does not move it)
     forged = json.loads(json.dumps(data))
@@ -221,7 +221,7 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     basis, Q = grams[2 + band]
     grams[2 + band] = (basis, [[-v for v in row] for row in Q])
     bad = check_putinar(data, level, cand.eps, Blocks(grams, exact.free), rounded=True)
-    assert not bad.ok and "not positive definite" in bad.reason
+    assert not bad.ok and "does not hold exactly as stored" in bad.reason  # checked as stored
     # V' off by one coefficient: its y0^2 term made positive (V' > 0 near x_eq along y0, so no
     # certificate can exist); the projection must move Q0 by the mismatch and fails
     y0 = (2,) + (0,) * (data.nv - 1)

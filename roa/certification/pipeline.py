@@ -292,22 +292,27 @@ def run(
     for _ in range(0 if given and not fresh else retries):
         w = v.witness
         confirmed = (v.witness_check or {}).get("confirmed")
-        if v.status is not Verdict.REFUTED or w is None or not confirmed:
-            break
-        from roa.proof.witness import lowest_confirmed_witness
+        outside = v.meta.get("domain_level") if v.status is Verdict.REFUTED else None
+        if outside is not None:  # the set leaves the domain at V = outside (50 digits)
+            bound, why = float(outside), "a point outside the domain"
+        else:
+            if v.status is not Verdict.REFUTED or w is None or not confirmed:
+                break
+            from roa.proof.witness import lowest_confirmed_witness
 
-        wp = v.witness_parameters
-        at = system.at(**wp) if wp else system
-        bound, x, check = lowest_confirmed_witness(at, V, np.asarray(w, dtype=float))
-        if not bound > 0 or x is None:  # only a point proved in the component bounds c*
-            break
-        if bound <= opt:
-            proof = (x, check, bound, wp)  # refutes every level >= V(x)
+            wp = v.witness_parameters
+            at = system.at(**wp) if wp else system
+            bound, x, check = lowest_confirmed_witness(at, V, np.asarray(w, dtype=float))
+            if not bound > 0 or x is None:  # only a point proved in the component bounds c*
+                break
+            if bound <= opt:
+                proof = (x, check, bound, wp)  # refutes every level >= V(x)
+            why = "V' >= 0"
         opt = min(opt, bound)
         new = min(level_for(opt), factor * opt) if choose is not None else factor * opt
         if not 0 < new < value:
             break
-        notes.append(f"refuted at {value:.7g} (V' >= 0 at V = {bound:.10g}, 50 digits)")
+        notes.append(f"refuted at {value:.7g} ({why} at V = {bound:.10g}, 50 digits)")
         trace.append({"stage": "refine", "witness_level": bound, "next_level": new})
         value = new
         v = _validate(system, V, validator, value, trace, "validate below the witness")
@@ -315,7 +320,7 @@ def run(
     if system.parameters and not given and v.status is Verdict.INCONCLUSIVE:
         # a level proposed at sample points of the box is no bound between them: back off
         for factor_back in BACKOFF[: max(retries, 0)]:
-            if "domain" in v.message or "box cover" in v.message:
+            if v.meta.get("precondition") == "domain" or "box cover" in v.message:
                 break  # neither depends on where the level is below the worst case
             new = factor_back * value
             backoff.append(f"inconclusive at {value:.7g}, backed off to {new:.7g}")

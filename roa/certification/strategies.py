@@ -28,6 +28,7 @@ from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov
 from roa.options import IntervalOptions, SampledOptions, SampleSearchOptions, SosOptions, VsOptions
 from roa.progress import step
+from roa.proof.preconditions import Preconditions, Route, check_preconditions
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
 from roa.status import LevelStatus, SosStatus, Verdict
@@ -48,6 +49,36 @@ class Validator(Protocol):
     def check(self, system: System, V: Lyapunov, level: float) -> Validation: ...
 
 
+def _preconditions(system: System, V: Lyapunov, level: float, route: Route) -> Preconditions:
+    """:func:`roa.proof.preconditions.check_preconditions` for a fresh certificate (a Putinar
+    candidate of the domain containment proposed by :mod:`roa.search.sos_domain`)."""
+    from roa.search.sos_domain import propose_domain_certificate
+
+    with step(f"preconditions of level {level:.6g} ({route.name})"):
+        return check_preconditions(system, V, level, route, propose=propose_domain_certificate)
+
+
+def _with_domain(v: Validation, pre: Preconditions) -> Validation:
+    """A certified ``v`` with the evidence of its domain containment: a Putinar certificate is
+    stored inside the SOS certificate (``certificate["domain"]``, re-checked with it)."""
+    if v.status is not Verdict.CERTIFIED or pre.domain is None:
+        return v
+    meta = {**v.meta, "domain": {k: val for k, val in pre.domain.items()
+                                 if k in ("method", "boxes", "digest")}}  # fmt: skip
+    cert = meta.get("certificate")
+    if isinstance(cert, dict) and pre.domain.get("method") == "putinar":
+        meta["certificate"] = {**cert, "domain": pre.domain}
+    note = pre.notes.get("domain")
+    message = f"{v.message}; domain: {note}" if note else v.message
+    return dataclasses.replace(v, meta=meta, message=message)
+
+
+#: What the interval branch and bound proves by itself (:class:`roa.proof.preconditions.Route`).
+INTERVAL_ROUTE = Route("interval", parameters=True, cover=True, domain_by_boxes=True)
+#: What the exact SOS routes prove by themselves (a box of parameters: the recast route).
+SOS_ROUTE = Route("sos-exact", parameters=True)
+
+
 @dataclass(frozen=True)
 class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
@@ -66,6 +97,9 @@ class IntervalValidator:
         return system.equilibrium is not None and not system.time_varying
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        pre = _preconditions(system, V, level, INTERVAL_ROUTE)
+        if pre.refusal is not None:
+            return pre.refusal
         if system.parameters:
             from roa.proof.robust import validate_robust
 
@@ -164,8 +198,6 @@ class SosValidator:
                 return None
             except NotPolynomial:
                 pass
-        if getattr(system, "margin", None) is not None:
-            return "the system has a domain (margin): the recast route does not bound it"
         try:
             recast_exact(system, V, taylor=1)
             return None
@@ -173,6 +205,27 @@ class SosValidator:
             return str(exc)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        """The level decided by an exact SOS certificate, after every precondition of
+        :mod:`roa.proof.preconditions` (the domain containment stored with the certificate)."""
+        if self.fallback and self._needs_fallback(system, V):
+            return self._prove(system, V, level)  # the branch and bound checks its own
+        pre = _preconditions(system, V, level, SOS_ROUTE)
+        if pre.refusal is not None:
+            return pre.refusal
+        return _with_domain(self._prove(system, V, level), pre)
+
+    def _needs_fallback(self, system: System, V: Lyapunov) -> bool:
+        from roa.proof.sos_check import NotPolynomial, exact_data
+
+        if not getattr(system, "parameters", None):
+            try:
+                exact_data(system, V)
+                return False
+            except NotPolynomial:
+                pass
+        return self.recast_error(system, V) is not None
+
+    def _prove(self, system: System, V: Lyapunov, level: float) -> Validation:
         from roa.proof.sos_blocks import blocks, restrict
         from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
         from roa.search.sos_certificate import default_eps, propose_certificate
@@ -394,11 +447,11 @@ class AutoValidator:
             if v.status is not Verdict.INCONCLUSIVE or not sos_ok:
                 return by_interval(v)
             s = sos.check(system, V, level)
-            if s.status is Verdict.CERTIFIED:
+            if s.status is not Verdict.INCONCLUSIVE:
                 return s
             return by_interval(v, f"SOS route: {s.message}; branch and bound: ")
         s = sos.check(system, V, level)
-        if s.status is Verdict.CERTIFIED:
+        if s.status is not Verdict.INCONCLUSIVE:  # certified, or a precondition refuted
             return s
         return by_interval(itv.check(system, V, level), f"SOS route: {s.message}; branch and "
                            "bound: ")  # fmt: skip

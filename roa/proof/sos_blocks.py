@@ -20,6 +20,7 @@ whole or for a block.
 
 from __future__ import annotations
 
+
 from dataclasses import replace
 from typing import Any
 
@@ -101,7 +102,28 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     in the block's variables, or ``{"variables", "eps", "sum"}`` for a sparse one
     (:func:`roa.proof.sos_sum.check_sum`). ``certified`` only if the stored blocks partition the
     variables, no monomial of ``V`` or ``V'`` couples two of them (:func:`restrict`), and every block's identity
-    and Gram matrices pass :func:`roa.proof.sos_check.check_certificate` exactly."""
+    and Gram matrices pass :func:`roa.proof.sos_check.check_certificate` exactly. Every
+    pattern first passes the preconditions of :mod:`roa.proof.preconditions` (the domain
+    containment by the certificate's stored ``domain`` part, checked exactly as stored, or by
+    intervals)."""
+    from roa.status import Verdict
+
+    from roa.proof.preconditions import Route, check_preconditions
+
+    cert = meta.get("certificate")
+    pre = check_preconditions(system, V, level, Route("sos-exact", parameters=True),
+                              stored_domain=cert.get("domain") if isinstance(cert, dict) else None,
+                              recheck=True)  # fmt: skip
+    if pre.refusal is not None:
+        return pre.refusal
+    v = _recheck(system, V, level, meta)
+    if v.status is Verdict.CERTIFIED and pre.notes.get("domain"):
+        return replace(v, message=f"{v.message}; domain: {pre.notes['domain']}")
+    return v
+
+
+def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
+    """:func:`recheck` once the preconditions hold."""
     import time
 
     from roa.proof.sos_check import (

@@ -213,23 +213,26 @@ class SosCheck:
 
 
 def project_gram(
-    basis0: list[Mono], R0: list[list[Fraction]], target: QPoly
+    basis0: list[Mono], R0: list[list[Fraction]], target: QPoly, *, exact: bool = False
 ) -> tuple[list[list[Fraction]] | None, Fraction | None, str]:
     """``(P, residual, why)``: the rounded Gram matrix ``R0`` projected orthogonally (Frobenius,
     exact rationals) onto the affine space where ``m0' P m0 = target`` (module doc: each
     monomial's ``N_a`` entries move by ``(r_a - s_a) / N_a``), the largest coefficient moved,
-    and ``P`` None with the reason when the identity cannot hold."""
-    Ps, residual, why = project_grams([(basis0, R0)], target)
+    and ``P`` None with the reason when the identity cannot hold. ``exact=True`` (a stored
+    certificate): nothing is moved; ``P`` is ``R0`` when the identity holds exactly as given."""
+    Ps, residual, why = project_grams([(basis0, R0)], target, exact=exact)
     return (None if Ps is None else Ps[0]), residual, why
 
 
 def project_grams(
-    blocks: list[tuple[list[Mono], list[list[Fraction]]]], target: QPoly
+    blocks: list[tuple[list[Mono], list[list[Fraction]]]], target: QPoly, *, exact: bool = False
 ) -> tuple[list[list[list[Fraction]]] | None, Fraction | None, str]:
     """:func:`project_gram` for a sum of Gram forms ``sum_b m_b' P_b m_b = target``, projected
     jointly (Frobenius norm over all blocks): every entry ``(b, i, j)`` yields one monomial
     ``m_bi m_bj``, so the constraints of distinct monomials still touch disjoint entries and each
-    monomial's ``N_a`` entries, over all blocks, move by ``(r_a - s_a) / N_a``."""
+    monomial's ``N_a`` entries, over all blocks, move by ``(r_a - s_a) / N_a``. ``exact=True``
+    (stored certificates): no entry moves; the identity must hold exactly as given, else the
+    first monomial whose coefficients differ is named."""
     pairs: dict[Mono, list[tuple[int, int, int]]] = {}
     for b, (basis, _) in enumerate(blocks):
         for (i, bi), (j, bj) in itertools.product(enumerate(basis), enumerate(basis)):
@@ -244,6 +247,9 @@ def project_grams(
         diff = target.get(m, Fraction(0)) - sum((blocks[b][1][i][j] for b, i, j in idx),
                                                 Fraction(0))  # fmt: skip
         residual = max(residual, abs(diff))
+        if diff and exact:
+            return None, residual, (f"the identity does not hold exactly as stored: the "
+                                    f"coefficient of monomial {m} differs by {as_float(diff):.3g}")  # fmt: skip
         if diff:
             share = diff / len(idx)
             for b, i, j in idx:
@@ -311,7 +317,7 @@ def check_certificate(
     if not ok1:
         return SosCheck(False, "the multiplier's Gram matrix Q1 is not positive definite (exact)",
                         min_pivot=as_float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
-    P, residual, why = project_gram(basis0, R0, target)
+    P, residual, why = project_gram(basis0, R0, target, exact=rounded)
     if P is None:
         return SosCheck(False, why, None if residual is None else as_float(residual))
     assert residual is not None

@@ -100,7 +100,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
                   ) -> PutinarCheck:  # fmt: skip
     """Exact check of the identity of the module docstring. ``rounded=False``: the float
     matrices and coefficients are rounded first; ``rounded=True``: they are rationals, taken as
-    they are (``Q0`` is projected and the circles' constants set in both cases)."""
+    they are, and the identity must hold exactly as stored (nothing is projected or set)."""
     c, e = Fraction(level), Fraction(eps)
     if not (c > 0 and e > 0):
         return PutinarCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
@@ -144,7 +144,8 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
         for b, v in zip(basis, cs, strict=True):
             mu[b] = mu.get(b, Fraction(0)) + v
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(mu, h)))
-    for idx, (basis, cs) in enumerate(free):  # each circle's linear monomial: set mu's constant
+    for idx, (basis, cs) in enumerate(free if not rounded else []):  # fresh: each circle's
+        # linear monomial sets mu's constant (a stored certificate is checked as it is)
         h = data.equalities[idx][1]
         lin = [m for m in h if sum(m) == 1]
         if len(lin) != 1 or zero not in basis:
@@ -157,7 +158,7 @@ def check_putinar(data: RecastData, level: Any, eps: Any, blocks: Blocks, *, rou
             cs[basis.index(zero)] += delta
             target = poly_lin((Fraction(1), target), (-delta, h))
     basis0, R0 = grams[0]
-    P, residual, why = project_gram(basis0, R0, target)
+    P, residual, why = project_gram(basis0, R0, target, exact=rounded)
     if P is None:
         return PutinarCheck(False, why, None if residual is None else as_float(residual))
     assert residual is not None

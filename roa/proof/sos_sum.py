@@ -106,7 +106,7 @@ def check_sum(data: ExactData, level: Any, eps: Any, sigma: list[Block], lam: li
                 return SumCheck(False, f"the multiplier's Gram block {j} is not positive "
                                 "definite (exact)", min_pivot=as_float(min(piv)) if piv else None,
                                 lam=[R for _, R in L])  # fmt: skip
-    P, residual, why = project_grams(S, target)
+    P, residual, why = project_grams(S, target, exact=rounded)
     if P is None:
         return SumCheck(False, why, None if residual is None else as_float(residual))
     assert residual is not None

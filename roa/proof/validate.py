@@ -40,9 +40,9 @@ outward rounding:
 4. **Witnesses** (a search; every candidate re-checked at 50 digits with mpmath,
    :mod:`roa.proof.witness`): undecided box centres inside the set, and at most
    :data:`WITNESS_RAYS` of them moved onto the level surface along their ray from the
-   equilibrium. A point with ``V' >= 0`` refutes the level; a point of the set *outside the
-   domain* ends the run ``inconclusive`` (the level set reaches the domain boundary: no
-   certificate for this level). With a component cover, a point counts only once proved to lie
+   equilibrium. A point with ``V' >= 0`` refutes the level; so does a point of the set *outside
+   the domain* (the level set leaves the domain: the ``domain`` precondition of
+   :mod:`roa.proof.preconditions` fails). With a component cover, a point counts only once proved to lie
    in the equilibrium's component (:func:`roa.proof.cover.connected_to_center`).
 
 **Coordinates.** When the Hessian of V at the equilibrium is definite and not diagonal, the
@@ -482,12 +482,13 @@ def _branch_and_bound(
             if w is not None:
                 check = recheck_domain_witness(system, lyap, w, level)
                 if check["confirmed"] and (not component or connected_to_center(lyap, w, level)):
-                    return out(Verdict.INCONCLUSIVE, boxes,
-                               "the level set reaches the domain boundary "
+                    return out(Verdict.REFUTED, boxes,
+                               "the level set leaves the domain "
                                f"({system.domain_description}): V <= level at a point outside "
                                "the domain (float and 50 digits); no certificate for this level",
                                meta={**info, **local, "domain_witness": [float(v) for v in w],
-                                     "domain_check": check})  # fmt: skip
+                                     "domain_check": check, "precondition": "domain",
+                                     "domain_level": float(lyap.value(w[None])[0])})  # fmt: skip
         if len(lo):
             w = _witness(system, lyap, 0.5 * (lo[:, :n] + hi[:, :n]), level)
             if w is not None:

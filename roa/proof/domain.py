@@ -1,0 +1,285 @@
+"""Proofs and refutations that a sublevel set lies inside a system's declared domain.
+
+A certificate of ``{V <= c}`` says nothing about points where the model is not defined: a system
+with a ``margin`` (positive inside its domain) is certified only where ``{V <= c}`` is proved to
+lie inside ``{margin > 0}``. Three tools, each independent of any solver:
+
+* :func:`check_domain_certificate`: the exact check of a Putinar (S-procedure) certificate::
+
+      margin(d) - eps - lambda(d) (c - V(d)) = m0(d)' Q0 m0(d),   lambda = m1(d)' Q1 m1(d),
+
+  ``d = x - x_eq``, ``eps > 0``, ``Q0`` and ``Q1`` positive definite in exact rationals. Then on
+  ``{V <= c}``: ``margin >= eps + lambda (c - V) >= eps > 0``. A fresh candidate (float Gram
+  matrices of :mod:`roa.search.sos_domain`) is rounded and ``Q0`` projected onto the identity
+  (Peyrl-Parrilo, as :mod:`roa.proof.sos_check`); a stored one is checked exactly as stored.
+* :func:`interval_containment`: an interval branch and bound over a proved cover of the set
+  (:func:`roa.proof.cover.prove_cover`): every box has ``V > c`` or ``margin > 0`` (outward
+  rounding), within a budget of boxes and seconds. It proves the claim for the equilibrium's
+  component of the set when the cover is only proved for it.
+* :func:`domain_witness`: a point with ``V <= c`` and ``margin <= 0``, found along rays from the
+  equilibrium and moved by SLSQP to a local minimum of V on ``{margin <= 0}`` (a proposal),
+  believed only once re-checked at 50 digits and proved to lie in the equilibrium's component
+  of ``{V <= V(x)}``. It refutes every level from ``V(x)`` up.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+
+from roa.backend import namespace
+from roa.lyapunov import Lyapunov
+from roa.proof.exact import exact_positive_definite
+from roa.proof.interval import INTERVAL, Interval
+from roa.proof.sos_check import (
+    Mono,
+    NotPolynomial,
+    QPoly,
+    as_float,
+    exact_fraction,
+    exact_matrix,
+    gram_poly,
+    is_symmetric,
+    matrix_digest,
+    poly_lin,
+    poly_mul,
+    project_gram,
+)
+from roa.system import System
+
+
+def margin_poly(system: System, V: Lyapunov) -> QPoly:
+    """The margin as an exact polynomial in ``d = x - x_eq`` (``x_eq = V.center``, floats taken
+    as the exact rationals of the doubles); raises :class:`NotPolynomial` otherwise."""
+    import sympy as sp
+
+    from roa.lyapunov.symbolic import exact_rationals
+
+    if system.margin is None:
+        raise NotPolynomial("the system has no domain margin")
+    n = int(V.n)
+    xs = list(sp.symbols(f"x0:{n}", real=True))
+    d = list(sp.symbols(f"d0:{n}", real=True))
+    try:
+        with sp.evaluate(False):
+            m = system.margin(xs, namespace("sympy"))
+        shift = {xs[i]: d[i] + sp.Rational(Fraction(float(c)).numerator,
+                                           Fraction(float(c)).denominator)
+                 for i, c in enumerate(V.center)}  # fmt: skip
+        expr = exact_rationals(sp.sympify(m)).xreplace(shift)
+        poly = sp.Poly(expr, *d, domain="QQ")
+    except (TypeError, ValueError, AttributeError, NotImplementedError, sp.PolynomialError,
+            sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:  # fmt: skip
+        raise NotPolynomial(f"the domain margin is not polynomial in the state ({exc})") from None
+    return {tuple(int(k) for k in mono): exact_fraction(c) for mono, c in poly.terms() if c != 0}
+
+
+def domain_target(margin: QPoly, eps: Fraction, n: int) -> QPoly:
+    """``margin - eps``: the left-hand side of the identity before the multiplier's term."""
+    return poly_lin((Fraction(1), margin), (-eps, {tuple([0] * n): Fraction(1)}))
+
+
+@dataclass(frozen=True)
+class DomainCheck:
+    """Outcome of :func:`check_domain_certificate`: ``ok`` only if every exact check passed;
+    ``certificate`` is the exact, storable form of what was proved."""
+
+    ok: bool
+    reason: str
+    certificate: dict[str, Any] | None = None
+    min_pivot: float | None = None
+
+
+def check_domain_certificate(
+    margin: QPoly,
+    Vq: QPoly,
+    n: int,
+    level: Any,
+    eps: Any,
+    basis0: list[Mono],
+    Q0: Any,
+    basis1: list[Mono],
+    Q1: Any,
+    *,
+    stored: bool = False,
+) -> DomainCheck:
+    """Exact check of ``margin - eps - lambda (c - V) = m0' Q0 m0`` (module docstring).
+
+    ``stored=False``: float Gram matrices, rounded to dyadics, ``Q0`` projected onto the identity;
+    ``stored=True``: rationals, checked exactly as given (no projection: the identity must hold
+    coefficient by coefficient). ``ok`` only with ``eps``, ``level`` > 0 and ``Q0``, ``Q1``
+    positive definite (exact LDL')."""
+    c, e = Fraction(level), Fraction(eps)
+    if not (c > 0 and e > 0):
+        return DomainCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
+    if any(len(b) != n for b in (*basis0, *basis1)) or len(Q0) != len(basis0) or (
+            len(Q1) != len(basis1)):  # fmt: skip
+        return DomainCheck(False, "the bases and Gram matrices of the domain certificate do not "
+                           "match")  # fmt: skip
+    R0, R1 = exact_matrix(Q0, stored), exact_matrix(Q1, stored)
+    if not (is_symmetric(R0) and is_symmetric(R1)):
+        return DomainCheck(False, "a Gram matrix of the domain certificate is not symmetric")
+    target = domain_target(margin, e, n)
+    if basis1:
+        c_minus_V = poly_lin((Fraction(-1), Vq), (c, {tuple([0] * n): Fraction(1)}))
+        target = poly_lin((Fraction(1), target),
+                          (Fraction(-1), poly_mul(gram_poly(basis1, R1), c_minus_V)))  # fmt: skip
+    ok1, piv1 = exact_positive_definite(R1)
+    if not ok1:
+        return DomainCheck(False, "the domain multiplier's Gram matrix is not positive definite "
+                           "(exact)")  # fmt: skip
+    P, _, why = project_gram(basis0, R0, target, exact=stored)
+    if P is None:
+        return DomainCheck(False, f"domain certificate: {why}")
+    ok0, piv0 = exact_positive_definite(P)
+    if not ok0:
+        return DomainCheck(False, "the domain certificate's Gram matrix is not positive definite "
+                           "(exact)")  # fmt: skip
+    cert = {"eps": str(e), "basis0": [list(b) for b in basis0],
+            "basis1": [list(b) for b in basis1],
+            "Q0": [[str(v) for v in row] for row in P],
+            "Q1": [[str(v) for v in row] for row in R1],
+            "digest": matrix_digest(P, R1)}  # fmt: skip
+    return DomainCheck(True, "margin > 0 on the level set (Putinar certificate, exact)", cert,
+                       as_float(min(piv0 + piv1)) if piv0 + piv1 else None)  # fmt: skip
+
+
+# -- witnesses ---------------------------------------------------------------------------------------
+def _boundary_points(system: System, V: Lyapunov, n_dirs: int, seed: int) -> np.ndarray:
+    """Points just outside the domain on rays from the centre (the first crossing of each ray
+    within ``|d| <= 2^40``, located by bisection)."""
+    n, c = V.n, np.asarray(V.center, dtype=float)
+    rng = np.random.default_rng(seed)
+    dirs = np.concatenate([np.eye(n), -np.eye(n), rng.standard_normal((n_dirs, n))])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    t_hi = np.full(len(dirs), 2.0**-20)
+    out = np.zeros(len(dirs), dtype=bool)
+    with np.errstate(all="ignore"):
+        for _ in range(61):  # grow until the ray leaves the domain
+            grow = ~out & (t_hi < 2.0**40)
+            if not grow.any():
+                break
+            left = ~system.inside(c + t_hi[grow, None] * dirs[grow])
+            out[np.flatnonzero(grow)[left]] = True
+            t_hi[np.flatnonzero(grow)[~left]] *= 2.0
+        dirs, t_hi = dirs[out], t_hi[out]
+        t_lo = np.zeros(len(dirs))
+        for _ in range(60):
+            mid = 0.5 * (t_lo + t_hi)
+            inside = system.inside(c + mid[:, None] * dirs)
+            t_lo, t_hi = np.where(inside, mid, t_lo), np.where(inside, t_hi, mid)
+    return c + t_hi[:, None] * dirs
+
+
+def recheck_outside(system: System, V: Lyapunov, x: np.ndarray, level: float) -> dict[str, Any]:
+    """``V(x) <= level`` and ``margin(x) <= 0`` at 50 digits (``x`` taken exactly)."""
+    from roa.proof.witness import recheck_domain_witness
+
+    return recheck_domain_witness(system, V, x, level)
+
+
+def domain_witness(
+    system: System, V: Lyapunov, *, n_dirs: int = 400, seed: int = 0
+) -> tuple[float, np.ndarray, dict[str, Any]] | None:
+    """``(V(x), x, check)``: a point ``x`` outside the domain (``margin(x) <= 0``) whose value
+    bounds from above every level whose set stays inside the domain: ``V(x) <= V(x)`` and
+    ``margin(x) <= 0`` re-checked at 50 digits, ``x`` proved to lie in the equilibrium's component
+    of ``{V <= V(x) (1 + 1e-12)}``. None when no such point is found (the domain may hold every
+    level set)."""
+    from scipy.optimize import minimize
+
+    from roa.proof.cover import connected_to_center
+    from roa.proof.witness import WITNESS_SLACK
+
+    if system.margin is None:
+        return None
+    pts = _boundary_points(system, V, n_dirs, seed)
+    if not len(pts):
+        return None
+    with np.errstate(all="ignore"):
+        vals = V.value(pts)
+    order = np.argsort(np.where(np.isfinite(vals), vals, np.inf))[:3]
+
+    def margin(x: np.ndarray) -> float:
+        return float(np.asarray(system.margin(list(x), namespace("numpy"))))  # type: ignore[misc]
+
+    best: tuple[float, np.ndarray, dict[str, Any]] | None = None
+    for i in order:
+        starts = [pts[i]]
+        with np.errstate(all="ignore"):
+            res = minimize(lambda x: float(V.value(x[None])[0]), pts[i], method="SLSQP",
+                           constraints=[{"type": "ineq", "fun": lambda x: -margin(x)}],
+                           options={"maxiter": 200, "ftol": 1e-15})  # fmt: skip
+        if np.all(np.isfinite(res.x)):
+            starts.insert(0, np.asarray(res.x, dtype=float))
+        for x in starts:
+            with np.errstate(all="ignore"):
+                v = float(V.value(x[None])[0])
+            if not (np.isfinite(v) and v > 0) or (best is not None and v >= best[0]):
+                continue
+            top = v * WITNESS_SLACK
+            check = recheck_outside(system, V, x, top)
+            if check["confirmed"] and connected_to_center(V, x, top):
+                best = (v, x, check)
+                break
+    return best
+
+
+# -- interval containment ----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Containment:
+    """Outcome of :func:`interval_containment`: ``status`` ``proved`` / ``inconclusive``."""
+
+    status: str
+    message: str
+    boxes: int
+    info: dict[str, Any] = field(default_factory=dict)
+
+
+def interval_containment(
+    system: System,
+    V: Lyapunov,
+    level: float,
+    *,
+    max_boxes: int = 200_000,
+    time_limit: float = 60.0,
+) -> Containment:
+    """Prove ``{V <= level}`` inside ``{margin > 0}`` by interval branch and bound (module
+    docstring); ``inconclusive`` with the reason when the budget is spent first."""
+    from roa.proof.cover import interval_value, prove_cover
+
+    t0 = time.perf_counter()
+    assert system.margin is not None
+    box, info, why = prove_cover(V, level, None, budget=max_boxes)
+    if box is None:
+        return Containment("inconclusive", f"no proved cover of the level set: {why}", 0, info)
+    scope = "the equilibrium's component of " if "component" in str(info.get("cover", "")) else ""
+    lo, hi = box[0][None, :], box[1][None, :]
+    boxes = 0
+    while len(lo):
+        boxes += len(lo)
+        if boxes > max_boxes or time.perf_counter() - t0 > time_limit:
+            return Containment("inconclusive", f"the domain containment was not proved within "
+                               f"{max_boxes} boxes and {time_limit:g} s ({len(lo)} boxes "
+                               "undecided)", boxes, info)  # fmt: skip
+        X = [Interval(lo[:, i], hi[:, i]) for i in range(V.n)]
+        with np.errstate(all="ignore"):
+            m = Interval.of(system.margin(X, INTERVAL))
+            Vi = interval_value(V, lo, hi)
+        m_lo = np.broadcast_to(np.asarray(m.lo, dtype=float), (len(lo),))
+        und = ~((Vi.lo > level) | (m_lo > 0))
+        lo, hi = lo[und], hi[und]
+        if len(lo):
+            k = np.argmax(hi - lo, axis=1)
+            rows = np.arange(len(lo))
+            cut = 0.5 * (lo[rows, k] + hi[rows, k])
+            lo2, hi1 = lo.copy(), hi.copy()
+            hi1[rows, k] = cut
+            lo2[rows, k] = cut
+            lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
+    return Containment("proved", f"{scope}the level set lies inside the domain (interval branch "
+                       f"and bound, {boxes} boxes)", boxes, info)  # fmt: skip

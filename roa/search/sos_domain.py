@@ -1,0 +1,93 @@
+"""Numerical Putinar certificate that a sublevel set lies in the domain (proposes only).
+
+For a polynomial margin ``g`` and a polynomial ``V`` (``d = x - x_eq``), one semidefinite program
+(cvxpy, Clarabel) finds Gram matrices with, coefficient by coefficient::
+
+    g(d) - eps - lambda(d) (c - V(d)) = m0(d)' Q0 m0(d),   lambda = m1(d)' Q1 m1(d),
+
+maximising the least eigenvalue ``t`` of both (``Q0, Q1 >= t I``, ``t <= 1``). ``m1`` holds the
+monomials of degree ``0..L`` (``2L`` the least even degree with ``2L + deg V >= deg g``), ``m0``
+those of degree ``0..D`` (``2D`` the least even degree >= ``deg g`` and ``2L + deg V``). The float
+matrices are a candidate: only :func:`roa.proof.domain.check_domain_certificate` decides.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any
+
+import numpy as np
+import scipy.sparse as sps
+
+from roa.proof.domain import domain_target
+from roa.proof.sos_check import Mono, QPoly
+from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
+from roa.search.sos_certificate import gram_columns
+
+
+@dataclass(frozen=True)
+class DomainCandidate:
+    """Bases and float Gram matrices of a numerical domain certificate."""
+
+    basis0: list[Mono]
+    Q0: np.ndarray | None
+    basis1: list[Mono]
+    Q1: np.ndarray | None
+    eps: Fraction
+    solver_status: str
+    seconds: float
+
+
+def default_domain_eps(margin: QPoly, n: int) -> Fraction:
+    """``1e-6`` x ``g(x_eq)`` (the margin at the equilibrium), as a dyadic."""
+    g0 = float(margin.get(tuple([0] * n), Fraction(0)))
+    return Fraction(2.0 ** round(np.log2(1e-6 * g0))) if g0 > 0 else Fraction(1, 2**40)
+
+
+def propose_domain_certificate(
+    margin: QPoly, Vq: QPoly, n: int, level: float, *, solver_options: dict[str, Any] | None = None
+) -> DomainCandidate:
+    """Solve the program of the module docstring for ``{V <= level}``."""
+    import cvxpy as cp
+
+    t0 = time.perf_counter()
+    eps = default_domain_eps(margin, n)
+    deg_g = max((sum(m) for m in margin), default=0)
+    deg_V = max(sum(m) for m in Vq)
+    L = max(0, (deg_g - deg_V + 1) // 2)
+    D = (max(deg_g, 2 * L + deg_V) + 1) // 2
+    basis0, basis1 = monomials(n, D, 0), monomials(n, L, 0)
+    if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
+        return DomainCandidate(basis0, None, basis1, None, eps, f"too large: a Gram block of "
+                               f"{len(basis0)} monomials; not built", time.perf_counter() - t0)  # fmt: skip
+    target = {m: float(c) for m, c in domain_target(margin, eps, n).items()}
+    rows: dict[Mono, int] = {m: i for i, m in enumerate(target)}
+    zero = tuple([0] * n)
+    part0 = gram_columns(rows, basis0, {zero: 1.0})
+    c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in Vq.items()}
+    c_minus_V[zero] = c_minus_V.get(zero, 0.0) + float(level)
+    part1 = gram_columns(rows, basis1, c_minus_V)
+    nrow = len(rows)
+    b = np.zeros(nrow)
+    for m, value in target.items():
+        b[rows[m]] = value
+    n0, n1 = len(basis0), len(basis1)
+    Q0 = cp.Variable((n0, n0), symmetric=True)
+    Q1 = cp.Variable((n1, n1), symmetric=True)
+    t = cp.Variable()
+    A0 = sps.csr_matrix((part0[2], (part0[0], part0[1])), shape=(nrow, n0 * n0))
+    A1 = sps.csr_matrix((part1[2], (part1[0], part1[1])), shape=(nrow, n1 * n1))
+    cons = [Q0 - t * np.eye(n0) >> 0, Q1 - t * np.eye(n1) >> 0, t <= 1,
+            A0 @ cp.vec(Q0, order="C") + A1 @ cp.vec(Q1, order="C") == b]  # fmt: skip
+    prob = cp.Problem(cp.Maximize(t), cons)
+    try:
+        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
+        status = str(prob.status)
+    except cp.error.SolverError as exc:
+        status = f"solver error: {exc}"
+    ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Q0.value is not None
+    return DomainCandidate(basis0, np.asarray(Q0.value) if ok else None, basis1,
+                           np.asarray(Q1.value) if ok else None, eps, status,
+                           time.perf_counter() - t0)  # fmt: skip

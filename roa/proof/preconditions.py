@@ -150,7 +150,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
                       f"{value:.10g} up is refuted", Verdict.REFUTED,
                       domain_witness=[float(v) for v in x], domain_check=check,
                       domain_level=value)  # fmt: skip
-    bound = {} if found is None else {"domain_level": found[0]}
+    bound: dict[str, Any] = {} if found is None else {"domain_level": found[0]}
     if stored is not None:  # a stored Putinar certificate: checked exactly as stored, or refused
         try:
             if not isinstance(stored, dict):
@@ -170,7 +170,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         return Preconditions(None, {"method": "putinar", **(res.certificate or {})},
                              {"domain": res.reason})  # fmt: skip
     if route.domain_by_boxes:
-        return Preconditions(None, None, {"domain": "proved box by box by the route", **bound})
+        return Preconditions(None, None, {"domain": "proved box by box by the route"})
     why = ""
     if propose is not None and not recheck and getattr(V, "terms", None) is not None:
         try:
@@ -192,11 +192,13 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         return Preconditions(None, {"method": "interval", "boxes": box.boxes},
                              {"domain": box.message})  # fmt: skip
     detail = f"{why}; {box.message}" if why else box.message
-    return refuse("domain", f"{{V <= level}} not proved inside the domain ({where}): {detail}",
-                  **bound)
+    return refuse(
+        "domain", f"{{V <= level}} not proved inside the domain ({where}): {detail}", **bound
+    )
 
 
 def _vq(V: Lyapunov) -> dict[tuple[int, ...], Any]:
     from roa.proof.sos_check import exact_fraction
 
-    return {tuple(int(k) for k in m): exact_fraction(c) for m, c in V.terms.items() if c != 0}
+    terms = V.terms or {}
+    return {tuple(int(k) for k in m): exact_fraction(c) for m, c in terms.items() if c != 0}

@@ -20,7 +20,6 @@ whole or for a block.
 
 from __future__ import annotations
 
-
 from dataclasses import replace
 from typing import Any
 
@@ -106,9 +105,8 @@ def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     pattern first passes the preconditions of :mod:`roa.proof.preconditions` (the domain
     containment by the certificate's stored ``domain`` part, checked exactly as stored, or by
     intervals)."""
-    from roa.status import Verdict
-
     from roa.proof.preconditions import Route, check_preconditions
+    from roa.status import Verdict
 
     cert = meta.get("certificate")
     pre = check_preconditions(system, V, level, Route("sos-exact", parameters=True),

@@ -221,6 +221,17 @@ class Certificate:
                                validation=v, trace=({"stage": "reverify", "by": SOS_EXACT,
                                                      "status": v.status.value},),
                                system=self.system, V=self.V)  # fmt: skip
+        from roa.certification.strategies import INTERVAL_ROUTE
+        from roa.proof.preconditions import check_preconditions
+
+        pre = check_preconditions(self.system, self.V, self.level, INTERVAL_ROUTE, recheck=True)
+        if pre.refusal is not None:
+            v = pre.refusal
+            return Certificate(status=v.status, level=self.level, method="interval",
+                               level_source="reverified", seconds=v.seconds, message=v.message,
+                               validation=v, trace=({"stage": "reverify", "by": "preconditions",
+                                                     "status": v.status.value},),
+                               system=self.system, V=self.V)  # fmt: skip
         with step(f"re-verifying {self.V.name} <= {self.level:.6g} ({self.system.name})"):
             proof = reverify(self.system, self.V, self.level, interval=interval)
         record = dict(proof.validation)

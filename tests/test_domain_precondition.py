@@ -105,11 +105,14 @@ def test_a_stored_domain_certificate_is_rechecked_as_stored_and_tampering_is_ref
     # independent check of the stored identity in sympy: margin - eps - lambda (c - V) = m0'Q0m0
     d = sp.symbols("d0:2")
     mono = lambda b: sp.Mul(*(di**k for di, k in zip(d, b, strict=True)))  # noqa: E731
-    gram = lambda basis, Q: sum(
-        sp.Rational(Q[i][j]) * mono(bi) * mono(bj)  # noqa: E731
-        for i, bi in enumerate(basis)
-        for j, bj in enumerate(basis)
-    )
+
+    def gram(basis, Q):
+        return sum(
+            sp.Rational(Q[i][j]) * mono(bi) * mono(bj)  # noqa: E731
+            for i, bi in enumerate(basis)
+            for j, bj in enumerate(basis)
+        )
+
     P = [[sp.Rational(Fraction(v)) for v in row] for row in dom.P_VDP]
     V = sum(P[i][j] * d[i] * d[j] for i in range(2) for j in range(2))
     margin = (d[0] + sp.Rational(1, 2)) * (sp.Rational(1, 2) - d[0])

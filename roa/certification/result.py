@@ -154,7 +154,11 @@ class Certificate:
         level = data["level"]
         if isinstance(level, bool) or not isinstance(level, int | float):
             raise RoaInputError(f"{where}: level must be a number, got {level!r}")
-        level = float(level)
+        try:
+            level = float(level)
+        except OverflowError:  # an integer beyond the float range
+            raise RoaInputError(f"{where}: level must be a finite number > 0, got an integer "
+                                f"of {int(level.bit_length() * 0.30103)} digits") from None  # fmt: skip
         if not (np.isfinite(level) and level > 0):
             raise RoaInputError(f"{where}: level must be a finite number > 0, got {level!r}")
         stamp = data.get("system_fingerprint")

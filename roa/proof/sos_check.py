@@ -34,6 +34,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import re
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
@@ -366,13 +367,35 @@ MAX_BASIS = 5000
 MAX_DIGITS = 2000
 
 
-def parse_eps(raw: Any) -> Fraction:
-    """The ``eps`` of a stored certificate: a rational written as a fraction or a decimal
-    (no exponent), at most :data:`MAX_DIGITS` characters; ValueError otherwise."""
+#: The one grammar of a stored rational: ASCII digits, an optional leading minus sign and an
+#: optional ``/`` and denominator (no spaces, underscores, exponents, decimals or other digits).
+RATIONAL = re.compile(r"-?[0-9]+(/[0-9]+)?", re.ASCII)
+
+
+def parse_rational(raw: Any, what: str) -> Fraction:
+    """A rational of a stored certificate: a string (or a JSON integer) in the grammar of
+    :data:`RATIONAL`, at most :data:`MAX_DIGITS` characters, with a nonzero denominator; its
+    size is bounded before any arithmetic. ValueError naming ``what`` otherwise."""
+    if isinstance(raw, bool) or not isinstance(raw, str | int):
+        raise ValueError(f"{what} must be a rational written as a string like '-3/4', got "
+                         f"{type(raw).__name__}")  # fmt: skip
+    if isinstance(raw, int) and abs(raw).bit_length() > 3.33 * MAX_DIGITS:
+        raise ValueError(f"{what}: at most {MAX_DIGITS} digits")
     text = str(raw)
-    if len(text) > MAX_DIGITS or "e" in text.lower():
-        raise ValueError("eps must be a rational like '1/1048576'")
-    return Fraction(text)
+    if len(text) > MAX_DIGITS:
+        raise ValueError(f"{what}: at most {MAX_DIGITS} characters")
+    if not RATIONAL.fullmatch(text):
+        raise ValueError(f"{what} must be a rational like '-3/4' (ASCII digits, optional '-' and "
+                         f"'/'), got {text[:40]!r}")  # fmt: skip
+    num, _, den = text.partition("/")
+    if den and int(den) == 0:
+        raise ValueError(f"{what}: zero denominator")
+    return Fraction(int(num), int(den) if den else 1)
+
+
+def parse_eps(raw: Any) -> Fraction:
+    """The ``eps`` of a stored certificate (:func:`parse_rational`); ValueError otherwise."""
+    return parse_rational(raw, "eps")
 
 
 def as_float(x: Fraction) -> float:
@@ -399,12 +422,8 @@ def parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
     if not (isinstance(raw, list) and len(raw) == m and all(isinstance(r, list) and len(r) == m
                                                             for r in raw)):  # fmt: skip
         raise ValueError(f"{what} must be a {m}x{m} matrix of rationals")
-    if any(len(str(v)) > MAX_DIGITS for row in raw for v in row):
-        raise ValueError(f"{what}: entries must have at most {MAX_DIGITS} characters")
-    try:
-        return [[Fraction(str(v)) for v in row] for row in raw]
-    except (ValueError, ZeroDivisionError):
-        raise ValueError(f"{what}: entries must be rationals like '3/4'") from None
+    return [[parse_rational(v, f"{what}[{i}][{j}]") for j, v in enumerate(row)]
+            for i, row in enumerate(raw)]  # fmt: skip
 
 
 def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:

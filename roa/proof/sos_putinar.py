@@ -47,6 +47,7 @@ from roa.proof.sos_check import (
     is_symmetric,
     matrix_digest,
     norm_power,
+    parse_rational,
     poly_lin,
     poly_mul,
     project_gram,
@@ -210,23 +211,27 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
 
 def parse_blocks(raw: Any, nv: int) -> Blocks:
     """A stored certificate's blocks (``Blocks.to_json``), bounded before any arithmetic."""
-    from roa.proof.sos_check import MAX_DIGITS, parse_basis, parse_matrix
+    from roa.proof.sos_check import MAX_BASIS, parse_basis, parse_matrix
 
     if not isinstance(raw, dict):
         raise ValueError("no constrained certificate in the file")
     grams, free = [], []
-    for k, g in enumerate(raw.get("grams") or []):
+    for key in ("grams", "free"):
+        items = raw.get(key, [])
+        if not isinstance(items, list) or len(items) > MAX_BASIS:
+            raise ValueError(f"putinar.{key} must be a list of at most {MAX_BASIS} objects")
+        if not all(isinstance(item, dict) for item in items):
+            raise ValueError(f"putinar.{key}: every entry must be an object")
+    for k, g in enumerate(raw.get("grams", [])):
         basis = parse_basis(g.get("basis"), nv, f"grams[{k}].basis")
         grams.append((basis, parse_matrix(g.get("Q"), len(basis), f"grams[{k}].Q")))
-    for k, f in enumerate(raw.get("free") or []):
+    for k, f in enumerate(raw.get("free", [])):
         basis = parse_basis(f.get("basis"), nv, f"free[{k}].basis")
         coeffs = f.get("coeffs")
         if not isinstance(coeffs, list) or len(coeffs) != len(basis):
             raise ValueError(f"free[{k}].coeffs must match its basis")
-        if any(len(str(v)) > MAX_DIGITS for v in coeffs):
-            raise ValueError(f"free[{k}].coeffs: at most {MAX_DIGITS} characters each")
-        cs = [Fraction(str(v)) for v in coeffs]
-        free.append((basis, cs))
+        free.append((basis, [parse_rational(v, f"free[{k}].coeffs[{i}]")
+                             for i, v in enumerate(coeffs)]))  # fmt: skip
     return Blocks(grams, free)
 
 
@@ -239,9 +244,13 @@ def recheck_recast(system: Any, V: Any, level: float, cert: dict[str, Any], eps:
     raw_scale = cert.get("scale")
     if type(taylor) is not int or not isinstance(raw_scale, list):
         raise ValueError("taylor (an odd integer) and scale (rationals) are required")
-    if any(len(str(r)) > 100 or "e" in str(r).lower() for r in raw_scale):
-        raise ValueError("scale must be rationals like '1/4'")
-    scale = tuple(Fraction(str(r)) for r in raw_scale)
+    if len(raw_scale) != V.n:
+        raise ValueError(f"scale must hold {V.n} rationals")
+    if any(len(str(r)) > 100 for r in raw_scale):
+        raise ValueError("scale: at most 100 characters each")
+    scale = tuple(parse_rational(r, f"scale[{i}]") for i, r in enumerate(raw_scale))
+    if not all(s > 0 for s in scale):
+        raise ValueError("scale must be positive rationals like '1/4'")
     data, why = recast_preconditions(system, V, level, taylor, scale)
     if data is None:
         return False, why, None

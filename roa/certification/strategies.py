@@ -226,10 +226,7 @@ class SosValidator:
         return self.recast_error(system, V) is not None
 
     def _prove(self, system: System, V: Lyapunov, level: float) -> Validation:
-        from roa.proof.sos_blocks import blocks, restrict
-        from roa.proof.sos_check import NotPolynomial, check_certificate, exact_data, preconditions
-        from roa.search.sos_certificate import default_eps, propose_certificate
-        from roa.search.sos_sparse import choose_route
+        from roa.proof.sos_check import NotPolynomial, exact_data, preconditions
 
         t0 = time.perf_counter()
 
@@ -255,87 +252,113 @@ class SosValidator:
             data, why = preconditions(system, V, level)
             if data is None:
                 return out(Verdict.INCONCLUSIVE, why)
-            parts = blocks(data)
-            whole = len(parts) == 1
-            if whole:
-                route, plan, why = choose_route(data, self.multiplier_degree, self.route)
-                if route == "sparse":
-                    return self._check_sparse(data, level, plan, why, out)
-                if route == "too_large":
-                    return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built: {why}",
-                               route=route)  # fmt: skip
-            certs: list[dict[str, Any]] = []
-            statuses: list[str] = []
-            margins: list[float | None] = []
-            sizes: list[int] = []
-            sdp_seconds = 0.0
-            figures: dict[str, Any] = {}
-            for block in parts:
-                sub = data if whole else restrict(data, block)
-                eps = default_eps(sub, self.eps)
-                route_b, plan_b, why_b = ("dense", None, "") if whole else choose_route(
-                    sub, self.multiplier_degree, self.route)  # fmt: skip
-                if route_b == "sparse" and plan_b is not None:
-                    cand_s, res_s, fig = self._sparse(sub, level, plan_b, why_b)
-                    sdp_seconds += cand_s.seconds
-                    statuses.append(cand_s.solver_status)
-                    margins.append(cand_s.margin)
-                    sizes.append(plan_b.largest)
-                    figures = {"solver_status": statuses, "margin": margins,
-                               "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
-                    refused = _sparse_refusal(cand_s, res_s)
-                    if refused is not None:
-                        return out(Verdict.INCONCLUSIVE, f"{refused} (block {list(block)})",
-                                   **figures)  # fmt: skip
-                    certs.append({"variables": list(block), "sum": fig.pop("certificate"),
-                                  "residual": res_s.residual, "min_pivot": res_s.min_pivot,
-                                  **res_s.meta})  # fmt: skip
-                    res = res_s
-                    continue
-                cand = propose_certificate(sub, level, eps=eps,
-                                           multiplier_degree=self.multiplier_degree,
-                                           solver_options=self.solver_options)  # fmt: skip
-                statuses.append(cand.solver_status)
-                margins.append(cand.margin)
-                sizes.append(len(cand.basis0))
-                sdp_seconds += cand.seconds
-                figures = {
-                    "solver_status": statuses[0] if whole else statuses,
-                    "margin": margins[0] if whole else margins,
-                    "sdp_seconds": round(sdp_seconds, 3),
-                    "gram_sizes": sizes,
-                }
-                where = "" if whole else f" (block {list(block)})"
-                if cand.Q0 is None:
-                    return out(Verdict.INCONCLUSIVE, f"SOS solver failed{where} "
-                               f"({cand.solver_status})", **figures)  # fmt: skip
-                res = check_certificate(sub, level, eps, cand.basis0, cand.Q0, cand.basis1,
-                                        cand.Q1)  # fmt: skip
-                if not res.ok:
-                    return out(Verdict.INCONCLUSIVE, f"SOS check failed{where}: {res.reason}",
-                               residual=res.residual, min_pivot=res.min_pivot, **figures)  # fmt: skip
-                assert res.Q0 is not None and res.Q1 is not None
-                certs.append({"variables": list(block),
-                              "basis0": [list(b) for b in cand.basis0],
-                              "basis1": [list(b) for b in cand.basis1],
-                              "Q0": [[str(v) for v in row] for row in res.Q0],
-                              "Q1": [[str(v) for v in row] for row in res.Q1],
-                              "residual": res.residual, "min_pivot": res.min_pivot,
-                              **res.meta})  # fmt: skip
-            if whole:  # one certificate, stored as before (meta: eps, digest, k, residual, ...)
-                one = certs[0]
-                stats = {key: one.pop(key) for key in ("residual", "min_pivot", "eps", "digest",
-                                                       "k")}  # fmt: skip
-                one.pop("variables")
-                return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
-                           certificate=one, M=np.eye(V.n).tolist(), **figures,
-                           **stats)  # fmt: skip
-            # the whole of {V <= level} is proved (not one component): any frame bounds it
-            reason = (f"{len(parts)} independent blocks of variables (sizes "
-                      f"{[len(b) for b in parts]}), each: {res.reason}")  # fmt: skip
-            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
-                       certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
-                       **figures)  # fmt: skip
+            first = self._prove_data(data, V, level, out)
+        if first.status is Verdict.CERTIFIED:
+            return first
+        from roa.proof.recast import level_scale
+        from roa.proof.sos_check import scale_data
+
+        scale = level_scale(V, level)
+        if all(r == 1 for r in scale):
+            return first
+        with step(f"SOS exact validation of level {level:.6g}, variables rescaled"):
+            again = self._prove_data(scale_data(data, scale), V, level, out)
+        if again.status is not Verdict.CERTIFIED:
+            return first
+        cert = {**again.meta["certificate"], "scale": [str(r) for r in scale]}
+        return dataclasses.replace(again, meta={**again.meta, "certificate": cert},
+                                   message=f"{again.message} (in d = diag(scale) y, scale "
+                                   f"{[str(r) for r in scale]}; unscaled: {first.message})")  # fmt: skip
+
+    def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
+        """The dense, block or sparse certificate of the exact data ``data`` (in ``d`` or in
+        rescaled variables)."""
+        from roa.proof.sos_blocks import blocks, restrict
+        from roa.proof.sos_check import check_certificate
+        from roa.search.sos_certificate import default_eps, propose_certificate
+        from roa.search.sos_sparse import choose_route
+
+        parts = blocks(data)
+        whole = len(parts) == 1
+        if whole:
+            route, plan, why = choose_route(data, self.multiplier_degree, self.route)
+            if route == "sparse":
+                return self._check_sparse(data, level, plan, why, out)
+            if route == "too_large":
+                return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built: {why}",
+                           route=route)  # fmt: skip
+        certs: list[dict[str, Any]] = []
+        statuses: list[str] = []
+        margins: list[float | None] = []
+        sizes: list[int] = []
+        sdp_seconds = 0.0
+        figures: dict[str, Any] = {}
+        for block in parts:
+            sub = data if whole else restrict(data, block)
+            eps = default_eps(sub, self.eps)
+            route_b, plan_b, why_b = ("dense", None, "") if whole else choose_route(
+                sub, self.multiplier_degree, self.route)  # fmt: skip
+            if route_b == "sparse" and plan_b is not None:
+                cand_s, res_s, fig = self._sparse(sub, level, plan_b, why_b)
+                sdp_seconds += cand_s.seconds
+                statuses.append(cand_s.solver_status)
+                margins.append(cand_s.margin)
+                sizes.append(plan_b.largest)
+                figures = {"solver_status": statuses, "margin": margins,
+                           "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
+                refused = _sparse_refusal(cand_s, res_s)
+                if refused is not None:
+                    return out(Verdict.INCONCLUSIVE, f"{refused} (block {list(block)})",
+                               **figures)  # fmt: skip
+                certs.append({"variables": list(block), "sum": fig.pop("certificate"),
+                              "residual": res_s.residual, "min_pivot": res_s.min_pivot,
+                              **res_s.meta})  # fmt: skip
+                res = res_s
+                continue
+            cand = propose_certificate(sub, level, eps=eps,
+                                       multiplier_degree=self.multiplier_degree,
+                                       solver_options=self.solver_options)  # fmt: skip
+            statuses.append(cand.solver_status)
+            margins.append(cand.margin)
+            sizes.append(len(cand.basis0))
+            sdp_seconds += cand.seconds
+            figures = {
+                "solver_status": statuses[0] if whole else statuses,
+                "margin": margins[0] if whole else margins,
+                "sdp_seconds": round(sdp_seconds, 3),
+                "gram_sizes": sizes,
+            }
+            where = "" if whole else f" (block {list(block)})"
+            if cand.Q0 is None:
+                return out(Verdict.INCONCLUSIVE, f"SOS solver failed{where} "
+                           f"({cand.solver_status})", **figures)  # fmt: skip
+            res = check_certificate(sub, level, eps, cand.basis0, cand.Q0, cand.basis1,
+                                    cand.Q1)  # fmt: skip
+            if not res.ok:
+                return out(Verdict.INCONCLUSIVE, f"SOS check failed{where}: {res.reason}",
+                           residual=res.residual, min_pivot=res.min_pivot, **figures)  # fmt: skip
+            assert res.Q0 is not None and res.Q1 is not None
+            certs.append({"variables": list(block),
+                          "basis0": [list(b) for b in cand.basis0],
+                          "basis1": [list(b) for b in cand.basis1],
+                          "Q0": [[str(v) for v in row] for row in res.Q0],
+                          "Q1": [[str(v) for v in row] for row in res.Q1],
+                          "residual": res.residual, "min_pivot": res.min_pivot,
+                          **res.meta})  # fmt: skip
+        if whole:  # one certificate, stored as before (meta: eps, digest, k, residual, ...)
+            one = certs[0]
+            stats = {key: one.pop(key) for key in ("residual", "min_pivot", "eps", "digest",
+                                                   "k")}  # fmt: skip
+            one.pop("variables")
+            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
+                       certificate=one, M=np.eye(V.n).tolist(), **figures,
+                       **stats)  # fmt: skip
+        # the whole of {V <= level} is proved (not one component): any frame bounds it
+        reason = (f"{len(parts)} independent blocks of variables (sizes "
+                  f"{[len(b) for b in parts]}), each: {res.reason}")  # fmt: skip
+        return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
+                   certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
+                   **figures)  # fmt: skip
 
     def _sparse(self, data: Any, level: float, plan: Any, why: str) -> tuple[Any, Any, dict]:
         """The correlative-sparsity certificate (:mod:`roa.search.sos_sparse` proposes,

@@ -131,6 +131,8 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
         parse_matrix,
         preconditions,
         recheck_stored,
+        scale_data,
+        stored_scale,
     )
     from roa.proof.validation import Validation
     from roa.status import Verdict
@@ -154,6 +156,9 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
         return out(Verdict.INCONCLUSIVE, why)
     stored = cert["blocks"] if isinstance(cert["blocks"], list) else None
     try:
+        scale = stored_scale(cert, data.n)
+        if scale is not None:
+            data = scale_data(data, scale)
         parts = check_partition([b.get("variables") if isinstance(b, dict) else None
                                  for b in stored or []], data.n)  # fmt: skip
         for block, raw in zip(parts, stored or [], strict=True):

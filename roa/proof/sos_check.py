@@ -426,6 +426,36 @@ def parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
             for i, row in enumerate(raw)]  # fmt: skip
 
 
+def scale_data(data: ExactData, scale: tuple[Fraction, ...]) -> ExactData:
+    """The data in variables ``y`` with ``d = diag(scale) y`` (each coefficient of ``d^m``
+    times ``prod scale_i^m_i``): any positive scale is sound, as the map is a bijection and
+    ``|y|^(2k) > 0`` for ``y != 0``; it only balances the program's coefficients."""
+
+    def sub(p: QPoly) -> QPoly:
+        out: QPoly = {}
+        for m, c in p.items():
+            for i, r in enumerate(scale):
+                c *= r ** m[i]
+            out[m] = c
+        return out
+
+    return ExactData(data.n, data.center, sub(data.V), sub(data.Vdot), data.low)
+
+
+def stored_scale(cert: Any, n: int) -> tuple[Fraction, ...] | None:
+    """The ``scale`` of a stored certificate (``n`` positive rationals), None when absent;
+    ValueError when malformed."""
+    raw = cert.get("scale") if isinstance(cert, dict) else None
+    if raw is None:
+        return None
+    if not isinstance(raw, list) or len(raw) != n:
+        raise ValueError(f"scale must be a list of {n} positive rationals")
+    scale = tuple(parse_rational(r, f"scale[{i}]") for i, r in enumerate(raw))
+    if not all(r > 0 for r in scale):
+        raise ValueError("scale must be positive rationals")
+    return scale
+
+
 def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     """Re-check a stored exact SOS certificate (``meta``: ``certificate`` with ``basis0``,
     ``basis1``, ``Q0``, ``Q1`` as rationals, and ``eps``) for ``system`` and ``V`` at ``level``,
@@ -470,6 +500,12 @@ def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> A
     data, why = preconditions(system, V, level)
     if data is None:
         return out(Verdict.INCONCLUSIVE, why)
+    try:
+        scale = stored_scale(cert, n)
+    except ValueError as exc:
+        return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
+    if scale is not None:
+        data = scale_data(data, scale)
     res = check_certificate(data, level, eps, basis0, Q0, basis1, Q1, rounded=True)
     if not res.ok:
         return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {res.reason}",

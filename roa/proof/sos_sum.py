@@ -45,6 +45,8 @@ from roa.proof.sos_check import (
     poly_lin,
     poly_mul,
     project_grams,
+    scale_data,
+    stored_scale,
 )
 
 Block = tuple[list[Mono], Any]
@@ -178,6 +180,12 @@ def recheck_sum(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     data, why = preconditions(system, V, level)
     if data is None:
         return out(Verdict.INCONCLUSIVE, why)
+    try:
+        scale = stored_scale(meta["certificate"], data.n)
+    except ValueError as exc:
+        return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
+    if scale is not None:
+        data = scale_data(data, scale)
     res = check_sum(data, level, eps, sigma, lam, rounded=True)
     if not res.ok:
         return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {res.reason}",

@@ -8,10 +8,14 @@ program (cvxpy, Clarabel) finds Gram matrices ``Q0``, ``Q1`` with, coefficient b
 maximising the least eigenvalue ``t`` of both (``Q0, Q1 >= t I``, ``t <= 1``): the margin the
 exact rounding and projection need. ``2k`` is the lowest degree of ``V'``; ``m0`` holds the
 monomials of degree ``k..D`` (``2D`` the degree of the identity, the least even number >= the
-degree of ``V'`` and of ``lambda V``), ``m1`` those of degree ``1..L`` (``lambda(0) = 0`` is forced
+degree of ``V'`` and of ``lambda V``), ``m1`` those of degree ``k..L`` (``lambda(0) = 0`` is forced
 by the constant term; ``2L`` the multiplier's degree, default the least with ``2L + deg V >=
-deg V'``). The float Grams are a candidate: only :func:`roa.proof.sos_check.check_certificate`
-decides.
+deg V'``). A degenerate equilibrium, ``V'`` starting at degree ``2k > 2``, forces every term of
+``lambda`` below degree ``2k`` to vanish (the lowest one, ``c lambda_j``, has nothing to cancel it:
+``sigma`` starts at ``2k`` and ``lambda V`` at ``j + 2``), so ``m1`` starts at degree ``k``, as
+the Newton polytope says; a basis reaching lower would leave no strictly feasible point, which
+Peyrl-Parrilo rounding needs. The float Grams are a candidate: only
+:func:`roa.proof.sos_check.check_certificate` decides.
 """
 
 from __future__ import annotations
@@ -76,7 +80,7 @@ def degrees(data: ExactData, multiplier_degree: int | None = None) -> tuple[int,
     degVd = max((sum(m) for m in data.Vdot), default=2)
     if multiplier_degree is None:
         multiplier_degree = max(2, degVd - degV + (degVd - degV) % 2)
-    L = multiplier_degree // 2
+    L = max(multiplier_degree // 2, k)
     D = (max(degVd, 2 * L + degV) + 1) // 2
     return max(k, 1), D, L
 
@@ -97,7 +101,7 @@ def propose_certificate(
     eps = default_eps(data) if eps is None else Fraction(eps)
     low, D, L = degrees(data, multiplier_degree)
     basis0 = monomials(n, D, low)
-    basis1 = monomials(n, L, 1) if L >= 1 else []
+    basis1 = monomials(n, L, low) if L >= low else []  # lambda starts at degree 2k (below)
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
         status = (f"too large: a Gram block of {len(basis0)} monomials needs an estimated "
                   f"{sdp_bytes(len(basis0)) / 2**30:.3g} GiB (budget "

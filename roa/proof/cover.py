@@ -85,6 +85,17 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
     return np.full(n, half), {"cover": "global (Gram lower bound)", "lambda": float(lam)}
 
 
+def bisect_widest(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Every box ``[lo, hi]`` (rows) cut in two halves across its widest side."""
+    k = np.argmax(hi - lo, axis=1)
+    rows = np.arange(len(lo))
+    cut = 0.5 * (lo[rows, k] + hi[rows, k])
+    lo2, hi1 = lo.copy(), hi.copy()
+    hi1[rows, k] = cut
+    lo2[rows, k] = cut
+    return np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
+
+
 def interval_value(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray) -> Interval:
     """Enclosure of V on boxes: natural extension intersected with the mean-value form."""
     n = lyap.n

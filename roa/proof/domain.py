@@ -250,7 +250,7 @@ def interval_containment(
 ) -> Containment:
     """Prove ``{V <= level}`` inside ``{margin > 0}`` by interval branch and bound (module
     docstring); ``inconclusive`` with the reason when the budget is spent first."""
-    from roa.proof.cover import interval_value, prove_cover
+    from roa.proof.cover import bisect_widest, interval_value, prove_cover
 
     t0 = time.perf_counter()
     assert system.margin is not None
@@ -274,12 +274,6 @@ def interval_containment(
         und = ~((Vi.lo > level) | (m_lo > 0))
         lo, hi = lo[und], hi[und]
         if len(lo):
-            k = np.argmax(hi - lo, axis=1)
-            rows = np.arange(len(lo))
-            cut = 0.5 * (lo[rows, k] + hi[rows, k])
-            lo2, hi1 = lo.copy(), hi.copy()
-            hi1[rows, k] = cut
-            lo2[rows, k] = cut
-            lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
+            lo, hi = bisect_widest(lo, hi)
     return Containment("proved", f"{scope}the level set lies inside the domain (interval branch "
                        f"and bound, {boxes} boxes)", boxes, info)  # fmt: skip

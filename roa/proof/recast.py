@@ -69,7 +69,15 @@ from fractions import Fraction
 from typing import Any
 
 from roa.proof.recast_box import box_constraints, box_variables, describe
-from roa.proof.sos_check import Mono, NotPolynomial, QPoly, exact_fraction, poly_lin, poly_mul
+from roa.proof.sos_check import (
+    Mono,
+    NotPolynomial,
+    QPoly,
+    exact_fraction,
+    poly_lin,
+    poly_mul,
+    scaled,
+)
 
 #: Highest Taylor order of the sin bounds (the cos bounds go one further).
 MAX_TAYLOR = 11
@@ -297,16 +305,6 @@ def _unsupported(expr: Any, syms: list[Any]) -> str:
     if not bad:
         bad = [a for a in expr.atoms(sp.sin, sp.cos) if a.args[0] not in syms]
     return ", ".join(sorted({str(b) for b in bad})) or str(expr)
-
-
-def scaled(p: QPoly, scale: tuple[Fraction, ...]) -> QPoly:
-    """``p`` with ``d_i = scale_i y_i`` substituted (the auxiliary variables unchanged)."""
-    out: QPoly = {}
-    for m, c in p.items():
-        for i, r in enumerate(scale):
-            c *= r ** m[i]
-        out[m] = c
-    return out
 
 
 def level_scale(V: Any, level: float) -> tuple[Fraction, ...]:

@@ -426,20 +426,22 @@ def parse_matrix(raw: Any, m: int, what: str) -> list[list[Fraction]]:
             for i, row in enumerate(raw)]  # fmt: skip
 
 
+def scaled(p: QPoly, scale: tuple[Fraction, ...]) -> QPoly:
+    """``p`` with ``d_i = scale_i y_i`` substituted (variables past ``len(scale)`` unchanged)."""
+    out: QPoly = {}
+    for m, c in p.items():
+        for i, r in enumerate(scale):
+            c *= r ** m[i]
+        out[m] = c
+    return out
+
+
 def scale_data(data: ExactData, scale: tuple[Fraction, ...]) -> ExactData:
-    """The data in variables ``y`` with ``d = diag(scale) y`` (each coefficient of ``d^m``
-    times ``prod scale_i^m_i``): any positive scale is sound, as the map is a bijection and
-    ``|y|^(2k) > 0`` for ``y != 0``; it only balances the program's coefficients."""
-
-    def sub(p: QPoly) -> QPoly:
-        out: QPoly = {}
-        for m, c in p.items():
-            for i, r in enumerate(scale):
-                c *= r ** m[i]
-            out[m] = c
-        return out
-
-    return ExactData(data.n, data.center, sub(data.V), sub(data.Vdot), data.low)
+    """The data in variables ``y`` with ``d = diag(scale) y``: any positive scale is sound, as
+    the map is a bijection and ``|y|^(2k) > 0`` for ``y != 0``; it only balances the program's
+    coefficients."""
+    return ExactData(data.n, data.center, scaled(data.V, scale), scaled(data.Vdot, scale),
+                     data.low)  # fmt: skip
 
 
 def stored_scale(cert: Any, n: int) -> tuple[Fraction, ...] | None:

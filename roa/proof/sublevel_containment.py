@@ -20,7 +20,7 @@ import numpy as np
 from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
-from roa.proof.cover import interval_value, prove_cover
+from roa.proof.cover import bisect_widest, interval_value, prove_cover
 from roa.proof.whiten import Whitened, whitening_for
 
 
@@ -71,11 +71,5 @@ def sublevel_contains(
             if ok:
                 return out("refuted", boxes, witness=[float(v) for v in x],
                            values=[float(vi), float(vo)])  # fmt: skip
-        k = np.argmax(hi - lo, axis=1)
-        rows = np.arange(len(lo))
-        cut = 0.5 * (lo[rows, k] + hi[rows, k])
-        lo2, hi1 = lo.copy(), hi.copy()
-        hi1[rows, k] = cut
-        lo2[rows, k] = cut
-        lo, hi = np.concatenate([lo, lo2]), np.concatenate([hi1, hi])
+        lo, hi = bisect_widest(lo, hi)
     return out("proved", boxes, cover=info.get("cover"))

@@ -38,6 +38,20 @@ def check_block(size: int) -> None:
         )
 
 
+def solve_margin(prob: Any, solver_options: dict[str, Any] | None = None) -> tuple[str, bool]:
+    """Solve a Gram program (cvxpy, Clarabel): ``(status, usable)``, ``usable`` for an optimal
+    or optimal-inaccurate solution (only a candidate: the exact check decides); a solver error
+    is a status, never an exception."""
+    import cvxpy as cp
+
+    try:
+        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
+        status = str(prob.status)
+    except cp.error.SolverError as exc:
+        status = f"solver error: {exc}"
+    return status, status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
+
+
 def monomials(nvars: int, max_deg: int, min_deg: int = 0) -> list[tuple[int, ...]]:
     """Exponent tuples of total degree ``min_deg..max_deg`` in ``nvars`` variables."""
     out = []

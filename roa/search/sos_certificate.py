@@ -30,7 +30,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from roa.proof.sos_check import ExactData, norm_power
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
+from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes, solve_margin
 
 Mono = tuple[int, ...]
 
@@ -94,8 +94,6 @@ def propose_certificate(
     solver_options: dict[str, Any] | None = None,
 ) -> SosCandidate:
     """Solve the SOS program for the level ``level`` (see the module docstring)."""
-    import cvxpy as cp
-
     t0 = time.perf_counter()
     n = data.n
     eps = default_eps(data) if eps is None else Fraction(eps)
@@ -113,13 +111,33 @@ def propose_certificate(
         target[m] = target.get(m, 0.0) - float(c)
     for m, c in norm_power(n, data.low // 2).items():
         target[m] = target.get(m, 0.0) - float(eps * c)
+    Q0, Q1, margin, status = gram_program(target, basis0, basis1, data.V, level,
+                                          solver_options)  # fmt: skip
+    return SosCandidate(basis0, Q0, basis1, Q1, eps, margin, status, time.perf_counter() - t0)
+
+
+def gram_program(
+    target: dict[Mono, float],
+    basis0: list[Mono],
+    basis1: list[Mono],
+    Vq: dict[Mono, Any],
+    level: float,
+    solver_options: dict[str, Any] | None = None,
+) -> tuple[np.ndarray | None, np.ndarray | None, float | None, str]:
+    """The one program of a fixed level: Gram matrices with, coefficient by coefficient,
+    ``target = m0' Q0 m0 + (m1' Q1 m1) (c - V)`` (no multiplier for an empty ``basis1``),
+    maximising their least eigenvalue ``t <= 1``. ``(Q0, Q1, t, status)``, the matrices None
+    when the solver gives no usable point."""
+    import cvxpy as cp
+
+    n = len(basis0[0])
     rows: dict[Mono, int] = {}
     for m in target:
         rows.setdefault(m, len(rows))
     zero = tuple([0] * n)
     parts = [gram_columns(rows, basis0, {zero: 1.0})]
-    c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
-    c_minus_V[zero] = float(level)
+    c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in Vq.items()}
+    c_minus_V[zero] = c_minus_V.get(zero, 0.0) + float(level)
     if basis1:
         parts.append(gram_columns(rows, basis1, c_minus_V))
     nrow = len(rows)
@@ -139,20 +157,8 @@ def propose_certificate(
         expr = expr + A1 @ cp.vec(Q1, order="C")
         cons.append(Q1 - t * np.eye(n1) >> 0)
     cons.append(expr == b)
-    prob = cp.Problem(cp.Maximize(t), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
-        status = str(prob.status)
-    except cp.error.SolverError as exc:
-        status = f"solver error: {exc}"
-    ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Q0.value is not None
-    return SosCandidate(
-        basis0,
-        np.asarray(Q0.value) if ok else None,
-        basis1,
-        np.asarray(Q1.value) if ok and Q1 is not None else None,
-        eps,
-        float(t.value) if ok and t.value is not None else None,
-        status,
-        time.perf_counter() - t0,
-    )
+    status, usable = solve_margin(cp.Problem(cp.Maximize(t), cons), solver_options)
+    if not (usable and Q0.value is not None):
+        return None, None, None, status
+    return (np.asarray(Q0.value), None if Q1 is None else np.asarray(Q1.value),
+            None if t.value is None else float(t.value), status)  # fmt: skip

@@ -19,12 +19,11 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
 from roa.proof.domain import domain_target
 from roa.proof.sos_check import Mono, QPoly
 from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search.sos_certificate import gram_columns
+from roa.search.sos_certificate import gram_program
 
 
 @dataclass(frozen=True)
@@ -49,9 +48,8 @@ def default_domain_eps(margin: QPoly, n: int) -> Fraction:
 def propose_domain_certificate(
     margin: QPoly, Vq: QPoly, n: int, level: float, *, solver_options: dict[str, Any] | None = None
 ) -> DomainCandidate:
-    """Solve the program of the module docstring for ``{V <= level}``."""
-    import cvxpy as cp
-
+    """Solve the program of the module docstring for ``{V <= level}``
+    (:func:`roa.search.sos_certificate.gram_program`)."""
     t0 = time.perf_counter()
     eps = default_domain_eps(margin, n)
     deg_g = max((sum(m) for m in margin), default=0)
@@ -63,31 +61,5 @@ def propose_domain_certificate(
         return DomainCandidate(basis0, None, basis1, None, eps, f"too large: a Gram block of "
                                f"{len(basis0)} monomials; not built", time.perf_counter() - t0)  # fmt: skip
     target = {m: float(c) for m, c in domain_target(margin, eps, n).items()}
-    rows: dict[Mono, int] = {m: i for i, m in enumerate(target)}
-    zero = tuple([0] * n)
-    part0 = gram_columns(rows, basis0, {zero: 1.0})
-    c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in Vq.items()}
-    c_minus_V[zero] = c_minus_V.get(zero, 0.0) + float(level)
-    part1 = gram_columns(rows, basis1, c_minus_V)
-    nrow = len(rows)
-    b = np.zeros(nrow)
-    for m, value in target.items():
-        b[rows[m]] = value
-    n0, n1 = len(basis0), len(basis1)
-    Q0 = cp.Variable((n0, n0), symmetric=True)
-    Q1 = cp.Variable((n1, n1), symmetric=True)
-    t = cp.Variable()
-    A0 = sps.csr_matrix((part0[2], (part0[0], part0[1])), shape=(nrow, n0 * n0))
-    A1 = sps.csr_matrix((part1[2], (part1[0], part1[1])), shape=(nrow, n1 * n1))
-    cons = [Q0 - t * np.eye(n0) >> 0, Q1 - t * np.eye(n1) >> 0, t <= 1,
-            A0 @ cp.vec(Q0, order="C") + A1 @ cp.vec(Q1, order="C") == b]  # fmt: skip
-    prob = cp.Problem(cp.Maximize(t), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
-        status = str(prob.status)
-    except cp.error.SolverError as exc:
-        status = f"solver error: {exc}"
-    ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Q0.value is not None
-    return DomainCandidate(basis0, np.asarray(Q0.value) if ok else None, basis1,
-                           np.asarray(Q1.value) if ok else None, eps, status,
-                           time.perf_counter() - t0)  # fmt: skip
+    Q0, Q1, _, status = gram_program(target, basis0, basis1, Vq, level, solver_options)
+    return DomainCandidate(basis0, Q0, basis1, Q1, eps, status, time.perf_counter() - t0)

@@ -29,7 +29,7 @@ import scipy.sparse as sps
 
 from roa.proof.recast import RecastData
 from roa.proof.sos_putinar import Blocks, target_poly, times_polys
-from roa.search.polysdp import monomials
+from roa.search.polysdp import monomials, solve_margin
 from roa.search.sos_certificate import gram_columns
 
 Mono = tuple[int, ...]
@@ -158,12 +158,8 @@ def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = No
         mus.append(mu)
     cons.append(expr == b)
     prob = cp.Problem(cp.Maximize(t), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
-        status = str(prob.status)
-    except cp.error.SolverError as exc:
-        status = f"solver error: {exc}"
-    ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and Qs[0].value is not None
+    status, usable = solve_margin(prob, solver_options)
+    ok = usable and Qs[0].value is not None
     blocks = None
     if ok:
         blocks = Blocks(

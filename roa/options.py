@@ -411,6 +411,19 @@ class SampleSearchOptions(Options):
             )
 
 
+#: States plus uncertain parameters up to which the interval branch and bound decides a level
+#: first (:class:`roa.AutoValidator`); above, it backs up the exact SOS route.
+BNB_DIM = 4
+#: Default wall-clock budget (s) of one interval validation: six times the longest validation of
+#: the paper's evidence (R4, 617 s over a parameter box), so that no reported result depends on
+#: it.
+BNB_SECONDS = 3600.0
+#: Default wall-clock budget (s) of the branch and bound as the backup of the SOS route above
+#: :data:`BNB_DIM` (:class:`roa.AutoValidator`), where its box budget alone would run for hours
+#: (ring-20: no verdict in 900 s).
+BNB_SECONDS_BACKUP = 300.0
+
+
 @dataclass(frozen=True)
 class IntervalOptions(Options):
     """Interval branch-and-bound validation of a level.
@@ -426,7 +439,9 @@ class IntervalOptions(Options):
         in (0, 1].
     time_limit : float or None
         Wall-clock budget of one validation in seconds, in (0, 1e9]: when it runs out the
-        verdict is ``inconclusive`` saying so (checked between batches of boxes).
+        verdict is ``inconclusive`` saying so (checked between batches of boxes). None: the
+        default budget, :data:`BNB_SECONDS` (:data:`BNB_SECONDS_BACKUP` for the backup of the
+        SOS route above :data:`BNB_DIM`, :class:`roa.AutoValidator`).
     """
 
     max_boxes: int = 3_000_000
@@ -445,6 +460,10 @@ class IntervalOptions(Options):
             raise RoaInputError(
                 f"IntervalOptions.time_limit must be a number of seconds in (0, 1e9], got {t!r}"
             )
+
+    def seconds(self, default: float = BNB_SECONDS) -> float:
+        """The time budget of one validation: ``time_limit``, else ``default``."""
+        return float(self.time_limit) if self.time_limit is not None else default
 
 
 @dataclass(frozen=True)

@@ -206,7 +206,13 @@ def test_review_findings_on_the_sos_route():
     assert v.status is roa.Verdict.INCONCLUSIVE and "centred" in v.message
     lin = roa.System("lin", lambda t, x, xp: (-(0.1 * x[0] - 0.03),), (0.3,), ("x",))
     v = roa.SosValidator().check(lin, roa.QuadraticLyapunov([[1.0]], [0.3]), 0.01)
-    assert v.status is roa.Verdict.INCONCLUSIVE and "f(x_eq) != 0" in v.message
+    assert "SOS not applicable (f(x_eq) != 0" in v.message
+    # the branch and bound behind it proves convergence to the field's zero x* = 0.03 / 0.1 in
+    # exact rationals, 1.67e-17 from x_eq (roa.proof.local, the contraction argument)
+    x_star = Fraction(0.03) / Fraction(0.1)
+    assert v.status is roa.Verdict.CERTIFIED
+    assert v.meta["local_proof"] == "contraction (f(x_eq) enclosed)"
+    assert abs(x_star - Fraction(0.3)) <= Fraction(v.meta["equilibrium_radius"]) < 1e-12
     from roa.proof.exact import exact_equilibrium
 
     assert not exact_equilibrium(lin, lin.x_eq)  # the interval route's local proof sees it too

@@ -118,7 +118,7 @@ def test_above_the_branch_and_bounds_dimension_a_level_search_witness_refutes_ju
     """At 6 states the check above the certified level is refuted by a witness from the CasADi
     level search (V' >= 0 at 50 digits, V(x) at the independent optimum), without running the
     branch and bound over 6 dimensions; the search never refutes a level below the optimum."""
-    from roa.certification.pipeline import _witness_by_search
+    from roa.certification.pipeline import witness_by_search
 
     system, _, opt = ring
     cert = roa.certify(system, check_above=1.001)
@@ -131,7 +131,7 @@ def test_above_the_branch_and_bounds_dimension_a_level_search_witness_refutes_ju
     stages = [(t["stage"], t["by"]) for t in cert.trace if t["stage"] == "refute above"]
     assert stages == [("refute above", "witness (level search)")]
     V = roa.default_lyapunov(system)
-    below, note = _witness_by_search(system, V, 0.999 * opt, [])
+    below, note = witness_by_search(system, V, 0.999 * opt, [])
     assert below is None and "no level at or above it can be certified" in note
 
 

@@ -48,7 +48,7 @@ from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
-from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
+from roa.options import BNB_DIM, IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
 from roa.proof.validation import Validation
 from roa.status import Verdict
@@ -164,6 +164,10 @@ def certify(
         return _from_source(system, seed, source, check, sampled, interval, check_above,
                             retries, t0)  # fmt: skip
     lyap = as_lyapunov(system, V)
+    if isinstance(level, int | float) and not isinstance(level, bool):
+        representable_level(system, lyap, _positive_level(level))
+        if check_above is not None:
+            representable_level(system, lyap, check_above * level, what="check_above x level")
     proposers = _proposers(lyap, level, method, candidate, sos, interval, sampled)
     return run(system, lyap, proposers, check, check_above=check_above, retries=retries,
                t0=t0)  # fmt: skip
@@ -331,7 +335,13 @@ def run(
                 break
     above = None
     if check_above is not None:
-        above = _refute_above(system, V, validator, check_above * opt, proof, prop, fresh, trace)
+        try:
+            representable_level(system, V, check_above * opt, what="check_above x the optimum")
+        except RoaInputError as exc:  # refused before any program: no verdict above
+            above = Validation(Verdict.INCONCLUSIVE, check_above * opt, 0, 0.0, message=str(exc))
+        else:
+            above = _refute_above(system, V, validator, check_above * opt, proof, prop, fresh,
+                                  trace)  # fmt: skip
     message = v.message
     if notes:
         sampled_opt = prop.candidate
@@ -421,20 +431,19 @@ def _refute_above(
         validator = IntervalValidator(validator.options, None if half is None else 1.3 * half)
     # a witness of the level search refutes where the validator cannot: first above the
     # dimension the branch and bound covers (it would spend its whole budget before ending
-    # inconclusive), else after an inconclusive validation; not for a parameter box, nor where
-    # the domain has a boundary (the witness's segment to the equilibrium is not checked to stay
-    # in the domain, and the branch and bound calls such levels inconclusive)
-    searchable = not system.parameters and system.margin is None
+    # inconclusive), else after an inconclusive validation; only where _searchable
+    searchable = _searchable(system)
     v = None
-    if not (searchable and V.n > getattr(validator, "max_bnb_dim", 4)):
+    if not (searchable and V.n > getattr(validator, "max_bnb_dim", BNB_DIM)):
         with step(f"refutation check of {V.name} at level {top:.6g}"):
             v = _validate(system, V, validator, top, trace, "refute above")
         if v.status is not Verdict.INCONCLUSIVE or not searchable:
             return v
-    with step(f"witness search for level {top:.6g} (CasADi level search)"):
-        found, note = _witness_by_search(system, V, top, trace)
+    found, note = witness_by_search(system, V, top, trace)
     if found is not None:
         return found
+    if isinstance(validator, AutoValidator):  # the search just ran: not again inside it
+        validator = dataclasses.replace(validator, witness_search=False)
     if v is None:
         with step(f"refutation check of {V.name} at level {top:.6g}"):
             v = _validate(system, V, validator, top, trace, "refute above")
@@ -443,7 +452,15 @@ def _refute_above(
     return v
 
 
-def _witness_by_search(
+def _searchable(system: System) -> bool:
+    """Whether a witness of the level search may refute a level of ``system``: not for a
+    parameter box, nor where the domain has a boundary (the witness's segment to the equilibrium
+    is not checked to stay in the domain, and the branch and bound calls such levels
+    inconclusive)."""
+    return not system.parameters and system.margin is None
+
+
+def witness_by_search(
     system: System, V: Lyapunov, top: float, trace: list[dict[str, Any]]
 ) -> tuple[Validation | None, str]:
     """``top`` refuted by a witness the validator could not find (the branch and bound in more
@@ -451,11 +468,15 @@ def _witness_by_search(
     (CasADi) gives a point of ``{V' >= 0}``, from which :func:`lowest_confirmed_witness` finds a
     local minimum of V whose ``V' >= 0`` holds at 50 digits, in the equilibrium's component of
     its sublevel set; it refutes ``top`` when ``V(x) <= top``. Else ``(None, note)``, the note
-    naming a confirmed witness above ``top`` (an upper bound of the largest level of V)."""
+    naming a confirmed witness above ``top`` (an upper bound of the largest level of V).
+    ``(None, "")`` at once for a system that is not :func:`_searchable`."""
     from roa.proof.witness import WITNESS_SLACK, lowest_confirmed_witness, refuted_by
 
+    if not _searchable(system):
+        return None, ""
     try:
-        search = level_search(system, V, method="casadi")
+        with step(f"witness search for level {top:.6g} (CasADi level search)"):
+            search = level_search(system, V, method="casadi")
         if search.witness is None:
             return None, ""
         w = np.asarray(search.witness, dtype=float)
@@ -552,6 +573,57 @@ def _cutting_planes(
         source_name = "given" if chosen is not None else "sampled"
     return dataclasses.replace(cert, vs=res, search=lv, level_source=source_name,
                                seconds=time.perf_counter() - t0)  # fmt: skip
+
+
+#: The geometric grid of ray parameters on which :func:`representable_level` finds the level
+#: set along rays (up to 1e300: beyond, coordinates squared overflow).
+_AXIS_T = np.geomspace(1e-150, 1e300, 1351)
+#: Random directions (seeded) beside the axes in :func:`representable_level`.
+_RAYS = 32
+
+
+def representable_level(system: System, V: Lyapunov, level: float, what: str = "level") -> float:
+    """``level``, or a :class:`RoaInputError` naming ``what`` when the level overflows double
+    precision: not a finite number > 0, or, along rays from the equilibrium (the 2n coordinate
+    axes and :data:`_RAYS` seeded random directions; a geometric grid of radii up to 1e300, then
+    bisection), ``{V <= level}`` not left, or ``V`` or ``V'`` overflowing where it is left (a
+    NaN, a field outside its natural domain, is not an overflow). Every program built for the level (the SOS program's
+    data, the branch and bound's cover and enclosures, the level search) evaluates these
+    numbers or larger ones, so it is refused before any is built."""
+    if not (np.isfinite(level) and level > 0):
+        raise RoaInputError(f"{what} must be a finite number > 0, got {level!r}")
+    rays = np.random.default_rng(0).standard_normal((_RAYS, V.n))
+    U = np.concatenate([np.eye(V.n), -np.eye(V.n), rays / np.linalg.norm(rays, axis=1)[:, None]])
+    c = np.asarray(V.center, dtype=float)
+    with np.errstate(all="ignore"):
+        inside = V.value(c + _AXIS_T[None, :, None] * U[:, None, :]) <= level
+        left = ~inside.all(axis=1)
+        x = None
+        if left.all():
+            k = np.argmax(~inside, axis=1)
+            lo = np.where(k > 0, _AXIS_T[np.maximum(k - 1, 0)], 0.0)
+            hi = _AXIS_T[k]
+            for _ in range(60):
+                mid = 0.5 * (lo + hi)
+                out = ~(V.value(c + mid[:, None] * U) <= level)
+                lo, hi = np.where(out, lo, mid), np.where(out, mid, hi)
+            x = c + hi[:, None] * U
+    overflow = x is None
+    if x is not None:
+        # overflow only: a NaN of a field outside its natural domain (sqrt, log) is not one
+        with np.errstate(over="raise", invalid="ignore", divide="ignore", under="ignore"):
+            try:
+                vals = np.concatenate([V.value(x), V.derivative(system, x)])
+                overflow = bool(np.any(np.isinf(vals)))
+            except (FloatingPointError, OverflowError):
+                overflow = True
+    if overflow:
+        reach = "is not left along a ray up to 1e300" if x is None else (
+            "overflows in V or V' where it is left along a ray, "
+            f"|x - x_eq| up to {float(np.max(np.abs(x - c))):.3g}")  # fmt: skip
+        raise RoaInputError(f"{what} {level:.6g} overflows double precision: "
+                            f"{{V <= {level:.6g}}} {reach}; give a smaller {what}")  # fmt: skip
+    return float(level)
 
 
 def _positive_level(value: Any) -> float:

@@ -26,7 +26,15 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov
-from roa.options import IntervalOptions, SampledOptions, SampleSearchOptions, SosOptions, VsOptions
+from roa.options import (
+    BNB_DIM,
+    BNB_SECONDS_BACKUP,
+    IntervalOptions,
+    SampledOptions,
+    SampleSearchOptions,
+    SosOptions,
+    VsOptions,
+)
 from roa.progress import step
 from roa.proof.preconditions import Preconditions, Route, check_preconditions
 from roa.proof.validate import validate_level
@@ -107,11 +115,11 @@ class IntervalValidator:
                 return validate_robust(system, V, level, max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
-                                       time_limit=self.options.time_limit)  # fmt: skip
+                                       time_limit=self.options.seconds())  # fmt: skip
         with step(f"interval validation of level {level:.6g}"):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch, bounding_box=self.bounding_box,
-                                  time_limit=self.options.time_limit)  # fmt: skip
+                                  time_limit=self.options.seconds())  # fmt: skip
 
 
 def _sparse_refusal(cand: Any, res: Any) -> str | None:
@@ -445,13 +453,18 @@ class AutoValidator:
     certificate is tried when it is inconclusive; above, the exact SOS certificate (polynomial or
     exactly recast fields, decoupled blocks) is tried first and the branch and bound decides when
     it does not certify. Either way only a validator's own proof certifies; the verdict's
-    ``method`` names the one that decided.
+    ``method`` names the one that decided. Above ``max_bnb_dim``, when the SOS route does not
+    certify, the level search's witness (``witness_search``:
+    :func:`roa.certification.pipeline.witness_by_search`, a 50-digit point of ``{V' >= 0}`` with
+    ``V <= level``) refutes before the branch and bound runs, within its time budget
+    (``time_limit``, default :data:`roa.options.BNB_SECONDS_BACKUP`).
     """
 
     options: IntervalOptions = field(default_factory=IntervalOptions)
     bounding_box: Any = None
-    max_bnb_dim: int = 4
+    max_bnb_dim: int = BNB_DIM
     name: str = "auto"
+    witness_search: bool = True
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return system.equilibrium is not None and not system.time_varying
@@ -476,8 +489,17 @@ class AutoValidator:
         s = sos.check(system, V, level)
         if s.status is not Verdict.INCONCLUSIVE:  # certified, or a precondition refuted
             return s
-        return by_interval(itv.check(system, V, level), f"SOS route: {s.message}; branch and "
-                           "bound: ")  # fmt: skip
+        note = ""
+        if self.witness_search:
+            from roa.certification.pipeline import witness_by_search
+
+            found, note = witness_by_search(system, V, level, [])
+            if found is not None:
+                return dataclasses.replace(found, meta={**found.meta, "method": "witness search"})
+        backup = IntervalValidator(self.options.replace(
+            time_limit=self.options.seconds(BNB_SECONDS_BACKUP)), self.bounding_box)  # fmt: skip
+        return by_interval(backup.check(system, V, level), f"SOS route: {s.message}; "
+                           + (f"{note}; " if note else "") + "branch and bound: ")  # fmt: skip
 
 
 # -- level proposers --------------------------------------------------------------------------------

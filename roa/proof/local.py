@@ -25,6 +25,36 @@ around the equilibrium ``x_eq`` proved here (:func:`local_box`), by one of two a
    so ``V' < 0`` for ``0 < |d| < min(rho0, mu / K)``: that cube is ``L``. ``V' = grad V . f`` is
    formed from the exact sympy gradient (``2 P d`` for a quadratic V) and the coefficients are the
    exact rationals of the float data (sympy), so the argument is a proof, not an estimate.
+3. **Contraction around an enclosed f(x_eq)** (:func:`contraction_box`), for a quadratic
+   ``V = d' P d`` when neither argument applies because ``f(x_eq) = 0`` is not exact: a field
+   written with rounded constants (``sin(x1 + pi/3) - math.sin(pi/3)``, ``math.pi`` a double) is
+   0 at ``x_eq`` in floats but, its constants taken as the exact rationals they are, vanishes
+   ``O(ulp)`` away, and its interval enclosure at ``x_eq`` is a small interval around 0. On a box
+   ``X`` around ``x_eq`` let ``[J]`` enclose the Jacobians ``Df`` (first-order jets), ``[f0]`` the
+   value ``f(x_eq)`` (interval evaluation at the point) and ``mu > 0`` with
+   ``P J + J' P <= -mu I`` for every ``J`` in ``[J]`` (exact rationals,
+   :func:`roa.proof.exact.interval_negative_definite`). For ``x, z`` in ``X``,
+   ``f(x) - f(z) = J~ (x - z)`` with ``J~`` the mean of ``Df`` on the segment, in ``[J]``
+   (Clarke's mean value theorem for a Lipschitz field with kinks). Hence, with ``d = x - x_eq``,
+   ``beta >= |P f(x_eq)|_2`` and ``lam >= lambda_max(P)`` (both exact bounds):
+
+   * ``V'(x) = 2 d' P f(x_eq) + d' (P J~ + J~' P) d <= 2 beta |d| - mu |d|^2 < 0`` for
+     ``|d| > r0 = 2 beta / mu``, so ``V' < 0`` on ``X`` wherever ``V > c0 = lam r0^2``;
+   * ``K = {V <= 2 c0}`` lies inside the box ``L`` the branch and bound discards (checked, exact),
+     ``V' < 0`` on its boundary, so it is compact, convex and positively invariant, and on it
+     ``d/dt (x - z)' P (x - z) = (x - z)' (P J~ + J~' P) (x - z) <= -mu |x - z|^2`` for any two
+     solutions: the flow contracts ``K`` (in the metric ``P``), which therefore holds exactly one
+     equilibrium ``x*`` of the field, and every solution in ``K`` converges to it exponentially.
+
+   Every solution from the level set outside ``K`` has ``V' < 0`` (the branch and bound outside
+   ``L``, the first point inside it), so it enters ``K`` and converges to ``x*``. **The claim is
+   then convergence to the field's unique zero ``x*`` in ``K``**, within ``equilibrium_radius``
+   of ``x_eq`` (``x* = x_eq`` when ``f(x_eq) = 0``; with ``beta = 0`` the interval proves that,
+   ``K = {x_eq}`` and the claim is the usual ``V' < 0`` on ``L`` minus ``x_eq``). ``V`` is the
+   system's quadratic form in ``x``; in the whitened frame of the branch and bound (``x = x_eq + M
+   y``) the box ``L`` in ``y`` is mapped to its exact rational hull ``X`` in ``x`` and ``K`` is
+   checked in ``y`` with ``W = y' M' P M y`` (the same function), so the float ``M^-1`` of the
+   whitened field is never used.
 """
 
 from __future__ import annotations
@@ -122,9 +152,194 @@ def local_box(
             return a, b, {"local_proof": "hessian", "local_scale": 2.0**-k}
     found = higher_order_cube(system, lyap)
     if found is None:
-        return None
+        return contraction_box(system, lyap, lo0, hi0)
     rho, info = found
     return c - rho, c + rho, {"local_proof": "lowest-order homogeneous part", **info}
+
+
+# -- contraction around an enclosed f(x_eq) (module doc, 3.) -----------------------------------------
+def _down(q: Fraction) -> float:
+    """The largest double <= ``q``."""
+    f = float(q)
+    return float(np.nextafter(f, -np.inf)) if Fraction(f) > q else f
+
+
+def _up(q: Fraction) -> float:
+    """The smallest double >= ``q``."""
+    f = float(q)
+    return float(np.nextafter(f, np.inf)) if Fraction(f) < q else f
+
+
+def _ivals(e: Any) -> tuple[Fraction, Fraction] | None:
+    """A scalar enclosure (float or one-box Interval) as exact bounds, or None if not finite."""
+    if type(e) is float or isinstance(e, int | np.floating):
+        v = float(e)
+        return (Fraction(v), Fraction(v)) if np.isfinite(v) else None
+    iv = Interval.of(e)
+    lo, hi = np.ravel(iv.lo), np.ravel(iv.hi)
+    if lo.size != 1 or not (np.isfinite(lo[0]) and np.isfinite(hi[0])):
+        return None
+    return Fraction(float(lo[0])), Fraction(float(hi[0]))
+
+
+def _quadratic_matrix(lyap: Lyapunov) -> list[list[Fraction]] | None:
+    """``P`` of ``V = d' P d`` as exact rationals (from the float terms), or None."""
+    terms = lyap.terms
+    if terms is None or not terms or any(sum(a) != 2 for a in terms):
+        return None
+    n = lyap.n
+    P = [[Fraction(0)] * n for _ in range(n)]
+    for a, q in terms.items():
+        idx = [i for i, k in enumerate(a) for _ in range(k)]
+        i, j = idx
+        if i == j:
+            P[i][i] = Fraction(float(q))
+        else:
+            P[i][j] = P[j][i] = Fraction(float(q)) / 2
+    return P
+
+
+def _lower_eig(A: list[list[Fraction]]) -> Fraction | None:
+    """A rational ``t > 0`` with ``A - t I`` positive definite (exact), or None."""
+    from roa.proof.exact import exact_positive_definite
+
+    n = len(A)
+    w = float(np.linalg.eigvalsh(np.array([[float(v) for v in r] for r in A]))[0])
+    if not w > 0:
+        return None
+    t = Fraction(w / 2)
+    ok, _ = exact_positive_definite([[A[i][j] - (t if i == j else 0) for j in range(n)]
+                                     for i in range(n)])  # fmt: skip
+    return t if ok else None
+
+
+def contraction_box(
+    system: System, lyap: Lyapunov, lo0: np.ndarray, hi0: np.ndarray, *, halvings: int = 40
+) -> tuple[np.ndarray, np.ndarray, dict[str, Any]] | None:
+    """``(lo, hi, info)``: the largest ``x_eq + 2^-k ([lo0, hi0] - x_eq)`` (``k >= 1``) on which
+    the contraction argument of the module doc (3.) holds, or None (V not quadratic, ``f(x_eq)``
+    or the Jacobians not enclosed finitely, ``0`` not in the enclosure of ``f(x_eq)`` (``x_eq``
+    is then proved not to be an equilibrium: no claim about it), ``P J + J' P`` not proved
+    negative definite, or ``K`` not inside the box). ``lyap`` may be whitened (:class:`roa.proof.whiten.Whitened`): the
+    argument then runs in ``x`` on the base V and system (module doc). ``info`` holds
+    ``equilibrium_radius`` (a bound of ``|x* - x_eq|_2``), ``equilibrium_level`` (``2 c0``,
+    ``x*`` in ``{V <= 2 c0}``) and ``contraction_rate`` (``mu``)."""
+    from roa.proof.exact import interval_negative_definite
+    from roa.proof.interval import INTERVAL
+
+    base_sys, base = system, lyap
+    n = lyap.n
+    M = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]
+    if getattr(lyap, "whitened", False):
+        base_sys, base = lyap.system, lyap.base  # type: ignore[attr-defined]
+        M = [[Fraction(float(v)) for v in row] for row in np.asarray(lyap.M)]  # type: ignore[attr-defined]
+    P = _quadratic_matrix(base)
+    if P is None:
+        return None
+    x_eq = [Fraction(float(v)) for v in base.center]
+    c = np.asarray(lyap.center, dtype=float)  # the frame's centre (0 when whitened)
+    # W = z' Q z in the frame, Q = M' P M (exact); K = {V <= 2 c0} inside the frame's ball
+    Q = [[sum((M[k][i] * P[k][l] * M[l][j] for k in range(n) for l in range(n)), Fraction(0))
+          for j in range(n)] for i in range(n)]  # fmt: skip
+    tQ, lamP_lo = _lower_eig(Q), _lower_eig(P)
+    if tQ is None or lamP_lo is None:
+        return None
+    lam = max(sum(abs(v) for v in row) for row in P)  # >= lambda_max(P) (Gershgorin)
+    try:
+        with np.errstate(all="ignore"):
+            f0 = base_sys.field(0.0, [Interval(np.array([float(v)])) for v in x_eq], INTERVAL)
+    except (ArithmeticError, ValueError, TypeError):
+        return None
+    f0b = [_ivals(e) for e in f0]
+    if any(b is None or not b[0] <= 0 <= b[1] for b in f0b):
+        return None  # not enclosed, or x_eq proved not to be an equilibrium
+    # beta^2 >= |P f(x_eq)|^2, exact
+    beta2 = Fraction(0)
+    for i in range(n):
+        ends = [(P[i][k] * b[0], P[i][k] * b[1]) for k, b in enumerate(f0b) if b is not None]
+        lo_i = sum((min(e) for e in ends), Fraction(0))
+        hi_i = sum((max(e) for e in ends), Fraction(0))
+        beta2 += max(abs(lo_i), abs(hi_i)) ** 2
+    for k in range(1, halvings + 1):
+        a, b = c + (lo0 - c) / 2.0**k, c + (hi0 - c) / 2.0**k
+        # the exact hull X of x_eq + M [a, b]
+        aq, bq = [Fraction(float(v)) for v in a], [Fraction(float(v)) for v in b]
+        X_lo = [_down(x_eq[i] + sum((min(M[i][j] * aq[j], M[i][j] * bq[j]) for j in range(n)),
+                                    Fraction(0))) for i in range(n)]  # fmt: skip
+        X_hi = [_up(x_eq[i] + sum((max(M[i][j] * aq[j], M[i][j] * bq[j]) for j in range(n)),
+                                  Fraction(0))) for i in range(n)]  # fmt: skip
+        mu = _contraction_rate(base_sys, P, np.array(X_lo), np.array(X_hi),
+                               interval_negative_definite)  # fmt: skip
+        if mu is None:
+            continue
+        c0 = lam * 4 * beta2 / (mu * mu)  # lam r0^2, r0 = 2 beta / mu
+        c1 = 2 * c0
+        # K in the frame: z' Q z <= c1 gives |z|^2 <= c1 / tQ; inside [a, b] with room to spare
+        room = min(min((c[i] - Fraction(float(a[i]))) ** 2, (Fraction(float(b[i])) - c[i]) ** 2)
+                   for i in range(n))  # fmt: skip
+        if not c1 / tQ < room:
+            continue
+        return a, b, {"local_proof": "contraction (f(x_eq) enclosed)", "local_scale": 2.0**-k,
+                      "contraction_rate": float(mu), "equilibrium_level": _up(c1),
+                      "equilibrium_radius": float(np.nextafter(np.sqrt(_up(c1 / lamP_lo)), np.inf))}  # fmt: skip
+    return None
+
+
+def _contraction_rate(
+    system: System, P: list[list[Fraction]], lo: np.ndarray, hi: np.ndarray, negdef: Any
+) -> Fraction | None:
+    """A rational ``mu > 0`` with ``P J + J' P + mu I`` negative definite for every ``J`` in the
+    interval Jacobian of the field on ``[lo, hi]`` (first-order jets, exact rational sums), or
+    None."""
+    n = len(P)
+    if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi))):
+        return None
+    try:
+        with np.errstate(all="ignore"):
+            f = system.field(0.0, Jet.variables(lo[None, :], hi[None, :], order=1), JET)
+    except (ArithmeticError, ValueError, TypeError):
+        return None
+    J: list[list[tuple[Fraction, Fraction]]] = []
+    for fi in f:
+        if isinstance(fi, Jet):
+            row = [_ivals(g) for g in fi.g]
+        elif _ivals(fi) is not None:
+            row = [(Fraction(0), Fraction(0))] * n  # a constant component
+        else:
+            return None
+        if any(r is None for r in row):
+            return None
+        J.append(row)  # type: ignore[arg-type]
+
+    def prod(p: Fraction, iv: tuple[Fraction, Fraction]) -> tuple[Fraction, Fraction]:
+        u, v = p * iv[0], p * iv[1]
+        return (u, v) if u <= v else (v, u)
+
+    S_lo = np.empty((n, n))
+    S_hi = np.empty((n, n))
+    S: list[list[tuple[Fraction, Fraction]]] = []
+    for i in range(n):
+        row_s = []
+        for j in range(n):
+            lo_ij, hi_ij = Fraction(0), Fraction(0)
+            for k in range(n):  # (P J)_ij + (J' P)_ij = P_ik J_kj + J_ki P_kj
+                for p, iv in ((P[i][k], J[k][j]), (P[k][j], J[k][i])):
+                    if p:
+                        u, v = prod(p, iv)
+                        lo_ij, hi_ij = lo_ij + u, hi_ij + v
+            row_s.append((lo_ij, hi_ij))
+        S.append(row_s)
+    mid = np.array([[float((S[i][j][0] + S[i][j][1]) / 2) for j in range(n)] for i in range(n)])
+    w = float(np.linalg.eigvalsh(-0.5 * (mid + mid.T))[0])
+    if not w > 0:
+        return None
+    mu = Fraction(w / 2)
+    for i in range(n):
+        for j in range(n):
+            shift = mu if i == j else Fraction(0)
+            S_lo[i, j] = _down(S[i][j][0] + shift)
+            S_hi[i, j] = _up(S[i][j][1] + shift)
+    return mu if negdef(S_lo, S_hi) else None
 
 
 def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:

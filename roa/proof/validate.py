@@ -6,8 +6,8 @@ with ``Omega`` the sublevel set ``{V <= level}`` (all of it when a global cover 
 :func:`roa.proof.cover.gram_cover`, e.g. for every quadratic V) or its connected component
 holding the equilibrium (a box with ``V > level`` on its faces,
 :func:`roa.proof.cover.prove_boundary`). ``Omega`` is then compact and positively invariant and
-every trajectory from it converges to ``x_eq`` (LaSalle). Steps, all in interval arithmetic with
-outward rounding:
+every trajectory from it converges to ``x_eq`` (LaSalle; after the contraction argument of step 2,
+to the field's zero ``x*`` next to it). Steps, all in interval arithmetic with outward rounding:
 
 1. **Cover** (:func:`roa.proof.cover.prove_cover`): a box ``B`` around ``x_eq`` proved to hold
    ``Omega``; the face proofs share the caller's ``max_boxes`` as their budget.
@@ -15,7 +15,11 @@ outward rounding:
    ``x_eq + 2^-k (B - x_eq)`` (largest ``k`` passing) on which the Hessian of ``V'``
    (second-order jets of ``V' = grad V . f``) is negative definite (exact rational check), with
    ``f(x_eq) = 0`` exactly and ``grad V(x_eq) = 0``; else the lowest-order homogeneous part of a
-   polynomial ``V'``.
+   polynomial ``V'``; else, for a quadratic V, a contraction argument around an ``f(x_eq)``
+   enclosed in a small interval holding 0 (a field written with rounded constants): ``V' < 0``
+   on the box outside a set ``K = {V <= equilibrium_level}`` of roundoff size, in which the field
+   contracts to its unique zero ``x*``. Trajectories then converge to ``x*``, proved within
+   ``equilibrium_radius`` of ``x_eq`` (the meta; ``x* = x_eq`` when ``f(x_eq) = 0``).
 3. **Branch and bound** over ``B``. A box ``X`` is discarded when
 
    * the interval ``V > level`` (natural extension, centred form and second-order Taylor form
@@ -537,8 +541,11 @@ def _branch_and_bound(
         return out(Verdict.INCONCLUSIVE, boxes,
                    "V' < 0 proved away from the equilibrium but not near it (neither the Hessian "
                    "of V' nor its lowest-order homogeneous part proves it)", meta={**info, **local})  # fmt: skip
-    return out(Verdict.CERTIFIED, boxes,
-               f"V' < 0 proved on {proved} boxes of the cover; local proof on a box around x_eq",
+    near = "local proof on a box around x_eq"
+    if "equilibrium_radius" in local:
+        near += (" (f(x_eq) enclosed, not proved 0: trajectories converge to the field's unique "
+                 f"zero within {local['equilibrium_radius']:.3g} of x_eq)")  # fmt: skip
+    return out(Verdict.CERTIFIED, boxes, f"V' < 0 proved on {proved} boxes of the cover; {near}",
                meta={"proved_boxes": proved, "proved_by_multiplier": proved_F, **info,
                      **local})  # fmt: skip
 

@@ -110,9 +110,11 @@ class IntervalValidator:
             return pre.refusal
         if system.parameters:
             from roa.proof.robust import validate_robust
+            from roa.search.robust_witness import sampled_witness
 
             with step(f"robust interval validation of level {level:.6g}"):
-                return validate_robust(system, V, level, max_boxes=self.options.max_boxes,
+                return validate_robust(system, V, level, witness_search=sampled_witness,
+                                       max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
                                        time_limit=self.options.seconds())  # fmt: skip

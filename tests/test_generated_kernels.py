@@ -263,3 +263,80 @@ def test_generated_kernel_is_the_integrators_kernel_bit_for_bit(tmp_path, monkey
     b = integrate_batch(plain, X, backend="numba")
     for u, v in ((a.code, b.code), (a.t_end, b.t_end), (a.x_end, b.x_end), (a.steps, b.steps)):
         assert np.array_equal(u, v)
+
+
+# --- damaged kernel files (issue 39, item 2) --------------------------------------------------
+
+
+def _poison(text: str) -> str:
+    """The kernel with ``run`` marking every run converged (the adversarial edit)."""
+    line = "                                             x_end[k], None)\n"
+    assert line in text
+    return text.replace(line, f"{line}        code[k] = {CONVERGED}\n")
+
+
+def _forget() -> None:
+    """What a new process knows of generated kernels: nothing."""
+    kc._TRACES.clear()
+    for name in list(kc._MODULES):
+        del kc._MODULES[name]
+        sys.modules.pop(name, None)
+
+
+def test_an_edited_kernel_file_is_rewritten_and_counts_are_a_fresh_runs(tmp_path, monkeypatch):
+    """Editing the cached kernel so that ``run`` marks every run converged turned 576 diverged
+    runs of this grid into converged ones; the file is now checked against its hash when loaded,
+    rewritten, and the counts are those of a fresh run (and of the numpy backend)."""
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    system, X = vanderpol(), _grid(-3, 3, 30)
+    _forget()
+    fresh = integrate_batch(system, X, backend="numba")
+    counts = np.bincount(fresh.code, minlength=8)
+    assert counts[CONVERGED] < len(X)  # some runs diverge: the poisoned kernel would differ
+    numpy = integrate_batch(system, X, backend="numpy")
+    np.testing.assert_array_equal(numpy.code, fresh.code)
+    (path,) = tmp_path.glob("roa_kernel_*.py")
+    text = path.read_text()
+    path.write_text(_poison(text))
+    _forget()
+    again = integrate_batch(system, X, backend="numba")
+    np.testing.assert_array_equal(again.code, fresh.code)
+    assert path.read_text() == text
+
+
+DAMAGE = {
+    "edited": lambda p: p.write_text(_poison(p.read_text())),
+    "truncated": lambda p: p.write_text(p.read_text()[:1000]),
+    "empty": lambda p: p.write_text(""),
+    "linked to /dev/null": lambda p: (p.unlink(), p.symlink_to("/dev/null")),
+    "linked to another file": lambda p: (
+        p.with_name("other.py").write_text(_poison(p.read_text())),
+        p.unlink(),
+        p.symlink_to(p.with_name("other.py")),
+    ),
+}
+
+
+@pytest.mark.parametrize("damage", list(DAMAGE))
+def test_a_damaged_kernel_file_is_rebuilt(tmp_path, monkeypatch, damage):
+    """Without compiling: the module loaded after the damage is the kernel's own text (its
+    ``run`` has the source of the undamaged one) and the file holds that text again."""
+    import inspect
+
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    _forget()
+    factory = kc.generate(vanderpol())
+    path = tmp_path / f"roa_kernel_{factory.digest[:32]}.py"
+    good = inspect.getsource(kc.load_module(factory.text, factory.digest).run.py_func)
+    DAMAGE[damage](path)
+    _forget()
+    again = kc.generate(vanderpol())
+    assert again.digest == factory.digest
+    mod = kc.load_module(again.text, again.digest)
+    assert inspect.getsource(mod.run.py_func) == good and "code[k] = " not in good
+    assert not path.is_symlink() and path.read_text() == factory.text
+
+
+def test_a_kernel_text_that_does_not_hash_to_its_digest_is_never_loaded():
+    with pytest.raises(ValueError, match="does not hash to"):
+        kc.load_module("X = 1\n", "0" * 64)

@@ -156,7 +156,8 @@ print(json.dumps({"digest": f.digest, "codes": res.code.tolist(), "x": res.x_end
 def _run(cache: Path, gain: float) -> tuple[dict, str]:
     import json
 
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), kc.CACHE_ENV: str(cache)}
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), kc.CACHE_ENV: str(cache),
+           "ROA_CACHE_DIR": str(cache / "roa")}  # fmt: skip
     out = subprocess.run([sys.executable, "-c", SCRIPT, str(gain)], capture_output=True,
                          text=True, timeout=600, env=env)  # fmt: skip
     assert out.returncode == 0, out.stderr[-3000:]
@@ -223,9 +224,34 @@ def test_stale_index_entry_is_caught_by_the_numpy_check(tmp_path, monkeypatch):
     b_sys = _pendulum(0.9)
     path = kc._index_path(b_sys)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"digest": a.digest, "names": [], "baked": {}}))
+    body = {"digest": a.digest, "names": [], "baked": {}}
+    tag = roa.io.cache_tag(kc.INDEX_TAG, {"index": path.name, **body})
+    path.write_text(json.dumps({**body, "tag": tag}))  # as roa would write it
     assert kc._from_index(b_sys, path) is None
     assert kc.generate(b_sys).digest != a.digest
+
+
+def test_an_index_entry_without_the_users_tag_is_ignored(tmp_path, monkeypatch):
+    """A consistent forgery (an edited kernel under its own hash, an index entry naming it) is
+    ignored: the entry carries no tag under the user's key; the system is traced again."""
+    import hashlib
+    import json
+
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    _forget()
+    system = vanderpol()
+    good = kc.generate(system)
+    path = kc._index_path(system)
+    assert kc._from_index(system, path) == good  # the entry roa wrote checks
+    bad = _poison(good.text)
+    digest = hashlib.sha256(bad.encode()).hexdigest()
+    (tmp_path / f"roa_kernel_{digest[:32]}.py").write_text(bad)
+    entry = json.loads(path.read_text())
+    for forged in ({**entry, "digest": digest}, {"digest": digest, "names": [], "baked": {}}):
+        path.write_text(json.dumps(forged))
+        assert kc._from_index(system, path) is None
+        _forget()
+        assert kc.generate(system).digest == good.digest
 
 
 def test_quadratic_terminal_set_in_the_generated_kernel_matches_numpy(tmp_path, monkeypatch):

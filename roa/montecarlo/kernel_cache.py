@@ -11,7 +11,11 @@ Disk cache: the generated module is written to ``kernel_dir()/roa_kernel_<sha256
 of its text, so a changed field or integrator gives another file) and numba caches its compiled
 code next to it (``cache=True``: keyed by that file). A kernel file is checked against its hash
 whenever it is loaded: one that holds anything else (edited, truncated, empty, a link) is
-rewritten, and the module runs from the checked text (:func:`load_module`). The directory is ``$ROA_KERNEL_CACHE`` when
+rewritten, and the module runs from the checked text (:func:`load_module`). The index that maps
+a field's code to its kernel's hash is believed only for entries tagged with the user's cache
+key (:func:`roa.io.cache_tag`), so a forged entry naming an edited kernel is ignored. numba's
+compiled code next to a kernel file is trusted as numba trusts it (keyed by that file's path,
+modification time and size). The directory is ``$ROA_KERNEL_CACHE`` when
 set, else ``kernels/`` in roa's cache directory (``$ROA_CACHE_DIR``, else ``~/.cache/roa``). A
 first compilation prints a progress line on stderr (loads from the cache print nothing). With ``backend="auto"`` runs of fewer than :data:`COMPILE_FROM` initial
 conditions stay on numpy.
@@ -25,6 +29,7 @@ machine) writes the file if missing and loads the compiled code from its own cac
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 import stat
 import sys
@@ -40,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.io import atomic_write_json, atomic_write_text, cache_dir
+from roa.io import atomic_write_json, atomic_write_text, cache_dir, cache_tag, tag_matches, to_json
 from roa.montecarlo.trace import Untraceable, trace_system
 from roa.system import System
 
@@ -282,14 +287,17 @@ def _index_path(system: System) -> Path | None:
 
 
 def _from_index(system: System, path: Path | None) -> GeneratedKernels | None:
-    """The kernel the index names for ``system``, if its text is on disk, it was built for these
+    """The kernel the index names for ``system``, if the entry's tag checks (written by roa with
+    this user's key, :func:`roa.io.cache_tag`), its text is on disk, it was built for these
     parameter values (when they are compiled in) and it matches the numpy field; else None."""
-    import json
 
     if path is None or not path.exists():
         return None
     try:
         entry = json.loads(path.read_text())
+        body = {k: entry[k] for k in ("digest", "names", "baked")}
+        if not tag_matches(INDEX_TAG, {"index": path.name, **body}, entry.get("tag")):
+            return None
         digest, names = str(entry["digest"]), tuple(entry["names"])
         baked = {str(k): float(v) for k, v in entry["baked"].items()}
         raw = _read_regular(kernel_dir() / f"roa_kernel_{digest[:32]}.py")
@@ -310,13 +318,20 @@ def _from_index(system: System, path: Path | None) -> GeneratedKernels | None:
     return factory
 
 
+#: The purpose of the index entries' tags (:func:`roa.io.cache_tag`).
+INDEX_TAG = "roa-kernel-index-v1"
+
+
 def _remember(path: Path | None, factory: GeneratedKernels, baked: dict[str, float]) -> None:
     if path is None:
         return
     try:
-        atomic_write_json(path, {"digest": factory.digest, "names": list(factory.names),
-                                 "baked": baked})  # fmt: skip
-    except OSError:
+        body = json.loads(to_json({"digest": factory.digest, "names": list(factory.names),
+                                   "baked": baked}))  # fmt: skip
+        tag = cache_tag(INDEX_TAG, {"index": path.name, **body})
+        if tag is not None:
+            atomic_write_json(path, {**body, "tag": tag})
+    except (OSError, TypeError, ValueError):
         pass  # no index: the next process traces again
 
 

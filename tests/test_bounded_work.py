@@ -168,3 +168,61 @@ def test_a_validation_out_of_time_is_inconclusive_saying_so():
     assert roa.certify(vanderpol(), level=2.3).status is roa.Verdict.CERTIFIED
     with pytest.raises(roa.RoaInputError, match="time_limit must be a number of seconds"):
         roa.IntervalOptions(time_limit=-1)
+
+
+HUGE_FIELD = textwrap.dedent(
+    """
+    import json, os, sys
+    import numpy as np
+    import roa
+    from roa.montecarlo.integrator import integrate_batch
+    from roa.status import StopRules
+
+    def field(t, x, xp):  # finite everywhere; its error control asks for steps of ~1e-300
+        return (x[1], -1e300 * x[0] - 1e300 * x[1])
+
+    s = roa.System("huge", field, (0.0, 0.0), ("a", "b"))
+    X = np.array([[0.5, 0.5], [1.0, -1.0], [-2.0, 0.25]])
+    out = {}
+    for backend in sys.argv[1:]:
+        r = integrate_batch(s, X, backend=backend, rules=StopRules(t_final=10.0))
+        out[backend] = {"code": r.code.tolist(), "t_end": r.t_end.tolist(),
+                        "steps": r.steps.tolist()}
+    print(json.dumps(out))
+    """
+)
+
+
+def test_a_field_asking_for_subnormal_steps_ends_the_run_undecided(tmp_path):
+    """Issue 39, item 4: with steps of ~1e-300 (a field of scale 1e300, or ``--param mu=1e308``)
+    scipy's minimum step, 10 |nextafter(t) - t|, is subnormal at t = 0 and the runs never reached
+    t_final. The minimum step is now also MIN_STEP_FRACTION * t_final: both backends (numpy, and
+    the generated kernel running the integrator's ``_one``) end every run as a step failure at
+    t = 0, within the time limit."""
+    import json
+    import os
+
+    from roa.montecarlo.dopri import STEP_FAILURE
+
+    env = {**os.environ, "ROA_KERNEL_CACHE": str(tmp_path)}
+    out = subprocess.run([sys.executable, "-W", "ignore", "-c", HUGE_FIELD, "numpy", "numba"],
+                         capture_output=True, text=True, timeout=300, env=env)  # fmt: skip
+    assert out.returncode == 0, out.stderr[-2000:]
+    runs = json.loads(out.stdout.strip().splitlines()[-1])
+    for backend in ("numpy", "numba"):
+        assert runs[backend] == {"code": [STEP_FAILURE] * 3, "t_end": [0.0] * 3, "steps": [0] * 3}
+
+
+def test_basin_with_mu_1e308_ends_undecided():
+    """The adversarial run's command: every run is an undecided step failure (it never ended)."""
+    import json
+
+    argv = ["basin", "--system", "vanderpol", "--param", "mu=1e308", "--slice", "x1,x2",
+            "--grid", "4x4", "--box", "x1=-1:1,x2=-1:1", "--t-final", "20", "--jobs", "1",
+            "--json"]  # fmt: skip
+    code = subprocess.run([sys.executable, "-W", "ignore", "-c",
+                           "import sys; from roa.cli import main; sys.exit(main(sys.argv[1:]))",
+                           *argv], capture_output=True, text=True, timeout=60)  # fmt: skip
+    assert code.returncode == 0, code.stderr[-2000:]
+    res = json.loads(code.stdout)
+    assert res["counts"]["undecided"] == 16 and res["undecided_step_size_failures"] == 16

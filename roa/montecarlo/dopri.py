@@ -17,7 +17,7 @@ from roa.status import RunStatus
 CONVERGED, LEFT_DOMAIN, DIVERGED, UNDECIDED, STEP_FAILURE = 0, 1, 2, 3, 4
 #: An undecided run that sat at another equilibrium at t_final (set after integration).
 CONVERGED_ELSEWHERE = 5
-#: Code -> status; STEP_FAILURE is an undecided run whose step size fell below the minimum.
+#: Code -> status; STEP_FAILURE is an undecided run whose step size underflowed.
 CODE_STATUS = {
     CONVERGED: RunStatus.CONVERGED,
     LEFT_DOMAIN: RunStatus.LEFT_DOMAIN,
@@ -55,11 +55,6 @@ DENSE_P = np.array(
     ]
 )
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
-#: Smallest step, as a fraction of ``t_final`` (besides scipy's ``10 |nextafter(t) - t|``, which
-#: near ``t = 0`` is subnormal): a run whose error control asks for less ends as
-#: :data:`STEP_FAILURE`, so no run takes more than ``1 / MIN_STEP_FRACTION`` steps (a field of
-#: scale 1e308 would otherwise step by 1e-308 and never reach ``t_final``).
-MIN_STEP_FRACTION = 1e-12
 EPS = np.finfo(float).eps
 
 

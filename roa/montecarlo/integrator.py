@@ -9,9 +9,7 @@ Every trajectory has its own step size and stops at its own first event, with th
 * ``diverged``: ``diverge_bound - ||x||`` goes from >= 0 to <= 0 (non-finite stage values make the
   step be rejected and shrunk, as in scipy);
 * ``undecided``: none of the above by ``t_final`` (code :data:`UNDECIDED`), or the step size fell
-  below the minimum (code :data:`STEP_FAILURE`, counted as undecided but reported apart): scipy's
-  ``10 |nextafter(t) - t|`` or ``MIN_STEP_FRACTION * t_final``, whichever is larger (scipy's alone
-  is subnormal near ``t = 0``, where a huge field's runs would never advance);
+  below scipy's minimum (code :data:`STEP_FAILURE`, counted as undecided but reported apart);
   after the batch, undecided runs sitting at another equilibrium are ``converged_elsewhere`` and
   those blowing up (:func:`roa.divergence.blows_up`, confirmed by the reference integrator)
   ``diverged``.
@@ -64,7 +62,6 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     LEFT_DOMAIN,
     MAX_FACTOR,
     MIN_FACTOR,
-    MIN_STEP_FRACTION,
     SAFETY,
     STATUS_NAMES,
     STEP_FAILURE,
@@ -518,7 +515,7 @@ def _one(
         if t >= t_final:
             _copy(y, x_out)
             return UNDECIDED, t, steps
-        min_step = max(10 * abs(np.nextafter(t, np.inf) - t), MIN_STEP_FRACTION * t_final)
+        min_step = 10 * abs(np.nextafter(t, np.inf) - t)
         if h_abs < min_step:
             h_abs = min_step
         step_rejected = False

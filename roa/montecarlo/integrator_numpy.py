@@ -104,8 +104,7 @@ def integrate_numpy(
         code[rows], t_end[rows], x_end[rows], steps[rows] = c, tt, xx, nsteps[sel]
 
     while idx.size:
-        min_step = np.maximum(10 * np.abs(np.nextafter(t, np.inf) - t),
-                              I.MIN_STEP_FRACTION * rules.t_final)  # fmt: skip
+        min_step = 10 * np.abs(np.nextafter(t, np.inf) - t)
         h_abs = np.where(fresh & (h_abs < min_step), min_step, h_abs)
         fail = ~(h_abs >= min_step)  # NaN (a field not finite here) fails too: never loops
         if fail.any():

@@ -19,6 +19,14 @@ Claims and assumptions:
   ``math.sin``, writing into ``np.zeros(n)``) or calls a function outside numpy's ufuncs listed in
   :data:`roa.sympy_system.SUPPORTED`. The remedy is ``field=``: the same equations written once as
   ``field(t, x, u, xp)`` with ``xp.sin``, ``xp.cos``, ... (checked against ``updfcn`` the same way).
+* The plant must be autonomous (roa analyses an equilibrium of ``x' = f(x)``): ``updfcn`` is
+  called with a symbolic ``t`` at numeric sample states (an expression in ``t``, or a comparison or
+  float conversion of one, is a dependence on ``t``) and with numeric ``t`` in
+  :data:`TIME_PROBES` (its values must equal those at ``t = 0``). A dependence found either way is
+  an input error; one that neither finds (a branch on ``t`` inside a function that rejects the
+  symbol, taken only at times beyond the probes) is not detected.
+* ``K``, ``equilibrium`` and ``u_eq`` must be real: a complex entry with a nonzero imaginary part
+  is an input error (never its real part taken).
 * ``params`` of the model are fixed at their values when the system is built.
 * ``control`` is imported only by :meth:`System.from_control` (``pip install roa[control]``);
   :func:`closed_loop` needs no python-control.
@@ -26,6 +34,7 @@ Claims and assumptions:
 
 from __future__ import annotations
 
+import functools
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
@@ -39,6 +48,10 @@ from roa.errors import RoaInputError
 AGREEMENT_RTOL = 1e-9
 #: Sample points of the agreement check (normal around the equilibrium, standard deviation 0.5).
 AGREEMENT_POINTS = 64
+#: Times at which ``updfcn`` (and the analysed field) must give what it gives at ``t = 0``.
+TIME_PROBES = (0.5, 1.5, 7.25, 100.0, 1e4)
+#: Sample states (of the agreement points) at which the time probes run.
+TIME_POINTS = 8
 
 ControlField = Callable[..., Sequence[Any]]
 
@@ -70,9 +83,27 @@ class ClosedLoopField:
         return self.plant(t, x, self.inputs(x), xp)
 
 
+def _real(value: Any, what: str) -> np.ndarray:
+    """``value`` as a float array; a complex entry with a nonzero imaginary part is an input
+    error. Raises TypeError or ValueError for what is not numbers."""
+    arr = np.asarray(value)
+    if arr.dtype.kind == "c" or arr.dtype == object:
+        c = arr.astype(complex)
+        if np.any(c.imag != 0):
+            k = tuple(int(i) for i in np.argwhere(c.imag != 0)[0])
+            raise RoaInputError(
+                f"{what} must be real, got the complex entry {complex(c[k])!r} at index {k} (its "
+                "imaginary part is never dropped)"
+            )
+        arr = c.real
+    return np.asarray(arr, dtype=float)
+
+
 def _matrix(value: Any, shape: tuple[int, int], what: str) -> tuple[tuple[float, ...], ...]:
     try:
-        arr = np.asarray(value, dtype=float)
+        arr = _real(value, what)
+    except RoaInputError:
+        raise
     except (TypeError, ValueError):
         raise RoaInputError(f"{what} must be a {shape[0]}x{shape[1]} matrix of numbers") from None
     if arr.ndim == 1 and shape[0] == 1:
@@ -86,7 +117,12 @@ def _matrix(value: Any, shape: tuple[int, int], what: str) -> tuple[tuple[float,
 
 
 def _vector(value: Any, n: int, what: str) -> tuple[float, ...]:
-    arr = np.zeros(n) if value is None else np.asarray(value, dtype=float).reshape(-1)
+    try:
+        arr = np.zeros(n) if value is None else _real(value, what).reshape(-1)
+    except RoaInputError:
+        raise
+    except (TypeError, ValueError):
+        raise RoaInputError(f"{what} must be {n} finite numbers, got {value!r}") from None
     if arr.shape != (n,) or not np.all(np.isfinite(arr)):
         raise RoaInputError(f"{what} must be {n} finite numbers, got {value!r}")
     return tuple(float(v) for v in arr)
@@ -141,7 +177,12 @@ def closed_loop(
 
     names = tuple(states)
     n = len(names)
-    rows = np.asarray(K, dtype=float)
+    try:
+        rows = _real(K, "K")
+    except RoaInputError:
+        raise
+    except (TypeError, ValueError):
+        raise RoaInputError(f"K must be a matrix of numbers (inputs x states), got {K!r}") from None
     m = rows.shape[0] if rows.ndim == 2 else 1
     gain = _matrix(K, (m, n), "K")
     x_eq = _vector(equilibrium, n, "equilibrium")
@@ -160,6 +201,18 @@ def closed_loop(
 
 class Untraceable(RoaInputError):
     """An ``updfcn`` did something a symbolic trace cannot follow."""
+
+
+class TimeDependent(RoaInputError):
+    """An ``updfcn`` compared, or converted to a number, a value that depends on ``t``."""
+
+
+@functools.lru_cache(maxsize=1)
+def _time_symbol() -> Any:
+    """The symbol standing for ``t`` when ``updfcn`` is probed for a dependence on time."""
+    import sympy as sp
+
+    return sp.Dummy("t")
 
 
 #: numpy ufunc name -> sympy function name; numpy calls the method of that name on each element of
@@ -259,6 +312,10 @@ class Traced:
         raise AttributeError(name)  # numpy then names the ufunc it could not apply
 
     def _refuse(self, *_: Any) -> Any:
+        if _time_symbol() in self.e.free_symbols:
+            raise TimeDependent(
+                f"a comparison or a conversion to a number of {self.e} ({_time_symbol()} is t)"
+            )
         raise Untraceable(
             "a comparison or a conversion to a number (if/np.where/np.clip/float()/math.*/"
             "assignment into a float array) depends on the state"
@@ -306,23 +363,68 @@ def _trace(sys: Any, params: Mapping[str, Any], x_eq: Sequence[float], u_eq: Seq
 
 def _check_agreement(system: Any, sys: Any, params: Mapping[str, Any],
                      inputs: Callable[[list[float]], list[Any]], origin: str) -> None:  # fmt: skip
-    """``system.f`` against ``sys.updfcn`` under the same feedback at sample points (numpy)."""
+    """``system.f`` against ``sys.updfcn`` under the same feedback at sample points (numpy), at
+    ``t = 0`` and, at the first :data:`TIME_POINTS` of them, at the times of :data:`TIME_PROBES`
+    (so a ``field=`` that depends on ``t`` where the plant does not is refused)."""
+    X = _sample_states(system.x_eq, system.n)
+    for k, x in enumerate(X):
+        u = np.array(inputs(list(x)), dtype=float)
+        for t in (0.0, *(TIME_PROBES if k < TIME_POINTS else ())):
+            with np.errstate(all="ignore"):
+                ref = np.asarray(sys.updfcn(t, x, u, dict(params)), dtype=float).reshape(-1)
+                got = system.f(x, t)
+            if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(got))):
+                continue
+            err = np.max(np.abs(got - ref) / (1.0 + np.abs(ref)))
+            if not err <= AGREEMENT_RTOL:
+                raise RoaInputError(
+                    f"System.from_control: the {origin} differs from {sys.name}'s updfcn at "
+                    f"t = {t}, x = {x.tolist()}, u = {u.tolist()}: {got.tolist()} vs "
+                    f"{ref.tolist()} (relative {err:.2e} > {AGREEMENT_RTOL:g}); write the same "
+                    "equations"
+                )
+
+
+def _sample_states(x_eq: Any, n: int) -> np.ndarray:
+    """The agreement check's states: normal around ``x_eq``, standard deviation 0.5, seed 0."""
     rng = np.random.default_rng(0)
-    X = system.x_eq + 0.5 * rng.standard_normal((AGREEMENT_POINTS, system.n))
+    return np.asarray(x_eq, dtype=float) + 0.5 * rng.standard_normal((AGREEMENT_POINTS, n))
+
+
+def _time_varying(sys: Any, params: Mapping[str, Any], X: np.ndarray,
+                  inputs: Callable[[list[float]], list[Any]]) -> str | None:  # fmt: skip
+    """How ``sys.updfcn`` under the feedback depends on ``t`` at the states ``X``, or None when no
+    dependence shows: called with a symbolic ``t`` (a result in ``t``, or a comparison or float
+    conversion of one, is a dependence; at a state where it raises anything else the numeric
+    probes decide),
+    then with each time of :data:`TIME_PROBES` (a value other than at ``t = 0``)."""
+    T = Traced(_time_symbol())
+    for x in X:
+        u = np.array(inputs(list(x)), dtype=float)
+        try:
+            out = sys.updfcn(T, x.copy(), u.copy(), dict(params))
+        except TimeDependent as exc:
+            return f"at x = {x.tolist()}: {exc}"
+        except Exception:  # noqa: BLE001 - e.g. a library call that rejects the symbol
+            continue
+        for i, v in enumerate(np.asarray(out, dtype=object).reshape(-1)):
+            if isinstance(v, Traced) and _time_symbol() in v.e.free_symbols:
+                return f"component {i} at x = {x.tolist()} is {v.e} (t is the time)"
     for x in X:
         u = np.array(inputs(list(x)), dtype=float)
         with np.errstate(all="ignore"):
-            ref = np.asarray(sys.updfcn(0.0, x, u, dict(params)), dtype=float).reshape(-1)
-            got = system.f(x)
-        if not (np.all(np.isfinite(ref)) and np.all(np.isfinite(got))):
-            continue
-        err = np.max(np.abs(got - ref) / (1.0 + np.abs(ref)))
-        if not err <= AGREEMENT_RTOL:
-            raise RoaInputError(
-                f"System.from_control: the {origin} differs from {sys.name}'s updfcn at "
-                f"x = {x.tolist()}, u = {u.tolist()}: {got.tolist()} vs {ref.tolist()} "
-                f"(relative {err:.2e} > {AGREEMENT_RTOL:g}); write the same equations"
-            )
+            ref = np.asarray(sys.updfcn(0.0, x.copy(), u.copy(), dict(params)), dtype=float)
+            for t in TIME_PROBES:
+                try:
+                    got = np.asarray(sys.updfcn(t, x.copy(), u.copy(), dict(params)), dtype=float)
+                except Exception as exc:  # noqa: BLE001 - it fails at t but not at t = 0
+                    return f"at x = {x.tolist()} it raised {type(exc).__name__} at t = {t}"
+                same = np.isclose(got.reshape(-1), ref.reshape(-1), rtol=1e-12, atol=0.0,
+                                  equal_nan=True)  # fmt: skip
+                if not same.all():
+                    return (f"at x = {x.tolist()} it gives {ref.reshape(-1).tolist()} at t = 0 "
+                            f"and {got.reshape(-1).tolist()} at t = {t}")  # fmt: skip
+    return None
 
 
 def from_control(
@@ -364,6 +466,17 @@ def from_control(
     label = name or sys.name
     loop = ClosedLoopField(_no_plant, gain, x_eq, u0)
     all_params = {**(sys.params or {}), **(params or {})}
+    if not isinstance(sys, control.StateSpace):
+        X = _sample_states(x_eq, n)[:TIME_POINTS]
+        how = _time_varying(sys, all_params, np.vstack([x_eq, X]), loop.inputs)
+        if how is not None:
+            raise RoaInputError(
+                f"System.from_control: {sys.name}'s updfcn depends on the time t ({how}); roa "
+                "analyses the equilibrium of an autonomous closed loop x' = f(x), so a "
+                "time-varying plant is refused (a field frozen at t = 0 would be certified for "
+                "trajectories it does not have). Remove t from the updfcn, or simulate it as "
+                "roa.System(..., time_varying=True)"
+            )
     if field is not None:
         system = closed_loop(field, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
         if not isinstance(sys, control.StateSpace):

@@ -1,12 +1,22 @@
-"""Atomic writes and run manifests: a result file is either whole or absent."""
+"""Atomic writes and run manifests: a result file is either whole or absent; the cache's key.
+
+Cache entries that decide a result (proved levels, :mod:`roa.proof.reverify`; the index of
+generated kernels, :mod:`roa.montecarlo.kernel_cache`) carry an HMAC-SHA256 tag under a per-user
+key (:func:`cache_secret`, a 0600 file in the cache directory). An entry whose tag does not
+check is ignored, so a file written into the cache by someone who cannot read the key (another
+user of a shared cache directory, a tool, a hand-written JSON) is never believed. Whoever can
+read the key (the user's own processes, root) can forge entries, as they can edit roa itself.
+"""
 
 from __future__ import annotations
 
 import contextlib
 import hashlib
+import hmac
 import json
 import os
 import platform
+import stat
 import subprocess
 import sys
 import tempfile
@@ -91,6 +101,92 @@ def cache_dir() -> Path:
     """roa's cache directory (``$ROA_CACHE_DIR``, else ``~/.cache/roa``)."""
     root = os.environ.get("ROA_CACHE_DIR")
     return Path(root) if root else Path.home() / ".cache" / "roa"
+
+
+#: The file in :func:`cache_dir` holding the key that tags cache entries (:func:`cache_tag`).
+SECRET_NAME = "secret.key"
+#: Bytes of that key.
+SECRET_BYTES = 32
+
+
+def cache_secret() -> bytes | None:
+    """The per-user key of roa's cache (``cache_dir()/secret.key``), created on first use; None
+    when there is none to trust.
+
+    The key is :data:`SECRET_BYTES` random bytes in a regular file owned by this user with no
+    permission for group or others (created with mode 0600). A key file that is a link, is owned
+    by another user, is readable or writable by others, or has another length is not used, and
+    nothing in the cache is then believed (the caches compute again).
+    """
+    path = cache_dir() / SECRET_NAME
+    for attempt in range(2):
+        try:
+            fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+        except FileNotFoundError:
+            if attempt == 0 and _create_secret(path):
+                continue
+            return None
+        except OSError:  # a link (ELOOP), unreadable, ...
+            return None
+        try:
+            st = os.fstat(fd)
+            if not stat.S_ISREG(st.st_mode) or st.st_uid != os.getuid() or st.st_mode & 0o077:
+                return None
+            data = os.read(fd, SECRET_BYTES + 1)
+        except OSError:
+            return None
+        finally:
+            os.close(fd)
+        return data if len(data) == SECRET_BYTES else None
+    return None
+
+
+def _create_secret(path: Path) -> bool:
+    """Create the key file whole (written to a private temporary file, then hard-linked into
+    place, which fails if another process created it first); False if it cannot be created."""
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.")  # mode 0600
+    except OSError:
+        return False
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(os.urandom(SECRET_BYTES))
+            fh.flush()
+            os.fsync(fh.fileno())
+        try:
+            os.link(tmp, path)
+        except FileExistsError:
+            pass  # another process's key: that one is used
+        return True
+    except OSError:
+        return False
+    finally:
+        Path(tmp).unlink(missing_ok=True)
+
+
+def _canonical(purpose: str, payload: Any) -> bytes:
+    body = json.dumps(payload, sort_keys=True, separators=(",", ":"), allow_nan=False)
+    return purpose.encode() + b"\0" + body.encode()
+
+
+def cache_tag(purpose: str, payload: Any) -> str | None:
+    """HMAC-SHA256 with :func:`cache_secret` of ``payload`` (JSON data, as read back from a file)
+    for ``purpose`` (entries of one cache never pass for another's); None without a key."""
+    key = cache_secret()
+    if key is None:
+        return None
+    return hmac.new(key, _canonical(purpose, payload), hashlib.sha256).hexdigest()
+
+
+def tag_matches(purpose: str, payload: Any, tag: Any) -> bool:
+    """Whether ``tag`` is :func:`cache_tag` of ``payload`` (False without a key or for a payload
+    that is not JSON data)."""
+    try:
+        want = cache_tag(purpose, payload)
+    except (TypeError, ValueError):
+        return False
+    return want is not None and isinstance(tag, str) and hmac.compare_digest(want, tag)
 
 
 def atomic_write_text(path: str | Path, text: str) -> Path:

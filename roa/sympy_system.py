@@ -20,11 +20,17 @@ Claims and assumptions:
   intervals, exact in sympy, the nearest double in numpy.
 * Common subexpressions are evaluated once. The evaluation order of a sum or product is sympy's
   (its canonical order), so a numpy value may differ from a hand-written field in the last bits.
+* Refused with a :class:`roa.RoaInputError` naming the expression: what sympy cannot read as an
+  expression (an arbitrary object, a malformed string), a constant beyond the double range
+  (``|c| <= 1.797e308``: numpy evaluates the field in doubles), and an expression nested more
+  than :data:`MAX_DEPTH` operations deep (sympy's and roa's tree walks recurse once per level).
 * The program holds no sympy object: pickling it (joblib, Dask workers) does not import sympy.
 """
 
 from __future__ import annotations
 
+import math
+import sys
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -39,6 +45,11 @@ SUPPORTED = (
 )
 
 Instruction = tuple[Any, ...]
+
+#: Deepest nesting (operations from the root to a leaf) of an expression that is compiled: the
+#: sympy and roa walks of an expression tree (printing, differentiation, CasADi, compilation)
+#: recurse once or more per level, so deeper trees would exhaust Python's recursion limit.
+MAX_DEPTH = 100
 
 
 @dataclass(frozen=True)
@@ -141,10 +152,16 @@ def compile_exprs(exprs: Sequence[Any], states: Sequence[Any], params: Sequence[
             return emit(env[e], e)
         if e.is_Rational:
             p, q = int(e.p), int(e.q)
+            try:
+                p / q
+            except OverflowError:
+                raise RoaInputError(_out_of_range(e)) from None
             if q == 1 and abs(p) <= 2**53:
                 return emit(("float", float(p)), e)
             return emit(("rat", p, q), e)
         if e.is_Float:
+            if not math.isfinite(float(e)):
+                raise RoaInputError(_out_of_range(e))
             return emit(("float", float(e)), e)
         if e is sp.pi:
             return emit(("pi",), e)
@@ -182,8 +199,52 @@ def compile_exprs(exprs: Sequence[Any], states: Sequence[Any], params: Sequence[
             f"from_sympy: unsupported expression {type(e).__name__} {e} (supported: {SUPPORTED})"
         )
 
-    outputs = tuple(visit(sp.sympify(e)) for e in exprs)
+    exprs = [as_expression(e, i) for i, e in enumerate(exprs)]
+    outputs = tuple(visit(e) for e in exprs)
     return SympyField(tuple(program), outputs, tuple(str(e) for e in exprs))
+
+
+def _out_of_range(e: Any) -> str:
+    text = str(e)
+    text = text if len(text) <= 60 else f"{text[:25]}...{text[-25:]} ({len(text)} characters)"
+    return (f"from_sympy: the constant {text} is outside the double range (|c| <= "
+            f"{sys.float_info.max:.4g}, the field is evaluated in doubles); rescale the equations")  # fmt: skip
+
+
+def _describe(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 80 else f"{text[:77]}..."
+
+
+def as_expression(value: Any, i: int) -> Any:
+    """Expression ``i`` as a sympy expression of depth at most :data:`MAX_DEPTH`, else a
+    :class:`roa.RoaInputError` naming it (``sympify`` of what is not sympy: strings are parsed)."""
+    import sympy as sp
+
+    try:
+        e = sp.sympify(value)
+    except Exception as exc:  # noqa: BLE001 - SympifyError, a string's SyntaxError, RecursionError...
+        raise RoaInputError(
+            f"from_sympy: expression {i} ({type(value).__name__} {_describe(value)}) is not a "
+            f"sympy expression ({type(exc).__name__}); give sympy expressions of the state "
+            "symbols"
+        ) from None
+    if not isinstance(e, sp.Expr):
+        raise RoaInputError(
+            f"from_sympy: expression {i} ({type(e).__name__} {_describe(value)}) is not a sympy "
+            "expression (a number-valued Expr is needed)"
+        )
+    level, depth = [e], 0  # the nodes at each distance from the root (a DAG: at most every
+    while level:  # node per level, so at most MAX_DEPTH + 1 passes over the distinct nodes)
+        nxt = list({id(a): a for node in level for a in node.args}.values())
+        level = nxt
+        depth += bool(nxt)
+        if depth > MAX_DEPTH:
+            raise RoaInputError(
+                f"from_sympy: expression {i} is nested more than {MAX_DEPTH} operations deep "
+                f"(allowed: at most {MAX_DEPTH}); introduce intermediate states or simplify it"
+            )
+    return e
 
 
 def _symbols(items: Any, what: str) -> list[Any]:
@@ -236,7 +297,7 @@ def system_from_sympy(
     param_syms = [sp.Symbol(n) for n in [*fixed, *uncertain]]
     # symbols with assumptions (real=True, ...) are matched by name
     by_name = {s.name: s for s in [*state_syms, *param_syms]}
-    exprs = [sp.sympify(e) for e in exprs]
+    exprs = [as_expression(e, i) for i, e in enumerate(exprs)]
     renamed = []
     for e in exprs:
         sub = {

@@ -212,3 +212,85 @@ def test_a_polynomial_proved_without_whitening_is_a_terminal_set():
     assert cert.certified and cert.to_dict()["M"] == [[1.0, 0.0], [0.0, 1.0]]
     term = terminal_from_certificate(cert.to_dict(), system)
     np.testing.assert_array_equal(term.frame, np.eye(2))
+
+
+# --- the proof cache's entries carry a tag (issue 39, item 3) ---------------------------------
+
+
+def _entry_path(key: str):
+    return roa.io.cache_dir() / "verified" / f"{key}.json"
+
+
+def _verify_json(path, capsys) -> tuple[int, dict]:
+    code = main(["verify", str(path), "--system", "vanderpol", "--json"])
+    return code, json.loads(capsys.readouterr().out)
+
+
+def test_a_hand_written_cache_entry_does_not_override_a_refutation(certificate, tmp_path, capsys):
+    """Writing {"key": K, "status": "certified"} (and variants: with a validation record, with a
+    made-up tag) for the refuted level 2.31 made ``roa verify`` and ``--terminal-set`` accept it;
+    each verdict now equals the one with a fresh cache."""
+    forged = tmp_path / "forged.json"
+    forged.write_text(json.dumps({**certificate, "level": 2.31}))
+    fresh_code, fresh = _verify_json(forged, capsys)  # the fresh cache's verdict
+    assert fresh_code == 1 and fresh["status"] == "refuted"
+    system = vanderpol()
+    key = content_key(system, roa.default_lyapunov(system), 2.31)
+    assert key is not None
+    basin = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4",
+             "--box", "x1=-2:2,x2=-2:2", "--t-final", "5", "--jobs", "1", "--json",
+             "--terminal-set", str(forged)]  # fmt: skip
+    validation = {"status": "certified", "M": [[1.0, 0.0], [0.0, 1.0]]}
+    for entry in (
+        {"key": key, "status": "certified"},
+        {"key": key, "status": "certified", "validation": validation},
+        {"key": key, "status": "certified", "validation": validation, "tag": "0" * 64},
+    ):
+        _entry_path(key).parent.mkdir(parents=True, exist_ok=True)
+        _entry_path(key).write_text(json.dumps(entry))
+        code, out = _verify_json(forged, capsys)
+        assert (code, out["status"], out.get("cached", False)) == (1, "refuted", False)
+        assert main(basin) == 2
+        assert "re-verification failed" in capsys.readouterr().err
+
+
+def test_a_genuine_entry_is_served_and_an_edited_or_foreign_one_is_not(certificate):
+    system = vanderpol()
+    V = roa.default_lyapunov(system)
+    assert reverify(system, V, LEVEL).certified  # proved (or served) once: the entry exists
+    assert reverify(system, V, LEVEL).cached
+    path = _entry_path(content_key(system, V, LEVEL))
+    entry = json.loads(path.read_text())
+    assert set(entry) == {"key", "status", "validation", "tag"}
+    edited = {**entry, "validation": {**entry["validation"], "M": [[2.0, 0.0], [0.0, 2.0]]}}
+    path.write_text(json.dumps(edited))  # the record (its frame M) is covered by the tag
+    again = reverify(system, V, LEVEL)
+    assert again.certified and not again.cached and again.frame == entry["validation"]["M"]
+    key_file = roa.io.cache_dir() / roa.io.SECRET_NAME
+    key_file.write_bytes(bytes(roa.io.SECRET_BYTES))  # another key (still 0600, this user's)
+    assert not reverify(system, V, LEVEL).cached  # tagged under the old key: proved again
+    assert reverify(system, V, LEVEL).cached  # re-tagged under the new one
+
+
+@pytest.mark.parametrize("loosen", ["group-readable", "a link", "short"])
+def test_a_key_file_that_cannot_be_trusted_disables_the_cache(loosen, tmp_path):
+    """Nothing is served or remembered under a key others may have read or replaced."""
+    import os
+
+    system = vanderpol()
+    V = roa.default_lyapunov(system)
+    assert reverify(system, V, LEVEL).certified and reverify(system, V, LEVEL).cached
+    key_file = roa.io.cache_dir() / roa.io.SECRET_NAME
+    if loosen == "group-readable":
+        os.chmod(key_file, 0o640)
+    elif loosen == "a link":
+        (tmp_path / "k").write_bytes(key_file.read_bytes())
+        os.chmod(tmp_path / "k", 0o600)
+        key_file.unlink()
+        key_file.symlink_to(tmp_path / "k")
+    else:
+        key_file.write_bytes(key_file.read_bytes()[:16])
+    assert roa.io.cache_secret() is None
+    for _ in range(2):
+        proof = reverify(system, V, LEVEL)
+        assert proof.certified and not proof.cached

@@ -146,3 +146,113 @@ def test_closed_loops_pickle():
     ):
         back = pickle.loads(pickle.dumps(cl))
         np.testing.assert_array_equal(back.f([0.3, -0.2]), cl.f([0.3, -0.2]))
+
+
+# --- time dependence (issue 39, item 1) -------------------------------------------------------
+
+
+def _damping_flips(t, x, u, params):
+    """Damping 0.5 until t = 1, then -15: the closed loop under K_FLIP is unstable for t > 1."""
+    c = 0.5 if t <= 1 else -15.0
+    return [x[1], -np.sin(x[0]) - c * x[1] + u[0]]
+
+
+def _t_times_x(t, x, u, params):
+    return [x[1], -np.sin(x[0]) - 0.5 * x[1] + t * x[0] + u[0]]
+
+
+def _decaying_into_zeros(t, x, u, params):
+    dx = np.zeros(2)  # float conversion of the symbolic t, as python-control models often do
+    dx[0] = x[1]
+    dx[1] = -x[0] - np.exp(-t) * x[1] + u[0]
+    return dx
+
+
+K_FLIP = np.array([[1.0, 1.0]])
+
+
+def _simulate(updfcn, frozen: bool, t_final: float) -> np.ndarray:
+    from scipy.integrate import solve_ivp
+
+    def rhs(t, x):
+        return updfcn(0.0 if frozen else t, x, -K_FLIP @ x, {})
+
+    sol = solve_ivp(rhs, (0.0, t_final), [0.05, 0.0], rtol=1e-9, atol=1e-12)
+    return sol.y[:, -1]
+
+
+def test_a_plant_whose_damping_flips_after_t_1_is_refused():
+    """The field frozen at t = 0 (what a trace at t = 0 analysed) converges from x0 = (0.05, 0);
+    the plant itself diverges from there (simulated): the frozen field's certificate would be
+    wrong, so from_control refuses the plant, traced or with a field= of the frozen equations."""
+    assert np.linalg.norm(_simulate(_damping_flips, frozen=True, t_final=20.0)) < 1e-3
+    assert np.linalg.norm(_simulate(_damping_flips, frozen=False, t_final=3.0)) > 1.0
+    plant = control.nlsys(_damping_flips, None, inputs=1, states=2, name="flip")
+    with pytest.raises(roa.RoaInputError, match=r"flip's updfcn depends on the time t"):
+        roa.System.from_control(plant, K_FLIP)
+
+    def frozen(t, x, u, xp):
+        return (x[1], -xp.sin(x[0]) - 0.5 * x[1] + u[0])
+
+    with pytest.raises(roa.RoaInputError, match=r"depends on the time t"):
+        roa.System.from_control(plant, K_FLIP, field=frozen)
+
+
+@pytest.mark.parametrize("updfcn", [_t_times_x, _decaying_into_zeros])
+def test_a_plant_with_t_in_its_arithmetic_is_refused(updfcn):
+    plant = control.nlsys(updfcn, None, inputs=1, states=2, name="tv")
+    with pytest.raises(roa.RoaInputError, match=r"tv's updfcn depends on the time t"):
+        roa.System.from_control(plant, K_FLIP)
+
+
+def test_a_time_dependence_only_numeric_probes_see_is_refused():
+    """An updfcn that hides t from the symbolic probe (a float() of it) but changes with it."""
+
+    def hidden(t, x, u, params):
+        try:
+            tt = float(t)
+        except Exception:  # noqa: BLE001 - the symbolic t of the probe is taken as 0
+            tt = 0.0
+        return [x[1], -x[0] - (0.5 if tt < 50 else -3.0) * x[1] + u[0]]
+
+    plant = control.nlsys(hidden, None, inputs=1, states=2, name="hidden")
+    with pytest.raises(roa.RoaInputError, match=r"at t = 0 and .* at t = 100"):
+        roa.System.from_control(plant, K_FLIP)
+
+
+def test_a_field_that_depends_on_t_is_refused_for_an_autonomous_plant():
+    def field(t, x, u, xp):
+        return (x[1], -G * xp.sin(x[0]) - 0.1 * x[1] + u[0] + t * x[0])
+
+    with pytest.raises(roa.RoaInputError, match=r"differs from pendulum's updfcn at t = 0.5"):
+        roa.System.from_control(PLANT, K, field=field)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"K": K + 1e-3j}, r"K must be real, got the complex entry"),
+        ({"K": K, "equilibrium": [0.0, 1j]}, r"equilibrium must be real"),
+        ({"K": K, "u_eq": [2j]}, r"u_eq must be real"),
+    ],
+)
+def test_complex_inputs_are_refused_not_truncated(kwargs, match):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no ComplexWarning: refused before any cast
+        with pytest.raises(roa.RoaInputError, match=match):
+            roa.System.from_control(PLANT, **kwargs)
+        with pytest.raises(roa.RoaInputError, match=match):
+            closed_loop(_hand_written_plant, **kwargs, states=("a", "b"))
+
+
+def _hand_written_plant(t, x, u, xp):
+    return (x[1], -G * xp.sin(x[0]) - 0.1 * x[1] + u[0])
+
+
+def test_a_complex_gain_with_zero_imaginary_parts_is_its_real_gain():
+    real = roa.System.from_control(PLANT, K)
+    cplx = roa.System.from_control(PLANT, K + 0j)
+    X = np.random.default_rng(5).uniform(-2, 2, size=(20, 2))
+    np.testing.assert_array_equal(cplx.f(X), real.f(X))

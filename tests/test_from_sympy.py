@@ -8,6 +8,7 @@ when the system is built, naming them.
 
 from __future__ import annotations
 
+import math
 import pickle
 
 import numpy as np
@@ -141,3 +142,76 @@ def test_a_user_file_with_from_sympy_is_certified_by_the_cli(tmp_path, capsys):
     assert '"status": "certified"' in capsys.readouterr().out
     assert main(["certify", "--system", f"{path}:SYSTEM", "--level", "2.31", "--json"]) == 1
     assert '"status": "refuted"' in capsys.readouterr().out
+
+
+# --- inputs sympy or numpy cannot take (issue 39, item 5) -------------------------------------
+
+
+def _nested_atan(depth: int):
+    """atan(atan(...atan(x))) with ``depth`` atans, built under a raised recursion limit (sympy's
+    own construction recurses per level)."""
+    import sys
+
+    x = sp.Symbol("x")
+    limit = sys.getrecursionlimit()
+    sys.setrecursionlimit(max(limit, 20 * depth))
+    try:
+        e = x
+        for _ in range(depth):
+            e = sp.atan(e)
+        return e - 2 * x  # one more level: the sum
+    finally:
+        sys.setrecursionlimit(limit)
+
+
+def test_an_expression_nested_deeper_than_the_limit_is_an_input_error():
+    from roa.sympy_system import MAX_DEPTH
+
+    x, y = sp.symbols("x y")
+    with pytest.raises(roa.RoaInputError, match=rf"expression 0 is nested more than {MAX_DEPTH}"):
+        roa.System.from_sympy([_nested_atan(500), -y], [x, y])
+    with pytest.raises(roa.RoaInputError, match=rf"nested more than {MAX_DEPTH}"):
+        roa.System.from_sympy([_nested_atan(MAX_DEPTH), -y], [x, y])  # the sum is one more level
+    deepest = roa.System.from_sympy([_nested_atan(MAX_DEPTH - 1), -y], [x, y])
+    v = 0.3
+    for _ in range(MAX_DEPTH - 1):
+        v = math.atan(v)
+    assert deepest.f([0.3, 0.0])[0] == pytest.approx(v - 0.6, rel=1e-14)
+
+
+@pytest.mark.parametrize(
+    ("constant", "match"),
+    [
+        (
+            sp.Rational(10**400, 3),
+            r"the constant 1000.*/3 \(\d+ characters\) is outside the double",
+        ),
+        (sp.Integer(10**400), r"the constant 1000.* is outside the double range"),
+        (sp.Float("1e400"), r"the constant .* is outside the double range"),
+    ],
+)
+def test_a_constant_beyond_doubles_is_an_input_error(constant, match):
+    x, y = sp.symbols("x y")
+    with pytest.raises(roa.RoaInputError, match=match):
+        roa.System.from_sympy([-x + constant * y, -y], [x, y])
+
+
+def test_a_tiny_rational_is_kept_exact_not_refused():
+    """1/10**400 underflows to 0.0 in doubles; intervals enclose it (it stays exact)."""
+    x, y = sp.symbols("x y")
+    s = roa.System.from_sympy([-x + sp.Rational(1, 10**400), -y], [x, y])
+    assert s.f([0.5, 0.0]).tolist() == [-0.5, 0.0]
+
+
+@pytest.mark.parametrize(
+    ("value", "match"),
+    [
+        (object(), r"expression 0 \(object <object object.*\) is not a sympy expression"),
+        ("x**", r"expression 0 \(str 'x\*\*'\) is not a sympy expression \(SympifyError\)"),
+        (sp.Eq(sp.Symbol("x"), 1), r"expression 0 \(Equality .*\) is not a sympy expression"),
+    ],
+)
+def test_what_is_not_an_expression_is_an_input_error(value, match):
+    x, y = sp.symbols("x y")
+    with pytest.raises(roa.RoaInputError, match=match):
+        roa.System.from_sympy([value, -y], [x, y])

@@ -156,7 +156,8 @@ print(json.dumps({"digest": f.digest, "codes": res.code.tolist(), "x": res.x_end
 def _run(cache: Path, gain: float) -> tuple[dict, str]:
     import json
 
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), kc.CACHE_ENV: str(cache)}
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), kc.CACHE_ENV: str(cache),
+           "ROA_CACHE_DIR": str(cache / "roa")}  # fmt: skip
     out = subprocess.run([sys.executable, "-c", SCRIPT, str(gain)], capture_output=True,
                          text=True, timeout=600, env=env)  # fmt: skip
     assert out.returncode == 0, out.stderr[-3000:]
@@ -223,9 +224,34 @@ def test_stale_index_entry_is_caught_by_the_numpy_check(tmp_path, monkeypatch):
     b_sys = _pendulum(0.9)
     path = kc._index_path(b_sys)
     path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps({"digest": a.digest, "names": [], "baked": {}}))
+    body = {"digest": a.digest, "names": [], "baked": {}}
+    tag = roa.io.cache_tag(kc.INDEX_TAG, {"index": path.name, **body})
+    path.write_text(json.dumps({**body, "tag": tag}))  # as roa would write it
     assert kc._from_index(b_sys, path) is None
     assert kc.generate(b_sys).digest != a.digest
+
+
+def test_an_index_entry_without_the_users_tag_is_ignored(tmp_path, monkeypatch):
+    """A consistent forgery (an edited kernel under its own hash, an index entry naming it) is
+    ignored: the entry carries no tag under the user's key; the system is traced again."""
+    import hashlib
+    import json
+
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    _forget()
+    system = vanderpol()
+    good = kc.generate(system)
+    path = kc._index_path(system)
+    assert kc._from_index(system, path) == good  # the entry roa wrote checks
+    bad = _poison(good.text)
+    digest = hashlib.sha256(bad.encode()).hexdigest()
+    (tmp_path / f"roa_kernel_{digest[:32]}.py").write_text(bad)
+    entry = json.loads(path.read_text())
+    for forged in ({**entry, "digest": digest}, {"digest": digest, "names": [], "baked": {}}):
+        path.write_text(json.dumps(forged))
+        assert kc._from_index(system, path) is None
+        _forget()
+        assert kc.generate(system).digest == good.digest
 
 
 def test_quadratic_terminal_set_in_the_generated_kernel_matches_numpy(tmp_path, monkeypatch):
@@ -263,3 +289,80 @@ def test_generated_kernel_is_the_integrators_kernel_bit_for_bit(tmp_path, monkey
     b = integrate_batch(plain, X, backend="numba")
     for u, v in ((a.code, b.code), (a.t_end, b.t_end), (a.x_end, b.x_end), (a.steps, b.steps)):
         assert np.array_equal(u, v)
+
+
+# --- damaged kernel files (issue 39, item 2) --------------------------------------------------
+
+
+def _poison(text: str) -> str:
+    """The kernel with ``run`` marking every run converged (the adversarial edit)."""
+    line = "                                             x_end[k], None)\n"
+    assert line in text
+    return text.replace(line, f"{line}        code[k] = {CONVERGED}\n")
+
+
+def _forget() -> None:
+    """What a new process knows of generated kernels: nothing."""
+    kc._TRACES.clear()
+    for name in list(kc._MODULES):
+        del kc._MODULES[name]
+        sys.modules.pop(name, None)
+
+
+def test_an_edited_kernel_file_is_rewritten_and_counts_are_a_fresh_runs(tmp_path, monkeypatch):
+    """Editing the cached kernel so that ``run`` marks every run converged turned 576 diverged
+    runs of this grid into converged ones; the file is now checked against its hash when loaded,
+    rewritten, and the counts are those of a fresh run (and of the numpy backend)."""
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    system, X = vanderpol(), _grid(-3, 3, 30)
+    _forget()
+    fresh = integrate_batch(system, X, backend="numba")
+    counts = np.bincount(fresh.code, minlength=8)
+    assert counts[CONVERGED] < len(X)  # some runs diverge: the poisoned kernel would differ
+    numpy = integrate_batch(system, X, backend="numpy")
+    np.testing.assert_array_equal(numpy.code, fresh.code)
+    (path,) = tmp_path.glob("roa_kernel_*.py")
+    text = path.read_text()
+    path.write_text(_poison(text))
+    _forget()
+    again = integrate_batch(system, X, backend="numba")
+    np.testing.assert_array_equal(again.code, fresh.code)
+    assert path.read_text() == text
+
+
+DAMAGE = {
+    "edited": lambda p: p.write_text(_poison(p.read_text())),
+    "truncated": lambda p: p.write_text(p.read_text()[:1000]),
+    "empty": lambda p: p.write_text(""),
+    "linked to /dev/null": lambda p: (p.unlink(), p.symlink_to("/dev/null")),
+    "linked to another file": lambda p: (
+        p.with_name("other.py").write_text(_poison(p.read_text())),
+        p.unlink(),
+        p.symlink_to(p.with_name("other.py")),
+    ),
+}
+
+
+@pytest.mark.parametrize("damage", list(DAMAGE))
+def test_a_damaged_kernel_file_is_rebuilt(tmp_path, monkeypatch, damage):
+    """Without compiling: the module loaded after the damage is the kernel's own text (its
+    ``run`` has the source of the undamaged one) and the file holds that text again."""
+    import inspect
+
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    _forget()
+    factory = kc.generate(vanderpol())
+    path = tmp_path / f"roa_kernel_{factory.digest[:32]}.py"
+    good = inspect.getsource(kc.load_module(factory.text, factory.digest).run.py_func)
+    DAMAGE[damage](path)
+    _forget()
+    again = kc.generate(vanderpol())
+    assert again.digest == factory.digest
+    mod = kc.load_module(again.text, again.digest)
+    assert inspect.getsource(mod.run.py_func) == good and "code[k] = " not in good
+    assert not path.is_symlink() and path.read_text() == factory.text
+
+
+def test_a_kernel_text_that_does_not_hash_to_its_digest_is_never_loaded():
+    with pytest.raises(ValueError, match="does not hash to"):
+        kc.load_module("X = 1\n", "0" * 64)

@@ -9,7 +9,13 @@ process as a :class:`KernelFallbackWarning`; the basin result records which back
 
 Disk cache: the generated module is written to ``kernel_dir()/roa_kernel_<sha256>.py`` (the hash
 of its text, so a changed field or integrator gives another file) and numba caches its compiled
-code next to it (``cache=True``: keyed by that file). The directory is ``$ROA_KERNEL_CACHE`` when
+code next to it (``cache=True``: keyed by that file). A kernel file is checked against its hash
+whenever it is loaded: one that holds anything else (edited, truncated, empty, a link) is
+rewritten, and the module runs from the checked text (:func:`load_module`). The index that maps
+a field's code to its kernel's hash is believed only for entries tagged with the user's cache
+key (:func:`roa.io.cache_tag`), so a forged entry naming an edited kernel is ignored. numba's
+compiled code next to a kernel file is trusted as numba trusts it (keyed by that file's path,
+modification time and size). The directory is ``$ROA_KERNEL_CACHE`` when
 set, else ``kernels/`` in roa's cache directory (``$ROA_CACHE_DIR``, else ``~/.cache/roa``). A
 first compilation prints a progress line on stderr (loads from the cache print nothing). With ``backend="auto"`` runs of fewer than :data:`COMPILE_FROM` initial
 conditions stay on numpy.
@@ -23,12 +29,14 @@ machine) writes the file if missing and loads the compiled code from its own cac
 from __future__ import annotations
 
 import hashlib
-import importlib.util
+import json
 import os
+import stat
 import sys
 import tempfile
 import threading
 import time
+import types
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -37,7 +45,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.io import atomic_write_json, atomic_write_text, cache_dir
+from roa.io import atomic_write_json, atomic_write_text, cache_dir, cache_tag, tag_matches, to_json
 from roa.montecarlo.trace import Untraceable, trace_system
 from roa.system import System
 
@@ -66,9 +74,40 @@ def kernel_dir() -> Path:
 
 
 def _write_module(path: Path, text: str) -> None:
-    """Write ``text`` atomically unless ``path`` already holds it (its name is the text's hash)."""
-    if not path.exists():
+    """Make ``path`` a regular file holding exactly ``text``: a file holding anything else (edited,
+    truncated, empty) or a link (to ``/dev/null``, to another file) is replaced atomically."""
+    if _read_regular(path) != text.encode():
         atomic_write_text(path, text)
+
+
+def _read_regular(path: Path) -> bytes | None:
+    """The bytes of ``path`` if it is a regular file (not a link, device or pipe), else None."""
+    try:
+        if not stat.S_ISREG(path.lstat().st_mode):
+            return None
+        return path.read_bytes()
+    except OSError:
+        return None
+
+
+def _private_tmp() -> Path:
+    """A kernel directory under the system's temporary directory that only this user can write:
+    ``roa-kernels-<uid>`` if it is a directory owned by this user and writable by no one else,
+    else a fresh private directory (for this process)."""
+    global _TMP
+    if _TMP is None:
+        d = Path(tempfile.gettempdir()) / f"roa-kernels-{os.getuid()}"
+        try:
+            d.mkdir(mode=0o700, exist_ok=True)
+            st = d.lstat()
+            ok = stat.S_ISDIR(st.st_mode) and st.st_uid == os.getuid() and not st.st_mode & 0o022
+        except OSError:
+            ok = False
+        _TMP = d if ok else Path(tempfile.mkdtemp(prefix="roa-kernels-"))
+    return _TMP
+
+
+_TMP: Path | None = None
 
 
 _MODULES: dict[str, Any] = {}
@@ -76,8 +115,16 @@ _LOCK = threading.Lock()
 
 
 def load_module(text: str, digest: str) -> Any:
-    """The generated module of ``text`` (written to the cache directory if missing, imported once
-    per process)."""
+    """The generated module of ``text``, imported once per process.
+
+    ``digest`` must be the SHA-256 of ``text`` (a ValueError otherwise). The file
+    ``roa_kernel_<digest>.py`` is made to hold exactly ``text`` (rewritten when it holds anything
+    else, :func:`_write_module`) and the module is executed from ``text`` itself, never from what
+    the file holds when it is read again, so an edited kernel file never runs. The file is there
+    for numba's cache (``cache=True``), which numba keys by the file's path, modification time and
+    size: the compiled code numba stores next to it is trusted as numba trusts it."""
+    if hashlib.sha256(text.encode()).hexdigest() != digest:
+        raise ValueError(f"generated kernel text does not hash to {digest[:16]}...")
     name = f"roa_kernel_{digest[:32]}"
     with _LOCK:
         mod = _MODULES.get(name)
@@ -87,13 +134,17 @@ def load_module(text: str, digest: str) -> Any:
         try:
             _write_module(path, text)
         except OSError:  # cache not writable: a private temporary directory
-            path = Path(tempfile.gettempdir()) / f"roa-kernels-{os.getuid()}" / f"{name}.py"
+            path = _private_tmp() / f"{name}.py"
             _write_module(path, text)
-        spec = importlib.util.spec_from_file_location(name, path)
-        assert spec is not None and spec.loader is not None
-        mod = importlib.util.module_from_spec(spec)
+        code = compile(text, str(path), "exec")
+        mod = types.ModuleType(name)
+        mod.__file__ = str(path)
         sys.modules[name] = mod  # numba and Inlined look functions up by module name
-        spec.loader.exec_module(mod)
+        try:
+            exec(code, mod.__dict__)  # noqa: S102 - roa's own generated text, hash-checked
+        except BaseException:
+            sys.modules.pop(name, None)
+            raise
         _MODULES[name] = mod
         return mod
 
@@ -236,18 +287,22 @@ def _index_path(system: System) -> Path | None:
 
 
 def _from_index(system: System, path: Path | None) -> GeneratedKernels | None:
-    """The kernel the index names for ``system``, if its text is on disk, it was built for these
+    """The kernel the index names for ``system``, if the entry's tag checks (written by roa with
+    this user's key, :func:`roa.io.cache_tag`), its text is on disk, it was built for these
     parameter values (when they are compiled in) and it matches the numpy field; else None."""
-    import json
 
     if path is None or not path.exists():
         return None
     try:
         entry = json.loads(path.read_text())
+        body = {k: entry[k] for k in ("digest", "names", "baked")}
+        if not tag_matches(INDEX_TAG, {"index": path.name, **body}, entry.get("tag")):
+            return None
         digest, names = str(entry["digest"]), tuple(entry["names"])
         baked = {str(k): float(v) for k, v in entry["baked"].items()}
-        text = (kernel_dir() / f"roa_kernel_{digest[:32]}.py").read_text()
-    except (OSError, ValueError, KeyError, TypeError):
+        raw = _read_regular(kernel_dir() / f"roa_kernel_{digest[:32]}.py")
+        text = raw.decode() if raw is not None else ""
+    except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
     params = dict(system.params or {})
     if hashlib.sha256(text.encode()).hexdigest() != digest or any(
@@ -263,13 +318,20 @@ def _from_index(system: System, path: Path | None) -> GeneratedKernels | None:
     return factory
 
 
+#: The purpose of the index entries' tags (:func:`roa.io.cache_tag`).
+INDEX_TAG = "roa-kernel-index-v1"
+
+
 def _remember(path: Path | None, factory: GeneratedKernels, baked: dict[str, float]) -> None:
     if path is None:
         return
     try:
-        atomic_write_json(path, {"digest": factory.digest, "names": list(factory.names),
-                                 "baked": baked})  # fmt: skip
-    except OSError:
+        body = json.loads(to_json({"digest": factory.digest, "names": list(factory.names),
+                                   "baked": baked}))  # fmt: skip
+        tag = cache_tag(INDEX_TAG, {"index": path.name, **body})
+        if tag is not None:
+            atomic_write_json(path, {**body, "tag": tag})
+    except (OSError, TypeError, ValueError):
         pass  # no index: the next process traces again
 
 

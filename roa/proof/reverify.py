@@ -14,8 +14,13 @@ values of its field and margin and the sources they may call), ``V``'s exact des
 level's exact value and the hash of the library's code, so a change of any of them re-runs the
 validation. A system or V that cannot be identified exactly (a function V, a field closing over
 an object of unknown kind) is proved every time, never served from the cache. The cache
-lives in ``$ROA_CACHE_DIR`` (default ``~/.cache/roa``) under ``verified/``; it trusts whoever can
-write there (as a compiler cache does), which is the user running ``roa``.
+lives in ``$ROA_CACHE_DIR`` (default ``~/.cache/roa``) under ``verified/``. An entry holds the key,
+the verdict, the validation record and an HMAC-SHA256 tag of them under the per-user key of
+:func:`roa.io.cache_secret` (a 0600 file in the cache directory); an entry whose tag does not
+check (written by hand, by another user, for another key, edited) is ignored and the level is
+proved again. The cache trusts whoever can read that key: the user running ``roa`` (and root).
+Without a usable key (a key file with loose permissions or another owner, a read-only cache)
+nothing is cached.
 """
 
 from __future__ import annotations
@@ -23,12 +28,13 @@ from __future__ import annotations
 import functools
 import hashlib
 import json
+import stat
 import time
 from dataclasses import dataclass, field
 from typing import Any
 
 from roa.fingerprint import system_identity
-from roa.io import cache_dir
+from roa.io import cache_dir, cache_tag, tag_matches
 from roa.lyapunov import Lyapunov
 from roa.options import IntervalOptions
 from roa.status import Verdict
@@ -81,23 +87,45 @@ def content_key(system: System, V: Lyapunov, level: float) -> str | None:
     return hashlib.sha256(json.dumps(data, sort_keys=True, default=str).encode()).hexdigest()
 
 
+#: The purpose of the cache's tags (:func:`roa.io.cache_tag`).
+TAG_PURPOSE = "roa-verified-v1"
+
+
+def _entry(key: str, validation: Any) -> dict[str, Any]:
+    """What a cache entry's tag covers: the key, the verdict and the validation record."""
+    return {"key": key, "status": "certified", "validation": validation}
+
+
 def _read(key: str) -> dict[str, Any] | None:
+    """The cached proof of ``key``, if its tag checks (else None: proved again)."""
     path = cache_dir() / "verified" / f"{key}.json"
     try:
+        if not stat.S_ISREG(path.lstat().st_mode):
+            return None
         data = json.loads(path.read_text())
     except (OSError, ValueError, UnicodeDecodeError):
         return None
     if not isinstance(data, dict) or data.get("key") != key or data.get("status") != "certified":
         return None
+    validation = data.get("validation")
+    if not isinstance(validation, dict):
+        return None
+    if not tag_matches(TAG_PURPOSE, _entry(key, validation), data.get("tag")):
+        return None
     return data
 
 
-def _write(key: str, data: dict[str, Any]) -> None:
-    from roa.io import atomic_write_json
+def _write(key: str, validation: dict[str, Any]) -> None:
+    """Remember the proof of ``key`` with its tag (nothing without a usable cache key)."""
+    from roa.io import atomic_write_json, to_json
 
     try:
-        atomic_write_json(cache_dir() / "verified" / f"{key}.json", {"key": key, **data})
-    except OSError:  # a read-only home: the proof stands, it is only not remembered
+        record = json.loads(to_json(validation))  # what a later read will see
+        tag = cache_tag(TAG_PURPOSE, _entry(key, record))
+        if tag is not None:
+            atomic_write_json(cache_dir() / "verified" / f"{key}.json",
+                              {**_entry(key, record), "tag": tag})  # fmt: skip
+    except (OSError, TypeError, ValueError):  # a read-only home: the proof stands, unremembered
         pass
 
 
@@ -138,5 +166,5 @@ def reverify(
     record = v.to_json()
     out = Reverified(v.status, lvl, v.message, time.perf_counter() - t0, False, record)
     if key is not None and out.certified:
-        _write(key, {"status": "certified", "validation": record})
+        _write(key, record)
     return out

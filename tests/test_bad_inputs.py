@@ -287,3 +287,74 @@ def test_npy_reader_gives_numbers_or_an_input_error(tmp_path_factory, content):
     except RoaInputError:
         return
     assert arr.dtype.kind in "iuf"
+
+
+def _huge_files(d: Path) -> Path:
+    """Inputs of issue 38, items 6 and 7: huge numbers in every input format."""
+    (d / "bigP.json").write_text(json.dumps([[int("9" * 4000), 0], [0, 1]]))
+    (d / "bigcoef.json").write_text(
+        '{"monomials": [[2, 0], [0, 2]], "coefficients": [' + "9" * 5000 + ", 1]}"
+    )
+    (d / "denP.json").write_text(json.dumps([[1e-320, 0], [0, 1e-320]]))
+    (d / "hugeP.json").write_text(json.dumps([[1e300, 0], [0, 1e300]]))
+    np.save(d / "denP.npy", np.diag([1e-320, 1e-320]))
+    (d / "big.toml").write_text(
+        'runner = "ipc_paper.basins:run_box"\n[params]\nsamples = ' + "1" * 5001 + "\n"
+    )
+    (d / "bigfloat.toml").write_text(
+        'runner = "ipc_paper.basins:run_box"\n[params]\nsamples = 10\nseed = 1\nx = 1e999\n'
+    )
+    (d / "bigbound4000.toml").write_text(
+        'runner = "ipc_paper.lyapunov_report:run_bound"\n[params]\nn_points = ' + "9" * 4000 + "\n"
+    )
+    return d
+
+
+GRID = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--jobs", "1"]
+HUGE = [
+    (["basin", "--system", "vanderpol", "--param", "mu=1e308..1.7e308..1.79e308", "--samples", "4",
+      "--box", "x1=-1:1,x2=-1:1", "--jobs", "1"], "System.parameters['mu']"),
+    (["certify", "--system", "vanderpol", "--param", "mu=1e308..1.7e308..1.79e308", "--level", "1"],
+     "--param mu=1e308..1.7e308..1.79e308"),
+    (["khalil", "--system", "vanderpol", "--param", "mu=1e308..1.7e308..1.79e308"], "'mu'"),
+    (["khalil", "--system", "vanderpol", "--param", "mu=1e200"], "'mu'"),
+    (["certify", "--system", "vanderpol", "--param", "mu= 1 .. 2 ", "--level", "1"], "--param mu= 1 .. 2"),
+    (["certify", "--system", "vanderpol", "--param", "mu=1_0..2", "--level", "1"], "--param mu=1_0..2"),
+    (["khalil", "--system", "vanderpol", "--lyapunov", "{d}/bigP.json"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/bigP.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/bigcoef.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/denP.json", "--method", "sos"], "subnormal"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/denP.npy", "--method", "sos"], "subnormal"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/hugeP.json", "--method", "sos"], "--lyapunov"),
+    (["run", "{d}/big.toml"], "big.toml"),
+    (["run", "{d}/bigfloat.toml"], "bigfloat.toml"),
+    (["run", "{d}/bigbound4000.toml"], "n_points"),
+    (GRID + ["--grid", "1" * 5000 + "x4"], "--grid"),
+    (GRID + ["--grid", "\u0664x4"], "--grid"),  # an Arabic-Indic digit: not ASCII
+    (["certify", "--system", "vanderpol", "--level", "1.7976931348623157e308"], "--level"),
+    (["certify", "--system", "vanderpol", "--level", "1" * 5000], "--level"),
+    (GRID + ["--grid", "4x4", "--lyapunov-level", "1e308", "--plot", "{d}/a.png"], "--lyapunov-level"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("argv, names", HUGE, ids=[" ".join(c[0][-2:])[:60] for c in HUGE])
+def test_huge_numbers_exit_2_naming_the_input(tmp_path, capsys, argv, names):
+    import signal
+
+    def hang(signum, frame):  # noqa: ANN001
+        raise TimeoutError("a bad input ran for more than 60 s")
+
+    d = _huge_files(tmp_path)
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(60)
+    try:
+        rc = main([a.format(d=d) for a in argv])
+    except SystemExit as exc:  # argparse's usage errors
+        rc = exc.code
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert names in err and "Traceback" not in err, err
+    assert len(err.strip().splitlines()[-1]) < 400, err  # one line, the huge value shortened

@@ -8,9 +8,11 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from roa import numparse
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
+from roa.lyapunov.base import MAX_LEVEL
 from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
 from roa.shares import share
 
@@ -63,8 +65,12 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default without --box: equilibrium +- 1)")  # fmt: skip
     p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
     C.add_stop_rules(p)
-    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
-    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
+    p.add_argument(
+        "--rtol", type=numparse.arg(), default=1e-6, help="relative tolerance (default 1e-6)"
+    )
+    p.add_argument(
+        "--atol", type=numparse.arg(), default=1e-9, help="absolute tolerance (default 1e-9)"
+    )
     p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
     p.add_argument("--jobs", type=int, default=-1, help="parallel workers (default -1: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default 0)")
@@ -77,13 +83,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
-    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
                    "with --out the same command resumes from the completed chunks")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
-        type=float,
+        type=numparse.arg(0.0, MAX_LEVEL, low_open=True),
         action="append",
         default=[],
         metavar="RHO",
@@ -113,10 +119,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def parse_grid(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
+    m = re.fullmatch(r"\s*([0-9]{1,9})\s*[xX]\s*([0-9]{1,9})\s*", text or "")
     if not m:
         raise RoaInputError(
-            f"--grid: expected NxM with integers N, M >= 2 (e.g. 200x150), got {text!r}"
+            f"--grid: expected NxM with integers N, M >= 2 (e.g. 200x150), got "
+            f"{numparse.shown(text)}"
         )
     nx, ny = int(m.group(1)), int(m.group(2))
     if nx < 2 or ny < 2 or nx * ny > 10**8:
@@ -260,7 +267,7 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
     if system.margin is None:
         return
     names = system.state_names
-    corners = np.array(list(itertools.product(*ranges)), dtype=float)
+    corners = np.array(list(itertools.product(*ranges)), dtype=numparse.arg())
     bad = ~system.inside(corners)
     if bad.any():
         c = corners[np.argmax(bad)]

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
+from roa import numparse
 from roa.errors import RoaInputError
 from roa.io import to_json
 
@@ -109,13 +110,7 @@ def system(args: argparse.Namespace) -> Any:
 
 
 def _number(text: str, where: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise RoaInputError(f"{where}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise RoaInputError(f"{where}: {text!r} must be finite")
-    return value
+    return numparse.parse_number(text, where)
 
 
 def with_param_options(sys_: Any, specs: list[str]) -> Any:
@@ -210,9 +205,9 @@ def read_matrix(spec: str, *, what: str) -> Any:
                 f"{what} {spec}: the .npy array must hold numbers, got dtype "
                 f"{getattr(arr, 'dtype', type(arr).__name__)}"
             )
-        return arr
+        return numparse.array(arr, f"{what} {spec}")
     try:
-        data = json.loads(path.read_text())
+        data = numparse.loads_json(path.read_text(), f"{what} {spec}")
     except json.JSONDecodeError as exc:
         raise RoaInputError(f"{what} {spec}: invalid JSON ({exc})") from None
     except (UnicodeDecodeError, RecursionError, OSError) as exc:
@@ -241,10 +236,9 @@ def read_matrix(spec: str, *, what: str) -> Any:
                 '"monomials" and "coefficients" (a polynomial V)'
             )
         data = data["P"]
-    try:
-        return np.asarray(data, dtype=float)
-    except (TypeError, ValueError):
-        raise RoaInputError(f"{what} {spec}: P must be a list of rows of numbers") from None
+    if not isinstance(data, list):
+        raise RoaInputError(f"{what} {spec}: P must be a list of rows of numbers")
+    return numparse.array(data, f"{what} {spec}: P")
 
 
 def options(make: Callable[[], T], flags: dict[str, str]) -> T:
@@ -289,14 +283,16 @@ def fmt(value: Any, spec: str = ".6g", missing: str = "none") -> str:
 def add_stop_rules(p: argparse.ArgumentParser) -> None:
     """``--t-final``, ``--converge-tol``, ``--diverge-bound``, ``--diverge-growth``
     (:class:`roa.StopRules`; read back by :func:`stop_rules`)."""
-    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
-    p.add_argument("--converge-tol", type=float, default=1e-3,
+    p.add_argument(
+        "--t-final", type=numparse.arg(), default=60.0, help="final time > 0 (default 60)"
+    )
+    p.add_argument("--converge-tol", type=numparse.arg(), default=1e-3,
                    help="radius of the ball around the equilibrium that counts as converged "
                    "(default 1e-3)")  # fmt: skip
-    p.add_argument("--diverge-bound", type=float, default=1e6, metavar="NORM",
+    p.add_argument("--diverge-bound", type=numparse.arg(), default=1e6, metavar="NORM",
                    help="a run whose norm ||x|| reaches NORM is diverged; finite, > --converge-tol "
                    "(default 1e6)")  # fmt: skip
-    p.add_argument("--diverge-growth", type=float, default=100.0, metavar="G",
+    p.add_argument("--diverge-growth", type=numparse.arg(), default=100.0, metavar="G",
                    help="a run still going at --t-final is diverged when ||x - x_eq|| is then >= "
                    "NORM/G, >= G x its largest value over the first half of the run, and still "
                    "growing exponentially; G finite > 1, or 0 for no growth rule (default 100)")  # fmt: skip

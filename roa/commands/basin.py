@@ -267,7 +267,7 @@ def _check_box_in_domain(system: System, ranges: list[tuple[float, float]]) -> N
     if system.margin is None:
         return
     names = system.state_names
-    corners = np.array(list(itertools.product(*ranges)), dtype=numparse.arg())
+    corners = np.array(list(itertools.product(*ranges)), dtype=float)
     bad = ~system.inside(corners)
     if bad.any():
         c = corners[np.argmax(bad)]

@@ -20,14 +20,19 @@ from __future__ import annotations
 
 import math
 import re
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from roa.errors import RoaInputError
 
+if TYPE_CHECKING:
+    import numpy as np
+
 #: Longest number accepted as text (17 significant digits, sign, point and exponent fit easily).
 MAX_CHARS = 64
+#: The largest level of a Lyapunov candidate accepted from the command line: with ``P`` of
+#: entries up to :data:`roa.lyapunov.base.MAX_SCALE`, ``level / lambda_min(P)`` and the programs
+#: built on ``{V <= level}`` stay finite doubles.
+MAX_LEVEL = 1e150
 #: Integers with more bits than this do not fit a finite double.
 MAX_INT_BITS = 1024
 
@@ -50,8 +55,8 @@ def parse_number(text: str, where: str) -> float:
                             f"{MAX_CHARS} characters)")  # fmt: skip
     if not _NUMBER.fullmatch(text):
         raise RoaInputError(
-            f"{where}: {shown(text)} is not a number (ASCII digits with an optional sign, point "
-            "and exponent, e.g. 0.5, -2, 1e-3; no spaces)"
+            f"{where}: {shown(text)} is not a number (a finite number in ASCII digits with an "
+            "optional sign, point and exponent, e.g. 0.5, -2, 1e-3; no spaces)"
         )
     x = float(text)
     if not math.isfinite(x):
@@ -68,6 +73,8 @@ def bounded(x: float, where: str, lo: float, hi: float) -> float:
 
 def value(v: Any, where: str) -> float:
     """A number parsed by a reader (JSON, TOML, numpy scalar) as a finite double."""
+    import numpy as np
+
     if isinstance(v, bool | np.bool_) or not isinstance(v, int | float | np.integer | np.floating):
         raise RoaInputError(f"{where}: expected a number, got {shown(v)}")
     if isinstance(v, int | np.integer) and int(v).bit_length() > MAX_INT_BITS - 1:
@@ -82,6 +89,8 @@ def value(v: Any, where: str) -> float:
 def array(obj: Any, where: str) -> np.ndarray:
     """A nested list (JSON) or numeric array (``.npy``) as a float array, every entry checked by
     :func:`value`; subnormal entries are refused (a matrix scaled by them is not finite)."""
+    import numpy as np
+
     if isinstance(obj, np.ndarray):
         if obj.dtype.kind not in "iuf":
             raise RoaInputError(f"{where}: the array must hold numbers, got dtype {obj.dtype}")

@@ -12,7 +12,6 @@ from roa import numparse
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
-from roa.lyapunov.base import MAX_LEVEL
 from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
 from roa.shares import share
 
@@ -65,12 +64,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "(default without --box: equilibrium +- 1)")  # fmt: skip
     p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
     C.add_stop_rules(p)
-    p.add_argument(
-        "--rtol", type=numparse.arg(), default=1e-6, help="relative tolerance (default 1e-6)"
-    )
-    p.add_argument(
-        "--atol", type=numparse.arg(), default=1e-9, help="absolute tolerance (default 1e-9)"
-    )
+    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
+    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
     p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
     p.add_argument("--jobs", type=int, default=-1, help="parallel workers (default -1: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default 0)")
@@ -83,13 +78,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
-    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
+    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
                    "with --out the same command resumes from the completed chunks")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
-        type=numparse.arg(0.0, MAX_LEVEL, low_open=True),
+        type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True),
         action="append",
         default=[],
         metavar="RHO",

@@ -6,7 +6,6 @@ import argparse
 
 from roa import numparse
 from roa.commands import common as C
-from roa.lyapunov.base import MAX_LEVEL
 from roa.options import IntervalOptions, SosOptions, VsOptions
 
 
@@ -32,7 +31,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     C.add_system(p, lyapunov=True)
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--level", type=numparse.arg(0.0, MAX_LEVEL, low_open=True), default=None,
+    g.add_argument("--level", type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True), default=None,
                    help="validate this level in (0, 1e150] by interval branch and bound; default: "
                    "maximise")  # fmt: skip
     g.add_argument("--maximise", action="store_true",
@@ -48,7 +47,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     p.add_argument("--max-boxes", type=int, default=itv.max_boxes,
                    help=f"box budget of the interval validation, 1..2e8 (default {itv.max_boxes})")  # fmt: skip
-    p.add_argument("--check-above", type=numparse.arg(), default=None, metavar="FACTOR",
+    p.add_argument("--check-above", type=float, default=None, metavar="FACTOR",
                    help="also validate FACTOR x the candidate level (> 1, e.g. 1.001): a refutation "
                    "there shows the certified level is close to the best for this V")  # fmt: skip
     p.add_argument("--degree", type=int, default=None, choices=(2, 4, 6, 8),
@@ -57,10 +56,10 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "coefficients are in the JSON (candidate_kind)")  # fmt: skip
     p.add_argument("--rounds", type=int, default=VsOptions().rounds,
                    help=f"V-s rounds with --degree, 1..50 (default {VsOptions().rounds})")  # fmt: skip
-    p.add_argument("--budget", type=numparse.arg(), default=VsOptions().budget, metavar="SEC",
+    p.add_argument("--budget", type=float, default=VsOptions().budget, metavar="SEC",
                    help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
-    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
+    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
                    help="wall-clock budget of each interval validation, in (0, 1e9] seconds: "
                    "when it runs out the verdict is inconclusive, saying so; with --degree also "
                    "of the V-s iteration (the least of it and --budget), which then stops with "

@@ -283,16 +283,14 @@ def fmt(value: Any, spec: str = ".6g", missing: str = "none") -> str:
 def add_stop_rules(p: argparse.ArgumentParser) -> None:
     """``--t-final``, ``--converge-tol``, ``--diverge-bound``, ``--diverge-growth``
     (:class:`roa.StopRules`; read back by :func:`stop_rules`)."""
-    p.add_argument(
-        "--t-final", type=numparse.arg(), default=60.0, help="final time > 0 (default 60)"
-    )
-    p.add_argument("--converge-tol", type=numparse.arg(), default=1e-3,
+    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
+    p.add_argument("--converge-tol", type=float, default=1e-3,
                    help="radius of the ball around the equilibrium that counts as converged "
                    "(default 1e-3)")  # fmt: skip
-    p.add_argument("--diverge-bound", type=numparse.arg(), default=1e6, metavar="NORM",
+    p.add_argument("--diverge-bound", type=float, default=1e6, metavar="NORM",
                    help="a run whose norm ||x|| reaches NORM is diverged; finite, > --converge-tol "
                    "(default 1e6)")  # fmt: skip
-    p.add_argument("--diverge-growth", type=numparse.arg(), default=100.0, metavar="G",
+    p.add_argument("--diverge-growth", type=float, default=100.0, metavar="G",
                    help="a run still going at --t-final is diverged when ||x - x_eq|| is then >= "
                    "NORM/G, >= G x its largest value over the first half of the run, and still "
                    "growing exponentially; G finite > 1, or 0 for no growth rule (default 100)")  # fmt: skip

@@ -25,10 +25,6 @@ if TYPE_CHECKING:
 #: The largest entry of a quadratic candidate's ``P`` must lie in ``[1 / MAX_SCALE, MAX_SCALE]``:
 #: ``P`` scaled by it, and ``V`` on states and levels of moderate size, stay finite doubles.
 MAX_SCALE = 1e150
-#: The largest level of a candidate accepted from the command line: with ``P`` of entries up to
-#: :data:`MAX_SCALE`, ``level / lambda_min(P)`` and the programs built on ``{V <= level}`` stay
-#: finite doubles.
-MAX_LEVEL = 1e150
 
 
 def check_positive_definite(P: Any, *, what: str = "P") -> np.ndarray:

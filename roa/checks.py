@@ -5,6 +5,11 @@ checks that the equilibrium is one (``|f(x_eq)|`` small relative to the field's 
 that it lies inside the domain, and classifies the linearisation (Hurwitz / degenerate /
 unstable). The analyses call it: :func:`roa.level_search` and :func:`roa.certify` refuse an
 unstable linearisation; a degenerate one gets a note (higher-order terms decide).
+
+The field is also evaluated once on probe values (:mod:`roa.field_probe`): a state-dependent
+integer power above ``MAX_POWER`` (100) or more than ``MAX_OPS`` operations is refused by every
+check; for an analysis (``analysis=True``: certify, level search), so is a numpy function applied
+to a state, named (the analyses evaluate the field in namespaces numpy's functions do not know).
 """
 
 from __future__ import annotations
@@ -37,7 +42,7 @@ def evaluate(system: System, x: np.ndarray) -> np.ndarray:
     try:
         out = system.field(0.0, [float(v) for v in x], _np())
         values = np.asarray([float(np.asarray(v)) for v in out], dtype=float)
-    except (TypeError, ValueError, IndexError) as exc:
+    except (TypeError, ValueError, IndexError, OverflowError) as exc:
         raise SystemDefinitionError(
             f"system {system.name!r}: the field cannot be evaluated at {np.asarray(x).tolist()} "
             f"({type(exc).__name__}: {exc}); it must return {system.n} numbers, one per state "
@@ -49,6 +54,23 @@ def evaluate(system: System, x: np.ndarray) -> np.ndarray:
             f"{system.n} (one per state {', '.join(system.state_names)})"
         )
     return values
+
+
+def check_functions(system: System, *, strict: bool = True) -> None:
+    """The field's size and, with ``strict``, the numpy functions it applies to the states
+    (:mod:`roa.field_probe`, at the equilibrium): a :class:`SystemDefinitionError` names the
+    function or the bound (and the file and line of a user's field)."""
+    from roa.field_probe import Log, probe
+
+    log = Log(strict=strict)
+    try:
+        probe(system, log)
+    except SystemDefinitionError:  # a user's field: its wrapper names the file and the line
+        if log.refused:
+            raise
+    except Exception as exc:  # noqa: BLE001 - the field's own failures are reported elsewhere
+        if log.refused:
+            raise SystemDefinitionError(f"system {system.name!r}: {exc}") from None
 
 
 def _np():  # noqa: ANN202 - the numpy namespace
@@ -127,6 +149,7 @@ def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
         raise SystemDefinitionError(
             f"system {system.name!r}: equilibrium has {x_eq.size} components, expected {system.n}"
         )
+    check_functions(system, strict=analysis)
     f_eq = evaluate(system, x_eq)
     if not np.all(np.isfinite(f_eq)):
         raise SystemDefinitionError(

@@ -22,7 +22,6 @@ import dataclasses
 import hashlib
 import importlib
 import json
-import math
 import re
 import time
 import tomllib
@@ -30,7 +29,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
-from roa import studies
+from roa import numparse, studies
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, code_hash, git_revision, package_versions
 from roa.options import Options
@@ -96,12 +95,15 @@ def check_int(params: Any, name: str, lo: int = 0, hi: int | None = None) -> Non
         or (hi is not None and value > hi)
     ):
         allowed = f">= {lo}" if hi is None else f"in [{lo}, {hi}]"
-        raise RoaInputError(f"{name} must be an integer {allowed}, got {value!r}")
+        raise RoaInputError(f"{name} must be an integer {allowed}, got {numparse.shown(value)}")
 
 
 def _finite(v: Any, positive: bool) -> bool:
-    ok = isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
-    return ok and (v > 0 or not positive)
+    try:
+        numparse.value(v, "")
+    except RoaInputError:
+        return False
+    return v > 0 or not positive
 
 
 def check_number(params: Any, name: str, *, positive: bool = False) -> None:
@@ -109,7 +111,8 @@ def check_number(params: Any, name: str, *, positive: bool = False) -> None:
     value = _value(params, name)
     if not _finite(value, positive):
         raise RoaInputError(
-            f"{name} must be a finite number{' > 0' if positive else ''}, got {value!r}"
+            f"{name} must be a finite number{' > 0' if positive else ''}, got "
+            f"{numparse.shown(value)}"
         )
 
 
@@ -174,9 +177,16 @@ def load_config(path: str | Path) -> dict[str, Any]:
     if not path.is_file():
         raise RoaInputError(f"experiment config {path} does not exist")
     try:
-        cfg = tomllib.loads(path.read_text())
+        cfg = tomllib.loads(path.read_text(),
+                            parse_float=lambda s: numparse.parse_number(s, "a number"))  # fmt: skip
     except tomllib.TOMLDecodeError as exc:
         raise RoaInputError(f"experiment config {path}: invalid TOML: {exc}") from exc
+    except RoaInputError as exc:
+        raise RoaInputError(f"experiment config {path}: {exc}") from None
+    except ValueError as exc:  # an integer beyond Python's int-string limit
+        raise RoaInputError(
+            f"experiment config {path}: a number is too long ({str(exc).split(';')[0]})"
+        ) from None
     except (UnicodeDecodeError, RecursionError) as exc:
         raise RoaInputError(
             f"experiment config {path}: not readable ({type(exc).__name__})"

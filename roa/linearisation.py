@@ -48,8 +48,20 @@ class Linearisation:
 
 
 def linearise(system: System) -> Linearisation:
-    """Jacobian at the equilibrium and its classification (see :class:`Linearisation`)."""
+    """Jacobian at the equilibrium and its classification (see :class:`Linearisation`).
+
+    The field must apply no numpy function to a state (:func:`roa.checks.check_functions`: CasADi
+    would differentiate numpy's own) and have a finite Jacobian there."""
+    from roa.checks import check_functions
+
+    check_functions(system)
     A = jacobian(system)
+    if not np.all(np.isfinite(A)):
+        raise RoaInputError(
+            f"system {system.name!r}: the Jacobian of the field at the equilibrium "
+            f"{system.x_eq.tolist()} is not finite ({np.array2string(A, precision=4)}): the field "
+            "is not differentiable there (or overflows), so it has no linearisation"
+        )
     eig = np.linalg.eigvals(A)
     scale = max(1.0, float(np.abs(A).max()))
     re = eig.real

@@ -33,8 +33,9 @@ from roa.system import Params, System
 
 #: Namespaces of enclosures: they see every uncertain parameter as its interval.
 PROOF_NAMESPACES = ("interval", "interval-jet")
-#: Float namespaces: they see the uncertain parameters at the piece's point (searches only).
-POINT_NAMESPACES = ("numpy", "mpmath", "casadi")
+#: Float namespaces: they see the uncertain parameters at the piece's point (searches only, and
+#: the probe of :mod:`roa.field_probe`).
+POINT_NAMESPACES = ("numpy", "mpmath", "casadi", "probe")
 
 #: At most this many vertices are sampled (2^4: all vertices up to 4 uncertain parameters).
 MAX_VERTICES = 16

@@ -24,6 +24,10 @@ Claims and assumptions:
   expression (an arbitrary object, a malformed string), a constant beyond the double range
   (``|c| <= 1.797e308``: numpy evaluates the field in doubles), and an expression nested more
   than :data:`MAX_DEPTH` operations deep (sympy's and roa's tree walks recurse once per level).
+* Bounded when built: integer (and half-integer) exponents up to ``MAX_POWER`` (100) in
+  magnitude and at most :data:`MAX_NODES` distinct terms and operations; larger inputs are
+  refused with a :class:`roa.RoaInputError` saying which bound (their certification would not
+  end).
 * The program holds no sympy object: pickling it (joblib, Dask workers) does not import sympy.
 """
 
@@ -36,6 +40,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from roa.errors import RoaInputError
+from roa.field_probe import MAX_POWER
 from roa.lyapunov.symbolic import FUNCTIONS
 
 #: What :func:`compile_exprs` accepts, for messages.
@@ -50,6 +55,10 @@ Instruction = tuple[Any, ...]
 #: sympy and roa walks of an expression tree (printing, differentiation, CasADi, compilation)
 #: recurse once or more per level, so deeper trees would exhaust Python's recursion limit.
 MAX_DEPTH = 100
+
+#: Most distinct operations and leaves of a compiled system (every component together): the
+#: symbolic and interval routes walk every term, so larger inputs are refused when built.
+MAX_NODES = 5000
 
 
 @dataclass(frozen=True)
@@ -136,6 +145,11 @@ def compile_exprs(exprs: Sequence[Any], states: Sequence[Any], params: Sequence[
     def emit(ins: Instruction, key: Any) -> int:
         if key in index:
             return index[key]
+        if len(program) >= MAX_NODES:
+            raise RoaInputError(
+                f"from_sympy: the expressions have more than {MAX_NODES} distinct terms and "
+                f"operations (allowed: at most {MAX_NODES}); simplify them or split the system"
+            )
         program.append(ins)
         index[key] = len(program) - 1
         return index[key]
@@ -179,8 +193,14 @@ def compile_exprs(exprs: Sequence[Any], states: Sequence[Any], params: Sequence[
             if base is sp.E:
                 return emit(("fn", "exp", visit(k)), e)
             if k.is_Integer:
+                if abs(k) > MAX_POWER:
+                    shown = str(k) if len(str(k)) <= 30 else f"of {len(str(k))} digits"
+                    raise RoaInputError(
+                        f"from_sympy: the power {str(base)[:40]}**(...) has exponent {shown} (allowed: "
+                        f"integer exponents up to {MAX_POWER} in magnitude)"
+                    )
                 return emit(("pow", visit(base), int(k)), e)
-            if k.is_Rational and int(k.q) == 2:
+            if k.is_Rational and int(k.q) == 2 and abs(k) <= MAX_POWER:
                 return emit(("sqrtpow", visit(base), int(k.p)), e)
             raise RoaInputError(
                 f"from_sympy: unsupported power {e} (integer and half-integer exponents only; "

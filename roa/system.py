@@ -42,13 +42,29 @@ class Uncertain(NamedTuple):
         return self.high - self.low
 
 
+#: The largest parameter magnitude: a range's width and midpoint, and a parameter times a
+#: squared state of moderate size, stay finite doubles (``1e308..1.79e308`` would not).
+MAX_PARAM = 1e150
+
+
+def _bounded(name: str, value: Any, what: str) -> None:
+    if not abs(value) <= MAX_PARAM:
+        from roa.numparse import shown
+
+        raise RoaInputError(
+            f"{what}[{name!r}] = {shown(value)} is out of range: parameter values must be finite with "
+            f"magnitude at most {MAX_PARAM:g} (the arithmetic of ranges and fields must not "
+            "overflow)"
+        )
+
+
 def _uncertain(name: str, value: Any) -> Uncertain:
     """``value`` as the range of parameter ``name``, or an error naming it and the rule."""
     try:
         low, nominal, high = (float(v) for v in value)
         ok = all(not isinstance(v, bool) and isinstance(v, int | float | np.floating)
                  for v in value)  # fmt: skip
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         ok = False
     if not ok or not all(np.isfinite(v) for v in (low, nominal, high)):
         raise RoaInputError(
@@ -60,6 +76,8 @@ def _uncertain(name: str, value: Any) -> Uncertain:
             f"System.parameters[{name!r}] needs low <= nominal <= high and low < high, got "
             f"({low!r}, {nominal!r}, {high!r})"
         )
+    for v in (low, nominal, high):
+        _bounded(name, v, "System.parameters")
     return Uncertain(low, nominal, high)
 
 
@@ -198,7 +216,9 @@ class System:
         for name in ("lyapunov", "norm"):
             value = getattr(self, name)
             if value is not None:
-                arr = np.asarray(value, dtype=float)
+                from roa import numparse
+
+                arr = numparse.array(value, f"System.{name}")
                 if arr.shape != (self.n, self.n) or not np.all(np.isfinite(arr)):
                     raise RoaInputError(
                         f"System.{name} must be a finite {self.n}x{self.n} matrix, got shape "
@@ -360,8 +380,9 @@ class System:
                 raise RoaInputError(f"System.params: names must be identifiers, got {key!r}")
             if isinstance(value, bool) or not isinstance(value, int | float | np.floating):
                 raise RoaInputError(f"System.params[{key!r}] must be a number, got {value!r}")
-            if not np.isfinite(value):
+            if isinstance(value, float | np.floating) and not np.isfinite(value):
                 raise RoaInputError(f"System.params[{key!r}] must be finite, got {value!r}")
+            _bounded(key, value, "System.params")
             values[key] = float(value)
         bound = Params(values)
         object.__setattr__(self, "params", bound)

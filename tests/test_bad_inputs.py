@@ -287,3 +287,170 @@ def test_npy_reader_gives_numbers_or_an_input_error(tmp_path_factory, content):
     except RoaInputError:
         return
     assert arr.dtype.kind in "iuf"
+
+
+def _huge_files(d: Path) -> Path:
+    """Inputs of issue 38, items 6 and 7: huge numbers in every input format."""
+    (d / "bigP.json").write_text(json.dumps([[int("9" * 4000), 0], [0, 1]]))
+    (d / "bigcoef.json").write_text(
+        '{"monomials": [[2, 0], [0, 2]], "coefficients": [' + "9" * 5000 + ", 1]}"
+    )
+    (d / "denP.json").write_text(json.dumps([[1e-320, 0], [0, 1e-320]]))
+    (d / "hugeP.json").write_text(json.dumps([[1e300, 0], [0, 1e300]]))
+    np.save(d / "denP.npy", np.diag([1e-320, 1e-320]))
+    (d / "big.toml").write_text(
+        'runner = "ipc_paper.basins:run_box"\n[params]\nsamples = ' + "1" * 5001 + "\n"
+    )
+    (d / "bigfloat.toml").write_text(
+        'runner = "ipc_paper.basins:run_box"\n[params]\nsamples = 10\nseed = 1\nx = 1e999\n'
+    )
+    (d / "bigbound4000.toml").write_text(
+        'runner = "ipc_paper.lyapunov_report:run_bound"\n[params]\nn_points = ' + "9" * 4000 + "\n"
+    )
+    return d
+
+
+GRID = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--jobs", "1"]
+HUGE = [
+    (["basin", "--system", "vanderpol", "--param", "mu=1e308..1.7e308..1.79e308", "--samples", "4",
+      "--box", "x1=-1:1,x2=-1:1", "--jobs", "1"], "System.parameters['mu']"),
+    (["certify", "--system", "vanderpol", "--param", "mu=1e308..1.7e308..1.79e308", "--level", "1"],
+     "--param mu=1e308..1.7e308..1.79e308"),
+    (["khalil", "--system", "vanderpol", "--param", "mu=1e308..1.7e308..1.79e308"], "'mu'"),
+    (["khalil", "--system", "vanderpol", "--param", "mu=1e200"], "'mu'"),
+    (["certify", "--system", "vanderpol", "--param", "mu= 1 .. 2 ", "--level", "1"], "--param mu= 1 .. 2"),
+    (["certify", "--system", "vanderpol", "--param", "mu=1_0..2", "--level", "1"], "--param mu=1_0..2"),
+    (["khalil", "--system", "vanderpol", "--lyapunov", "{d}/bigP.json"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/bigP.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/bigcoef.json", "--level", "1"], "--lyapunov"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/denP.json", "--method", "sos"], "subnormal"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/denP.npy", "--method", "sos"], "subnormal"),
+    (["certify", "--system", "vanderpol", "--lyapunov", "{d}/hugeP.json", "--method", "sos"], "--lyapunov"),
+    (["run", "{d}/big.toml"], "big.toml"),
+    (["run", "{d}/bigfloat.toml"], "bigfloat.toml"),
+    (["run", "{d}/bigbound4000.toml"], "n_points"),
+    (GRID + ["--grid", "1" * 5000 + "x4"], "--grid"),
+    (GRID + ["--grid", "\u0664x4"], "--grid"),  # an Arabic-Indic digit: not ASCII
+    (["certify", "--system", "vanderpol", "--level", "1.7976931348623157e308"], "--level"),
+    (["certify", "--system", "vanderpol", "--level", "1" * 5000], "--level"),
+    (GRID + ["--grid", "4x4", "--lyapunov-level", "1e308", "--plot", "{d}/a.png"], "--lyapunov-level"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("argv, names", HUGE, ids=[" ".join(c[0][-2:])[:60] for c in HUGE])
+def test_huge_numbers_exit_2_naming_the_input(tmp_path, capsys, argv, names):
+    import signal
+
+    def hang(signum, frame):  # noqa: ANN001
+        raise TimeoutError("a bad input ran for more than 60 s")
+
+    d = _huge_files(tmp_path)
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(60)
+    try:
+        rc = main([a.format(d=d) for a in argv])
+    except SystemExit as exc:  # argparse's usage errors
+        rc = exc.code
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    err = capsys.readouterr().err
+    assert rc == 2, err
+    assert names in err and "Traceback" not in err, err
+    assert len(err.strip().splitlines()[-1]) < 400, err  # one line, the huge value shortened
+
+
+def _field_files(d: Path) -> Path:
+    """Fields of issue 38, items 4 and 5: numpy functions on the states, huge degrees and sizes."""
+    head = "import numpy as np\nfrom roa import System\n"
+    tail = (
+        "SYSTEM = System(name='f', field=field, equilibrium=(0.0, 0.0), state_names=('x1', 'x2'))\n"
+    )
+    bodies = {
+        "atan2": "    return (-x[1], np.arctan2(x[0], 1.0 + x[1]) + (x[0] ** 2 - 1) * x[1])\n",
+        "hypot": "    return (-x[1], -x[0] + 0.1 * np.hypot(x[0], x[1]))\n",
+        "objarr": "    return (-x[1], -np.tanh(np.array([x[0]]))[0] - x[1])\n",
+        "bigpow": "    return (-x[1], x[0] - x[1] + x[0] ** 1000000001)\n",
+        "hugepow": "    return (-x[1], x[0] - x[1] + x[0] ** (2 ** 70))\n",
+        "manyops": "    e = 0.0\n    for k in range(10 ** 4):\n        e = e + 1e-9 * x[0] ** 3 * x[1]\n"
+                   "    return (-x[1], x[0] - x[1] + e)\n",
+    }  # fmt: skip
+    for name, body in bodies.items():
+        (d / f"{name}.py").write_text(head + "def field(t, x, xp):\n" + body + tail)
+    sym = ("import sympy as sp\nfrom roa import System\nx1, x2 = sp.symbols('x1 x2')\n"
+           "SYSTEM = System.from_sympy([-x2, x1 - x2 + {}], [x1, x2], name='s')\n")  # fmt: skip
+    (d / "sympow9.py").write_text(sym.format("x1**(10**9)"))
+    (d / "sympow70.py").write_text(sym.format("x1**(2**70)"))
+    (d / "symterms.py").write_text(
+        sym.format(
+            "sp.Add(*[sp.Rational(k + 1, 10**6) * x1**(k % 100) * x2**(k // 100) "
+            "for k in range(10**4)])"
+        )  # fmt: skip
+    )
+    return d
+
+
+FIELDS = [
+    (["certify", "--system", "{d}/atan2.py:SYSTEM"], "atan2.py:4", "np.arctan2"),
+    (["certify", "--system", "{d}/atan2.py:SYSTEM", "--validator", "sos"], "atan2.py:4", "np.arctan2"),
+    (["certify", "--system", "{d}/hypot.py:SYSTEM"], "hypot.py:4", "np.hypot"),
+    (["certify", "--system", "{d}/hypot.py:SYSTEM", "--validator", "sos"], "hypot.py:4", "np.hypot"),
+    (["khalil", "--system", "{d}/hypot.py:SYSTEM"], "hypot.py:4", "np.hypot"),
+    (["certify", "--system", "{d}/objarr.py:SYSTEM", "--level", "0.5"], "objarr.py:4", "tanh"),
+    (["certify", "--system", "{d}/bigpow.py:SYSTEM", "--time-limit", "5"], "bigpow.py:4", "exponent 1000000001"),
+    (["simulate", "--system", "{d}/bigpow.py:SYSTEM", "--x0", "0.1,0"], "bigpow.py:4", "up to 100"),
+    (["certify", "--system", "{d}/hugepow.py:SYSTEM"], "hugepow.py:4", "exponent 1180591620717411303424"),
+    (["certify", "--system", "{d}/manyops.py:SYSTEM"], "manyops.py", "operations"),
+    (["certify", "--system", "{d}/sympow9.py:SYSTEM", "--time-limit", "5"], "sympow9.py", "exponent 1000000000"),
+    (["certify", "--system", "{d}/sympow70.py:SYSTEM"], "sympow70.py", "up to 100"),
+    (["certify", "--system", "{d}/symterms.py:SYSTEM"], "symterms.py", "more than 5000"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize("argv, where, what", FIELDS, ids=[c[0][2].split("/")[-1] + " " + c[0][0]
+                                                          + " " + c[0][-1] for c in FIELDS])  # fmt: skip
+def test_unsupported_or_huge_fields_exit_2_naming_file_line_and_term(tmp_path, capsys, argv,
+                                                                     where, what):  # fmt: skip
+    import signal
+    import time
+
+    def hang(signum, frame):  # noqa: ANN001
+        raise TimeoutError("a bad field ran for more than 60 s")
+
+    d = _field_files(tmp_path)
+    old = signal.signal(signal.SIGALRM, hang)
+    signal.alarm(60)
+    t0 = time.monotonic()
+    try:
+        rc = main([a.format(d=d) for a in argv])
+    finally:
+        signal.alarm(0)
+        signal.signal(signal.SIGALRM, old)
+    err = capsys.readouterr().err
+    assert rc == 2 and time.monotonic() - t0 < 30, err
+    assert where in err and what in err and "Traceback" not in err, err
+
+
+def test_a_numpy_function_on_the_states_is_refused_for_proofs_only():
+    """The numpy-only analyses keep a field written with numpy (a fallback kernel, no proof)."""
+    from roa.checks import check_functions, check_system
+
+    system = roa.System(name="np-hypot", field=lambda t, x, xp: (-x[0] + 0.1 * np.hypot(x[0], x[1]), -x[1]),
+                        equilibrium=(0.0, 0.0), state_names=("a", "b"))  # fmt: skip
+    check_system(system)  # the load-time check: numpy's functions are fine for simulation
+    with pytest.raises(roa.SystemDefinitionError, match=r"np-hypot.*np\.hypot.*xp\.sin"):
+        check_functions(system)
+    with pytest.raises(roa.SystemDefinitionError, match=r"np\.hypot"):
+        roa.certify(system, level=0.1)
+    fine = roa.System(name="xp-only", field=lambda t, x, xp: (-x[0] + 0.1 * xp.sqrt(1 + x[1] ** 2), -x[1] ** 3 - x[1]),
+                      equilibrium=(0.1, 0.0), state_names=("a", "b"))  # fmt: skip
+    check_functions(fine)  # xp's functions, operators and powers up to MAX_POWER pass
+
+
+def test_a_nonfinite_jacobian_is_named():
+    from roa.linearisation import linearise
+
+    system = roa.System(name="kink", field=lambda t, x, xp: (-x[0] + 0.1 * xp.sqrt(x[0] ** 2 + x[1] ** 2), -x[1]),
+                        equilibrium=(0.0, 0.0), state_names=("a", "b"))  # fmt: skip
+    with pytest.raises(RoaInputError, match=r"kink.*Jacobian.*not finite"):
+        linearise(system)

@@ -49,6 +49,8 @@ OPTIONS = [
     (SAMPLES + ["--seed", "1"], "--samples", "{}"), (SAMPLES + ["--samples", "5"], "--seed", "{}"),
     (CERT + ["--check-above", "1.01"], "--level", "{}"), (CERT + ["--level", "1"], "--max-boxes", "{}"),
     (CERT + ["--level", "1"], "--check-above", "{}"),
+    (CERT + ["--level", "1"], "--param", "mu={}..2"), (KHALIL, "--param", "mu=0.5..{}..1e308"),
+    (GRID, "--lyapunov-level", "{}"),
     (KHALIL, "--directions", "{}"), (KHALIL, "--seed", "{}"),
     (IPC, "--t-final", "{}"), (IPC, "--delta", "{}"), (IPC, "--saturation", "{}"),
     (IPC, "--ic", "0,0,{},0"), (IPC, "--poles", "{},-1,-1,-1"), (IPC, "--time-limit", "{}"),

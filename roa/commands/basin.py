@@ -8,6 +8,7 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from roa import numparse
 from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
@@ -83,7 +84,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "with --out the same command resumes from the completed chunks")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
-        type=float,
+        type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True),
         action="append",
         default=[],
         metavar="RHO",
@@ -113,10 +114,11 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def parse_grid(text: str) -> tuple[int, int]:
-    m = re.fullmatch(r"\s*(\d+)\s*[xX]\s*(\d+)\s*", text or "")
+    m = re.fullmatch(r"\s*([0-9]{1,9})\s*[xX]\s*([0-9]{1,9})\s*", text or "")
     if not m:
         raise RoaInputError(
-            f"--grid: expected NxM with integers N, M >= 2 (e.g. 200x150), got {text!r}"
+            f"--grid: expected NxM with integers N, M >= 2 (e.g. 200x150), got "
+            f"{numparse.shown(text)}"
         )
     nx, ny = int(m.group(1)), int(m.group(2))
     if nx < 2 or ny < 2 or nx * ny > 10**8:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from roa import numparse
 from roa.commands import common as C
 from roa.options import IntervalOptions, SosOptions, VsOptions
 
@@ -30,8 +31,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     )
     C.add_system(p, lyapunov=True)
     g = p.add_mutually_exclusive_group()
-    g.add_argument("--level", type=float, default=None,
-                   help="validate this level > 0 by interval branch and bound; default: maximise")  # fmt: skip
+    g.add_argument("--level", type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True), default=None,
+                   help="validate this level in (0, 1e150] by interval branch and bound; default: "
+                   "maximise")  # fmt: skip
     g.add_argument("--maximise", action="store_true",
                    help="find the largest level, then validate it (default: what happens without --level)")  # fmt: skip
     p.add_argument(

@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any, NoReturn, TypeVar
 
+from roa import numparse
 from roa.errors import RoaInputError
 from roa.io import to_json
 
@@ -109,13 +110,7 @@ def system(args: argparse.Namespace) -> Any:
 
 
 def _number(text: str, where: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise RoaInputError(f"{where}: {text!r} is not a number") from None
-    if not math.isfinite(value):
-        raise RoaInputError(f"{where}: {text!r} must be finite")
-    return value
+    return numparse.parse_number(text, where)
 
 
 def with_param_options(sys_: Any, specs: list[str]) -> Any:
@@ -210,9 +205,9 @@ def read_matrix(spec: str, *, what: str) -> Any:
                 f"{what} {spec}: the .npy array must hold numbers, got dtype "
                 f"{getattr(arr, 'dtype', type(arr).__name__)}"
             )
-        return arr
+        return numparse.array(arr, f"{what} {spec}")
     try:
-        data = json.loads(path.read_text())
+        data = numparse.loads_json(path.read_text(), f"{what} {spec}")
     except json.JSONDecodeError as exc:
         raise RoaInputError(f"{what} {spec}: invalid JSON ({exc})") from None
     except (UnicodeDecodeError, RecursionError, OSError) as exc:
@@ -241,10 +236,9 @@ def read_matrix(spec: str, *, what: str) -> Any:
                 '"monomials" and "coefficients" (a polynomial V)'
             )
         data = data["P"]
-    try:
-        return np.asarray(data, dtype=float)
-    except (TypeError, ValueError):
-        raise RoaInputError(f"{what} {spec}: P must be a list of rows of numbers") from None
+    if not isinstance(data, list):
+        raise RoaInputError(f"{what} {spec}: P must be a list of rows of numbers")
+    return numparse.array(data, f"{what} {spec}: P")
 
 
 def options(make: Callable[[], T], flags: dict[str, str]) -> T:

@@ -22,13 +22,31 @@ if TYPE_CHECKING:
     from roa.lyapunov.polynomial import QuadraticLyapunov
 
 
+#: The largest entry of a quadratic candidate's ``P`` must lie in ``[1 / MAX_SCALE, MAX_SCALE]``:
+#: ``P`` scaled by it, and ``V`` on states and levels of moderate size, stay finite doubles.
+MAX_SCALE = 1e150
+
+
 def check_positive_definite(P: Any, *, what: str = "P") -> np.ndarray:
-    """Return ``P`` as a symmetric float array; raise if not symmetric positive definite."""
-    P = np.asarray(P, dtype=float)
+    """Return ``P`` as a symmetric float array; raise if not symmetric positive definite, or if
+    its largest entry is outside ``[1 / MAX_SCALE, MAX_SCALE]`` (entries: :func:`roa.numparse.array`,
+    finite doubles, none subnormal)."""
+    from roa import numparse
+
+    if not isinstance(P, np.ndarray):
+        try:
+            P = np.asarray(P, dtype=float)
+        except (TypeError, ValueError, OverflowError):
+            P = numparse.array(P, what)  # names the entry that is no finite number
+    P = numparse.array(P, what)
     if P.ndim != 2 or P.shape[0] != P.shape[1]:
         raise RoaInputError(f"{what} must be a square matrix, got shape {P.shape}")
-    if not np.all(np.isfinite(P)):
-        raise RoaInputError(f"{what} must be finite")
+    scale = float(np.abs(P).max()) if P.size else 0.0
+    if not 1 / MAX_SCALE <= scale <= MAX_SCALE:
+        raise RoaInputError(
+            f"{what}: its largest entry {scale:.3g} must be in [{1 / MAX_SCALE:g}, "
+            f"{MAX_SCALE:g}] (scale P so that V and its programs stay finite)"
+        )
     if not np.allclose(P, P.T, rtol=1e-12, atol=1e-12 * max(1.0, np.abs(P).max())):
         raise RoaInputError(f"{what} must be symmetric")
     lam = np.linalg.eigvalsh(P)

@@ -250,7 +250,9 @@ class QuadraticLyapunov(PolynomialLyapunov):
 
     @classmethod
     def for_system(cls, system: System, P: Any, name: str = "V") -> QuadraticLyapunov:
-        P = np.asarray(P, dtype=float)
+        from roa import numparse
+
+        P = numparse.array(P, f"V {name}: P")
         if P.shape != (system.n, system.n):
             raise RoaInputError(
                 f"V: P must be {system.n}x{system.n} for system {system.name!r}, got {P.shape}"

@@ -20,7 +20,7 @@ Claims and assumptions:
   :data:`roa.sympy_system.SUPPORTED`. The remedy is ``field=``: the same equations written once as
   ``field(t, x, u, xp)`` with ``xp.sin``, ``xp.cos``, ... (checked against ``updfcn`` the same way).
 * ``params`` of the model are fixed at their values when the system is built.
-* ``control`` is imported only by :meth:`System.from_control` (``pip install roa[control]``);
+* ``control`` is imported only by :meth:`System.from_control` (``pip install control``);
   :func:`closed_loop` needs no python-control.
 """
 
@@ -342,7 +342,7 @@ def from_control(
         import control
     except ImportError:
         raise RoaInputError(
-            "System.from_control needs python-control: pip install 'roa[control]'"
+            "System.from_control needs python-control: pip install control"
         ) from None
     if not isinstance(sys, control.NonlinearIOSystem):
         raise RoaInputError(

@@ -90,7 +90,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="draw {V <= RHO} for --lyapunov (any V: a matrix, a polynomial JSON such as the "
         "output of `roa certify --degree D --json`, or file.py:NAME; default the system's V) after "
         "validating RHO with interval arithmetic (degree and verdict go in the legend); the "
-        "share of converged points inside it, with a 95 % interval, is printed and in the JSON "
+        "share of converged points inside it, with a 95 %% interval, is printed and in the JSON "
         "(certified_share); repeatable",
     )
     p.add_argument(

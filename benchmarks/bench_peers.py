@@ -31,7 +31,7 @@ set-up::
     peer SYSTEM SETUP roa=N/s peer=M/s ratio=R statuses=K/K
 
 (``ratio`` = roa's throughput / the peer's, CPU time), then the wall-clock throughputs and compile
-times. Needs the optional extra ``bench`` (``pip install roa[bench]``: jax, diffrax); without it
+times. Needs the optional extra ``bench`` (``pip install ".[bench]"`` in a clone: jax, diffrax); without it
 prints a message and exits 0.
 
     python benchmarks/bench_peers.py [--n 20000] [--reps 3] [--systems vdp,quad,lyznet,ipc]
@@ -275,7 +275,7 @@ def main() -> None:
     missing = [m for m in ("jax", "diffrax", "psutil") if importlib.util.find_spec(m) is None]
     if missing:
         print(f"bench_peers: skipped, {', '.join(missing)} not installed "
-              "(pip install 'roa[bench]')")  # fmt: skip
+              "(pip install '.[bench]' in a clone of roa)")  # fmt: skip
         return
     for name in a.systems.split(","):
         mine = roa_side(name, a.n, a.reps)

@@ -80,10 +80,17 @@ def write(out: str | Path, name: str, system: Any, data: dict[str, Any], basin: 
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
+    from roa.montecarlo.certified_share import share_line
+
+    shares = [dict(e) for e in basin.certified_shares]
     doc = {"example": name, "system": system.name, "states": list(system.state_names), **data,
+           "certified_share": shares,
            "seconds": round(time.perf_counter() - started, 2)}  # fmt: skip
     ax = basin.plot(regions=drawn, title=f"basin of {system.name}")
     atomic_savefig(ax.figure, folder / f"{name}.png", dpi=110, bbox_inches="tight")
     plt.close(ax.figure)
     atomic_write_json(folder / f"{name}.json", doc)
+    for entry in shares:  # how much of the basin slice each region holds
+        print(f"{name}: {share_line(entry)}")
+    print(f"{name}: wrote {folder / (name + '.json')} and {folder / (name + '.png')}")
     return json.loads(to_json(doc))

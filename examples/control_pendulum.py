@@ -8,7 +8,7 @@ a = -K x (it traces the numpy updfcn into an expression roa evaluates with inter
 against the updfcn). The model holds while the pendulum is above the horizontal (|theta| < pi/2,
 the domain), where the cart's acceleration loses its grip (cos(theta) -> 0).
 
-Needs python-control: ``pip install roa[control]``.
+Needs python-control: ``pip install ".[control]"`` in a clone of roa (or ``pip install control``).
 
     python examples/control_pendulum.py [--quick] [--out results-examples]
 """

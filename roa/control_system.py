@@ -28,7 +28,7 @@ Claims and assumptions:
 * ``K``, ``equilibrium`` and ``u_eq`` must be real: a complex entry with a nonzero imaginary part
   is an input error (never its real part taken).
 * ``params`` of the model are fixed at their values when the system is built.
-* ``control`` is imported only by :meth:`System.from_control` (``pip install roa[control]``);
+* ``control`` is imported only by :meth:`System.from_control` (``pip install control``);
   :func:`closed_loop` needs no python-control.
 """
 
@@ -444,7 +444,7 @@ def from_control(
         import control
     except ImportError:
         raise RoaInputError(
-            "System.from_control needs python-control: pip install 'roa[control]'"
+            "System.from_control needs python-control: pip install control"
         ) from None
     if not isinstance(sys, control.NonlinearIOSystem):
         raise RoaInputError(

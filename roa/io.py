@@ -25,8 +25,12 @@ from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+#: The distribution name of this package (pyproject's ``[project] name``); its import name is
+#: ``roa``. The distribution "roa" on PyPI is an unrelated project, so it is never looked up.
+DISTRIBUTION = "roa-verify"
+
 PACKAGES = (
-    "roa",
+    DISTRIBUTION,
     "numpy",
     "scipy",
     "sympy",
@@ -276,15 +280,22 @@ def git_revision() -> str | None:
 
 
 def package_versions() -> dict[str, str | None]:
+    """Installed versions of Python, the platform and :data:`PACKAGES` (None when not installed).
+
+    This package is reported under ``"roa"`` with the version of the distribution
+    :data:`DISTRIBUTION` (None when ``roa`` runs from a source tree that is not installed): an
+    unrelated distribution named ``roa`` is never reported as this one.
+    """
     versions: dict[str, str | None] = {
         "python": sys.version.split()[0],
         "platform": platform.platform(),
     }
     for name in PACKAGES:
+        key = "roa" if name == DISTRIBUTION else name
         try:
-            versions[name] = metadata.version(name)
+            versions[key] = metadata.version(name)
         except metadata.PackageNotFoundError:
-            versions[name] = None
+            versions[key] = None
     return versions
 
 

@@ -315,7 +315,7 @@ class System:
 
         The analysed field (traced or ``field=``) is checked against ``updfcn`` on numpy at
         sample points around ``x_eq`` (:mod:`roa.control_system`); a difference is an error.
-        Needs ``pip install roa[control]``.
+        Needs python-control (``pip install control``, or ``pip install ".[control]"`` in a clone).
 
         Examples
         --------

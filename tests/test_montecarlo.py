@@ -239,7 +239,6 @@ def test_cli_basin_json(capsys):
         (["--system", "ipc:saturation=x", "--samples", "10"], "NAME=NUMBER"),
         (["--samples", "0"], "--samples must be >= 1"),
         (["--samples", "10", "--jobs", "0"], "--jobs must be"),
-        (["--system", "vanderpol", "--samples", "10", "--lyapunov-level", "1"], "--plot"),
         (["--samples", "10", "--plot", "x.png"], "--plot draws a slice"),
     ],
 )

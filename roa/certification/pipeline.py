@@ -49,6 +49,7 @@ from roa.errors import RoaInputError
 from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
 from roa.options import BNB_DIM, IntervalOptions, SampledOptions, SosOptions, VsOptions
+from roa.parameters import ParameterBox
 from roa.progress import step
 from roa.proof.validation import Validation
 from roa.status import Verdict
@@ -269,6 +270,11 @@ def run(
         return Certificate(seconds=time.perf_counter() - t0, system=system, V=V,
                            trace=tuple(trace), **kw)  # fmt: skip
 
+    local = _not_locally_negative(system, V)
+    if local is not None and not any(isinstance(p, GivenLevel) for p in proposers):
+        trace.append({"stage": "linearisation", "parameters": local[0], "max_eig": local[1]})
+        return done(status=Verdict.INCONCLUSIVE, level=None, method="linearisation",
+                    level_source=None, message=local[2])  # fmt: skip
     if system.parameters:  # levels proposed at the box's sample points, the lowest first
         proposers = [p if isinstance(p, GivenLevel | CandidateLevel | WorstCase) else WorstCase(p)
                      for p in proposers]  # fmt: skip
@@ -353,6 +359,8 @@ def run(
     if skipped and not given:
         message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
                    f"sampled search, checked by the validator. {message}")  # fmt: skip
+    if local is not None:  # a given level: the validator's verdict, and why
+        message = f"{local[2]}. {message}"
     if given and not fresh:
         return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                     level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
@@ -362,6 +370,32 @@ def run(
                 message=message, candidate=opt,
                 safety_factor=None if choose is not None else factor, validation=v,
                 above=above, sos=sos_res, search=prop.search)  # fmt: skip
+
+
+def _not_locally_negative(
+    system: System, V: Lyapunov
+) -> tuple[dict[str, float], float, str] | None:
+    """For a parameter box: the first sample point where V' is not negative definite at the
+    equilibrium (:func:`roa.lyapunov.defaults.worst_linearisation`), its eigenvalue and a message
+    saying so (as ``roa khalil`` does); None when there is none or no box. At such a point no
+    level > 0 holds for this V (V' >= 0 arbitrarily close to the equilibrium, or, for a zero
+    eigenvalue, nothing from the linearisation)."""
+    from roa.lyapunov.defaults import worst_linearisation
+    from roa.parameters import describe_point
+
+    if not system.parameters:
+        return None
+    worst = worst_linearisation(system, V)
+    if worst is None:
+        return None
+    p, lam = worst
+    message = (
+        f"V' is not negative definite at the equilibrium for {describe_point(p)} (largest "
+        f"eigenvalue of A'P + PA = {lam:.4g} >= 0 for the linearisation there): no level > 0 "
+        f"for this V over the box ({ParameterBox.of(system).describe()}); a V designed for the "
+        "box: omit V (the default then solves common Lyapunov LMIs at the box's points)"
+    )
+    return p, lam, message
 
 
 def _propose(

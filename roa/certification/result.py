@@ -43,7 +43,9 @@ class Certificate:
         The level that was validated (or the SOS candidate with ``method="sos"``).
     method : str
         What produced the verdict: ``"interval"``, ``"sos"`` (an unchecked candidate: never
-        certified) or ``"level search"`` (no candidate was found).
+        certified), ``"level search"`` (no candidate was found) or ``"linearisation"`` (a system
+        with uncertain parameters whose V' is not negative definite at the equilibrium for a
+        sample point of the box: no level > 0; ``message`` names the parameter values).
     level_source : str or None
         Where the level came from: ``"given"``, ``"sos"``, ``"sampled"``, ``"candidate"``,
         ``"witness"`` (chosen again below a confirmed refutation witness) or ``"backoff"`` (a

@@ -90,8 +90,9 @@ def register(sub: argparse._SubParsersAction) -> None:
         metavar="RHO",
         help="draw {V <= RHO} for --lyapunov (any V: a matrix, a polynomial JSON such as the "
         "output of `roa certify --degree D --json`, or file.py:NAME; default the system's V) after "
-        "validating RHO with interval arithmetic (degree and verdict go in the legend); needs "
-        "--plot or --out; repeatable",
+        "validating RHO with interval arithmetic (degree and verdict go in the legend); the "
+        "share of converged points inside it, with a 95 %% interval, is printed and in the JSON "
+        "(certified_share); repeatable",
     )
     p.add_argument(
         "--terminal-set",
@@ -340,8 +341,6 @@ def run(args: argparse.Namespace) -> int:
     plot = args.plot or (
         str(Path(args.out) / "basin.png") if args.out and isinstance(sampler, GridSlice) else None
     )
-    if args.lyapunov_level and not plot:
-        raise RoaInputError("--lyapunov-level draws level sets on the map: give --plot FILE")
     regs = lyapunov_regions(args, system)
     terminal = None
     if args.terminal_set is not None:
@@ -366,7 +365,7 @@ def run(args: argparse.Namespace) -> int:
         return _run_robust(args, system, sampler, rules, integrator, run_opts, terminal, regs,
                            plot)  # fmt: skip
     result = roa.basin(system, sampler, rules=rules, integrator=integrator, run=run_opts,
-                       terminal=terminal, regions=regs if plot else ())  # fmt: skip
+                       terminal=terminal, regions=regs)  # fmt: skip
     summary = result.to_dict()
     cut = result.status is roa.BasinStatus.INCONCLUSIVE
     if cut:
@@ -394,6 +393,10 @@ def run(args: argparse.Namespace) -> int:
               f"(95 % CI {share(lo, 4)}-{share(hi, 4)})")  # fmt: skip
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
+        from roa.montecarlo.certified_share import share_line
+
+        for entry in summary.get("certified_share", []):
+            print(share_line(entry))
     if cut:
         import sys
 
@@ -435,4 +438,12 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
           f"share {share(summary['converged_share']['mean'], 4)}")  # fmt: skip
     if terminal is not None:
         print(f"terminal set (proved for the whole box): {terminal.name}")
+    from roa.montecarlo.certified_share import share_line
+
+    for entry in summary.get("certified_share", []):  # over the worst case
+        print(
+            share_line(entry).replace(
+                "the converged points", "the points converging for every sampled value"
+            )
+        )
     return 0

@@ -26,7 +26,10 @@ def register(sub: argparse._SubParsersAction) -> None:
             "Only an interval validation gives status 'certified'. Exit code 0 iff certified. "
             "For a system with uncertain parameters (--param NAME=LOW..HIGH, or declared by the "
             "system) the level holds for every parameter of the box (--nominal: the nominal "
-            "values only); a refutation names the parameter values of its witness."
+            "values only); a refutation names the parameter values of its witness. Without "
+            "--lyapunov, a V designed for the box (common Lyapunov LMIs at its vertices and grid "
+            "points) replaces the system's own V where that fails at the linearisation for some "
+            "parameter value; a given V that fails there is reported with that value."
         ),
     )
     C.add_system(p, lyapunov=True)

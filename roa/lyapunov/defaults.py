@@ -29,6 +29,15 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
     ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix), else
     ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium.
 
+    For a system with uncertain parameters, that candidate (at the nominal values) is kept when
+    ``A(p)'P + PA(p) < 0`` at every sample point ``p`` of the box (nominal value, vertices and
+    three points along each axis, :func:`roa.parameters.sample_points`). Otherwise it is not a
+    Lyapunov function at some parameter value, and the candidate is designed for the box: ``P``
+    of the common Lyapunov LMIs at those points (:func:`roa.search.box_lyapunov.box_lyapunov`), when
+    they are feasible (else the nominal candidate, whose failure the analyses then report). Either
+    is only a candidate: the level of ``{V <= level}`` is decided for every parameter of the box by
+    :func:`roa.certify`.
+
     Examples
     --------
     >>> import roa
@@ -42,9 +51,39 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
 
     check_system(system)  # a malformed field or a false equilibrium: a clear error first
     if system.lyapunov is not None:
-        return QuadraticLyapunov.for_system(system, system.lyapunov, name=f"{system.name} V")
-    from roa.linearisation import lyapunov_matrix
+        V = QuadraticLyapunov.for_system(system, system.lyapunov, name=f"{system.name} V")
+    else:
+        from roa.linearisation import lyapunov_matrix
 
-    return QuadraticLyapunov.for_system(
-        system, lyapunov_matrix(system), name="P from A'P + PA = -I"
-    )
+        at = system.nominal() if system.parameters else system
+        V = QuadraticLyapunov.for_system(system, lyapunov_matrix(at), name="P from A'P + PA = -I")
+    if system.parameters and worst_linearisation(system, V) is not None:
+        from roa.search.box_lyapunov import box_lyapunov
+
+        res = box_lyapunov(system)
+        if res.feasible and res.P is not None:
+            where = "vertices" if res.affine else f"{len(res.points)} points"
+            return QuadraticLyapunov.for_system(
+                system, res.P, name=f"P from common Lyapunov LMIs at the box's {where}"
+            )
+    return V
+
+
+def worst_linearisation(
+    system: System, V: Lyapunov, per_axis: int = 3
+) -> tuple[dict[str, float], float] | None:
+    """The first sample point ``p`` of ``system``'s parameter box (nominal value, vertices and
+    ``per_axis`` points along each axis) where ``V'`` is not negative definite at the equilibrium
+    (largest eigenvalue of ``A(p)'P + PA(p)`` >= 0, ``P`` half the Hessian of V at its centre), with
+    that eigenvalue; None when there is none, or when the system has no uncertain parameters. A
+    check at those points only: nothing is claimed between them."""
+    if not system.parameters:
+        return None
+    from roa.levelset_core import locally_negative
+    from roa.parameters import sample_points
+
+    for p in sample_points(system, per_axis=per_axis):
+        ok, lam = locally_negative(system.at(**p), V)
+        if not ok:
+            return p, lam
+    return None

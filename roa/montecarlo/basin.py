@@ -18,6 +18,7 @@ import numpy as np
 from roa.checks import check_system
 from roa.errors import RoaInputError
 from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo.certified_share import certified_shares
 from roa.montecarlo.engine import converged_interval, run_basin
 from roa.montecarlo.sampling import GridSlice
 from roa.montecarlo.terminal import TerminalSet
@@ -52,6 +53,11 @@ class BasinResult:
         What integrated the runs: ``numba`` (the system's own compiled field), ``numba-generated``
         (a kernel compiled from its traced field, :mod:`roa.montecarlo.kernel_cache`) or
         ``numpy``; ``backend_note`` says why a field was not compiled.
+    certified_shares : tuple of dict
+        Per region given to :func:`basin` and for the terminal set: the share of the converged
+        initial conditions inside it, with its 95 % Clopper-Pearson interval, over the slice or
+        the sampled n-dimensional box (:mod:`roa.montecarlo.certified_share`, which says what the
+        interval means for each). Empty without regions or terminal set.
     """
 
     status: BasinStatus
@@ -75,6 +81,7 @@ class BasinResult:
     regions: tuple[Any, ...] = field(default=(), repr=False, compare=False)
     backend: str = "numpy"
     backend_note: str | None = None
+    certified_shares: tuple[dict[str, Any], ...] = field(default=(), compare=False)
 
     def to_dict(self) -> dict[str, Any]:
         """What ``roa basin --json`` prints (with the command's description of the samples)."""
@@ -108,6 +115,8 @@ class BasinResult:
                if hasattr(self.sampler, "describe") else {}),
             **({"regions": [region_entry(r, self.sampler, self.code) for r in self.regions]}
                if self.regions else {}),
+            **({"certified_share": [dict(e) for e in self.certified_shares]}
+               if self.certified_shares else {}),
         }  # fmt: skip
 
     def plot(self, ax: Any = None, *, regions: Any = (), title: str | None = None) -> Any:
@@ -163,8 +172,10 @@ def basin(
         certified and for this system or its analysis coordinates): runs that enter it stop as
         converged, counted in ``entered_certified_set`` (:mod:`roa.montecarlo.terminal`).
     regions : sequence of Region, optional
-        Estimates to compare with the basin on a :func:`grid_slice` (``regions`` of
-        :meth:`BasinResult.to_dict`: the grid points inside each and whether all converged).
+        Estimates to compare with the basin: on a :func:`grid_slice` the grid points inside
+        each and whether all converged (``regions`` of :meth:`BasinResult.to_dict`); on any
+        sampler the share of converged initial conditions inside each, and inside the terminal
+        set, with a 95 % interval (``certified_shares``, JSON ``certified_share``).
 
     Examples
     --------
@@ -250,6 +261,7 @@ def basin(
         tuple(regions),
         str(res.meta.get("backend", "numpy")),
         res.meta.get("backend_note"),
+        certified_shares(regions, terminal, system, sampler, res.code),
     )
 
 

@@ -182,7 +182,9 @@ class RobustBasinResult:
                         "fraction_converged_ci95": list(r.ci95),
                         "entered_certified_set": r.entered_certified_set,
                         "chunks_computed": r.chunks_computed, "chunks_resumed": r.chunks_resumed,
-                        "chunks_rejected": r.chunks_rejected, "backend": r.backend})  # fmt: skip
+                        "chunks_rejected": r.chunks_rejected, "backend": r.backend,
+                        **({"certified_share": [dict(e) for e in r.certified_shares]}
+                           if r.certified_shares else {})})  # fmt: skip
         box = {k: {"low": u.low, "nominal": u.nominal, "high": u.high}
                for k, u in self.system.parameters.items()}  # fmt: skip
         out: dict[str, Any] = {
@@ -230,6 +232,23 @@ class RobustBasinResult:
         }  # fmt: skip
         if self.regions:
             out["regions"] = [self._region_entry(r) for r in self.regions]
+        shares = self.certified_shares()
+        if shares:
+            out["certified_share"] = shares
+        return out
+
+    def certified_shares(self) -> list[dict[str, Any]]:
+        """Per region and for the terminal set: the share of the initial conditions converging
+        for every sampled parameter value (the worst case) that lie inside it, with its 95 %
+        Clopper-Pearson interval (:mod:`roa.montecarlo.certified_share`; ``converged`` counts
+        the worst case's points). Each sample's own shares are in ``per_parameter``."""
+        from roa.montecarlo.certified_share import certified_shares
+
+        code = np.where(self.worst_case, I.CONVERGED, I.DIVERGED)
+        out = [dict(e) for e in certified_shares(self.regions, self.terminal, self.system,
+                                                 self.sampler, code)]  # fmt: skip
+        for e in out:
+            e["meaning"] = "among the initial conditions converging for every sampled value"
         return out
 
     def _region_entry(self, region: Any) -> dict[str, Any]:
@@ -308,7 +327,7 @@ def robust_basin(
         sub = run if run.out_dir is None else replace(
             run, out_dir=str(Path(run.out_dir) / f"param_{s.index:03d}"))  # fmt: skip
         runs.append(basin(system.at(**s.values), sampler, rules=rules, integrator=integrator,
-                          run=sub, terminal=terminal))  # fmt: skip
+                          run=sub, terminal=terminal, regions=regions))  # fmt: skip
     worst = np.all(np.stack([r.code for r in runs]) == I.CONVERGED, axis=0)
     k = int(np.count_nonzero(worst))
     n = worst.size

@@ -77,6 +77,33 @@ def _label(system: System, i: int) -> str:
     return f"{system.state_names[i]} [{unit_text(unit)}]"
 
 
+#: Equal aspect only up to this ratio of the axes' spans (beyond, the map would be a thin strip).
+MAX_EQUAL_ASPECT = 8.0
+
+
+def shared_units(system: System, ia: int, ib: int) -> bool:
+    """Whether slice axes ``ia`` and ``ib`` are declared with the same unit (both dimensionless
+    ``"1"``/``"-"`` counts as the same; an undeclared or empty unit never does)."""
+    units = system.state_units
+    if max(ia, ib) >= len(units) or not units[ia] or not units[ib]:
+        return False
+    return unit_text(units[ia]) == unit_text(units[ib])
+
+
+def set_equal_aspect(ax: Any, system: System, grid: GridSlice, extent: Sequence[float]) -> bool:
+    """One unit is as long on both axes (``ax.set_aspect("equal")``) when the slice's axes share
+    their unit (:func:`shared_units`) and their spans differ by at most
+    :data:`MAX_EQUAL_ASPECT`; returns whether it was set."""
+    ia, ib = grid.axes
+    wx, wy = extent[1] - extent[0], extent[3] - extent[2]
+    if not shared_units(system, ia, ib) or not (wx > 0 and wy > 0):
+        return False
+    if max(wx / wy, wy / wx) > MAX_EQUAL_ASPECT:
+        return False
+    ax.set_aspect("equal", adjustable="box")
+    return True
+
+
 def kind_text(region: Region) -> str:
     """What V a region is a level set of, in words: ``quadratic``, ``degree-4 polynomial``, or
     the candidate's class for any other V."""
@@ -300,6 +327,7 @@ def draw_slice(
     x0, x1, y0, y1 = _extent(grid)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
+    set_equal_aspect(ax, system, grid, (x0, x1, y0, y1))
     ax.set_xlabel(_label(system, ia))
     ax.set_ylabel(_label(system, ib))
     fixed = _fixed_text(system, grid)
@@ -367,6 +395,7 @@ def slice_figure(
             subtitle += " (zoomed in)"
         ax.set_xlim(x0, x1)
         ax.set_ylim(y0, y1)
+        set_equal_aspect(ax, system, grid, (x0, x1, y0, y1))
         ax.set_xlabel(labels[ia])
         ax.set_ylabel(labels[ib])
         ax.set_title(subtitle, fontsize=10, loc="left")

@@ -21,7 +21,14 @@ from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
 from roa.parameters import ParameterBox
-from roa.plotting.basin import _extent, _fixed_text, _label, draw_regions, save_figure
+from roa.plotting.basin import (
+    _extent,
+    _fixed_text,
+    _label,
+    draw_regions,
+    save_figure,
+    set_equal_aspect,
+)
 from roa.regions import Region
 
 __all__ = ["robust_figure", "save_figure", "terminal_region", "WORST_COLOURS"]
@@ -85,6 +92,7 @@ def robust_figure(result: Any, *, title: str | None = None) -> Any:
         lines = draw_regions(ax, grid, regions)
         ax.set_xlim(extent[0], extent[1])
         ax.set_ylim(extent[2], extent[3])
+        set_equal_aspect(ax, system, grid, extent)
         ax.set_xlabel(_label(system, ia))
         ax.set_ylabel(_label(system, ib))
     handles += lines

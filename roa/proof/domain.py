@@ -175,13 +175,6 @@ def _boundary_points(system: System, V: Lyapunov, n_dirs: int, seed: int) -> np.
     return c + t_hi[:, None] * dirs
 
 
-def recheck_outside(system: System, V: Lyapunov, x: np.ndarray, level: float) -> dict[str, Any]:
-    """``V(x) <= level`` and ``margin(x) <= 0`` at 50 digits (``x`` taken exactly)."""
-    from roa.proof.witness import recheck_domain_witness
-
-    return recheck_domain_witness(system, V, x, level)
-
-
 def domain_witness(
     system: System, V: Lyapunov, *, n_dirs: int = 400, seed: int = 0
 ) -> tuple[float, np.ndarray, dict[str, Any]] | None:
@@ -193,7 +186,7 @@ def domain_witness(
     from scipy.optimize import minimize
 
     from roa.proof.cover import connected_to_center
-    from roa.proof.witness import WITNESS_SLACK
+    from roa.proof.witness import WITNESS_SLACK, recheck_domain_witness
 
     if system.margin is None:
         return None
@@ -222,7 +215,7 @@ def domain_witness(
             if not (np.isfinite(v) and v > 0) or (best is not None and v >= best[0]):
                 continue
             top = v * WITNESS_SLACK
-            check = recheck_outside(system, V, x, top)
+            check = recheck_domain_witness(system, V, x, top)
             if check["confirmed"] and connected_to_center(V, x, top):
                 best = (v, x, check)
                 break

@@ -134,7 +134,13 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         interval_containment,
         margin_poly,
     )
-    from roa.proof.sos_check import NotPolynomial, parse_basis, parse_eps, parse_matrix
+    from roa.proof.sos_check import (
+        NotPolynomial,
+        exact_terms,
+        parse_basis,
+        parse_eps,
+        parse_matrix,
+    )
 
     where = system.domain_description
     try:
@@ -161,7 +167,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             Q0 = parse_matrix(stored.get("Q0"), len(b0), "domain Q0")
             Q1 = parse_matrix(stored.get("Q1"), len(b1), "domain Q1")
             eps = parse_eps(stored.get("eps"))
-            res = check_domain_certificate(margin_poly(system, V), _vq(V), n, level, eps, b0, Q0,
+            res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps, b0, Q0,
                                            b1, Q1, stored=True)  # fmt: skip
         except (ValueError, TypeError, ZeroDivisionError, NotPolynomial) as exc:
             return refuse("domain", f"malformed domain certificate: {exc}")
@@ -175,11 +181,11 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
     if propose is not None and not recheck and getattr(V, "terms", None) is not None:
         try:
             mq = margin_poly(system, V)
-            cand = propose(mq, _vq(V), V.n, level)
+            cand = propose(mq, exact_terms(V), V.n, level)
             if cand.Q0 is None:
                 why = f"Putinar candidate not found ({cand.solver_status})"
             else:
-                res = check_domain_certificate(mq, _vq(V), V.n, level, cand.eps, cand.basis0,
+                res = check_domain_certificate(mq, exact_terms(V), V.n, level, cand.eps, cand.basis0,
                                                cand.Q0, cand.basis1, cand.Q1)  # fmt: skip
                 if res.ok:
                     return Preconditions(None, {"method": "putinar", **(res.certificate or {})},
@@ -195,10 +201,3 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
     return refuse(
         "domain", f"{{V <= level}} not proved inside the domain ({where}): {detail}", **bound
     )
-
-
-def _vq(V: Lyapunov) -> dict[tuple[int, ...], Any]:
-    from roa.proof.sos_check import exact_fraction
-
-    terms = V.terms or {}
-    return {tuple(int(k) for k in m): exact_fraction(c) for m, c in terms.items() if c != 0}

@@ -73,6 +73,12 @@ def exact_fraction(x: Any) -> Fraction:
     return Fraction(float(x))
 
 
+def exact_terms(V: Any) -> QPoly:
+    """V's terms as exact rationals (the floats taken as the rationals of the doubles)."""
+    terms = getattr(V, "terms", None) or {}
+    return {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
+
+
 def exact_data(system: Any, V: Any) -> ExactData:
     """``V`` and ``V'`` expanded exactly (sympy over the rationals); raises :class:`NotPolynomial`
     for a field that is not polynomial or a V without ``terms``."""
@@ -109,7 +115,7 @@ def exact_data(system: Any, V: Any) -> ExactData:
         ) from None
     if any(p.coeff_monomial(1) != 0 for p in fp):
         raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
-    Vq: QPoly = {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
+    Vq = exact_terms(V)
     Vp = sp.Poly.from_dict(
         {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
     )

@@ -271,8 +271,29 @@ class MLP:
         out = self._raw(x, xp)
         if self.centre is None:
             return out
-        at = self._raw(list(self.centre), xp)
+        at = self._raw(self._centre_in(xp), xp)
         return [a - b for a, b in zip(out, at, strict=True)]
+
+    def _centre_in(self, xp: Any) -> list[Any]:
+        """The centre as constants of ``xp`` that its arithmetic does not round before the
+        network's own operations: sympy Floats (exact doubles, made exact rationals by the exact
+        checks, so ``net(x0)`` is term by term the expression of ``net(x)`` at ``x = x0``), mpmath
+        numbers, point intervals; plain floats elsewhere."""
+        assert self.centre is not None
+        name = getattr(xp, "name", "")
+        if name == "sympy":
+            import sympy as sp
+
+            return [sp.Float(v, 53) for v in self.centre]
+        if name == "mpmath":
+            import mpmath as mp
+
+            return [mp.mpf(v) for v in self.centre]
+        if name in ("interval", "interval-jet"):
+            from roa.proof.interval import Interval
+
+            return [Interval(v) for v in self.centre]
+        return list(self.centre)
 
     def _raw(self, x: list[Any], xp: Any) -> list[Any]:
         name = getattr(xp, "name", "")

@@ -586,3 +586,26 @@ def test_perturbed_weights_make_the_stored_certificate_refuse(tmp_path, capsys):
     assert main(["verify", str(path), "--system", _system_file(tmp_path, weaker), "--json"]) == 1
     out = json.loads(capsys.readouterr().out)
     assert out["status"] == "refuted" and out["claimed_status"] == "certified"
+
+
+def test_sympy_fields_with_tanh_and_a_network_controller_compile_for_monte_carlo():
+    """tanh is a function of from_sympy fields (every namespace evaluates it), and a traced
+    network field (tanh, and relu as Max) compiles to the Monte Carlo kernel's source."""
+    import sympy as sp
+
+    from roa import System
+    from roa.montecarlo.codegen import kernel_source
+    from roa.montecarlo.trace import trace_system
+
+    a, b = sp.symbols("a b", real=True)
+    s = System.from_sympy([b, -sp.tanh(a + b) - b], [a, b])
+    enc = s.field(0.0, [Interval(0.5, 0.6), Interval(-0.1, 0.1)], INTERVAL)[1]
+    for p in ((0.5, -0.1), (0.6, 0.1), (0.55, 0.0)):
+        want = -np.tanh(p[0] + p[1]) - p[1]
+        assert float(enc.lo) <= want <= float(enc.hi)
+    for name in ("SYSTEM", "SYSTEM_RELU"):
+        system = getattr(_example(), name)
+        text = kernel_source(trace_system(system), system_name=name, stamp="test")
+        assert ("np.tanh" in text) == (name == "SYSTEM") and ("np.maximum" in text) == (
+            name != "SYSTEM"
+        )

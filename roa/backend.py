@@ -7,6 +7,14 @@ is one of the namespaces below. Only the functions listed in :data:`FUNCTIONS` m
 an actuator saturation) and ``abs`` are Lipschitz but not smooth: the interval validation encloses
 them and their generalised derivatives (:mod:`roa.proof.interval`, :mod:`roa.proof.jet`); the SOS
 path, which needs a polynomial field, refuses them.
+
+The activations of neural networks (:data:`ACTIVATIONS`) are in every namespace too:
+``tanh``, ``sigmoid(x) = 1 / (1 + exp(-x))``, ``softplus(x) = log(1 + exp(x))`` (smooth) and
+``relu(x) = max(x, 0)``, ``leaky_relu(x, alpha) = max(x, 0) + alpha min(x, 0)`` (kinked at 0,
+``alpha = 0.01`` by default). numpy evaluates ``sigmoid`` and ``softplus`` in overflow-free forms
+(``softplus(x) = max(x, 0) + log1p(exp(-|x|))``); CasADi, sympy and mpmath write the formulas
+above (sympy: ``Max``/``Min``, ``exp``, ``log``, so traced fields compile to Monte Carlo kernels).
+:class:`roa.nn.MLP` evaluates networks with them.
 """
 
 from __future__ import annotations
@@ -22,10 +30,37 @@ FUNCTIONS = ("sin", "cos", "tan", "sqrt", "arctan", "arcsinh", "arctanh", "exp",
 #: The nonsmooth (piecewise) functions, besides ``abs``: ``minimum(a, b)``, ``maximum(a, b)`` and
 #: ``clip(x, lo, hi)``, each namespace's own (numpy ``np.minimum``, CasADi ``fmin``, sympy ``Min``).
 PIECEWISE = ("minimum", "maximum", "clip")
+#: Activation functions of neural networks (:class:`roa.nn.MLP`); ``leaky_relu(x, alpha=0.01)``.
+ACTIVATIONS = ("tanh", "sigmoid", "relu", "leaky_relu", "softplus")
+#: The default negative slope of ``leaky_relu`` (PyTorch's).
+LEAKY_SLOPE = 0.01
+
+
+def _np_sigmoid(x: Any) -> Any:
+    """``1 / (1 + exp(-x))`` without overflow warnings (``exp(-x) = inf`` gives 0, exactly right)."""
+    with np.errstate(over="ignore"):
+        return 1.0 / (1.0 + np.exp(-np.asarray(x, dtype=float)))
+
+
+def _np_softplus(x: Any) -> Any:
+    """``log(1 + exp(x)) = max(x, 0) + log1p(exp(-|x|))`` (no overflow for large ``x``)."""
+    x = np.asarray(x, dtype=float)
+    return np.maximum(x, 0.0) + np.log1p(np.exp(-np.abs(x)))
+
+
+def _np_leaky_relu(x: Any, alpha: float = LEAKY_SLOPE) -> Any:
+    return np.maximum(x, 0.0) + alpha * np.minimum(x, 0.0)
 
 
 def _numpy() -> SimpleNamespace:
-    ns = {name: getattr(np, name) for name in FUNCTIONS + PIECEWISE}
+    ns: dict[str, Any] = {name: getattr(np, name) for name in FUNCTIONS + PIECEWISE}
+    ns.update(
+        tanh=np.tanh,
+        sigmoid=_np_sigmoid,
+        relu=lambda x: np.maximum(x, 0.0),
+        leaky_relu=_np_leaky_relu,
+        softplus=_np_softplus,
+    )
     ns["name"] = "numpy"
     return SimpleNamespace(**ns)
 
@@ -47,6 +82,11 @@ def _casadi() -> SimpleNamespace:
         "minimum": ca.fmin,
         "maximum": ca.fmax,
         "clip": lambda x, lo, hi: ca.fmin(ca.fmax(x, lo), hi),
+        "tanh": ca.tanh,
+        "sigmoid": lambda x: 1.0 / (1.0 + ca.exp(-x)),
+        "relu": lambda x: ca.fmax(x, 0.0),
+        "leaky_relu": lambda x, alpha=LEAKY_SLOPE: ca.fmax(x, 0.0) + alpha * ca.fmin(x, 0.0),
+        "softplus": lambda x: ca.fmax(x, 0.0) + ca.log1p(ca.exp(-ca.fabs(x))),
         "name": "casadi",
     }
     return SimpleNamespace(**ns)
@@ -69,6 +109,11 @@ def _sympy() -> SimpleNamespace:
         "minimum": sp.Min,
         "maximum": sp.Max,
         "clip": lambda x, lo, hi: sp.Min(sp.Max(x, lo), hi),
+        "tanh": sp.tanh,
+        "sigmoid": lambda x: 1 / (1 + sp.exp(-x)),
+        "relu": lambda x: sp.Max(x, 0),
+        "leaky_relu": lambda x, alpha=LEAKY_SLOPE: sp.Max(x, 0) + alpha * sp.Min(x, 0),
+        "softplus": lambda x: sp.log(1 + sp.exp(x)),
         "name": "sympy",
     }
     return SimpleNamespace(**ns)
@@ -92,6 +137,11 @@ def _mpmath() -> SimpleNamespace:
         "minimum": min,
         "maximum": max,
         "clip": lambda x, lo, hi: min(max(x, lo), hi),
+        "tanh": mp.tanh,
+        "sigmoid": lambda x: 1 / (1 + mp.exp(-x)),
+        "relu": lambda x: max(x, 0),
+        "leaky_relu": lambda x, alpha=LEAKY_SLOPE: max(x, 0) + mp.mpf(alpha) * min(x, 0),
+        "softplus": lambda x: mp.log1p(mp.exp(x)),
         "name": "mpmath",
     }
     return SimpleNamespace(**ns)

@@ -2,7 +2,8 @@
 ``LIBM_ULPS`` ulps of the exact value (``roa.proof.interval`` widens their results by that much).
 
 For every function the interval namespace evaluates with numpy (sin, cos, tan, exp, log, sqrt,
-arctan, arcsinh, arctanh, and power for ``Interval ** p``), numpy's result is compared with a
+arctan, arcsinh, arctanh, tanh and log1p -- the network activations: tanh directly, sigmoid and
+softplus as interval compositions of exp and log1p -- and power for ``Interval ** p``), numpy's result is compared with a
 50-digit mpmath value on many points: random points of every magnitude, near the poles of tan and
 the zeros of sin/cos, huge arguments (1e15 ... 1.7e308, the classic hard case of argument
 reduction), tiny and subnormal arguments, values next to 1 for log, next to +-1 for arctanh, next
@@ -160,6 +161,27 @@ def _points(name: str) -> np.ndarray:
                 [0.0],
             ]
         )
+    if name == "tanh":  # tanh(x) rounds to +-1 from |x| ~ 19.06 on
+        return np.concatenate(
+            [
+                _log_uniform(3000, -320, 308),
+                _rng.uniform(-25, 25, 3000),
+                _near(np.concatenate([_TINY, -_TINY, [0.5, 1.0, 19.06, 20.0, 0.55, 0.549306]]), 3),
+                _near(-np.array([0.5, 1.0, 19.06, 20.0]), 3),
+                [0.0],
+            ]
+        )
+    if name == "log1p":
+        near_minus_one = np.array([-1.0 + j * 2.0**-53 for j in (1, 2, 3, 10, 1000, 10**6)])
+        return np.concatenate(
+            [
+                _log_uniform(3000, -320, 308, signed=False),
+                -_log_uniform(2000, -320, -1e-12, signed=False),
+                _rng.uniform(-1, 1, 2000),
+                _near(np.concatenate([near_minus_one, _TINY, -_TINY, [1.0, np.e - 1, 1e-8]]), 3),
+                [0.0],
+            ]
+        )
     raise AssertionError(name)
 
 
@@ -173,6 +195,8 @@ _FUNCTIONS = {
     "arctan": (np.arctan, mp.atan),
     "arcsinh": (np.arcsinh, mp.asinh),
     "arctanh": (np.arctanh, mp.atanh),
+    "tanh": (np.tanh, mp.tanh),
+    "log1p": (np.log1p, mp.log1p),
 }
 #: The error bound the interval layer assumes (ulps): sqrt is an IEEE operation (1 ulp assumed,
 #: 1/2 guaranteed), everything else LIBM_ULPS.

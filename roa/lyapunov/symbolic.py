@@ -53,6 +53,7 @@ FUNCTIONS = {
     "atan": "arctan",
     "asinh": "arcsinh",
     "atanh": "arctanh",
+    "tanh": "tanh",
     "Abs": "abs",
 }
 

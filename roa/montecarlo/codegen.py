@@ -86,6 +86,12 @@ class _Printer:
             return self._mul(e)
         if e.is_Pow:
             return self._pow(*e.args)
+        if isinstance(e, sp.Min | sp.Max):  # lattice operations, not sympy Functions
+            fn = "np.minimum" if isinstance(e, sp.Min) else "np.maximum"
+            out = self(e.args[0])
+            for a in e.args[1:]:
+                out = f"{fn}({out}, {self(a)})"
+            return out
         if isinstance(e, sp.Function):
             name = type(e).__name__
             if name in FUNCTIONS and len(e.args) == 1:

@@ -24,7 +24,10 @@ import numpy as np
 from roa.errors import RoaInputError
 
 #: Assumed maximal error, in ulps of the exact result, of numpy's transcendental functions
-#: (sin, cos, tan, exp, log, arctan, arcsinh, arctanh, power). Checked by ``tests/test_libm.py``.
+#: (sin, cos, tan, exp, log, log1p, arctan, arcsinh, arctanh, tanh, power). Checked by
+#: ``tests/test_libm.py`` against 50-digit mpmath values. The network activations build on it:
+#: ``tanh`` is numpy's (endpoints widened by it), ``sigmoid`` and ``softplus`` are interval
+#: compositions of ``exp`` and ``log1p`` (each enclosure sound under this assumption alone).
 LIBM_ULPS = 4
 #: Beyond this ``|x|`` the enclosures of sin and cos are ``[-1, 1]`` and tan the whole line: numpy's
 #: values are not used where the argument reduction is hardest (``tests/test_libm.py`` measures
@@ -414,6 +417,105 @@ def iarctanh(x: Any) -> Interval:
     return _monotone(np.arctanh, x)
 
 
+# -- activations of neural networks ----------------------------------------------------------------
+def itanh(x: Any) -> Interval:
+    """Enclosure of ``tanh(x)``: increasing, numpy's endpoint values widened by :data:`LIBM_ULPS`
+    ulps, intersected with ``[-1, 1]``."""
+    out = _monotone(np.tanh, x)
+    return Interval(np.fmax(out.lo, -1.0), np.fmin(out.hi, 1.0))
+
+
+def ilog1p(x: Any) -> Interval:
+    """Enclosure of ``log(1 + x)`` (increasing; numpy's ``log1p`` within :data:`LIBM_ULPS` ulps);
+    ``-inf`` below where ``x`` reaches -1, the whole line if ``x <= -1``."""
+    x = Interval.of(x)
+    out = _monotone(np.log1p, Interval(np.maximum(x.lo, -1.0), np.maximum(x.hi, -1.0)))
+    return Interval(np.where(x.lo <= -1, -_INF, out.lo), np.where(x.hi <= -1, _INF, out.hi))
+
+
+def isigmoid(x: Any) -> Interval:
+    """Enclosure of ``sigmoid(x) = 1 / (1 + exp(-x))``, intersected with ``[0, 1]``.
+
+    The interval expression has one occurrence of ``x`` and is increasing in it, so it is the
+    range up to the outward rounding of ``exp`` (:data:`LIBM_ULPS`), ``+`` and ``1 /``: a few ulps,
+    also relative to tiny values (``sigmoid(-40) ~ 4e-18``), unlike ``(1 + tanh(x / 2)) / 2``.
+    """
+    x = Interval.of(x)
+    out = (1.0 + iexp(-x)).reciprocal()
+    return Interval(np.clip(out.lo, 0.0, 1.0), np.clip(out.hi, 0.0, 1.0))
+
+
+def isoftplus(x: Any) -> Interval:
+    """Enclosure of ``softplus(x) = log(1 + exp(x))`` (increasing): at each endpoint ``p`` the
+    interval value of ``max(p, 0) + log1p(exp(-|p|))`` (no overflow), and at least ``max(x, 0)``."""
+    x = Interval.of(x)
+
+    def at(p: np.ndarray) -> Interval:
+        e = iexp(-iabs(Interval(p)))
+        return np.maximum(p, 0.0) + ilog1p(Interval(np.fmax(e.lo, 0.0), np.fmin(e.hi, 1.0)))
+
+    a, b = at(x.lo), at(x.hi)
+    return Interval(np.fmax(a.lo, np.maximum(x.lo, 0.0)), b.hi)
+
+
+def irelu(x: Any) -> Interval:
+    """Enclosure of ``relu(x) = max(x, 0)`` (exact)."""
+    return imaximum(x, 0.0)
+
+
+def ileaky_relu(x: Any, alpha: float = 0.01) -> Interval:
+    """Enclosure of ``max(x, 0) + alpha min(x, 0)``: exact where ``x >= 0``, ``alpha x`` rounded
+    outward below 0 (increasing for ``alpha >= 0``: endpoint values; any other ``alpha`` by the
+    interval composition)."""
+    x = Interval.of(x)
+    alpha = float(alpha)
+    if not alpha >= 0:
+        return imaximum(x, 0.0) + iminimum(x, 0.0) * alpha
+    with np.errstate(invalid="ignore", over="ignore"):
+        lo = np.where(x.lo >= 0, x.lo, round_down(alpha * np.minimum(x.lo, 0.0)))
+        hi = np.where(x.hi >= 0, x.hi, round_up(alpha * np.minimum(x.hi, 0.0)))
+    return Interval(lo, hi)
+
+
+#: The unit roundoff of round-to-nearest doubles.
+_U = 2.0**-53
+
+
+def interval_affine(W: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray) -> Interval:
+    """Enclosure of ``W x + b`` for ``x`` in the boxes ``[lo, hi]`` (shape ``(k, m)``: ``k`` inputs,
+    ``m`` boxes), as two matrix products; returns intervals of shape ``(rows of W, m)``.
+
+    With ``W = W+ + W-`` (positive and negative parts) the exact range is
+    ``[W+ lo + W- hi + b, W+ hi + W- lo + b]``. Each bound is one dot product of length
+    ``p = 2 k + 1`` (``[W+, W-, b] . [lo, hi, 1]``), computed in round-to-nearest in any order
+    (BLAS, FMA or not): its error is at most ``gamma_p sum |terms| + p eta`` with
+    ``gamma_p = p u / (1 - p u)``, ``u = 2^-53`` and ``eta = 2^-1074`` (Higham, *Accuracy and
+    Stability of Numerical Algorithms*, 2nd ed., (3.5) with underflow). The computed sum of
+    ``|terms|`` is itself within ``gamma_p`` of the exact one, so ``2 gamma_p`` times it (``p u <
+    0.01`` here) plus ``(p + 2) 2^-1022`` bounds the error; the bound is subtracted (added) with
+    :func:`round_down` (:func:`round_up`). Infinite box bounds give NaN, read as "no bound".
+    """
+    W = np.asarray(W, dtype=float)
+    b = np.asarray(b, dtype=float)
+    k = W.shape[1]
+    p = 2 * k + 1
+    if not p * _U < 0.01:
+        raise RoaInputError(f"interval_affine: {k} inputs is too many for the error bound")
+    gamma = p * _U / (1.0 - p * _U)
+    Wp, Wn = np.maximum(W, 0.0), np.minimum(W, 0.0)
+    A = np.concatenate([Wp, Wn], axis=1)  # exact: the parts are entries of W or 0
+    absA = np.abs(A)
+    with np.errstate(invalid="ignore", over="ignore"):
+        X_lo = np.concatenate([lo, hi], axis=0)  # [lo, hi]: W+ lo + W- hi, the lower bound
+        X_hi = np.concatenate([hi, lo], axis=0)
+        out = []
+        for X, down in ((X_lo, True), (X_hi, False)):
+            s = A @ X + b[:, None]
+            err = (absA @ np.abs(X) + np.abs(b)[:, None]) * (2.0 * gamma) + (p + 2) * _TINY
+            out.append(round_down(s - err) if down else round_up(s + err))
+    return Interval(out[0], out[1])
+
+
 INTERVAL = SimpleNamespace(
     name="interval",
     sqrt=isqrt,
@@ -426,6 +528,11 @@ INTERVAL = SimpleNamespace(
     arctan=iarctan,
     arcsinh=iarcsinh,
     arctanh=iarctanh,
+    tanh=itanh,
+    sigmoid=isigmoid,
+    relu=irelu,
+    leaky_relu=ileaky_relu,
+    softplus=isoftplus,
     minimum=iminimum,
     maximum=imaximum,
     clip=iclip,

@@ -31,12 +31,16 @@ from roa.proof.interval import (  # noqa: F401
     iclip,
     icos,
     iexp,
+    ileaky_relu,
     ilog,
     imaximum,
     iminimum,
+    isigmoid,
     isin,
+    isoftplus,
     isqrt,
     itan,
+    itanh,
     round_down,
     round_up,
 )
@@ -346,7 +350,7 @@ class Jet:
         )
 
 
-# -- nonsmooth functions: min, max, clip, abs ---------------------------------------------------------
+# -- nonsmooth functions: min, max, clip, abs, relu, leaky_relu -------------------------------------
 # On a box where the branch is decided (e.g. a <= b everywhere for min(a, b)) the function *is* one
 # branch, a smooth composition, and takes that branch's jet. Elsewhere (the box straddles the kink):
 #
@@ -393,7 +397,8 @@ def _kink(name: str) -> None:
 
 def nonsmooth(expression: Callable[[], Any]) -> bool:
     """Whether evaluating ``expression()`` (on jets) meets a nonsmooth function (min, max, clip,
-    abs): its jets are then worth centring (:meth:`Jet.variables`). No state outlives the call."""
+    abs, relu, leaky_relu): its jets are then worth centring (:meth:`Jet.variables`). No state
+    outlives the call."""
     seen: list[str] = []
     token = _KINKS.set(seen)
     try:
@@ -477,6 +482,50 @@ def jabs(x: Any) -> Any:
     return _branch(x, -x, r.lo >= 0, r.hi <= 0, iabs(r), c)
 
 
+def jrelu(x: Any) -> Any:
+    """``relu(x) = max(x, 0)`` for jets: the jet of ``x`` where ``x >= 0`` on the box, the zero
+    jet where ``x <= 0``, else the kink (gradient ``[0, 1]`` times ``x``'s, Hessian unbounded)."""
+    if not isinstance(x, Jet):
+        return imaximum(x, 0.0)
+    return jmaximum(x, 0.0)
+
+
+def jleaky_relu(x: Any, alpha: float = 0.01) -> Any:
+    """``max(x, 0) + alpha min(x, 0)`` for jets: ``x`` where ``x >= 0`` on the box, ``alpha x``
+    where ``x <= 0``, else the kink (the hull of ``1`` and ``alpha`` times ``x``'s gradient: the
+    generalised gradient; Hessian unbounded)."""
+    if not isinstance(x, Jet):
+        return ileaky_relu(x, alpha)
+    _kink("leaky_relu")
+    r = x.range()
+    c = None if x.c is None else ileaky_relu(x.c, alpha)
+    return _branch(x, x * float(alpha), r.lo >= 0, r.hi <= 0, ileaky_relu(r, alpha), c)
+
+
+def _dtanh(v: Interval) -> Interval:
+    """``tanh' = 1 - tanh^2`` in ``[0, 1]``."""
+    t = itanh(v)
+    d = 1.0 - t.square()
+    return Interval(np.fmax(d.lo, 0.0), np.fmin(d.hi, 1.0))
+
+
+def _d2tanh(v: Interval) -> Interval:
+    """``tanh'' = -2 tanh (1 - tanh^2)``."""
+    return -2.0 * itanh(v) * _dtanh(v)
+
+
+def _dsigmoid(v: Interval) -> Interval:
+    """``sigmoid' = sigmoid (1 - sigmoid) = (1 - tanh(x / 2)^2) / 4`` in ``[0, 1/4]`` (one
+    occurrence of the argument: no dependency loss)."""
+    d = _dtanh(v * 0.5) * 0.25
+    return Interval(np.fmax(d.lo, 0.0), np.fmin(d.hi, 0.25))
+
+
+def _d2sigmoid(v: Interval) -> Interval:
+    """``sigmoid'' = sigmoid' (1 - 2 sigmoid) = -tanh(x / 2) (1 - tanh(x / 2)^2) / 4``."""
+    return -0.25 * itanh(v * 0.5) * _dtanh(v * 0.5)
+
+
 def _jet_fn(f0: Any, f1: Any, f2: Any) -> Any:
     def fn(x: Any) -> Any:
         if isinstance(x, Jet):
@@ -515,5 +564,10 @@ JET = SimpleNamespace(
     tan=_jet_fn(
         itan, lambda v: 1.0 + itan(v).square(), lambda v: 2.0 * itan(v) * (1.0 + itan(v).square())
     ),
+    tanh=_jet_fn(itanh, _dtanh, _d2tanh),
+    sigmoid=_jet_fn(isigmoid, _dsigmoid, _d2sigmoid),
+    softplus=_jet_fn(isoftplus, isigmoid, _dsigmoid),
+    relu=jrelu,
+    leaky_relu=jleaky_relu,
 )
 """Jet namespace (first/second-order interval AD) for the functions of :mod:`roa.backend` it supports."""

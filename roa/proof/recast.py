@@ -399,6 +399,13 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
         raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
+    other = sorted({str(a) for fi in f for a in fi.atoms(sp.Function, sp.Min, sp.Max)
+                    if not isinstance(a, sp.sin | sp.cos)}, key=len)  # fmt: skip
+    if other:  # refused before any expansion (a network's expression would take very long)
+        named = ", ".join(t if len(t) <= 60 else t[:57] + "..." for t in other[:3])
+        more = f" and {len(other) - 3} more" if len(other) > 3 else ""
+        raise NotPolynomial(f"cannot recast {named}{more} in the field (sin/cos of states and "
+                            "rational terms only)")  # fmt: skip
     trig = set().union(*(fi.atoms(sp.sin, sp.cos) for fi in f))
     angles = sorted({d.index(a.args[0]) for a in trig if a.args[0] in d})
     if any(a.args[0] not in d for a in trig):

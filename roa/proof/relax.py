@@ -50,7 +50,9 @@ network (and it brings PyTorch); the bound propagation needed here is a few hund
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+import contextlib
+import contextvars
+from collections.abc import Callable, Iterator, Sequence
 from types import SimpleNamespace
 from typing import Any
 
@@ -284,48 +286,75 @@ class Fn:
         self.f, self.df, self.kinks = f, df, kinks
 
 
+def _offsets(
+    fn: Fn, a: np.ndarray, ls: np.ndarray, us: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Proved ``(b_lo, b_hi)`` with ``b_lo <= f(z) - a z <= b_hi`` on ``[ls, us]`` (module doc)."""
+    A = Interval(a)
+    if fn.kinks is not None:
+        pts = [ls, us] + [np.clip(k, ls, us) for k in fn.kinks()]
+        at = [fn.f(Interval(p)) - Interval(p) * A for p in pts]
+        return np.minimum.reduce([e.lo for e in at]), np.maximum.reduce([e.hi for e in at])
+    assert fn.df is not None
+    t = np.linspace(0.0, 1.0, PIECES + 1)
+    edges = [ls + (us - ls) * s for s in t]
+    edges[0], edges[-1] = ls, us  # consecutive pieces share their ends: they cover [ls, us]
+    b_lo, b_hi = np.full(ls.shape, np.inf), np.full(ls.shape, -np.inf)
+    for k in range(PIECES):
+        lo_k = np.minimum(edges[k], edges[k + 1])
+        hi_k = np.maximum(edges[k], edges[k + 1])
+        P = Interval(lo_k, hi_k)
+        Pc = Interval(0.5 * lo_k + 0.5 * hi_k)
+        g = fn.f(Pc) - Pc * A + (fn.df(P) - A) * (P - Pc)
+        g = Interval(np.fmax(g.lo, (fn.f(P) - P * A).lo), g.hi)
+        b_lo, b_hi = np.minimum(b_lo, g.lo), np.maximum(b_hi, g.hi)
+    return b_lo, b_hi
+
+
 def relax(fn: Fn, l: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
     """Float slopes and proved offsets ``(a_lo, b_lo, a_hi, b_hi)`` with
     ``a_lo z + b_lo <= f(z) <= a_hi z + b_hi`` for ``z`` in ``[l, u]`` (elementwise, any shape;
-    module doc). Non-finite data give slope 0 and the interval range of ``f``."""
+    module doc). Candidate slopes: the chord's, and the derivatives at both ends and the centre
+    (smooth ``f``) or 0 and 1 (piecewise linear); per element and side the line with the best
+    mean over ``[l, u]``. Non-finite data give slope 0 and the interval range of ``f``."""
     l, u = np.asarray(l, dtype=float), np.asarray(u, dtype=float)
     fin = np.isfinite(l) & np.isfinite(u)
     ls, us = np.where(fin, l, 0.0), np.where(fin, u, 0.0)
     with np.errstate(all="ignore"):
         fl, fu = fn.f(Interval(ls)), fn.f(Interval(us))
         w = us - ls
-        a = np.where(w > 0, (0.5 * (fl.lo + fl.hi) - 0.5 * (fu.lo + fu.hi)) / -np.where(w > 0, w, 1),
-                     0.0)  # fmt: skip
-        if fn.df is not None and np.any(w == 0):
-            d0 = fn.df(Interval(ls))
-            a = np.where(w == 0, 0.5 * (d0.lo + d0.hi), a)
-        a = np.where(np.isfinite(a), a, 0.0)
-        if fn.kinks is not None:
-            pts = [ls, us] + [np.clip(k, ls, us) for k in fn.kinks()]
-            at = [fn.f(Interval(p)) - Interval(p) * Interval(a) for p in pts]
-            b_lo = np.minimum.reduce([e.lo for e in at])
-            b_hi = np.maximum.reduce([e.hi for e in at])
+        chord = (0.5 * (fu.lo + fu.hi) - 0.5 * (fl.lo + fl.hi)) / np.where(w > 0, w, 1.0)
+        cands = [np.where(w > 0, chord, 0.0)]
+        if fn.df is not None:
+            for p in (ls, us, 0.5 * ls + 0.5 * us):
+                d = fn.df(Interval(p))
+                cands.append(0.5 * d.lo + 0.5 * d.hi)
         else:
-            assert fn.df is not None
-            t = np.linspace(0.0, 1.0, PIECES + 1)
-            edges = [ls + (us - ls) * s for s in t]
-            edges[0], edges[-1] = ls, us
-            b_lo, b_hi = np.full(l.shape, np.inf), np.full(l.shape, -np.inf)
-            for k in range(PIECES):
-                lo_k = np.minimum(edges[k], edges[k + 1])
-                hi_k = np.maximum(edges[k], edges[k + 1])
-                P = Interval(lo_k, hi_k)
-                p = 0.5 * lo_k + 0.5 * hi_k
-                Pc = Interval(p)
-                g = fn.f(Pc) - Pc * Interval(a) + (fn.df(P) - Interval(a)) * (P - Pc)
-                g = Interval(np.fmax(g.lo, (fn.f(P) - P * Interval(a)).lo), g.hi)
-                b_lo, b_hi = np.minimum(b_lo, g.lo), np.maximum(b_hi, g.hi)
+            cands += [np.zeros_like(ls), np.ones_like(ls)]
+        centre = 0.5 * ls + 0.5 * us
+        best = None
+        for a in cands:
+            a = np.where(np.isfinite(a), a, 0.0)
+            b_lo, b_hi = _offsets(fn, a, ls, us)
+            mean_lo, mean_hi = a * centre + b_lo, a * centre + b_hi
+            if best is None:
+                best = [a, b_lo, mean_lo, a.copy(), b_hi, mean_hi]
+                continue
+            up = mean_lo > best[2]  # a higher lower line, a lower upper line
+            dn = mean_hi < best[5]
+            best[0], best[1], best[2] = (np.where(up, a, best[0]), np.where(up, b_lo, best[1]),
+                                         np.where(up, mean_lo, best[2]))  # fmt: skip
+            best[3], best[4], best[5] = (np.where(dn, a, best[3]), np.where(dn, b_hi, best[4]),
+                                         np.where(dn, mean_hi, best[5]))  # fmt: skip
+        assert best is not None
+        a_lo, b_lo, _, a_hi, b_hi, _ = best
         rng = fn.f(
             Interval(np.where(np.isfinite(l), l, -np.inf), np.where(np.isfinite(u), u, np.inf))
         )
-    good = fin & np.isfinite(b_lo) & np.isfinite(b_hi)
-    return (np.where(good, a, 0.0), np.where(good, b_lo, rng.lo),
-            np.where(good, a, 0.0), np.where(good, b_hi, rng.hi))  # fmt: skip
+    ok_lo = fin & np.isfinite(b_lo) & np.isfinite(a_lo)
+    ok_hi = fin & np.isfinite(b_hi) & np.isfinite(a_hi)
+    return (np.where(ok_lo, a_lo, 0.0), np.where(ok_lo, b_lo, rng.lo),
+            np.where(ok_hi, a_hi, 0.0), np.where(ok_hi, b_hi, rng.hi))  # fmt: skip
 
 
 def _unary(q: Lin, fn: Fn) -> Lin:
@@ -440,6 +469,21 @@ def variables(lo: np.ndarray, hi: np.ndarray) -> tuple[list[Lin], np.ndarray]:
     return out, mid
 
 
+#: The networks evaluated by :func:`crown` while :func:`network_calls` watches (None otherwise).
+_CALLS: contextvars.ContextVar[list[Any] | None] = contextvars.ContextVar("calls", default=None)
+
+
+@contextlib.contextmanager
+def network_calls() -> Iterator[list[Any]]:
+    """A list that collects the networks :func:`crown` evaluates inside the block."""
+    seen: list[Any] = []
+    token = _CALLS.set(seen)
+    try:
+        yield seen
+    finally:
+        _CALLS.reset(token)
+
+
 # -- CROWN through a network ------------------------------------------------------------------------
 def _stack_inputs(x: Sequence[Any], r: np.ndarray) -> tuple[np.ndarray, ...]:
     """The inputs as arrays ``(LA, Lc, UA, Uc, lo, hi)`` with shapes ``(m, k, n)`` / ``(m, k)``."""
@@ -505,7 +549,10 @@ def crown(net: Any, x: Sequence[Any]) -> list[Lin]:
     from roa.nn.mlp import Affine
 
     if not any(isinstance(v, Lin) for v in x):
-        return net._interval(list(x), INTERVAL)
+        return net._interval([Interval.of(v) for v in x], INTERVAL)
+    seen = _CALLS.get()
+    if seen is not None:
+        seen.append(net)
     r = next(v.r for v in x if isinstance(v, Lin))
     m, n = r.shape
     LA, Lc, UA, Uc, zlo, zhi = _stack_inputs(x, r)

@@ -195,6 +195,7 @@ def test_outward_rounding_survives_cancellation_that_floats_get_wrong():
     assert a[0] <= 1.0 and 1.001 <= b[0]
 
 
+@pytest.mark.slow
 def test_the_hook_decides_boxes_the_interval_forms_leave_and_keeps_the_verdicts():
     """The pendulum's ReLU loop at 0.999 of its optimum (18.96209): certified with and without
     the relaxation bounds; with them the branch and bound evaluates fewer boxes (measured 403
@@ -221,3 +222,37 @@ def test_the_hook_decides_boxes_the_interval_forms_leave_and_keeps_the_verdicts(
         rv.ENABLED = True
     assert all(r.status.value == "certified" for r in runs.values())
     assert runs[True].boxes < 0.8 * runs[False].boxes, (runs[True].boxes, runs[False].boxes)
+
+
+@pytest.mark.slow
+def test_quadrotor_networks_have_a_local_proof_down_to_the_equilibrium():
+    """No hole at the origin: for both quadrotor controllers the Hessian proof of V' < 0 holds on
+    a box around hover (f(x_eq) = 0 and grad V(x_eq) = 0 exactly, the interval Hessian of V'
+    negative definite in exact rationals). For the ReLU network every hidden unit's phase is
+    decided on that box (interval products layer by layer, computed here): the network is affine
+    there, which is why its jets have finite Hessians."""
+    sys.path.insert(0, str(ROOT / "examples" / "systems"))
+    try:
+        import quadrotor_nn
+    finally:
+        sys.path.pop(0)
+    import roa
+    from roa.proof.interval import interval_affine
+    from roa.proof.local import local_box
+
+    for system, kind in ((quadrotor_nn.SYSTEM, "tanh"), (quadrotor_nn.SYSTEM_RELU, "relu")):
+        V = roa.default_lyapunov(system)
+        half = np.sqrt(0.07 * np.diag(np.linalg.inv(V.P)))  # the box of {V <= 0.07}
+        found = local_box(system, V, -half, half)
+        assert found is not None and found[2]["local_proof"] == "hessian", kind
+        lo, hi, _ = found
+        assert np.all(lo < 0) and np.all(hi > 0)
+        if kind == "relu":
+            net = MLP.load(ROOT / "examples" / "systems" / "quadrotor_nn_relu.npz")
+            h = Interval(lo[:, None], hi[:, None])
+            for (W, b), last in zip(net.layers, (False, False, True), strict=True):
+                z = interval_affine(W, b, h.lo, h.hi)
+                if last:
+                    break
+                assert np.all((z.lo > 0) | (z.hi < 0))  # every phase decided
+                h = INTERVAL.relu(z)

@@ -69,7 +69,7 @@ from roa.proof.interval import (
 _U = 2.0**-53
 _TINY = 2.0**-1022
 #: Pieces of the argument's interval on which the offsets of a smooth function are proved.
-PIECES = 6
+PIECES = 3
 
 
 def _gamma2(k: int) -> float:
@@ -314,8 +314,7 @@ def _offsets(
 def relax(fn: Fn, l: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
     """Float slopes and proved offsets ``(a_lo, b_lo, a_hi, b_hi)`` with
     ``a_lo z + b_lo <= f(z) <= a_hi z + b_hi`` for ``z`` in ``[l, u]`` (elementwise, any shape;
-    module doc). Candidate slopes: the chord's, and the derivatives at both ends and the centre
-    (smooth ``f``) or 0 and 1 (piecewise linear); per element and side the line with the best
+    module doc). Candidate slopes: the chord's, and the derivative at the centre (smooth ``f``) or 0 and 1 (piecewise linear); per element and side the line with the best
     mean over ``[l, u]``. Non-finite data give slope 0 and the interval range of ``f``."""
     l, u = np.asarray(l, dtype=float), np.asarray(u, dtype=float)
     fin = np.isfinite(l) & np.isfinite(u)
@@ -326,7 +325,7 @@ def relax(fn: Fn, l: np.ndarray, u: np.ndarray) -> tuple[np.ndarray, ...]:
         chord = (0.5 * (fu.lo + fu.hi) - 0.5 * (fl.lo + fl.hi)) / np.where(w > 0, w, 1.0)
         cands = [np.where(w > 0, chord, 0.0)]
         if fn.df is not None:
-            for p in (ls, us, 0.5 * ls + 0.5 * us):
+            for p in (0.5 * ls + 0.5 * us,):
                 d = fn.df(Interval(p))
                 cands.append(0.5 * d.lo + 0.5 * d.hi)
         else:

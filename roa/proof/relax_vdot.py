@@ -123,7 +123,11 @@ def relaxation_bounds(
     network in the field or with uncertain parameters (``n_par > 0``)."""
     if n_par or not ENABLED or not has_network(system):
         return vdot, F_hi
-    todo = np.flatnonzero(~(V.lo > level) & ~(vdot.hi < 0) & ~(F_hi < 0))
+    # where the interval forms' bound of V' is mostly negative (its centre below 0): the boxes
+    # the relaxation's tighter bound may decide; the others are split without it
+    vlo, vhi = np.broadcast_to(vdot.lo, (len(lo),)), np.broadcast_to(vdot.hi, (len(lo),))
+    promising = (vhi < -vlo) | (F_hi < np.inf)
+    todo = np.flatnonzero(~(V.lo > level) & ~(vdot.hi < 0) & ~(F_hi < 0) & promising)
     if not len(todo):
         return vdot, F_hi
     m = len(lo)

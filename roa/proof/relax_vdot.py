@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
-from roa.proof.interval import INTERVAL, Interval
+from roa.proof.interval import INTERVAL, Interval, round_up
 from roa.proof.relax import LINEAR, Lin, combine, network_calls, variables
 from roa.system import System
 
@@ -101,7 +101,7 @@ def _v_lower(lyap: Lyapunov, X: list[Lin], mid: np.ndarray) -> Lin:
         s = 0.5 * lo + 0.5 * hi
         # (g - s) . d >= -max(|lo - s|, |hi - s|) r: a term with scalar s and a bounded remainder
         terms.append((s, s, X[i] - Interval(mid[:, i])))
-        spread = Interval(np.maximum(s - lo, hi - s)) * Interval(X[i].r[:, i])
+        spread = Interval(round_up(np.maximum(s - lo, hi - s))) * Interval(X[i].r[:, i])
         v0 = v0 - Interval(-spread.hi, spread.hi)
     v0lo = np.broadcast_to(v0.lo, (m,))
     whole = Interval(np.full(m, -np.inf), np.full(m, np.inf))

@@ -19,6 +19,8 @@ What it computes in each namespace (``net(x, xp)`` returns a list, one entry per
   bound of the float dot products' error subtracted / added with outward rounding) and the
   interval activations -- an enclosure of the real network over the boxes, under the libm
   assumption of :data:`roa.proof.interval.LIBM_ULPS` (``tanh``, ``exp``, ``log1p``);
+* ``linear`` (:data:`roa.proof.relax.LINEAR`): affine lower and upper bounds of the outputs
+  over boxes by CROWN back-substitution with outward rounding (:func:`roa.proof.relax.crown`);
 * every other namespace (CasADi, sympy, mpmath, the interval jets of :mod:`roa.proof.jet`):
   neuron by neuron, ``sum_j W_ij x_j + b_i`` with the weights as Python floats (exact), then
   the namespace's activation. In sympy the network becomes one expression per output (so traced
@@ -305,6 +307,10 @@ class MLP:
             return self._numpy(arrays, xp)
         if name == "interval":
             return self._interval(x, xp)
+        if name == "linear":  # linear relaxations: CROWN (roa.proof.relax)
+            from roa.proof.relax import crown
+
+            return crown(self, x)
         return self._elementwise(x, xp)
 
     def _numpy(self, x: list[np.ndarray], xp: Any) -> list[Any]:

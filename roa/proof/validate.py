@@ -83,6 +83,7 @@ from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
 from roa.proof.local import local_box
+from roa.proof.relax_vdot import relaxation_bounds
 from roa.proof.validation import Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
 from roa.proof.witness import recheck_domain_witness, recheck_witness
@@ -229,7 +230,7 @@ def evaluate_boxes(
     from roa.parameters import parameter_values
 
     n, m = lyap.n, len(lo)
-    N = n + k
+    N, n_par = n + k, k
     mid = 0.5 * (lo + hi)
     delta = box_offsets(lo, hi, mid)
 
@@ -279,6 +280,8 @@ def evaluate_boxes(
             [np.maximum(np.abs(g_box[i].lo), np.abs(g_box[i].hi)) * w[:, i] for i in range(n)],
             axis=1,
         )
+    # networks in the field: CROWN / linear-relaxation bounds where the forms above leave boxes
+    vdot_box, F_hi = relaxation_bounds(system, lyap, lo, hi, level, V, vdot_box, F_hi, n_par)
     margin = None
     if system.margin is not None:
         X = [Interval(lo[:, i], hi[:, i]) for i in range(lyap.n)]

@@ -41,8 +41,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI: input errors exit 2, other roa errors exit 1 with their message, bugs raise."""
-    parser = build_parser()
-    args = parser.parse_args(argv)  # --help and usage errors exit here, before any heavy import
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)  # --help and usage errors exit here, before heavy imports
+    except KeyboardInterrupt:
+        print("roa: interrupted; nothing was kept", file=sys.stderr)
+        return 130
     import matplotlib
 
     matplotlib.use("Agg")  # files only, never a window
@@ -57,8 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     except RoaError as exc:
         print(f"roa {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"roa {args.command}: interrupted; completed work was kept", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        # what was kept: the notes of the code interrupted (e.g. a basin's saved chunks)
+        kept = "; ".join(getattr(exc, "__notes__", [])) or "nothing was kept"
+        print(f"roa {args.command}: interrupted; {kept}", file=sys.stderr)
         return 130
 
 

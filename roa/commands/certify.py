@@ -48,21 +48,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         "interval validation; sampled search if SOS fails). With --level only 'interval' is "
         "possible. Default: both, or interval with --level",
     )
-    p.add_argument("--max-boxes", type=int, default=itv.max_boxes,
+    p.add_argument("--max-boxes", type=numparse.integer(), default=itv.max_boxes,
                    help=f"box budget of the interval validation, 1..2e8 (default {itv.max_boxes})")  # fmt: skip
-    p.add_argument("--check-above", type=float, default=None, metavar="FACTOR",
+    p.add_argument("--check-above", type=numparse.arg(), default=None, metavar="FACTOR",
                    help="also validate FACTOR x the candidate level (> 1, e.g. 1.001): a refutation "
                    "there shows the certified level is close to the best for this V")  # fmt: skip
-    p.add_argument("--degree", type=int, default=None, choices=(2, 4, 6, 8),
+    p.add_argument("--degree", type=numparse.integer(), default=None, choices=(2, 4, 6, 8),
                    help="search a polynomial V of this degree by SOS V-s iteration (seeded by the "
                    "quadratic --lyapunov or the system's default), then certify it; its "
                    "coefficients are in the JSON (candidate_kind)")  # fmt: skip
-    p.add_argument("--rounds", type=int, default=VsOptions().rounds,
+    p.add_argument("--rounds", type=numparse.integer(), default=VsOptions().rounds,
                    help=f"V-s rounds with --degree, 1..50 (default {VsOptions().rounds})")  # fmt: skip
-    p.add_argument("--budget", type=float, default=VsOptions().budget, metavar="SEC",
+    p.add_argument("--budget", type=numparse.arg(), default=VsOptions().budget, metavar="SEC",
                    help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
-    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget of each interval validation, in (0, 1e9] seconds: "
                    "when it runs out the verdict is inconclusive, saying so; with --degree also "
                    "of the V-s iteration (the least of it and --budget), which then stops with "

@@ -6,7 +6,7 @@ import argparse
 import importlib
 import sys
 
-from roa.errors import RoaError, RoaInputError
+from roa.errors import RoaError, RoaInputError, TimeLimitReached
 
 #: Subcommand modules under roa.commands, in --help order (studies add their own after these).
 COMMANDS = (
@@ -53,8 +53,15 @@ def main(argv: list[str] | None = None) -> int:
     from roa import progress
 
     progress.enable(True)  # a line per long step on stderr (bars only on a terminal)
+    from roa import stage_limit
+
+    # --time-limit also bounds each long step without a budget of its own (roa.stage_limit)
+    stage_limit.limit(getattr(args, "time_limit", None))
     try:
         return int(args.func(args) or 0)
+    except TimeLimitReached as exc:
+        print(f"roa {args.command}: stopped: {exc}", file=sys.stderr)
+        return 1
     except RoaInputError as exc:
         print(f"roa {args.command}: error: {exc}", file=sys.stderr)
         return 2
@@ -66,6 +73,8 @@ def main(argv: list[str] | None = None) -> int:
         kept = "; ".join(getattr(exc, "__notes__", [])) or "nothing was kept"
         print(f"roa {args.command}: interrupted; {kept}", file=sys.stderr)
         return 130
+    finally:
+        stage_limit.limit(None)
 
 
 if __name__ == "__main__":

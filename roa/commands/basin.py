@@ -99,7 +99,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
-                   "with --out the same command resumes from the completed chunks")  # fmt: skip
+                   "with --out the same command resumes from the completed chunks; tracing the "
+                   "field for the compiled kernel is stopped at it (exit 1)")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
         type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True),

@@ -67,7 +67,9 @@ def register(sub: argparse._SubParsersAction) -> None:
                    "when it runs out the verdict is inconclusive, saying so; with --degree also "
                    "of the V-s iteration (the least of it and --budget), which then stops with "
                    "the rounds completed, status stopped (default: 3600, and 300 for the branch and "
-                   "bound backing up the SOS route above 4 states and parameters)")  # fmt: skip
+                   "bound backing up the SOS route above 4 states and parameters); every other "
+                   "long step (the SOS program, a level search, tracing the field) is stopped at "
+                   "it, exit 1 naming the step")  # fmt: skip
     p.add_argument("--validator", choices=("auto", "interval", "sos"), default="auto",
                    help="what proves the level: auto (default: the interval branch and bound up "
                    "to 4 states and parameters, the exact SOS certificate above, each backing up "

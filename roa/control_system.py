@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.field_probe import MAX_OPS
 
 #: Largest relative difference |f_roa - updfcn| / (1 + |updfcn|) accepted at the sample points.
 AGREEMENT_RTOL = 1e-9
@@ -207,6 +208,19 @@ class TimeDependent(RoaInputError):
     """An ``updfcn`` compared, or converted to a number, a value that depends on ``t``."""
 
 
+class TraceTooLarge(RoaInputError):
+    """An ``updfcn`` did more operations on the symbolic states than a field may
+    (:data:`roa.field_probe.MAX_OPS`, the bound of a field written as ``field=``)."""
+
+
+#: Work bound of one trace: the sizes (arguments) of the expressions it builds, summed. sympy
+#: rebuilds a sum at each ``+`` (a sum of k terms written term by term costs ~k^2 / 2): 100,000
+#: is a sum of ~450 terms built that way, seconds.
+MAX_TRACE_WORK = 100_000
+#: Operations and work recorded by the current trace (reset by :func:`_trace`).
+_OPS = [0, 0]
+
+
 @functools.lru_cache(maxsize=1)
 def _time_symbol() -> Any:
     """The symbol standing for ``t`` when ``updfcn`` is probed for a dependence on time."""
@@ -261,6 +275,15 @@ class Traced:
 
     def __init__(self, e: Any) -> None:
         self.e = e
+        _OPS[0] += 1
+        _OPS[1] += 1 + len(getattr(e, "args", ()))
+        if _OPS[0] > MAX_OPS or _OPS[1] > MAX_TRACE_WORK:
+            raise TraceTooLarge(
+                f"System.from_control: the updfcn does more than {MAX_OPS} operations on the "
+                f"states, or builds expressions of more than {MAX_TRACE_WORK} terms in all (a "
+                "sum of ~450 terms written term by term; allowed: at most these); simplify it "
+                "or split the system"
+            )
 
     def __add__(self, o: Any) -> Traced:
         return Traced(self.e + _expr(o))
@@ -343,13 +366,14 @@ def _trace(sys: Any, params: Mapping[str, Any], x_eq: Sequence[float], u_eq: Seq
     import sympy as sp
 
     syms = [sp.Symbol(s) for s in names]
+    _OPS[:] = [0, 0]
     x = np.array([Traced(s) for s in syms], dtype=object)
     loop = ClosedLoopField(_no_plant, tuple(map(tuple, gain)), tuple(x_eq), tuple(u_eq))
     u = np.array(loop.inputs(list(x)), dtype=object)
     u = np.array([v if isinstance(v, Traced) else Traced(_expr(v)) for v in u], dtype=object)
     try:
         out = sys.updfcn(0.0, x, u, dict(params))
-    except Untraceable:
+    except (Untraceable, TraceTooLarge):
         raise
     except Exception as exc:  # anything the updfcn raised on symbolic arguments
         raise Untraceable(f"it raised {type(exc).__name__}: {exc}") from exc
@@ -398,6 +422,7 @@ def _time_varying(sys: Any, params: Mapping[str, Any], X: np.ndarray,
     conversion of one, is a dependence; at a state where it raises anything else the numeric
     probes decide),
     then with each time of :data:`TIME_PROBES` (a value other than at ``t = 0``)."""
+    _OPS[:] = [0, 0]
     T = Traced(_time_symbol())
     for x in X:
         u = np.array(inputs(list(x)), dtype=float)
@@ -405,6 +430,8 @@ def _time_varying(sys: Any, params: Mapping[str, Any], X: np.ndarray,
             out = sys.updfcn(T, x.copy(), u.copy(), dict(params))
         except TimeDependent as exc:
             return f"at x = {x.tolist()}: {exc}"
+        except TraceTooLarge:
+            raise
         except Exception:  # noqa: BLE001 - e.g. a library call that rejects the symbol
             continue
         for i, v in enumerate(np.asarray(out, dtype=object).reshape(-1)):
@@ -490,6 +517,8 @@ def from_control(
     try:
         exprs = _trace(sys, all_params, x_eq, u0, gain, names)
         system = System.from_sympy(exprs, names, equilibrium=x_eq, name=label, **kwargs)
+    except TraceTooLarge:
+        raise
     except RoaInputError as exc:  # Untraceable, or a function from_sympy cannot evaluate
         raise RoaInputError(
             f"System.from_control: {sys.name}'s updfcn cannot be traced into an expression roa "

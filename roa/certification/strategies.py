@@ -112,13 +112,13 @@ class IntervalValidator:
             from roa.proof.robust import validate_robust
             from roa.search.robust_witness import sampled_witness
 
-            with step(f"robust interval validation of level {level:.6g}"):
+            with step(f"robust interval validation of level {level:.6g}", own_budget=True):
                 return validate_robust(system, V, level, witness_search=sampled_witness,
                                        max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
                                        time_limit=self.options.seconds())  # fmt: skip
-        with step(f"interval validation of level {level:.6g}"):
+        with step(f"interval validation of level {level:.6g}", own_budget=True):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch, bounding_box=self.bounding_box,
                                   time_limit=self.options.seconds())  # fmt: skip
@@ -756,7 +756,7 @@ class VsIteration:
         from roa.search.vs_iteration import vs_search
 
         vs = self.options
-        with step(f"SOS V-s iteration, degree {self.degree}"):
+        with step(f"SOS V-s iteration, degree {self.degree}", own_budget=True):
             return vs_search(system, seed, degree=self.degree,
                              shape=None if vs.shape is None else np.asarray(vs.shape),
                              rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,

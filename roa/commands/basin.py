@@ -13,7 +13,7 @@ from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
 from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
-from roa.shares import share
+from roa.shares import interval, share
 
 if TYPE_CHECKING:
     from roa.system import System
@@ -62,13 +62,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--box", default=None, metavar="NAME=LO:HI,...",
                    help="ranges of the slice axes or of the sampled box, every one of them "
                    "(default without --box: equilibrium +- 1)")  # fmt: skip
-    p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
+    p.add_argument(
+        "--samples",
+        type=numparse.integer(),
+        default=None,
+        help="N seeded uniform samples of the box",
+    )
     C.add_stop_rules(p)
-    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
-    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
-    p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
-    p.add_argument("--jobs", type=int, default=-1, help="parallel workers (default -1: all cores)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default 0)")
+    p.add_argument(
+        "--rtol", type=numparse.arg(), default=1e-6, help="relative tolerance (default 1e-6)"
+    )
+    p.add_argument(
+        "--atol", type=numparse.arg(), default=1e-9, help="absolute tolerance (default 1e-9)"
+    )
+    p.add_argument(
+        "--chunk-size", type=numparse.integer(), default=4096, help="initial conditions per task"
+    )
+    p.add_argument(
+        "--jobs",
+        type=numparse.integer(),
+        default=-1,
+        help="parallel workers (default -1: all cores)",
+    )
+    p.add_argument(
+        "--seed", type=numparse.integer(), default=0, help="seed of the random samples (default 0)"
+    )
     p.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
@@ -78,10 +96,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
-    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
-                   "with --out the same command resumes from the completed chunks")  # fmt: skip
+                   "with --out the same command resumes from the completed chunks; tracing the "
+                   "field for the compiled kernel is stopped at it (exit 1)")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
         type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True),
@@ -103,7 +122,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "entering {V <= level} stop as converged",
     )
     p.add_argument(
-        "--param-samples", type=int, default=None, metavar="N",
+        "--param-samples", type=numparse.integer(), default=None, metavar="N",
         help="for a system with uncertain parameters: seeded uniform samples of the parameter box "
         f"on top of the nominal values and the vertices, in [0, {MAX_PARAM_SAMPLES}] (default "
         f"{DEFAULT_PARAM_SAMPLES}; seed --seed)",
@@ -140,10 +159,8 @@ def parse_box(text: str | None, names: tuple[str, ...]) -> dict[str, tuple[float
         name = m.group(1)
         if name not in names:
             raise RoaInputError(f"--box: unknown state {name!r}; allowed: {', '.join(names)}")
-        try:
-            lo, hi = float(m.group(2)), float(m.group(3))
-        except ValueError as exc:
-            raise RoaInputError(f"--box {name}: LO and HI must be numbers, got {part!r}") from exc
+        lo = numparse.parse_number(m.group(2), f"--box {name}")
+        hi = numparse.parse_number(m.group(3), f"--box {name}")
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise RoaInputError(f"--box {name}: need finite LO < HI, got {lo}:{hi}")
         out[name] = (lo, hi)
@@ -159,10 +176,7 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
             raise RoaInputError(f"--fix: expected NAME=VALUE, got {item!r}")
         if name not in names:
             raise RoaInputError(f"--fix: unknown state {name!r}; allowed: {', '.join(names)}")
-        try:
-            out[name] = float(value)
-        except ValueError as exc:
-            raise RoaInputError(f"--fix {name}: value must be a number, got {value!r}") from exc
+        out[name] = numparse.parse_number(value, f"--fix {name}")
     return out
 
 
@@ -382,6 +396,11 @@ def run(args: argparse.Namespace) -> int:
                    title=f"basin of {system.name}")  # fmt: skip
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
+    if summary.get("chunks_resumed"):  # a resumed run says what it reused (stderr: not data)
+        import sys
+
+        print(f"roa basin: resumed {summary['chunks_resumed']} completed chunk(s) from "
+              f"{args.out}, computed {summary['chunks_computed']}", file=sys.stderr)  # fmt: skip
     if args.json:
         print(to_json(summary))
     else:
@@ -390,7 +409,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"n = {summary['n']}: " + ", ".join(f"{k} {v}" for k, v in c.items()))
         frac = summary["fraction_converged"]
         print(f"fraction converged {'unknown' if frac is None else share(frac, 4)} "
-              f"(95 % CI {share(lo, 4)}-{share(hi, 4)})")  # fmt: skip
+              f"(95 % CI {interval(lo, hi, 4)})")  # fmt: skip
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
         from roa.montecarlo.certified_share import share_line
@@ -434,7 +453,7 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
     w = summary["worst_case"]
     lo, hi = w["fraction_ci95"]
     print(f"converged for every sampled parameter value: {w['converged']} "
-          f"({share(w['fraction'], 4)}, 95 % CI {share(lo, 4)}-{share(hi, 4)}); mean converged "
+          f"({share(w['fraction'], 4)}, 95 % CI {interval(lo, hi, 4)}); mean converged "
           f"share {share(summary['converged_share']['mean'], 4)}")  # fmt: skip
     if terminal is not None:
         print(f"terminal set (proved for the whole box): {terminal.name}")

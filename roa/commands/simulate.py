@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from roa import numparse
 from roa.commands import common as C
 
 
@@ -20,7 +21,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--x0", "--ic", dest="x0", required=True, metavar="X1,X2,...",
                    help="initial state, one number per state of the system")  # fmt: skip
     C.add_stop_rules(p)
-    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SECONDS",
                    help="wall-clock budget of the run (> 0); then it ends undecided")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")

@@ -229,11 +229,24 @@ def taylor_order(radius: float) -> int:
 
 
 def _pretty(p: QPoly, gens: list[Any]) -> str:
+    """``p`` for a message: exact coefficients with small denominators (``1/2``), the others as
+    the shortest decimal of their double (``0.1``, not ``3602879701896397/36028797018963968``:
+    the polynomial itself stays exact)."""
     import sympy as sp
 
-    return str(sp.Add(*[sp.Rational(c.numerator, c.denominator)
+    return str(sp.Add(*[shown_coefficient(c)
                         * sp.Mul(*[g**e for g, e in zip(gens, m, strict=True)])
                         for m, c in p.items()]))  # fmt: skip
+
+
+def shown_coefficient(c: Fraction) -> Any:
+    """An exact coefficient as shown in messages: itself when its denominator is at most 1000,
+    else the sympy Float of the shortest decimal of its double."""
+    import sympy as sp
+
+    if c.denominator <= 1000:
+        return sp.Rational(c.numerator, c.denominator)
+    return sp.Float(repr(float(c)))
 
 
 def _square_roots(

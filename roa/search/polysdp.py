@@ -25,6 +25,31 @@ class ProgramTooLarge(RoaInputError):
     """An SOS program whose Gram blocks exceed :data:`roa.search.sos.MAX_GRAM_BLOCK` (not built)."""
 
 
+#: SCS's status value for a solve it stopped on SIGINT (Ctrl-C): SCS catches the signal itself
+#: and cvxpy reports a solver error, so the interruption would be taken for a failed program.
+SCS_SIGINT = -5
+
+
+def interruptible_scs() -> Any:
+    """cvxpy's SCS interface as a custom solver that turns SCS's SIGINT status into
+    :class:`KeyboardInterrupt` (the run ends as interrupted, not with a candidate)."""
+    from cvxpy.reductions.solvers.conic_solvers.scs_conif import SCS
+
+    class InterruptibleSCS(SCS):  # type: ignore[misc]
+        def name(self) -> str:
+            return "ROA_SCS"
+
+        def solve_via_data(self, data: Any, warm_start: bool, verbose: bool, solver_opts: Any,
+                           solver_cache: Any = None) -> Any:  # fmt: skip
+            results = super().solve_via_data(data, warm_start, verbose, solver_opts, solver_cache)
+            info = results.get("info", {})
+            if info.get("status_val", info.get("statusVal")) == SCS_SIGINT:
+                raise KeyboardInterrupt("the SDP solver SCS was interrupted (SIGINT)")
+            return results
+
+    return InterruptibleSCS()
+
+
 def check_block(size: int) -> None:
     """Refuse a Gram block of ``size`` monomials above :data:`roa.search.sos.MAX_GRAM_BLOCK`
     before any work (such programs made the solver request terabytes and abort)."""
@@ -254,7 +279,7 @@ class Identity:
                 if "time_limit" in opts:
                     opts["time_limit_secs"] = opts.pop("time_limit")
                 opts = {"eps_abs": 1e-6, "eps_rel": 1e-6, "max_iters": 50_000, **opts}
-                prob.solve(solver=cp.SCS, **opts)
+                prob.solve(solver=interruptible_scs(), **opts)
             else:
                 if "max_iters" in opts:
                     opts["max_iter"] = opts.pop("max_iters")

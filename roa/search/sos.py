@@ -182,7 +182,9 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
         subs[p] = s ** (-k) if k < 0 else base ** ((k + 1) // 2) * s
     f = [sp.expand(fi.xreplace(subs)) for fi in f]
     if not all(fi.is_polynomial(*d, *aux) for fi in f):
-        raise RoaInputError("the field is not polynomial after recasting half-integer powers")
+        raise RoaInputError(
+            "the SOS level proposer takes polynomial fields (half-integer powers recast) only; the field has other terms (sin, cos, a rational function, ...): no SOS candidate here, the sampled search proposes the level (the exact SOS validator recasts sin, cos and rational terms itself)"
+        )
     return RecastField(d, aux, dx, f, eqs, boxes, "; ".join(notes) or "polynomial (no recast)")
 
 
@@ -197,7 +199,9 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
     if not Vdot.is_polynomial(*rf.d, *rf.aux):
-        raise RoaInputError("V' is not polynomial after recasting half-integer powers")
+        raise RoaInputError(
+            "the SOS level proposer takes polynomial fields (half-integer powers recast) only; V' has other terms (sin, cos, a rational function, ...): no SOS candidate here, the sampled search proposes the level (the exact SOS validator recasts sin, cos and rational terms itself)"
+        )
     return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description)
 
 

@@ -78,6 +78,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
+    p.add_argument("--trajectories", type=int, default=0, metavar="N",
+                   help="with --plot: overlay N trajectories (roa simulate, the same stop rules) "
+                   "started at N states spread over the slice, coloured by how they end, in "
+                   "[1, 400]; projected onto the slice when the system has more states")  # fmt: skip
     p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
@@ -338,6 +342,22 @@ def run(args: argparse.Namespace) -> int:
         raise RoaInputError("--plot draws a slice: use it with --slice")
     if args.plot:
         check_figure_path(args.plot)
+    if args.trajectories:
+        from roa.plotting.basin import MAX_TRAJECTORIES
+
+        if not 1 <= args.trajectories <= MAX_TRAJECTORIES:
+            raise RoaInputError(
+                f"--trajectories must be an integer in [1, {MAX_TRAJECTORIES}], got "
+                f"{args.trajectories}"
+            )
+        if not (args.plot or args.out) or not isinstance(sampler, GridSlice):
+            raise RoaInputError("--trajectories overlays runs on the slice's map: use it with "
+                                "--slice and --plot")  # fmt: skip
+        if system.parameters:
+            raise RoaInputError(
+                "--trajectories: a trajectory needs one value of each uncertain parameter; "
+                "fix them with --param NAME=VALUE or --nominal"
+            )
     plot = args.plot or (
         str(Path(args.out) / "basin.png") if args.out and isinstance(sampler, GridSlice) else None
     )
@@ -376,9 +396,14 @@ def run(args: argparse.Namespace) -> int:
                if args.out else "(no plot drawn); give --out DIR to make a run resumable")
         )  # fmt: skip
     if plot and not cut:
+        from roa.montecarlo.basin import overlay_runs
         from roa.plotting.basin import plot_slice
 
-        plot_slice(system, sampler, result.code, plot, regions=regs,
+        runs = overlay_runs(system, sampler, args.trajectories, rules)
+        if runs:
+            summary["trajectories_drawn"] = {"n": len(runs), "counts": {
+                s: sum(r.status.value == s for r in runs) for s in sorted({r.status.value for r in runs})}}  # fmt: skip
+        plot_slice(system, sampler, result.code, plot, regions=regs, trajectories=runs,
                    title=f"basin of {system.name}")  # fmt: skip
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)

@@ -66,7 +66,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     C.add_stop_rules(p)
     p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
     p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
-    p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
+    p.add_argument(
+        "--chunk-size", type=int, default=4096, help="initial conditions per task (default 4096)"
+    )
     p.add_argument("--jobs", type=int, default=-1, help="parallel workers (default -1: all cores)")
     p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default 0)")
     p.add_argument(

@@ -97,6 +97,7 @@ def test_cli_trajectories(tmp_path, capsys):
     assert main([*base, "--plot", str(png), "--trajectories", "9", "--json"]) == 0
     doc = json.loads(capsys.readouterr().out)
     assert doc["trajectories_drawn"]["n"] == 9 == sum(doc["trajectories_drawn"]["counts"].values())
+    assert doc["state_units"] == {"x1": "1", "x2": "1"}  # the system's units, in the JSON
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert main([*base, "--trajectories", "9"]) == 2
     assert "use it with --slice and --plot" in capsys.readouterr().err

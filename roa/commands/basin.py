@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
   roa basin --system ipc:saturation=2 --slice q,theta --grid 100x100 --fix theta_dot=0.5 --json
+  roa basin --system vanderpol --slice x1,x2 --grid 100x100 --box x1=-3:3,x2=-3:3 --plot map.png --trajectories 16
   roa basin --system ipc --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
   roa basin --system ipc --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
   roa basin --system vanderpol --param mu=0.8..1.2 --param-samples 8 --slice x1,x2 --grid 80x80 --box x1=-3:3,x2=-3:3 --terminal-set cert.json --plot robust.png

@@ -113,6 +113,9 @@ class BasinResult:
             **({"backend_note": self.backend_note} if self.backend_note else {}),
             **(self.sampler.describe(self.system.state_names)
                if hasattr(self.sampler, "describe") else {}),
+            **({"state_units": dict(zip(self.system.state_names, self.system.state_units,
+                                        strict=True))}
+               if self.system.state_units else {}),
             **({"regions": [region_entry(r, self.sampler, self.code) for r in self.regions]}
                if self.regions else {}),
             **({"certified_share": [dict(e) for e in self.certified_shares]}

@@ -11,7 +11,9 @@ names come from the model; the units are given.
 The largest certified level of V = x'Sx is about 3.40 (0.999 x the level search's 3.4033; 1.001 x is
 refuted), against about 0.087 for the candidate of A'P + PA = -I on the same loop: S is shaped by
 the loop (it weighs the slow cart directions), the identity's solution is not. The basin slice in
-(theta, omega) at p = v = 0 shows both certified sets.
+(theta, omega) at p = v = 0 shows both certified sets; the share of the converged points inside
+each is printed over the slice and over seeded uniform samples of the 4-dimensional box
+|p|, |v| <= 1, |theta| <= 1.5, |omega| <= 7.
 
 Needs python-control: ``pip install ".[control]"`` in a clone of roa (or ``pip install control``).
 
@@ -63,7 +65,7 @@ def cartpole() -> roa.System:
 
 
 def main(argv: list[str] | None = None) -> dict:
-    from _gallery import parse, summary, write  # here: roa loads cartpole() from any folder
+    from _gallery import box_shares, parse, summary, write  # here: roa loads cartpole() anywhere
 
     args = parse(argv, __doc__)
     started = time.perf_counter()
@@ -90,7 +92,11 @@ def main(argv: list[str] | None = None) -> dict:
     data["identity_candidate"] = summary(found["identity"][1], found["identity"][2], None)
     K, S, _ = lqr()
     data["gain"], data["riccati_S"] = np.asarray(K).tolist(), np.asarray(S).tolist()
-    return write(args.out, "cartpole_lqr", system, data, basin, drawn, started)
+    # the same shares over the 4-dimensional box, by seeded uniform samples
+    box = [(-1.0, 1.0), (-1.0, 1.0), (-1.5, 1.5), (-7.0, 7.0)]
+    in_box = box_shares(system, box, drawn, 400 if args.quick else 20000)
+    data["box"] = dict(zip(system.state_names, map(list, box), strict=True))
+    return write(args.out, "cartpole_lqr", system, data, basin, drawn, started, in_box)
 
 
 if __name__ == "__main__":

@@ -172,9 +172,10 @@ def test_cli_simulate_plots_u(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_the_example_certifies_S_far_beyond_the_identity_candidate(tmp_path):
+def test_the_example_certifies_S_far_beyond_the_identity_candidate(tmp_path, monkeypatch):
     """The example's two certified levels against scipy's c*: 0.999 c* certified, 1.001 c*
     refuted, for S (3.40) and for P of A'P + PA = -I (0.087); its JSON and figure."""
+    monkeypatch.syspath_prepend(str(ROOT / "examples"))  # the example's _gallery
     doc = cp.main(["--quick", "--out", str(tmp_path)])
     K, S, _ = cp.lqr()
     system = cp.cartpole()
@@ -187,5 +188,12 @@ def test_the_example_certifies_S_far_beyond_the_identity_candidate(tmp_path):
     assert doc["identity_candidate"]["certificate"]["level"] == pytest.approx(0.087, abs=1e-3)
     assert json.loads((tmp_path / "cartpole_lqr.json").read_text()) == doc
     assert (tmp_path / "cartpole_lqr.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    shares = doc["certified_share"]
-    assert len(shares) == 2 and all(e["converged_in_region"] <= e["converged"] for e in shares)
+    shares = doc["certified_share"]  # each region over the slice, then over the sampled 4-D box
+    assert [e["over"] for e in shares] == ["slice", "slice", "box", "box"]
+    assert all(e["converged_in_region"] <= e["converged"] for e in shares)
+    # {x'Px <= c_P} lies inside {x'Sx <= c_S} (x'Sx <= lambda_max(P^-1 S) x'Px): fewer points
+    P, c_P = lyapunov_matrix(system), doc["identity_candidate"]["certificate"]["level"]
+    lam = float(np.linalg.eigvals(np.linalg.solve(P, S)).real.max())
+    assert lam * c_P <= doc["certificate"]["level"]
+    assert shares[1]["converged_in_region"] <= shares[0]["converged_in_region"]
+    assert shares[3]["converged_in_region"] <= shares[2]["converged_in_region"]

@@ -76,7 +76,8 @@ def test_example_tables_hold_the_json_numbers():
     assert cart["V of A'P + PA = -I: certificate (interval, level from candidate)"].startswith(
         "certified: 0.0874"
     )
-    assert sum(key.startswith("share of") for key in cart) == 2
+    assert sum(key.startswith("share of the slice") for key in cart) == 2
+    assert sum(key.startswith("share of the box") for key in cart) == 2
 
 
 def _quick_evidence() -> dict:

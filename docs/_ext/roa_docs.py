@@ -45,7 +45,8 @@ def _shares(doc: dict[str, Any]) -> list[tuple[str, str]]:
         if e.get("share") is None:
             continue
         lo, hi = e["ci95"]
-        rows.append((f"share of the slice's converged points in {e['region']}",
+        where = "the box's (uniform samples)" if e.get("over") == "box" else "the slice's"
+        rows.append((f"share of {where} converged points in {e['region']}",
                      f"{_pct(e['share'])} ({e['converged_in_region']} of {e['converged']}; "
                      f"95 % CI {_pct(lo)} - {_pct(hi)})"))  # fmt: skip
     return rows

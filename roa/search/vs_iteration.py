@@ -441,6 +441,11 @@ def vs_search(
         if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
             log.append(VsRound(r, float(gval), float(bval), _now() - t1, "final"))
             message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
+            if points:
+                where = "; ".join(describe_point(p) for p in points)
+                message += f"; V' < 0 imposed at {len(points)} parameter points ({where}): {how}"
+                if reseeded:
+                    message += f"; seed: {V0.name}"
             break
         # V step: V free, lambda and lambda2 fixed, maximise beta
         ident = Identity(pb.nv)
@@ -535,7 +540,7 @@ def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov,
     if not res.feasible or res.P is None:
         return V0, False
     return QuadraticLyapunov.for_system(system, res.P, name="P of the box's common Lyapunov "
-                                        "LMIs (seed)"), True  # fmt: skip
+                                        "LMIs"), True  # fmt: skip
 
 
 def _problems(systems: list[System], V0: QuadraticLyapunov, S: np.ndarray, degree: int,

@@ -104,8 +104,9 @@ class Trajectory:
             else tuple(f"x{i}" for i in range(self.x.shape[1]))
         )
         units = (self.problem.state_units if self.problem else ()) or ("-",) * len(names)
+        dimless = ("1", "")  # written "-", as in the basin maps
         for i, (nm, un) in enumerate(zip(names, units, strict=True)):
-            ax.plot(self.t, self.x[:, i], label=f"{nm} [{un}]")
+            ax.plot(self.t, self.x[:, i], label=f"{nm} [{'-' if un in dimless else un}]")
         # a unit only where the system declares one (meta["time_unit"]): fields are often scaled
         unit = (self.problem.meta.get("time_unit") if self.problem else None) or None
         xlabel = f"time t [{unit}]" if unit else "time t"
@@ -116,7 +117,7 @@ class Trajectory:
             u_names = self.problem.input_names or tuple(f"u{i}" for i in range(u.shape[1]))
             u_units = self.problem.input_units or ("-",) * len(u_names)
             for i, (nm, un) in enumerate(zip(u_names, u_units, strict=True)):
-                ax_u.plot(self.t, u[:, i], label=f"{nm} [{un}]")
+                ax_u.plot(self.t, u[:, i], label=f"{nm} [{'-' if un in dimless else un}]")
             ax_u.set_ylabel("input u")
             ax_u.set_xlabel(xlabel)
             ax_u.legend(loc="best", fontsize=8)

@@ -58,18 +58,16 @@ ControlField = Callable[..., Sequence[Any]]
 
 
 @dataclass(frozen=True)
-class ClosedLoopField:
-    """``field(t, x, xp) = plant(t, x, u, xp)`` with ``u = u_eq - K (x - x_eq)`` (picklable).
+class LinearFeedback:
+    """``u = u_eq - K (x - x_eq)`` as a function of the state components (picklable); the
+    ``feedback`` of a closed loop built here. Zero gains are skipped, so an input depends only
+    on the states its row of ``K`` names."""
 
-    Zero gains are skipped, so an input depends only on the states its row of ``K`` names.
-    """
-
-    plant: ControlField
     gain: tuple[tuple[float, ...], ...]
     x_eq: tuple[float, ...]
     u_eq: tuple[float, ...]
 
-    def inputs(self, x: Any) -> list[Any]:
+    def __call__(self, x: Any) -> list[Any]:
         us: list[Any] = []
         for row, u0 in zip(self.gain, self.u_eq, strict=True):
             u: Any = u0
@@ -79,6 +77,19 @@ class ClosedLoopField:
                     u = u - k * d
             us.append(u)
         return us
+
+
+@dataclass(frozen=True)
+class ClosedLoopField:
+    """``field(t, x, xp) = plant(t, x, u, xp)`` with ``u = u_eq - K (x - x_eq)`` (picklable)."""
+
+    plant: ControlField
+    gain: tuple[tuple[float, ...], ...]
+    x_eq: tuple[float, ...]
+    u_eq: tuple[float, ...]
+
+    def inputs(self, x: Any) -> list[Any]:
+        return LinearFeedback(self.gain, self.x_eq, self.u_eq)(x)
 
     def __call__(self, t: Any, x: Any, xp: Any) -> Sequence[Any]:
         return self.plant(t, x, self.inputs(x), xp)
@@ -157,13 +168,15 @@ def closed_loop(
     name : str
         As :class:`roa.System`.
     **kwargs
-        As :class:`roa.System` (``state_units``, ``margin``, ``lyapunov``, ...).
+        As :class:`roa.System` (``state_units``, ``input_names``, ``input_units``, ``margin``,
+        ``lyapunov``, ...). ``input_names`` defaults to ``u0, u1, ...``.
 
     Returns
     -------
     roa.System
         Its field evaluates ``field`` in every namespace; roa's checks (``f(x_eq) = 0``, the
-        linearisation ``A - B K`` Hurwitz) run when it is analysed.
+        linearisation ``A - B K`` Hurwitz) run when it is analysed. Its ``feedback`` is the
+        control law (:class:`LinearFeedback`), so a simulation reports ``u(t)``.
 
     Examples
     --------
@@ -188,6 +201,13 @@ def closed_loop(
     gain = _matrix(K, (m, n), "K")
     x_eq = _vector(equilibrium, n, "equilibrium")
     u0 = _vector(u_eq, m, "u_eq")
+    kwargs.setdefault("input_names", tuple(f"u{i}" for i in range(m)))
+    if len(kwargs["input_names"]) != m:
+        raise RoaInputError(
+            f"input_names must name the {m} input(s) of K, got {tuple(kwargs['input_names'])!r}"
+        )
+    if m:
+        kwargs.setdefault("feedback", LinearFeedback(gain, x_eq, u0))
     return System(
         name=name,
         field=ClosedLoopField(field, gain, x_eq, u0),
@@ -195,6 +215,23 @@ def closed_loop(
         state_names=names,
         **kwargs,
     )
+
+
+#: The name of a closed loop's V when it is the Riccati solution of its LQR design.
+RICCATI_NAME = "S of control.lqr (Riccati)"
+
+
+def lqr_parts(K: Any, n: int) -> tuple[Any, Any]:
+    """``(K, S)`` from what :func:`control.lqr` returns, ``(K, S, E)`` (``S`` the n x n
+    Riccati solution, ``E`` the n closed-loop eigenvalues), or ``(K, None)`` for a gain alone."""
+    if isinstance(K, tuple | list) and len(K) == 3:
+        try:
+            S_shape, E_ndim = np.shape(K[1]), np.ndim(K[2])
+        except ValueError:  # ragged: not an lqr result
+            return K, None
+        if S_shape == (n, n) and E_ndim == 1 and np.ndim(K[0]) == 2:
+            return K[0], K[1]
+    return K, None
 
 
 # --- python-control ------------------------------------------------------------------------
@@ -353,11 +390,28 @@ class Traced:
     __hash__ = None  # type: ignore[assignment]
 
 
-def _labels(labels: Sequence[str]) -> tuple[str, ...]:
-    """python-control's labels as identifiers (``x[0]`` -> ``x0``), unique, else ``x0, x1, ...``."""
+def _labels(labels: Sequence[str], prefix: str = "x") -> tuple[str, ...]:
+    """python-control's labels as identifiers (``x[0]`` -> ``x0``), unique, else ``x0, x1, ...``
+    (``prefix`` instead of ``x``)."""
     names = tuple(re.sub(r"\W", "", str(s)) for s in labels)
     ok = all(s.isidentifier() for s in names) and len(set(names)) == len(names)
-    return names if ok else tuple(f"x{i}" for i in range(len(labels)))
+    return names if ok else tuple(f"{prefix}{i}" for i in range(len(labels)))
+
+
+def _design_lqr(sys: Any, lqr: Any, x_eq: Sequence[float], u_eq: Sequence[float],
+                params: Mapping[str, Any]) -> tuple[Any, Any, Any]:  # fmt: skip
+    """``control.lqr`` on ``sys`` linearised at ``(x_eq, u_eq)``: ``(K, S, E)``."""
+    import control
+
+    try:
+        Q, R = lqr
+    except (TypeError, ValueError):
+        raise RoaInputError(f"System.from_control: lqr must be (Q, R), got {lqr!r}") from None
+    linear = sys.linearize(list(x_eq), list(u_eq), params=dict(params))
+    try:
+        return control.lqr(linear, Q, R)  # type: ignore[no-any-return]
+    except Exception as exc:  # noqa: BLE001 - python-control's own message (shapes, not stabilisable)
+        raise RoaInputError(f"System.from_control: lqr=(Q, R): control.lqr failed: {exc}") from None
 
 
 def _trace(sys: Any, params: Mapping[str, Any], x_eq: Sequence[float], u_eq: Sequence[float],
@@ -463,6 +517,7 @@ def from_control(
     u_eq: Sequence[float] | None = None,
     params: Mapping[str, Any] | None = None,
     name: str | None = None,
+    lqr: tuple[Any, Any] | None = None,
     **kwargs: Any,
 ) -> Any:
     """The closed loop of a python-control model under ``u = u_eq - K (x - x_eq)``; see
@@ -485,14 +540,23 @@ def from_control(
         )
     n, m = sys.nstates, sys.ninputs
     names = _labels(sys.state_labels)
+    kwargs.setdefault("input_names", _labels(sys.input_labels, "u"))
     x_eq = _vector(equilibrium, n, "equilibrium")
     u0 = _vector(u_eq, m, "u_eq")
+    all_params = {**(sys.params or {}), **(params or {})}
+    if lqr is not None:
+        if K is not None:
+            raise RoaInputError("System.from_control: give K or lqr=(Q, R), not both")
+        K = _design_lqr(sys, lqr, x_eq, u0, all_params)
+    K, S = lqr_parts(K, n)
+    if S is not None and kwargs.get("lyapunov") is None:
+        kwargs["lyapunov"] = _matrix(S, (n, n), "S (control.lqr's Riccati solution)")
+        kwargs["meta"] = {"lyapunov_name": RICCATI_NAME, **(kwargs.get("meta") or {})}
     if K is None:
         K = np.zeros((m, n))
     gain = _matrix(K, (m, n), "K")
     label = name or sys.name
     loop = ClosedLoopField(_no_plant, gain, x_eq, u0)
-    all_params = {**(sys.params or {}), **(params or {})}
     if not isinstance(sys, control.StateSpace):
         X = _sample_states(x_eq, n)[:TIME_POINTS]
         how = _time_varying(sys, all_params, np.vstack([x_eq, X]), loop.inputs)
@@ -516,6 +580,8 @@ def from_control(
 
     try:
         exprs = _trace(sys, all_params, x_eq, u0, gain, names)
+        if m:
+            kwargs.setdefault("feedback", LinearFeedback(gain, x_eq, u0))
         system = System.from_sympy(exprs, names, equilibrium=x_eq, name=label, **kwargs)
     except TraceTooLarge:
         raise

@@ -183,8 +183,17 @@ class System:
         Coordinates that certificates of this system may live in (terminal sets,
         :mod:`roa.montecarlo.terminal`): ``names``, ``systems`` (certified system name ->
         coordinates name), ``__call__(name)`` (the numpy map) and ``system(name)``.
+    input_names, input_units : tuple of str
+        Names and units of the inputs ``u`` of a closed loop (``from_control`` takes the names
+        from the model's input labels), for axis labels and JSON.
+    feedback : callable, optional
+        ``feedback(x) -> sequence of m values``: the inputs the loop applies at the state ``x``
+        (components, numpy), e.g. ``u = u_eq - K (x - x_eq)``; ``roa.simulate`` reports and plots
+        ``u(t)`` with it. It plays no part in any analysis (the field already holds it); not
+        compared.
     meta : dict
-        Anything else (notes for reports); not compared. Older systems' ``"numba"``,
+        Anything else (notes for reports); not compared. ``meta["lyapunov_name"]`` names the
+        candidate of ``lyapunov`` (e.g. the Riccati solution of an LQR design). Older systems' ``"numba"``,
         ``"numba_fast"`` and ``"analysis_coords"`` entries are taken as the typed fields.
     """
 
@@ -204,9 +213,13 @@ class System:
     numba_fast: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     analysis_coords: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     meta: dict[str, Any] = dataclasses.field(default_factory=dict, compare=False, hash=False)
+    input_names: tuple[str, ...] = ()
+    input_units: tuple[str, ...] = ()
+    feedback: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
 
     def __post_init__(self) -> None:
         self._bind_params()
+        self._check_labels()
         if any(k in self.meta for k in _TYPED_META):
             for key in _TYPED_META:
                 if key in self.meta and getattr(self, key) is None:
@@ -225,6 +238,39 @@ class System:
                         f"{arr.shape}"
                     )
                 object.__setattr__(self, name, tuple(tuple(float(v) for v in row) for row in arr))
+
+    def _check_labels(self) -> None:
+        """Names and units as tuples of strings of the right lengths (units may be omitted)."""
+        for attr in ("state_names", "state_units", "input_names", "input_units"):
+            value = getattr(self, attr)
+            if isinstance(value, str) or not all(isinstance(v, str) for v in value):
+                raise RoaInputError(f"System.{attr} must be a sequence of strings, got {value!r}")
+            object.__setattr__(self, attr, tuple(value))
+        if self.state_units and len(self.state_units) != self.n:
+            raise RoaInputError(
+                f"System.state_units must give one unit per state ({self.n}: "
+                f"{', '.join(self.state_names)}), got {len(self.state_units)}"
+            )
+        m = len(self.input_names)
+        if self.input_units and len(self.input_units) != m:
+            raise RoaInputError(
+                f"System.input_units must give one unit per input ({m}: "
+                f"{', '.join(self.input_names) or 'no input_names'}), got {len(self.input_units)}"
+            )
+        if self.feedback is not None and not callable(self.feedback):
+            raise RoaInputError(
+                f"System.feedback must be callable feedback(x) -> inputs, got {self.feedback!r}"
+            )
+
+    def inputs(self, x: np.ndarray) -> np.ndarray:
+        """The inputs ``u`` that ``feedback`` applies at states ``x`` (shape ``(..., n)``), shape
+        ``(..., m)``; an error for a system without ``feedback``."""
+        if self.feedback is None:
+            raise RoaInputError(f"system {self.name!r} has no feedback (no inputs to report)")
+        x = np.asarray(x, dtype=float)
+        comps = [x[..., i] for i in range(self.n)]
+        out = [np.asarray(u, dtype=float) for u in self.feedback(comps)]
+        return np.stack(np.broadcast_arrays(*out, x[..., 0])[:-1], axis=-1)
 
     @classmethod
     def from_sympy(
@@ -287,6 +333,7 @@ class System:
         u_eq: Sequence[float] | None = None,
         params: Mapping[str, Any] | None = None,
         name: str | None = None,
+        lqr: tuple[Any, Any] | None = None,
         **kwargs: Any,
     ) -> System:
         """The closed loop of a python-control model under ``u = u_eq - K (x - x_eq)``.
@@ -296,9 +343,13 @@ class System:
         sys : control.NonlinearIOSystem or control.StateSpace
             The continuous-time plant ``x' = updfcn(t, x, u, params)``; its state labels become
             ``state_names`` (``x[0]`` -> ``x0``).
-        K : m x n matrix, optional
+        K : m x n matrix or the result of ``control.lqr``, optional
             The gain, e.g. ``control.lqr(sys.linearize(x_eq, u_eq), Q, R)[0]`` (default zero:
-            the open loop, for a model without inputs).
+            the open loop, for a model without inputs). Given the whole result ``(K, S, E)`` of
+            ``control.lqr``, the Riccati solution ``S`` becomes the system's Lyapunov candidate
+            ``(x - x_eq)' S (x - x_eq)`` (``lyapunov``; :func:`roa.default_lyapunov` then uses it
+            instead of ``A'P + PA = -I``): it is the LQR loop's own cost-to-go, and its level
+            sets follow the loop's slow directions.
         field : callable, optional
             ``field(t, x, u, xp)``: the same equations written with arithmetic and ``xp``
             functions. Without it, a ``NonlinearIOSystem``'s numpy ``updfcn`` is traced
@@ -310,8 +361,13 @@ class System:
             Values overriding ``sys.params`` (fixed when the system is built).
         name : str, optional
             Default: ``sys.name``.
+        lqr : (Q, R), optional
+            Instead of ``K``: the gain of ``control.lqr`` on ``sys`` linearised at
+            ``(x_eq, u_eq)`` with these weights, and its ``S`` as the candidate (as above).
         **kwargs
-            As :class:`System` (``state_units``, ``margin``, ``lyapunov``, ...).
+            As :class:`System` (``state_units``, ``input_units``, ``margin``, ``lyapunov``,
+            ...). ``input_names`` default to the model's input labels; ``feedback`` is the
+            control law, so ``roa.simulate`` reports and plots ``u(t)``.
 
         The analysed field (traced or ``field=``) is checked against ``updfcn`` on numpy at
         sample points around ``x_eq`` (:mod:`roa.control_system`); a difference is an error.
@@ -331,7 +387,7 @@ class System:
         from roa.control_system import from_control
 
         return from_control(sys, K, field=field, equilibrium=equilibrium, u_eq=u_eq,
-                            params=params, name=name, **kwargs)  # fmt: skip
+                            params=params, name=name, lqr=lqr, **kwargs)  # fmt: skip
 
     def _bind_params(self) -> None:
         func = self.field.func if isinstance(self.field, BoundField) else self.field

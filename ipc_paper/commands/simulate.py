@@ -44,7 +44,8 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--coordinates",
         choices=("physical", "flat"),
         default="physical",
-        help="integrate the physical model or the closed loop (3.8) in flat coordinates",
+        help="integrate the physical model or the closed loop (3.8) in flat coordinates "
+        "(default physical)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")

@@ -252,11 +252,13 @@ class Certificate:
                            system=self.system, V=self.V)  # fmt: skip
 
     def plot(self, ax: Any = None, *, axes: tuple[int, int] = (0, 1), n: int = 200) -> Any:
-        """The level set ``{V <= level}`` on the slice of two states through the equilibrium."""
+        """The level set ``{V <= level}`` on the slice of two states through the equilibrium; the
+        legend below the axes (never on the curve), one unit as long on both axes when they share
+        their unit, and a new figure laid out so that a plain ``savefig`` keeps it all."""
         import matplotlib.pyplot as plt
 
         if ax is None:
-            _, ax = plt.subplots(figsize=(5, 4.5))
+            _, ax = plt.subplots(figsize=(5, 5), layout="constrained")
         if self.level is None or self.V is None or self.system is None:
             ax.set_title(f"no level ({self.status.value})")
             return ax
@@ -272,10 +274,14 @@ class Certificate:
             ax.plot(c[i] + pts[0], c[j] + pts[1], style, label=label)
         else:
             _contour(ax, self.V, self.level, (i, j), n, style, label)
+        from roa.plotting.basin import shared_units, unit_text
+
         names, units = self.system.state_names, self.system.state_units or ("-",) * self.system.n
-        ax.set_xlabel(f"{names[i]} [{units[i]}]")
-        ax.set_ylabel(f"{names[j]} [{units[j]}]")
-        ax.legend(loc="best")
+        ax.set_xlabel(f"{names[i]} [{unit_text(units[i])}]")
+        ax.set_ylabel(f"{names[j]} [{unit_text(units[j])}]")
+        if shared_units(self.system, i, j):
+            ax.set_aspect("equal", adjustable="datalim")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), frameon=False, fontsize=9)
         return ax
 
 

@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
   roa basin --system ipc:saturation=2 --slice q,theta --grid 100x100 --fix theta_dot=0.5 --json
+  roa basin --system vanderpol --slice x1,x2 --grid 100x100 --box x1=-3:3,x2=-3:3 --plot map.png --trajectories 16
   roa basin --system ipc --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
   roa basin --system ipc --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
   roa basin --system vanderpol --param mu=0.8..1.2 --param-samples 8 --slice x1,x2 --grid 80x80 --box x1=-3:3,x2=-3:3 --terminal-set cert.json --plot robust.png
@@ -76,7 +77,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--atol", type=numparse.arg(), default=1e-9, help="absolute tolerance (default 1e-9)"
     )
     p.add_argument(
-        "--chunk-size", type=numparse.integer(), default=4096, help="initial conditions per task"
+        "--chunk-size", type=numparse.integer(), default=4096, help="initial conditions per task (default 4096)"
     )
     p.add_argument(
         "--jobs",
@@ -96,6 +97,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
+    p.add_argument("--trajectories", type=numparse.integer(), default=0, metavar="N",
+                   help="with --plot: overlay N trajectories (roa simulate, the same stop rules) "
+                   "started at N states spread over the slice, coloured by how they end, in "
+                   "[1, 400]; projected onto the slice when the system has more states")  # fmt: skip
     p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
@@ -352,6 +357,22 @@ def run(args: argparse.Namespace) -> int:
         raise RoaInputError("--plot draws a slice: use it with --slice")
     if args.plot:
         check_figure_path(args.plot)
+    if args.trajectories:
+        from roa.plotting.basin import MAX_TRAJECTORIES
+
+        if not 1 <= args.trajectories <= MAX_TRAJECTORIES:
+            raise RoaInputError(
+                f"--trajectories must be an integer in [1, {MAX_TRAJECTORIES}], got "
+                f"{args.trajectories}"
+            )
+        if not (args.plot or args.out) or not isinstance(sampler, GridSlice):
+            raise RoaInputError("--trajectories overlays runs on the slice's map: use it with "
+                                "--slice and --plot")  # fmt: skip
+        if system.parameters:
+            raise RoaInputError(
+                "--trajectories: a trajectory needs one value of each uncertain parameter; "
+                "fix them with --param NAME=VALUE or --nominal"
+            )
     plot = args.plot or (
         str(Path(args.out) / "basin.png") if args.out and isinstance(sampler, GridSlice) else None
     )
@@ -390,9 +411,14 @@ def run(args: argparse.Namespace) -> int:
                if args.out else "(no plot drawn); give --out DIR to make a run resumable")
         )  # fmt: skip
     if plot and not cut:
+        from roa.montecarlo.basin import overlay_runs
         from roa.plotting.basin import plot_slice
 
-        plot_slice(system, sampler, result.code, plot, regions=regs,
+        runs = overlay_runs(system, sampler, args.trajectories, rules)
+        if runs:
+            summary["trajectories_drawn"] = {"n": len(runs), "counts": {
+                s: sum(r.status.value == s for r in runs) for s in sorted({r.status.value for r in runs})}}  # fmt: skip
+        plot_slice(system, sampler, result.code, plot, regions=regs, trajectories=runs,
                    title=f"basin of {system.name}")  # fmt: skip
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)

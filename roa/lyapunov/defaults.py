@@ -26,7 +26,9 @@ def as_lyapunov(system: System, V: Any = None) -> Lyapunov:
 def default_lyapunov(system: System) -> QuadraticLyapunov:
     """The quadratic Lyapunov candidate of a system.
 
-    ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix), else
+    ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix, or the
+    Riccati solution ``S`` of a loop built by :meth:`roa.System.from_control` from
+    ``control.lqr``), else
     ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium.
 
     For a system with uncertain parameters, that candidate (at the nominal values) is kept when
@@ -51,7 +53,8 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
 
     check_system(system)  # a malformed field or a false equilibrium: a clear error first
     if system.lyapunov is not None:
-        V = QuadraticLyapunov.for_system(system, system.lyapunov, name=f"{system.name} V")
+        label = system.meta.get("lyapunov_name") or f"{system.name} V"
+        V = QuadraticLyapunov.for_system(system, system.lyapunov, name=str(label))
     else:
         from roa.linearisation import lyapunov_matrix
 

@@ -77,7 +77,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         "--atol", type=numparse.arg(), default=1e-9, help="absolute tolerance (default 1e-9)"
     )
     p.add_argument(
-        "--chunk-size", type=numparse.integer(), default=4096, help="initial conditions per task (default 4096)"
+        "--chunk-size",
+        type=numparse.integer(),
+        default=4096,
+        help="initial conditions per task (default 4096)",
     )
     p.add_argument(
         "--jobs",

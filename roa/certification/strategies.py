@@ -91,8 +91,10 @@ SOS_ROUTE = Route("sos-exact", parameters=True)
 class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
-    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
-    V) is a box holding the level set, proved by ``V > level`` on its faces. For a system with
+    Accepts every autonomous system with an equilibrium and every V, continuous-time (``V' < 0``)
+    or discrete-time (``V(F(x)) - V(x) < 0``, the whole sublevel set then proved invariant);
+    ``bounding_box`` (any V) is a box holding the level set, proved by ``V > level`` on its
+    faces (a map needs the whole sublevel set: the ``invariant`` precondition). For a system with
     uncertain parameters the level is proved for every parameter of the box
     (:func:`roa.proof.robust.validate_robust`).
     """
@@ -191,7 +193,7 @@ class SosValidator:
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:
             return False
-        if system.time_varying:
+        if system.time_varying or system.time != "continuous":  # the SOS data are of a flow
             return False
         return self.fallback or self.recast_error(system, V) is None
 
@@ -593,7 +595,7 @@ class SosLevel:
     only: bool = False
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        return V.as_quadratic() is not None
+        return V.as_quadratic() is not None and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
         from roa.search.sos import sos_level

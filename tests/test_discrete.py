@@ -304,3 +304,21 @@ def test_cli_certifies_the_registered_map(capsys):
     assert out["status"] == "certified" and out["local_proof"] == "hessian"
     code = main(["certify", "--system", "cubic-map", "--level", f"{1.01 * optimum():.12g}"])
     assert code == 1
+
+
+@pytest.mark.slow
+def test_discrete_pendulum_example_writes_its_certificate_and_basin(tmp_path):
+    """The gallery script (quick): certified, refuted above, every grid point of the certified
+    set converged when the map is iterated."""
+    sys.path.insert(0, str(ROOT / "examples"))
+    try:
+        import discrete_pendulum_nn
+    finally:
+        sys.path.remove(str(ROOT / "examples"))
+    doc = discrete_pendulum_nn.main(["--quick", "--out", str(tmp_path)])
+    cert, basin = doc["certificate"], doc["basin_slice"]
+    assert cert["status"] == "certified" and cert["above"] == "refuted"
+    assert 0 < cert["level"] <= doc["level_search"]["level"]
+    (certified,) = [r for r in basin["regions"] if r["status"] == "certified"]
+    assert certified["slice"]["points_in_region"] > 0 and certified["slice"]["all_converged"]
+    assert (tmp_path / "discrete_pendulum_nn.png").read_bytes()[:4] == b"\x89PNG"

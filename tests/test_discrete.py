@@ -322,3 +322,36 @@ def test_discrete_pendulum_example_writes_its_certificate_and_basin(tmp_path):
     (certified,) = [r for r in basin["regions"] if r["status"] == "certified"]
     assert certified["slice"]["points_in_region"] > 0 and certified["slice"]["all_converged"]
     assert (tmp_path / "discrete_pendulum_nn.png").read_bytes()[:4] == b"\x89PNG"
+
+
+def test_polynomial_map_certified_by_an_exact_sos_certificate():
+    """For a polynomial map Delta V = V(F(x)) - V(x) is a polynomial: the SOS route proves
+    0.99 x the closed-form optimum with a certificate checked in exact rationals; the stored
+    certificate re-verifies, and refuses to certify with its level raised above the optimum or
+    with a Gram matrix altered."""
+    from fractions import Fraction
+
+    from roa.certification import Certificate
+
+    s = cubic_map()
+    cert = roa.certify(s, level=0.99 * optimum(), validator="sos")
+    assert cert.certified and cert.method == "sos-exact", cert.message
+    data = json.loads(roa.io.to_json(cert.to_dict()))
+    assert Certificate.from_dict(data, s).reverify().certified
+    raised = Certificate.from_dict({**data, "level": 1.01 * optimum()}, s).reverify()
+    assert not raised.certified
+    Q1 = [[str(Fraction(q) * Fraction(3, 2)) for q in row] for row in data["certificate"]["Q1"]]
+    tampered = {**data, "certificate": {**data["certificate"], "Q1": Q1}}
+    assert not Certificate.from_dict(tampered, s).reverify().certified
+    above = roa.certify(s, level=1.01 * optimum(), validator="sos")
+    assert not above.certified  # the SOS route never certifies above the optimum
+
+
+def test_a_map_with_uncertain_parameters_is_proved_for_the_whole_box():
+    """mu in [0.9, 1.1]: the worst optimum is 1 / (1.1 (1 + lam)); 0.99 x it is certified for
+    every mu of the box, 1.01 x it refuted by a 50-digit witness at mu = 1.1."""
+    s = cubic_map().with_ranges(mu=(0.9, 1.1))
+    worst = optimum(LAM, 1.1)
+    assert roa.certify(s, level=0.99 * worst).certified
+    above = roa.certify(s, level=1.01 * worst)
+    assert above.status is Verdict.REFUTED and above.validation.witness_parameters == {"mu": 1.1}

@@ -193,7 +193,7 @@ class SosValidator:
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:
             return False
-        if system.time_varying or system.time != "continuous":  # the SOS data are of a flow
+        if system.time_varying:
             return False
         return self.fallback or self.recast_error(system, V) is None
 
@@ -208,8 +208,11 @@ class SosValidator:
             try:
                 exact_data(system, V)
                 return None
-            except NotPolynomial:
-                pass
+            except NotPolynomial as exc:
+                if system.time == "discrete":
+                    return f"{exc} (a map is checked as a polynomial, never recast)"
+        elif system.time == "discrete":
+            return "a map with uncertain parameters is not checked by SOS (no recast for maps)"
         try:
             recast_exact(system, V, taylor=1)
             return None

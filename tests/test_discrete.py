@@ -355,3 +355,41 @@ def test_a_map_with_uncertain_parameters_is_proved_for_the_whole_box():
     assert roa.certify(s, level=0.99 * worst).certified
     above = roa.certify(s, level=1.01 * worst)
     assert above.status is Verdict.REFUTED and above.validation.witness_parameters == {"mu": 1.1}
+
+
+def test_cli_basin_of_the_registered_map_with_its_certificate_as_terminal_set(tmp_path, capsys):
+    """``roa basin`` iterates the map; runs entering the certified set stop as converged; the
+    counts agree with the library call on the same grid; method='sos' is refused by name."""
+    from roa.cli import main
+
+    level = 0.99 * optimum()
+    assert main(["certify", "--system", "cubic-map", "--level", f"{level:.12g}", "--json"]) == 0
+    path = tmp_path / "cert.json"
+    path.write_text(capsys.readouterr().out)
+    args = [
+        "basin",
+        "--system",
+        "cubic-map",
+        "--slice",
+        "x1,x2",
+        "--grid",
+        "30x30",
+        "--box",
+        "x1=-2.5:2.5,x2=-2.5:2.5",
+        "--terminal-set",
+        str(path),
+        "--jobs",
+        "1",
+        "--json",
+    ]
+    assert main(args) == 0
+    out = json.loads(capsys.readouterr().out)
+    s = cubic_map()
+    grid = roa.grid_slice(s, ("x1", "x2"), [(-2.5, 2.5), (-2.5, 2.5)], (30, 30))
+    X = grid.points(0, 900)
+    expected = _numpy_codes(X, 60, 1e-3, 1e6)
+    assert out["counts"]["converged"] == int(np.sum(expected == 0)) > 0
+    assert out["entered_certified_set"] == out["counts"]["converged"]
+    assert out["counts"]["diverged"] == int(np.sum(expected == 2)) > 0
+    assert main(["certify", "--system", "cubic-map", "--method", "sos"]) == 2
+    assert "discrete-time" in capsys.readouterr().err

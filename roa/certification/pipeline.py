@@ -160,6 +160,12 @@ def certify(
     elif isinstance(V, VsIteration | CuttingPlanes):
         source, V = V, V.seed
     _check_system(system)
+    if method == "sos" and level is None and system.time != "continuous":
+        raise RoaInputError(
+            f"system {system.name!r} is discrete-time: method='sos' (the SOS level search) is "
+            "for continuous-time systems; use method='interval' (the sampled search), or "
+            "validator='sos' to prove a level of a polynomial map with an exact SOS certificate"
+        )
     if source is not None and system.time != "continuous":
         raise RoaInputError(
             f"system {system.name!r} is discrete-time: the search of V (degree=, VsIteration, "

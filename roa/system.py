@@ -165,14 +165,15 @@ TIMES = ("continuous", "discrete")
 
 @dataclass(frozen=True)
 class System:
-    """A (possibly time-varying) ODE ``x' = f(t, x)`` with an equilibrium and a domain.
+    """A (possibly time-varying) ODE ``x' = f(t, x)``, or a map ``x+ = F(x)`` (:meth:`discrete`),
+    with an equilibrium (a fixed point of a map) and a domain.
 
     Parameters
     ----------
     name : str
         Short identifier.
     field : callable
-        ``field(t, x, xp) -> sequence of n components``. ``x`` is indexable by component (numpy
+        ``field(t, x, xp) -> sequence of n components`` (a :class:`NoVectorField` for a map). ``x`` is indexable by component (numpy
         arrays of any common shape, CasADi or sympy symbols); ``xp`` is a namespace from
         :mod:`roa.backend`. Use only ``xp`` functions and arithmetic.
     equilibrium : sequence of float

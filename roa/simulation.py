@@ -156,6 +156,9 @@ def simulate(
 ) -> Trajectory:
     """Integrate ``system`` from ``x0`` until an event or ``rules.t_final``.
 
+    A discrete-time system's map is iterated instead (``t_final`` in units of its
+    ``sample_time``; the solver options are unused).
+
     Events (terminal): entering the convergence ball (autonomous systems with an equilibrium),
     reaching the domain boundary, exceeding the divergence bound. Non-finite states end the run as
     ``diverged``; nothing is returned as a silent NaN. A run still going at ``t_final`` that grows
@@ -206,10 +209,42 @@ def simulate(
             f"{first}=VALUE)"
         )
     check_system(system)
+    if system.time == "discrete":
+        traj = _iterate(system, x0, rules, time_limit)
+        return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
     traj = _integrate(system, x0, rules, dict(rtol=rtol, atol=atol, method=method,
                                               t_eval=t_eval, max_step=max_step),
                       time_limit=time_limit)  # fmt: skip
     return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
+
+
+def _iterate(system: System, x0: Any, rules: StopRules | None,
+             time_limit: float | None) -> Trajectory:  # fmt: skip
+    """The orbit of a discrete-time system (:func:`roa.montecarlo.iterate.orbit`)."""
+    from roa.montecarlo.dopri import CODE_STATUS
+    from roa.montecarlo.iterate import orbit
+
+    rules = StopRules() if rules is None else rules
+    x0 = system.check_state(x0, what="initial state")
+    if x0.ndim != 1:
+        raise RoaInputError(
+            f"initial state must be one state of {system.n} components, got shape {x0.shape}"
+        )
+    deadline = None if time_limit is None else time.perf_counter() + float(time_limit)
+    code, t, x, timed = orbit(system, x0, rules, deadline)
+    status = CODE_STATUS[code]
+    steps = len(t) - 1
+    why = "time_limit" if timed else status.value
+    message = (f"{why} after {steps} steps of the map (t = {t[-1]:g}, sample time "
+               f"{system.sample_time:g})")  # fmt: skip
+    if status is RunStatus.UNDECIDED:
+        mask, points = settled_elsewhere(system, x[-1], rules.converge_tol)
+        if mask[0]:
+            status = RunStatus.CONVERGED_ELSEWHERE
+            message = f"settled at the fixed point {points[0].tolist()} after {steps} steps"
+        elif not timed:
+            message += "; raise rules.t_final to iterate further"
+    return Trajectory(status, t, x, message, system.name, meta={"steps": steps})
 
 
 def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any],

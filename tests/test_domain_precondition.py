@@ -165,6 +165,11 @@ def _broken(name):
     if name == "bounded":
         indefinite = roa.PolynomialLyapunov([[2, 0], [0, 2]], [1.0, -1.0], [0.0, 0.0], "saddle")
         return base, indefinite, 0.3
+    if name == "invariant":  # a map, and a V with no Gram matrix: only a component cover
+        from roa.systems.cubic_map import cubic_map
+
+        V = roa.FunctionLyapunov(lambda x, xp: x[0] ** 2 + x[1] ** 2, [0.0, 0.0], "no Gram")
+        return cubic_map(), V, 0.3
     return base, V, 2.0  # domain
 
 

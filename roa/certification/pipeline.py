@@ -160,6 +160,17 @@ def certify(
     elif isinstance(V, VsIteration | CuttingPlanes):
         source, V = V, V.seed
     _check_system(system)
+    if method == "sos" and level is None and system.time != "continuous":
+        raise RoaInputError(
+            f"system {system.name!r} is discrete-time: method='sos' (the SOS level search) is "
+            "for continuous-time systems; use method='interval' (the sampled search), or "
+            "validator='sos' to prove a level of a polynomial map with an exact SOS certificate"
+        )
+    if source is not None and system.time != "continuous":
+        raise RoaInputError(
+            f"system {system.name!r} is discrete-time: the search of V (degree=, VsIteration, "
+            "CuttingPlanes) is for continuous-time systems; give V (default: A'PA - P = -I)"
+        )
     if source is not None:
         seed = quadratic_seed(system, V, "the search of V starts from a quadratic seed; V")
         return _from_source(system, seed, source, check, sampled, interval, check_above,
@@ -357,8 +368,13 @@ def run(
         message = (f"{message}; the proposal is the worst of the parameter box's sample points, "
                    "not a bound between them: " + "; ".join(backoff))  # fmt: skip
     if skipped and not given:
-        message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
-                   f"sampled search, checked by the validator. {message}")  # fmt: skip
+        why = (
+            "to continuous-time systems only (this one is a map)"
+            if system.time == "discrete"
+            else f"to quadratic V only ({type(V).__name__})"
+        )
+        message = (f"SOS applies {why}: level from the sampled search, checked by the "
+                   f"validator. {message}")  # fmt: skip
     if local is not None:  # a given level: the validator's verdict, and why
         message = f"{local[2]}. {message}"
     if given and not fresh:

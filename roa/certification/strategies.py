@@ -91,8 +91,10 @@ SOS_ROUTE = Route("sos-exact", parameters=True)
 class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
-    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
-    V) is a box holding the level set, proved by ``V > level`` on its faces. For a system with
+    Accepts every autonomous system with an equilibrium and every V, continuous-time (``V' < 0``)
+    or discrete-time (``V(F(x)) - V(x) < 0``, the whole sublevel set then proved invariant);
+    ``bounding_box`` (any V) is a box holding the level set, proved by ``V > level`` on its
+    faces (a map needs the whole sublevel set: the ``invariant`` precondition). For a system with
     uncertain parameters the level is proved for every parameter of the box
     (:func:`roa.proof.robust.validate_robust`).
     """
@@ -206,8 +208,11 @@ class SosValidator:
             try:
                 exact_data(system, V)
                 return None
-            except NotPolynomial:
-                pass
+            except NotPolynomial as exc:
+                if system.time == "discrete":
+                    return f"{exc} (a map is checked as a polynomial, never recast)"
+        elif system.time == "discrete":
+            return "a map with uncertain parameters is not checked by SOS (no recast for maps)"
         try:
             recast_exact(system, V, taylor=1)
             return None
@@ -593,7 +598,7 @@ class SosLevel:
     only: bool = False
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        return V.as_quadratic() is not None
+        return V.as_quadratic() is not None and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
         from roa.search.sos import sos_level

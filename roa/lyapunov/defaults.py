@@ -29,7 +29,8 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
     ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix, or the
     Riccati solution ``S`` of a loop built by :meth:`roa.System.from_control` from
     ``control.lqr``), else
-    ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium.
+    ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium
+    (``A'PA - P = -I`` for a discrete-time system ``x+ = F(x)``, ``A = DF(x_eq)``).
 
     For a system with uncertain parameters, that candidate (at the nominal values) is kept when
     ``A(p)'P + PA(p) < 0`` at every sample point ``p`` of the box (nominal value, vertices and
@@ -59,8 +60,13 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
         from roa.linearisation import lyapunov_matrix
 
         at = system.nominal() if system.parameters else system
-        V = QuadraticLyapunov.for_system(system, lyapunov_matrix(at), name="P from A'P + PA = -I")
-    if system.parameters and worst_linearisation(system, V) is not None:
+        eq = "A'PA - P = -I" if system.time == "discrete" else "A'P + PA = -I"
+        V = QuadraticLyapunov.for_system(system, lyapunov_matrix(at), name=f"P from {eq}")
+    if (
+        system.parameters
+        and system.time == "continuous"  # the common Lyapunov LMIs are those of a flow
+        and worst_linearisation(system, V) is not None
+    ):
         from roa.search.box_lyapunov import box_lyapunov
 
         res = box_lyapunov(system)

@@ -107,6 +107,9 @@ def integrate_batch(
 ) -> BatchResult:
     """Integrate ``system`` from every row of ``x0`` (shape ``(m, n)``) until its own event.
 
+    A discrete-time system's map is iterated instead (:func:`roa.montecarlo.iterate.iterate_map`:
+    ``t_final`` in units of its ``sample_time``; tolerances and backend unused).
+
     Parameters
     ----------
     system : System
@@ -145,6 +148,15 @@ def integrate_batch(
     if backend not in ("auto", "numba", "numpy"):
         raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
     bound = None if terminal is None else terminal.bind(system)
+    if system.time == "discrete":  # a map: iterated, nothing to integrate
+        from roa.montecarlo.iterate import iterate_map
+
+        res = iterate_map(system, x0, rules=rules, margin_tol=margin_tol, terminal=bound,
+                          deadline=deadline)  # fmt: skip
+        entered = res.code == ENTERED
+        res.code[entered] = CONVERGED
+        return _elsewhere(system, BatchResult(res.code, res.t_end, res.x_end, res.steps, entered),
+                          rules.converge_tol)  # fmt: skip
     from roa.montecarlo.kernel_cache import NUMPY, compiled_system
 
     system, ran, _ = compiled_system(system, backend, terminal, x0.shape[0])

@@ -406,7 +406,7 @@ def compiled_system(system: System, backend: str = "auto", terminal: Any = None,
     :class:`roa.RoaInputError` where ``auto`` falls back."""
     from roa.errors import RoaInputError
 
-    if backend == "numpy":
+    if backend == "numpy" or system.time == "discrete":  # a map is iterated with numpy
         return system, NUMPY, None
     if system.numba is not None or isinstance(system.numba_fast, GeneratedKernels):
         return system, (GENERATED if system.numba is None else OWN), None

@@ -81,7 +81,9 @@ def exact_terms(V: Any) -> QPoly:
 
 def exact_data(system: Any, V: Any) -> ExactData:
     """``V`` and ``V'`` expanded exactly (sympy over the rationals); raises :class:`NotPolynomial`
-    for a field that is not polynomial or a V without ``terms``."""
+    for a field that is not polynomial or a V without ``terms``. For a discrete-time system
+    ``Vdot`` is ``V(F(x)) - V(x)`` (a polynomial map ``F`` with ``F(x_eq) = x_eq`` exactly): the
+    certificate's claim is the same with that decrease."""
     import sympy as sp
 
     from roa.backend import namespace
@@ -96,13 +98,19 @@ def exact_data(system: Any, V: Any) -> ExactData:
     center = tuple(Fraction(float(c)) for c in V.center)
     xs = list(sp.symbols(f"x0:{n}", real=True))
     d = list(sp.symbols(f"d0:{n}", real=True))
+    discrete = getattr(system, "time", "continuous") == "discrete"
     try:  # unevaluated, so that no float is rounded against a rational before it is made exact
         with sp.evaluate(False):
-            f = system.field(0.0, xs, namespace("sympy"))
+            f = system.dynamics(0.0, xs, namespace("sympy"))
         shift = {
             xs[i]: d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)
         }
         f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        if discrete:  # the image's offset from the fixed point: F(x) - x_eq, in d
+            f = [
+                fi - sp.Rational(c.numerator, c.denominator)
+                for fi, c in zip(f, center, strict=True)
+            ]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
@@ -114,13 +122,25 @@ def exact_data(system: Any, V: Any) -> ExactData:
             f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
         ) from None
     if any(p.coeff_monomial(1) != 0 for p in fp):
-        raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
+        raise NotPolynomial(
+            "F(x_eq) != x_eq exactly: V's centre is not a fixed point" if discrete
+            else "f(x_eq) != 0 exactly: V's centre is not an equilibrium"
+        )  # fmt: skip
     Vq = exact_terms(V)
     Vp = sp.Poly.from_dict(
         {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
     )
     poly = sp.Poly(0, *d, domain="QQ")
-    for i in range(n):
+    if discrete:  # Delta V = V(F(x)) - V(x): V's terms composed with F - x_eq, exactly
+        one = sp.Poly(1, *d, domain="QQ")
+        for a, c in Vq.items():
+            term = one * sp.Rational(c.numerator, c.denominator)
+            for i, k in enumerate(a):
+                if k:
+                    term = term * fp[i] ** k
+            poly = poly + term
+        poly = poly - Vp
+    for i in range(0 if discrete else n):
         poly = poly + Vp.diff(d[i]) * fp[i]
     Vd: QPoly = {tuple(m): exact_fraction(c) for m, c in poly.terms() if c != 0}
     if any(sum(m) == 0 for m in Vd):

@@ -125,6 +125,9 @@ def box_lyapunov(
         raise RoaInputError(f"system {system.name!r} declares no uncertain parameters")
     if system.equilibrium is None:
         raise RoaInputError(f"system {system.name!r} has no equilibrium")
+    if system.time != "continuous":
+        raise RoaInputError(f"system {system.name!r} is discrete-time: these are the common "
+                            "Lyapunov LMIs of flows (A'P + PA < 0)")  # fmt: skip
     if isinstance(per_axis, bool) or not isinstance(per_axis, int) or not 0 <= per_axis <= 50:
         raise RoaInputError(f"per_axis must be an integer in [0, 50], got {per_axis!r}")
     if not (np.isfinite(kappa) and kappa >= 1):

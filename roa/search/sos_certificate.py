@@ -20,17 +20,15 @@ Peyrl-Parrilo rounding needs. The float Grams are a candidate: only
 
 from __future__ import annotations
 
-import itertools
 import time
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
 from roa.proof.sos_check import ExactData, norm_power
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes, solve_margin
+from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 
 Mono = tuple[int, ...]
 
@@ -55,20 +53,14 @@ def default_eps(data: ExactData, scale: float = 1e-6) -> Fraction:
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
-def gram_columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
-                 ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
-    """Sparse columns of ``m' Q m * times`` over the vectorised Gram matrix ``Q``: row indices
-    of the resulting monomials (``rows`` grows with new ones), column ``i * nb + j``, value."""
-    r, c, v = [], [], []
-    nb = len(basis)
-    for i, j in itertools.product(range(nb), range(nb)):
-        bij = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
-        for m, coef in times.items():
-            key = tuple(p + q for p, q in zip(bij, m, strict=True))
-            r.append(rows.setdefault(key, len(rows)))
-            c.append(i * nb + j)
-            v.append(coef)
-    return r, c, v
+def level_target(data: ExactData, eps: Fraction) -> dict[Mono, float]:
+    """``-V' - eps |d|^(2k)`` in floats (the side of the identity the Gram forms must match)."""
+    target: dict[Mono, float] = {}
+    for m, c in data.Vdot.items():
+        target[m] = target.get(m, 0.0) - float(c)
+    for m, c in norm_power(data.n, data.low // 2).items():
+        target[m] = target.get(m, 0.0) - float(eps * c)
+    return target
 
 
 def degrees(data: ExactData, multiplier_degree: int | None = None) -> tuple[int, int, int]:
@@ -106,12 +98,7 @@ def propose_certificate(
                   f"{MAX_SDP_BYTES / 2**30:.3g} GiB); not built")  # fmt: skip
         return SosCandidate(basis0, None, basis1, None, eps, None, status,
                             time.perf_counter() - t0)  # fmt: skip
-    target: dict[Mono, float] = {}
-    for m, c in data.Vdot.items():
-        target[m] = target.get(m, 0.0) - float(c)
-    for m, c in norm_power(n, data.low // 2).items():
-        target[m] = target.get(m, 0.0) - float(eps * c)
-    Q0, Q1, margin, status = gram_program(target, basis0, basis1, data.V, level,
+    Q0, Q1, margin, status = gram_program(level_target(data, eps), basis0, basis1, data.V, level,
                                           solver_options)  # fmt: skip
     return SosCandidate(basis0, Q0, basis1, Q1, eps, margin, status, time.perf_counter() - t0)
 
@@ -128,37 +115,17 @@ def gram_program(
     ``target = m0' Q0 m0 + (m1' Q1 m1) (c - V)`` (no multiplier for an empty ``basis1``),
     maximising their least eigenvalue ``t <= 1``. ``(Q0, Q1, t, status)``, the matrices None
     when the solver gives no usable point."""
-    import cvxpy as cp
-
     n = len(basis0[0])
-    rows: dict[Mono, int] = {}
-    for m in target:
-        rows.setdefault(m, len(rows))
     zero = tuple([0] * n)
-    parts = [gram_columns(rows, basis0, {zero: 1.0})]
+    prog = Program(n)
+    prog.const({m: -v for m, v in target.items()})
+    t = prog.scalar()
     c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in Vq.items()}
     c_minus_V[zero] = c_minus_V.get(zero, 0.0) + float(level)
-    if basis1:
-        parts.append(gram_columns(rows, basis1, c_minus_V))
-    nrow = len(rows)
-    b = np.zeros(nrow)
-    for m, value in target.items():
-        b[rows[m]] = value
-    n0, n1 = len(basis0), len(basis1)
-    Q0 = cp.Variable((n0, n0), symmetric=True)
-    t = cp.Variable()
-    A0 = sps.csr_matrix((parts[0][2], (parts[0][0], parts[0][1])), shape=(nrow, n0 * n0))
-    expr = A0 @ cp.vec(Q0, order="C")
-    cons = [Q0 - t * np.eye(n0) >> 0, t <= 1]
-    Q1 = None
-    if basis1:
-        Q1 = cp.Variable((n1, n1), symmetric=True)
-        A1 = sps.csr_matrix((parts[1][2], (parts[1][0], parts[1][1])), shape=(nrow, n1 * n1))
-        expr = expr + A1 @ cp.vec(Q1, order="C")
-        cons.append(Q1 - t * np.eye(n1) >> 0)
-    cons.append(expr == b)
-    status, usable = solve_margin(cp.Problem(cp.Maximize(t), cons), solver_options)
-    if not (usable and Q0.value is not None):
-        return None, None, None, status
+    Q0 = prog.gram(basis0, None, sign=1.0, margin=t)
+    Q1 = prog.gram(basis1, c_minus_V, sign=1.0, margin=t) if basis1 else None
+    res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
+    if not (res.usable and Q0.value is not None):
+        return None, None, None, res.status
     return (np.asarray(Q0.value), None if Q1 is None else np.asarray(Q1.value),
-            None if t.value is None else float(t.value), status)  # fmt: skip
+            None if t.value is None else float(t.value), res.status)  # fmt: skip

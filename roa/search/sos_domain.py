@@ -22,7 +22,7 @@ import numpy as np
 
 from roa.proof.domain import domain_target
 from roa.proof.sos_check import Mono, QPoly
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
+from roa.search.sdp import MAX_SDP_BYTES, monomials, sdp_bytes
 from roa.search.sos_certificate import gram_program
 
 

@@ -25,12 +25,10 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
 from roa.proof.recast import RecastData
 from roa.proof.sos_putinar import Blocks, target_poly, times_polys
-from roa.search.polysdp import monomials, solve_margin
-from roa.search.sos_certificate import gram_columns
+from roa.search.sdp import Program, monomials, solve
 
 Mono = tuple[int, ...]
 
@@ -111,62 +109,29 @@ def _moving(data: RecastData, basis: list[Mono], keep_one: bool = False) -> list
 def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = None,
                     solver_options: dict[str, Any] | None = None) -> PutinarCandidate:  # fmt: skip
     """Solve the constrained SOS program for ``level`` (module docstring)."""
-    import cvxpy as cp
-
     t0 = time.perf_counter()
     eps = default_eps(data) if eps is None else Fraction(eps)
     m0, m1, mj, me = bases(data)
     gram_bases = [m0, m1, *mj]
     times = [{m: float(c) for m, c in p.items()} for p in times_polys(data, Fraction(level))]
-    rows: dict[Mono, int] = {}
-    target = {m: float(c) for m, c in target_poly(data, eps).items()}
-    for m in target:
-        rows.setdefault(m, len(rows))
-    gparts = [gram_columns(rows, B, T) for B, T in zip(gram_bases, times, strict=True)]
-    fparts = []
-    for B, (_, h) in zip(me, data.equalities, strict=True):
-        r: list[int] = []
-        c: list[int] = []
-        v: list[float] = []
-        for k, bm in enumerate(B):
-            for m, coef in h.items():
-                r.append(
-                    rows.setdefault(tuple(p + q for p, q in zip(bm, m, strict=True)), len(rows))
-                )
-                c.append(k)
-                v.append(float(coef))
-        fparts.append((r, c, v))
-    nrow = len(rows)
-    b = np.zeros(nrow)
-    for m, value in target.items():
-        b[rows[m]] = value
-    t = cp.Variable()
-    cons: list[Any] = [t <= 1]
-    Qs = []
-    expr: Any = 0
-    for B, (r, c, v) in zip(gram_bases, gparts, strict=True):
-        nb = len(B)
-        Q = cp.Variable((nb, nb), symmetric=True)
-        A = sps.csr_matrix((v, (r, c)), shape=(nrow, nb * nb))
-        expr = expr + A @ cp.vec(Q, order="C")
-        cons.append(Q - t * np.eye(nb) >> 0)
-        Qs.append(Q)
-    mus = []
-    for B, (r, c, v) in zip(me, fparts, strict=True):
-        mu = cp.Variable(len(B))
-        expr = expr + sps.csr_matrix((v, (r, c)), shape=(nrow, len(B))) @ mu
-        mus.append(mu)
-    cons.append(expr == b)
-    prob = cp.Problem(cp.Maximize(t), cons)
-    status, usable = solve_margin(prob, solver_options)
-    ok = usable and Qs[0].value is not None
+    prog = Program(data.nv)
+    prog.const({m: -float(c) for m, c in target_poly(data, eps).items()})
+    t = prog.scalar()
+    Qs = [prog.gram(B, T, sign=1.0, margin=t) for B, T in zip(gram_bases, times, strict=True)]
+    mus = [prog.free({m: float(c) for m, c in h.items()}, B)
+           for B, (_, h) in zip(me, data.equalities, strict=True)]  # fmt: skip
+    res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
+    ok = res.usable and Qs[0] is not None and Qs[0].value is not None
     blocks = None
     if ok:
         blocks = Blocks(
-            [(B, np.asarray(Q.value)) for B, Q in zip(gram_bases, Qs, strict=True)],
+            [
+                (B, np.zeros((0, 0)) if Q is None else np.asarray(Q.value))
+                for B, Q in zip(gram_bases, Qs, strict=True)
+            ],  # fmt: skip
             [(B, np.asarray(mu.value)) for B, mu in zip(me, mus, strict=True)],
         )
-    sizes = {"rows": nrow, "gram_sizes": [len(B) for B in gram_bases],
+    sizes = {"rows": len(prog.rows), "gram_sizes": [len(B) for B in gram_bases],
              "free": sum(len(B) for B in me)}  # fmt: skip
     return PutinarCandidate(blocks, eps, float(t.value) if ok and t.value is not None else None,
-                            status, time.perf_counter() - t0, sizes)  # fmt: skip
+                            res.status, time.perf_counter() - t0, sizes)  # fmt: skip

@@ -3,7 +3,7 @@
 The program of :mod:`roa.search.sos_certificate` (``-V' - eps|d|^2k - lambda (c - V) = sigma``,
 ``lambda``, ``sigma`` SOS) with one Gram matrix over all monomials of degree ``k..D`` in ``n``
 variables needs ``O(n^2D)`` entries: at 20-30 states and degree 4, far more solver memory than
-the budget :data:`roa.search.polysdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
+the budget :data:`roa.search.sdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
 Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials instead:
 
 * the **interaction graph** joins two variables when they occur in one monomial of ``V'`` or
@@ -25,7 +25,7 @@ since each clique's blocks see only the part of ``V`` they hold. Each block is k
 maximised (``t <= 1``), as in the dense program.
 
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the
-memory budget :data:`roa.search.polysdp.MAX_SDP_BYTES`, else this one when it applies (diagonal
+memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else this one when it applies (diagonal
 quadratic V, a clique smaller than ``n``) and fits, else none (``too_large``).
 """
 
@@ -39,11 +39,10 @@ from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
-from roa.proof.sos_check import ExactData, Mono, norm_power
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search.sos_certificate import default_eps, degrees, gram_columns
+from roa.proof.sos_check import ExactData, Mono
+from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search.sos_certificate import default_eps, degrees, level_target
 
 
 def interaction_graph(data: ExactData) -> Any:
@@ -183,61 +182,33 @@ class SparseProgram:
         import cvxpy as cp
 
         t0 = time.perf_counter()
-        n = data.n
         self.plan = plan
         self.eps = default_eps(data) if eps is None else Fraction(eps)
         self.solver_options = dict(solver_options or {})
-        k = data.low // 2
-        zero = tuple([0] * n)
-        target: dict[Mono, float] = {}
-        for m, c in data.Vdot.items():
-            target[m] = target.get(m, 0.0) - float(c)
-        for m, c in norm_power(n, k).items():
-            target[m] = target.get(m, 0.0) - float(self.eps * c)
-        rows: dict[Mono, int] = {m: i for i, m in enumerate(target)}
-        minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
-        bases = plan.sigma + plan.lam
-        # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
-        parts = [gram_columns(rows, b, {zero: 1.0}) for b in plan.sigma]
-        parts += [gram_columns(rows, b, minus_V) for b in plan.lam]
-        level_parts: list[tuple[list, list, list]] = [([], [], []) for _ in plan.sigma]
-        level_parts += [gram_columns(rows, b, {zero: 1.0}) for b in plan.lam]
-        offsets = np.cumsum([0] + [len(b) ** 2 for b in bases])
-        nrow, ncol = len(rows), int(offsets[-1])
-
-        def matrix(ps: list[tuple[list, list, list]]) -> Any:
-            r = np.concatenate([np.asarray(p[0], dtype=np.int64) for p in ps])
-            c = np.concatenate([np.asarray(p[1], dtype=np.int64) + offsets[i]
-                                for i, p in enumerate(ps)])  # fmt: skip
-            v = np.concatenate([np.asarray(p[2], dtype=float) for p in ps])
-            return sps.csr_matrix((v, (r, c)), shape=(nrow, ncol))
-
-        b = np.zeros(nrow)
-        for m, value in target.items():
-            b[rows[m]] = value
-        self.Qs = [cp.Variable((len(bb), len(bb)), symmetric=True) for bb in bases]
-        self.t = cp.Variable()
+        zero = tuple([0] * data.n)
+        prog = Program(data.n)
+        prog.const({m: -v for m, v in level_target(data, self.eps).items()})
+        self.t = prog.scalar()
         self.level = cp.Parameter(nonneg=True)
-        x = cp.hstack([cp.vec(Q, order="C") for Q in self.Qs])
-        cons = [Q - self.t * np.eye(Q.shape[0]) >> 0 for Q in self.Qs]
-        cons += [self.t <= 1, matrix(parts) @ x + self.level * (matrix(level_parts) @ x) == b]
-        self.problem = cp.Problem(cp.Maximize(self.t), cons)
-        self.rows = nrow
+        minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
+        for b in plan.sigma:
+            prog.gram(b, {zero: 1.0}, sign=1.0, margin=self.t)
+        # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
+        for b in plan.lam:
+            prog.gram(b, minus_V, sign=1.0, margin=self.t, level=self.level,
+                      level_times={zero: 1.0})  # fmt: skip
+        self.Qs = [Q for _, Q in prog.grams]
+        self.problem = prog.problem(self.t, extra=[self.t <= 1])
+        self.rows = len(prog.rows)
         self.build_seconds = time.perf_counter() - t0
 
     def solve(self, level: float) -> SparseCandidate:
         """The program at ``level``: float blocks and the margin ``t`` (None when it failed)."""
-        import cvxpy as cp
-
         t0 = time.perf_counter()
         self.level.value = float(level)
-        try:
-            self.problem.solve(solver=cp.CLARABEL, **self.solver_options)
-            status = str(self.problem.status)
-        except cp.error.SolverError as exc:
-            status = f"solver error: {exc}"
+        res = solve(self.problem, options=self.solver_options)
         Qs = self.Qs
-        ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and all(Q.value is not None for Q in Qs)
+        ok = res.usable and all(Q.value is not None for Q in Qs)
         K = len(self.plan.sigma)
         vals = [np.asarray(Q.value) for Q in Qs] if ok else None
         t = self.t.value
@@ -246,7 +217,7 @@ class SparseProgram:
                    "estimated_gib": round(self.plan.bytes / 2**30, 4)}  # fmt: skip
         return SparseCandidate(self.plan, None if vals is None else vals[:K],
                                None if vals is None else vals[K:], self.eps,
-                               float(t) if ok and t is not None else None, status,
+                               float(t) if ok and t is not None else None, res.status,
                                time.perf_counter() - t0, figures)  # fmt: skip
 
 

@@ -19,7 +19,7 @@ from scipy.optimize import minimize
 import roa
 from roa.certification import Certificate
 from roa.lyapunov.defaults import as_lyapunov
-from roa.proof.sos_check import recheck_stored
+from roa.proof.sos_stored import recheck as recheck_stored
 from roa.status import Verdict
 from roa.system import System
 
@@ -105,17 +105,17 @@ def test_stored_box_certificate_rechecked_and_tampering_refused(box_cert, worst)
         assert r.status is Verdict.INCONCLUSIVE and words in r.message, r.message
 
     refused({**data, "level": 1.01 * worst}, "refused")  # raised above the worst case
-    grams = data["certificate"]["putinar"]["grams"]
+    grams = data["certificate"]["parts"][0]["grams"]
     assert len(grams) == 3  # sigma0, lambda, the box multiplier (no other constraint)
     # the multiplier of the box constraint negated
     bad = json.loads(json.dumps(data))
-    g = bad["certificate"]["putinar"]["grams"][2]
+    g = bad["certificate"]["parts"][0]["grams"][2]
     g["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in g["Q"]]
-    refused(bad, "does not hold exactly as stored")  # checked as stored, nothing projected
+    refused(bad, "not positive definite")  # checked as stored, nothing projected
     # Q0 indefinite with every coefficient of the identity unchanged: +a on the (y0^2, y1^2)
     # pair, -2a on (y0 y1, y0 y1)
     forged = json.loads(json.dumps(data))
-    g0 = forged["certificate"]["putinar"]["grams"][0]
+    g0 = forged["certificate"]["parts"][0]["grams"][0]
     basis = [tuple(b) for b in g0["basis"]]
     i11, i12, i22 = (basis.index(m) for m in ((2, 0, 0), (1, 1, 0), (0, 2, 0)))
     Q0 = [[Fraction(v) for v in row] for row in g0["Q"]]
@@ -124,7 +124,7 @@ def test_stored_box_certificate_rechecked_and_tampering_refused(box_cert, worst)
     Q0[i22][i11] += a
     Q0[i12][i12] -= 2 * a
     g0["Q"] = [[str(v) for v in row] for row in Q0]
-    refused(forged, "Q0 (after projection)")
+    refused(forged, "projected Gram matrix Q0")
     # a narrower box written in the file: the system's box decides, the file's is refused
     narrow = json.loads(json.dumps(data))
     narrow["certificate"]["parameters"] = {"mu": ["9/10", "11/10"]}
@@ -197,7 +197,7 @@ def test_two_parameter_polynomial_box():
     ok = roa.certify(s, V, level=0.95 * closed, validator=roa.SosValidator(fallback=False))
     assert ok.status is Verdict.CERTIFIED and ok.method == "sos-exact", ok.message
     assert "a in [0.5, 1.5], b in [0.5, 1.0]" in ok.message
-    grams = ok.validation.meta["certificate"]["putinar"]["grams"]
+    grams = ok.validation.meta["certificate"]["parts"][0]["grams"]
     assert len(grams) == 4  # sigma0, lambda, one multiplier per parameter
     data = json.loads(roa.io.to_json(ok.to_dict()))
     assert Certificate.from_dict(data, s).reverify().certified
@@ -263,7 +263,7 @@ def test_worst_case_inside_the_box_with_three_parameters():
     sos = roa.SosValidator(fallback=False)
     ok = sos.check(s, V, 0.99 * worst)
     assert ok.status is Verdict.CERTIFIED, ok.message
-    assert len(ok.meta["certificate"]["putinar"]["grams"]) == 5  # sigma0, lambda, 3 boxes
+    assert len(ok.meta["certificate"]["parts"][0]["grams"]) == 5  # sigma0, lambda, 3 boxes
     assert sos.check(s, V, 1.01 * worst).status is Verdict.INCONCLUSIVE
 
 

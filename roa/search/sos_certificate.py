@@ -15,18 +15,19 @@ deg V'``). A degenerate equilibrium, ``V'`` starting at degree ``2k > 2``, force
 ``sigma`` starts at ``2k`` and ``lambda V`` at ``j + 2``), so ``m1`` starts at degree ``k``, as
 the Newton polytope says; a basis reaching lower would leave no strictly feasible point, which
 Peyrl-Parrilo rounding needs. The float Grams are a candidate: only
-:func:`roa.proof.sos_check.check_certificate` decides.
+:func:`roa.proof.putinar.check_level` decides.
 """
 
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from roa.proof.putinar import Certificate
 from roa.proof.sos_check import ExactData, norm_power
 from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 
@@ -34,22 +35,31 @@ Mono = tuple[int, ...]
 
 
 @dataclass(frozen=True)
-class SosCandidate:
-    """Bases and float Gram matrices of a numerical certificate (``Q1`` None: ``lambda = 0``)."""
+class Candidate:
+    """A certificate proposed by a program, in floats (only :mod:`roa.proof.putinar` decides):
+    ``certificate`` None when the solver gave no usable point; ``margin`` the least eigenvalue
+    ``t`` of the Gram blocks the program maximised; ``sizes`` the program's figures."""
 
-    basis0: list[Mono]
-    Q0: np.ndarray | None
-    basis1: list[Mono]
-    Q1: np.ndarray | None
+    certificate: Certificate | None
     eps: Fraction
-    margin: float | None  # the solver's least eigenvalue t
+    margin: float | None
     solver_status: str
     seconds: float
+    sizes: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def feasible(self) -> bool:
+        """A solution with a positive margin (every block positive definite numerically)."""
+        return self.certificate is not None and self.margin is not None and self.margin > 0
 
 
-def default_eps(data: ExactData, scale: float = 1e-6) -> Fraction:
-    """``scale`` x the largest |coefficient| of the lowest-degree part of ``V'`` (a dyadic)."""
-    top = max((abs(float(c)) for m, c in data.Vdot.items() if sum(m) == data.low), default=1.0)
+def default_eps(data: Any, scale: float = 1e-6) -> Fraction:
+    """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (``V'``, or its
+    recast numerator; the degree in the state variables, parameters not counted), a dyadic:
+    the one default of every route."""
+    nz = data.nv - len(getattr(data, "parameters", ()))
+    top = max((abs(float(c)) for m, c in data.N.items() if sum(m[:nz]) == data.low),
+              default=1.0)  # fmt: skip
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
@@ -84,7 +94,7 @@ def propose_certificate(
     eps: Fraction | None = None,
     multiplier_degree: int | None = None,
     solver_options: dict[str, Any] | None = None,
-) -> SosCandidate:
+) -> Candidate:
     """Solve the SOS program for the level ``level`` (see the module docstring)."""
     t0 = time.perf_counter()
     n = data.n
@@ -92,15 +102,19 @@ def propose_certificate(
     low, D, L = degrees(data, multiplier_degree)
     basis0 = monomials(n, D, low)
     basis1 = monomials(n, L, low) if L >= low else []  # lambda starts at degree 2k (below)
+    sizes = {"gram_sizes": [len(basis0), len(basis1)]}
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
         status = (f"too large: a Gram block of {len(basis0)} monomials needs an estimated "
                   f"{sdp_bytes(len(basis0)) / 2**30:.3g} GiB (budget "
                   f"{MAX_SDP_BYTES / 2**30:.3g} GiB); not built")  # fmt: skip
-        return SosCandidate(basis0, None, basis1, None, eps, None, status,
-                            time.perf_counter() - t0)  # fmt: skip
+        return Candidate(None, eps, None, status, time.perf_counter() - t0, sizes)
     Q0, Q1, margin, status = gram_program(level_target(data, eps), basis0, basis1, data.V, level,
                                           solver_options)  # fmt: skip
-    return SosCandidate(basis0, Q0, basis1, Q1, eps, margin, status, time.perf_counter() - t0)
+    cert = None
+    if Q0 is not None:
+        grams = [(0, basis0, Q0)] + ([(1, basis1, Q1)] if basis1 and Q1 is not None else [])
+        cert = Certificate(tuple(grams))
+    return Candidate(cert, eps, margin, status, time.perf_counter() - t0, sizes)
 
 
 def gram_program(

@@ -1,9 +1,9 @@
 """Numerical constrained SOS certificate of a level for a recast field (proposes only).
 
 One semidefinite program (cvxpy, Clarabel) finds the Gram matrices and equality multipliers of
-the identity of :mod:`roa.proof.sos_putinar`, maximising the least eigenvalue ``t`` of every
+the identity of :func:`roa.proof.putinar.check_level`, maximising the least eigenvalue ``t`` of every
 Gram matrix (``t <= 1``): the margin the exact rounding and projection need. Only
-:func:`roa.proof.sos_putinar.check_putinar` decides.
+:func:`roa.proof.putinar.check_level` decides.
 
 **Bases** (``z`` = states and the auxiliary variables): ``m0`` holds every monomial of degree
 ``1..D`` in ``z`` (``2D`` the least even degree >= that of ``N`` and of ``lambda V``, at least 4)
@@ -20,36 +20,17 @@ matches with the multiplier's constant.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from roa.proof.putinar import Certificate, level_identity
 from roa.proof.recast import RecastData
-from roa.proof.sos_putinar import Blocks, target_poly, times_polys
 from roa.search.sdp import Program, monomials, solve
+from roa.search.sos_certificate import Candidate, default_eps
 
 Mono = tuple[int, ...]
-
-
-@dataclass(frozen=True)
-class PutinarCandidate:
-    """Float blocks of a numerical certificate (``blocks`` None if the solver failed)."""
-
-    blocks: Blocks | None
-    eps: Fraction
-    margin: float | None
-    solver_status: str
-    seconds: float
-    sizes: dict[str, Any]
-
-
-def default_eps(data: RecastData, scale: float = 1e-6) -> Fraction:
-    """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (a dyadic)."""
-    top = max((abs(float(c)) for m, c in data.N.items() if data.state_degree(m) == data.low),
-              default=1.0)  # fmt: skip
-    return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
 def _unit(nv: int, i: int, p: int = 1) -> Mono:
@@ -107,31 +88,30 @@ def _moving(data: RecastData, basis: list[Mono], keep_one: bool = False) -> list
 
 
 def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = None,
-                    solver_options: dict[str, Any] | None = None) -> PutinarCandidate:  # fmt: skip
+                    solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
     """Solve the constrained SOS program for ``level`` (module docstring)."""
     t0 = time.perf_counter()
     eps = default_eps(data) if eps is None else Fraction(eps)
     m0, m1, mj, me = bases(data)
     gram_bases = [m0, m1, *mj]
-    times = [{m: float(c) for m, c in p.items()} for p in times_polys(data, Fraction(level))]
+    target, exact_times = level_identity(data, Fraction(level), eps)
+    times = [{m: float(c) for m, c in p.items()} for p in exact_times]
     prog = Program(data.nv)
-    prog.const({m: -float(c) for m, c in target_poly(data, eps).items()})
+    prog.const({m: -float(c) for m, c in target.items()})
     t = prog.scalar()
     Qs = [prog.gram(B, T, sign=1.0, margin=t) for B, T in zip(gram_bases, times, strict=True)]
     mus = [prog.free({m: float(c) for m, c in h.items()}, B)
            for B, (_, h) in zip(me, data.equalities, strict=True)]  # fmt: skip
     res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
     ok = res.usable and Qs[0] is not None and Qs[0].value is not None
-    blocks = None
-    if ok:
-        blocks = Blocks(
-            [
-                (B, np.zeros((0, 0)) if Q is None else np.asarray(Q.value))
-                for B, Q in zip(gram_bases, Qs, strict=True)
-            ],  # fmt: skip
-            [(B, np.asarray(mu.value)) for B, mu in zip(me, mus, strict=True)],
-        )
+    cert = None
+    if ok:  # an empty basis has no block: its multiplier is 0
+        grams = [(k, B, np.asarray(Q.value)) for k, (B, Q) in enumerate(zip(gram_bases, Qs,
+                                                                           strict=True))
+                 if Q is not None]  # fmt: skip
+        cert = Certificate(tuple(grams), tuple((B, np.asarray(mu.value))
+                                               for B, mu in zip(me, mus, strict=True)))  # fmt: skip
     sizes = {"rows": len(prog.rows), "gram_sizes": [len(B) for B in gram_bases],
              "free": sum(len(B) for B in me)}  # fmt: skip
-    return PutinarCandidate(blocks, eps, float(t.value) if ok and t.value is not None else None,
-                            res.status, time.perf_counter() - t0, sizes)  # fmt: skip
+    return Candidate(cert, eps, float(t.value) if ok and t.value is not None else None,
+                     res.status, time.perf_counter() - t0, sizes)  # fmt: skip

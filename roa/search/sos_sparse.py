@@ -17,7 +17,7 @@ Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials inste
   times ``lambda_j``'s Gram matrix is a feasible value: ``lambda_j p_q d_q^2`` is exactly such a
   Gram form).
 
-Every block is an ordinary Gram form, so :func:`roa.proof.sos_sum.check_sum` proves the result
+Every block is an ordinary Gram form, so :func:`roa.proof.putinar.check_level` proves the result
 exactly whatever the structure. The program is a restriction of the dense one (a sum of these
 blocks is one Gram matrix with zeros elsewhere): whatever it certifies the dense program could,
 not conversely; it loses most where ``V' >= 0`` is first reached with many variables at once,
@@ -34,15 +34,16 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from roa.proof.putinar import Certificate
 from roa.proof.sos_check import ExactData, Mono
 from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
-from roa.search.sos_certificate import default_eps, degrees, level_target
+from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
 
 
 def interaction_graph(data: ExactData) -> Any:
@@ -158,21 +159,6 @@ def choose_route(data: ExactData, multiplier_degree: int | None = None, route: s
     return "sparse", p, too
 
 
-@dataclass(frozen=True)
-class SparseCandidate:
-    """Bases and float Gram blocks of a numerical sparse certificate (``sigma``, ``lam`` None when
-    the solver failed)."""
-
-    plan: SparsePlan
-    sigma: list[np.ndarray] | None
-    lam: list[np.ndarray] | None
-    eps: Fraction
-    margin: float | None
-    solver_status: str
-    seconds: float
-    figures: dict[str, Any] = field(default_factory=dict)
-
-
 class SparseProgram:
     """The sparse program of a plan, compiled once with the level as a parameter (cvxpy DPP), so
     that a bisection on the level re-solves it without building it again."""
@@ -202,7 +188,7 @@ class SparseProgram:
         self.rows = len(prog.rows)
         self.build_seconds = time.perf_counter() - t0
 
-    def solve(self, level: float) -> SparseCandidate:
+    def solve(self, level: float) -> Candidate:
         """The program at ``level``: float blocks and the margin ``t`` (None when it failed)."""
         t0 = time.perf_counter()
         self.level.value = float(level)
@@ -215,14 +201,17 @@ class SparseProgram:
         figures = {"rows": self.rows, "build_seconds": round(self.build_seconds, 3),
                    "solve_seconds": round(time.perf_counter() - t0, 3),
                    "estimated_gib": round(self.plan.bytes / 2**30, 4)}  # fmt: skip
-        return SparseCandidate(self.plan, None if vals is None else vals[:K],
-                               None if vals is None else vals[K:], self.eps,
-                               float(t) if ok and t is not None else None, res.status,
-                               time.perf_counter() - t0, figures)  # fmt: skip
+        cert = None
+        if vals is not None:
+            cert = Certificate(tuple((0 if i < K else 1, b, Q) for i, (b, Q) in
+                                     enumerate(zip(self.plan.sigma + self.plan.lam, vals,
+                                                   strict=True))))  # fmt: skip
+        return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,
+                         time.perf_counter() - t0, figures)  # fmt: skip
 
 
 def propose_sparse(data: ExactData, level: float, plan: SparsePlan, *, eps: Fraction | None = None,
-                   solver_options: dict[str, Any] | None = None) -> SparseCandidate:  # fmt: skip
+                   solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
     """Solve the sparse program of ``plan`` at ``level`` once (module docstring)."""
     prog = SparseProgram(data, plan, eps=eps, solver_options=solver_options)
     cand = prog.solve(level)

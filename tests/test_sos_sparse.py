@@ -102,7 +102,8 @@ def test_sparse_and_dense_routes_both_certify_099_of_the_optimum(ring):
             assert meta["blocks"]["cliques"] == [3, 3, 3, 3] and meta["peak_mib"] > 0
         else:
             grams = meta["certificate"]["parts"][0]["grams"]
-            assert [g["multiplies"] for g in grams] == [0, 1]  # dense: one block per factor
+            # dense: one part, the factors' blocks split by the sign symmetry x -> -x only
+            assert sorted({g["multiplies"] for g in grams}) == [0, 1] and len(grams) <= 4
         for level in (1.001 * opt, 1.0):
             assert not roa.certify(system, level=level, validator=val).certified
 
@@ -183,19 +184,20 @@ def test_tampered_sparse_certificates_are_refused(ring):
     assert again.ok and again.residual == 0  # the exact certificate passes as it is
     # an indefinite clique block with every coefficient unchanged: +a on the (d_i^2, d_j^2)
     # pair and -2a on (d_i d_j, d_i d_j), which the projection does not move
-    basis, Q = S[0]
     i, j = p.cliques[0][:2]
     unit = [tuple(int(k == v) for k in range(N)) for v in (i, j)]
     two = [tuple(2 * e for e in u) for u in unit]
     mixed = tuple(a + b for a, b in zip(*unit, strict=True))
+    b0 = next(b for b, (basis, _) in enumerate(S) if {*two, mixed} <= set(basis))
+    basis, Q = S[b0]
     ii, jj, m = (basis.index(two[0]), basis.index(two[1]), basis.index(mixed))
     bad = [row[:] for row in Q]
     a = abs(Q[m][m]) + 1
     bad[ii][jj] += a
     bad[jj][ii] += a
     bad[m][m] -= 2 * a
-    r = check_sum(data, level, eps, [(basis, bad)] + S[1:], L, rounded=True)
-    assert not r.ok and r.residual == 0 and "sigma block 0 is not positive definite" in r.reason
+    r = check_sum(data, level, eps, S[:b0] + [(basis, bad)] + S[b0 + 1 :], L, rounded=True)
+    assert not r.ok and r.residual == 0 and f"sigma block {b0} is not positive definite" in r.reason
     # an indefinite multiplier block
     lb, LQ = L[2]
     badL = [row[:] for row in LQ]

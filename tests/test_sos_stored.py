@@ -106,21 +106,22 @@ def test_old_forms_are_read_and_tampered_ones_refused(form):
 
 
 def test_fresh_certificates_use_the_one_form_with_the_same_verdicts():
-    """Van der Pol at 2.0 (its optimum is 2.3045): written with ``parts`` (dense: one block per
-    factor), re-checked; the same certificate in the old dense form (built from the parts) is
-    read the same; and a raised level (2.31, above the optimum) is refused in both."""
+    """Van der Pol at 2.0 (its optimum is 2.3045): written with ``parts`` (one part; the blocks of
+    each factor split by the sign symmetry x -> -x), re-checked; the same blocks in the old
+    ``sum`` form are read the same; and a raised level (2.31, above the optimum) is refused in
+    both."""
     system, validator = SYSTEMS["dense"]
     cert = roa.certify(system, P_BENCHMARK, level=2.0, validator=validator)
     data = json.loads(roa.io.to_json(cert.to_dict()))
     stored = data["certificate"]
-    assert list(stored) == ["parts"] and [g["multiplies"] for g in stored["parts"][0]["grams"]] == [
-        0,
-        1,
-    ]
+    grams = stored["parts"][0]["grams"]
+    assert list(stored) == ["parts"] and sorted({g["multiplies"] for g in grams}) == [0, 1]
     assert parts_of(stored, 2)["parts"] == stored["parts"]
-    g0, g1 = stored["parts"][0]["grams"]
-    old = {**data, "certificate": {"basis0": g0["basis"], "Q0": g0["Q"], "basis1": g1["basis"],
-                                   "Q1": g1["Q"]}}  # fmt: skip
+
+    def blocks(k):
+        return [{"basis": g["basis"], "Q": g["Q"]} for g in grams if g["multiplies"] == k]
+
+    old = {**data, "certificate": {"sum": {"sigma": blocks(0), "lambda": blocks(1)}}}
     for form in (data, old):
         assert Certificate.from_dict(form, system).reverify().certified
         raised = Certificate.from_dict({**form, "level": 2.31}, system).reverify()

@@ -309,7 +309,7 @@ class SosValidator:
                 cand = propose_certificate(sub, level, eps=eps,
                                            multiplier_degree=self.multiplier_degree,
                                            solver_options=self.solver_options)  # fmt: skip
-                sizes.append(cand.sizes["gram_sizes"][0])
+                sizes.append(max(cand.sizes["gram_sizes"]))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
             sdp_seconds += cand.seconds

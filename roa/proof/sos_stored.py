@@ -225,7 +225,6 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
         return out(Verdict.CERTIFIED, f"stored SOS certificates of {len(blocks)} independent "
                    "blocks re-checked exactly", blocks=[list(b) for b in blocks])  # fmt: skip
     res = checks[0]
-    sos = [g for g in parts[0]["grams"] if g.get("multiplies", 0) == 0]
-    sparse = "sparse " if len(sos) > 1 else ""
+    sparse = "sparse " if "cliques" in parts[0] else ""
     return out(Verdict.CERTIFIED, f"stored {sparse}SOS certificate re-checked exactly: {res.reason}",
                residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip

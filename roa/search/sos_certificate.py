@@ -30,6 +30,7 @@ import numpy as np
 from roa.proof.putinar import Certificate
 from roa.proof.sos_check import ExactData, norm_power
 from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search.sos_symmetry import sign_symmetries, split
 
 Mono = tuple[int, ...]
 
@@ -102,44 +103,46 @@ def propose_certificate(
     low, D, L = degrees(data, multiplier_degree)
     basis0 = monomials(n, D, low)
     basis1 = monomials(n, L, low) if L >= low else []  # lambda starts at degree 2k (below)
-    sizes = {"gram_sizes": [len(basis0), len(basis1)]}
+    target = level_target(data, eps)
+    syms = sign_symmetries([target, data.V], n)  # the Gram blocks by parity class
+    sos, lam = split(basis0, syms), split(basis1, syms)
+    sizes = {"gram_sizes": [len(b) for b in sos + lam], "sign_symmetries": len(syms)}
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
         status = (f"too large: a Gram block of {len(basis0)} monomials needs an estimated "
                   f"{sdp_bytes(len(basis0)) / 2**30:.3g} GiB (budget "
                   f"{MAX_SDP_BYTES / 2**30:.3g} GiB); not built")  # fmt: skip
         return Candidate(None, eps, None, status, time.perf_counter() - t0, sizes)
-    Q0, Q1, margin, status = gram_program(level_target(data, eps), basis0, basis1, data.V, level,
-                                          solver_options)  # fmt: skip
-    cert = None
-    if Q0 is not None:
-        grams = [(0, basis0, Q0)] + ([(1, basis1, Q1)] if basis1 and Q1 is not None else [])
-        cert = Certificate(tuple(grams))
+    cert, margin, status = gram_program(target, sos, lam, data.V, level, solver_options)
     return Candidate(cert, eps, margin, status, time.perf_counter() - t0, sizes)
 
 
 def gram_program(
     target: dict[Mono, float],
-    basis0: list[Mono],
-    basis1: list[Mono],
+    sos: list[list[Mono]],
+    lam: list[list[Mono]],
     Vq: dict[Mono, Any],
     level: float,
     solver_options: dict[str, Any] | None = None,
-) -> tuple[np.ndarray | None, np.ndarray | None, float | None, str]:
-    """The one program of a fixed level: Gram matrices with, coefficient by coefficient,
-    ``target = m0' Q0 m0 + (m1' Q1 m1) (c - V)`` (no multiplier for an empty ``basis1``),
-    maximising their least eigenvalue ``t <= 1``. ``(Q0, Q1, t, status)``, the matrices None
-    when the solver gives no usable point."""
-    n = len(basis0[0])
+) -> tuple[Certificate | None, float | None, str]:
+    """The one program of a fixed level: Gram blocks with, coefficient by coefficient,
+    ``target = sum_b m_b' Q_b m_b + (sum_j l_j' L_j l_j) (c - V)`` (``sos`` the bases of the
+    ``Q_b``, ``lam`` those of the ``L_j``: none, the multiplier is 0), maximising their least
+    eigenvalue ``t <= 1``. ``(certificate, t, status)``, the certificate None when the solver
+    gives no usable point."""
+    n = len(sos[0][0])
     zero = tuple([0] * n)
     prog = Program(n)
     prog.const({m: -v for m, v in target.items()})
     t = prog.scalar()
     c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in Vq.items()}
     c_minus_V[zero] = c_minus_V.get(zero, 0.0) + float(level)
-    Q0 = prog.gram(basis0, None, sign=1.0, margin=t)
-    Q1 = prog.gram(basis1, c_minus_V, sign=1.0, margin=t) if basis1 else None
+    for b in sos:
+        prog.gram(b, None, sign=1.0, margin=t)
+    for b in lam:
+        prog.gram(b, c_minus_V, sign=1.0, margin=t)
     res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
-    if not (res.usable and Q0.value is not None):
-        return None, None, None, res.status
-    return (np.asarray(Q0.value), None if Q1 is None else np.asarray(Q1.value),
-            None if t.value is None else float(t.value), res.status)  # fmt: skip
+    if not (res.usable and all(Q.value is not None for _, Q in prog.grams)):
+        return None, None, res.status
+    grams = tuple((0 if i < len(sos) else 1, b, np.asarray(Q.value))
+                  for i, (b, Q) in enumerate(prog.grams))  # fmt: skip
+    return Certificate(grams), None if t.value is None else float(t.value), res.status

@@ -20,7 +20,6 @@ from typing import Any
 import numpy as np
 
 from roa.proof.domain import domain_target
-from roa.proof.putinar import Certificate
 from roa.proof.sos_check import QPoly
 from roa.search.sdp import MAX_SDP_BYTES, monomials, sdp_bytes
 from roa.search.sos_certificate import Candidate, gram_program
@@ -49,9 +48,6 @@ def propose_domain_certificate(
         return Candidate(None, eps, None, f"too large: a Gram block of {len(basis0)} monomials; "
                          "not built", time.perf_counter() - t0, sizes)  # fmt: skip
     target = {m: float(c) for m, c in domain_target(margin, eps, n).items()}
-    Q0, Q1, t, status = gram_program(target, basis0, basis1, Vq, level, solver_options)
-    cert = None
-    if Q0 is not None:
-        cert = Certificate(((0, basis0, Q0), (1, basis1, Q1))) if Q1 is not None else Certificate(
-            ((0, basis0, Q0),))  # fmt: skip
+    cert, t, status = gram_program(target, [basis0], [basis1] if basis1 else [], Vq, level,
+                                   solver_options)  # fmt: skip
     return Candidate(cert, eps, t, status, time.perf_counter() - t0, sizes)

@@ -29,6 +29,7 @@ from roa.proof.putinar import Certificate, level_identity
 from roa.proof.recast import RecastData
 from roa.search.sdp import Program, monomials, solve
 from roa.search.sos_certificate import Candidate, default_eps
+from roa.search.sos_symmetry import sign_symmetries, split
 
 Mono = tuple[int, ...]
 
@@ -99,19 +100,23 @@ def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = No
     prog = Program(data.nv)
     prog.const({m: -float(c) for m, c in target.items()})
     t = prog.scalar()
-    Qs = [prog.gram(B, T, sign=1.0, margin=t) for B, T in zip(gram_bases, times, strict=True)]
+    syms = sign_symmetries([target, *exact_times, *(h for _, h in data.equalities)], data.nv)
+    factors = []  # each Gram basis split by parity class (an empty one: its multiplier is 0)
+    for k, (B, T) in enumerate(zip(gram_bases, times, strict=True)):
+        for piece in split(B, syms):
+            prog.gram(piece, T, sign=1.0, margin=t)
+            factors.append(k)
     mus = [prog.free({m: float(c) for m, c in h.items()}, B)
            for B, (_, h) in zip(me, data.equalities, strict=True)]  # fmt: skip
     res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
-    ok = res.usable and Qs[0] is not None and Qs[0].value is not None
+    ok = res.usable and 0 in factors and all(Q.value is not None for _, Q in prog.grams)
     cert = None
-    if ok:  # an empty basis has no block: its multiplier is 0
-        grams = [(k, B, np.asarray(Q.value)) for k, (B, Q) in enumerate(zip(gram_bases, Qs,
-                                                                           strict=True))
-                 if Q is not None]  # fmt: skip
+    if ok:
+        grams = [(k, B, np.asarray(Q.value)) for k, (B, Q) in zip(factors, prog.grams, strict=True)]
         cert = Certificate(tuple(grams), tuple((B, np.asarray(mu.value))
                                                for B, mu in zip(me, mus, strict=True)))  # fmt: skip
-    sizes = {"rows": len(prog.rows), "gram_sizes": [len(B) for B in gram_bases],
+    sizes = {"rows": len(prog.rows), "gram_sizes": [len(B) for B, _ in prog.grams],
+             "sign_symmetries": len(syms),
              "free": sum(len(B) for B in me)}  # fmt: skip
     return Candidate(cert, eps, float(t.value) if ok and t.value is not None else None,
                      res.status, time.perf_counter() - t0, sizes)  # fmt: skip

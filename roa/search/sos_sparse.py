@@ -44,6 +44,7 @@ from roa.proof.putinar import Certificate
 from roa.proof.sos_check import ExactData, Mono
 from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
+from roa.search.sos_symmetry import sign_symmetries, split
 
 
 def interaction_graph(data: ExactData) -> Any:
@@ -173,16 +174,22 @@ class SparseProgram:
         self.solver_options = dict(solver_options or {})
         zero = tuple([0] * data.n)
         prog = Program(data.n)
-        prog.const({m: -v for m, v in level_target(data, self.eps).items()})
+        target = level_target(data, self.eps)
+        prog.const({m: -v for m, v in target.items()})
         self.t = prog.scalar()
         self.level = cp.Parameter(nonneg=True)
         minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
+        syms = sign_symmetries([target, data.V], data.n)  # each block split by parity class
         for b in plan.sigma:
-            prog.gram(b, {zero: 1.0}, sign=1.0, margin=self.t)
+            for piece in split(b, syms):
+                prog.gram(piece, {zero: 1.0}, sign=1.0, margin=self.t)
+        self.K = len(prog.grams)
         # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
         for b in plan.lam:
-            prog.gram(b, minus_V, sign=1.0, margin=self.t, level=self.level,
-                      level_times={zero: 1.0})  # fmt: skip
+            for piece in split(b, syms):
+                prog.gram(piece, minus_V, sign=1.0, margin=self.t, level=self.level,
+                          level_times={zero: 1.0})  # fmt: skip
+        self.bases = [b for b, _ in prog.grams]
         self.Qs = [Q for _, Q in prog.grams]
         self.problem = prog.problem(self.t, extra=[self.t <= 1])
         self.rows = len(prog.rows)
@@ -195,7 +202,6 @@ class SparseProgram:
         res = solve(self.problem, options=self.solver_options)
         Qs = self.Qs
         ok = res.usable and all(Q.value is not None for Q in Qs)
-        K = len(self.plan.sigma)
         vals = [np.asarray(Q.value) for Q in Qs] if ok else None
         t = self.t.value
         figures = {"rows": self.rows, "build_seconds": round(self.build_seconds, 3),
@@ -203,9 +209,8 @@ class SparseProgram:
                    "estimated_gib": round(self.plan.bytes / 2**30, 4)}  # fmt: skip
         cert = None
         if vals is not None:
-            cert = Certificate(tuple((0 if i < K else 1, b, Q) for i, (b, Q) in
-                                     enumerate(zip(self.plan.sigma + self.plan.lam, vals,
-                                                   strict=True))))  # fmt: skip
+            cert = Certificate(tuple((0 if i < self.K else 1, b, Q) for i, (b, Q) in
+                                     enumerate(zip(self.bases, vals, strict=True))))  # fmt: skip
         return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,
                          time.perf_counter() - t0, figures)  # fmt: skip
 

@@ -340,8 +340,9 @@ def test_polynomial_map_certified_by_an_exact_sos_certificate():
     assert Certificate.from_dict(data, s).reverify().certified
     raised = Certificate.from_dict({**data, "level": 1.01 * optimum()}, s).reverify()
     assert not raised.certified
-    Q1 = [[str(Fraction(q) * Fraction(3, 2)) for q in row] for row in data["certificate"]["Q1"]]
-    tampered = {**data, "certificate": {**data["certificate"], "Q1": Q1}}
+    tampered = json.loads(json.dumps(data))
+    gram = tampered["certificate"]["parts"][0]["grams"][-1]
+    gram["Q"] = [[str(Fraction(q) * Fraction(3, 2)) for q in row] for row in gram["Q"]]
     assert not Certificate.from_dict(tampered, s).reverify().certified
     above = roa.certify(s, level=1.01 * optimum(), validator="sos")
     assert not above.certified  # the SOS route never certifies above the optimum

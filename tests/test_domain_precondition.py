@@ -136,7 +136,7 @@ def test_a_tampered_gram_entry_of_the_sos_certificate_is_refused():
     cert = roa.certify(dom.VDP, level=0.3, validator="sos")
     data = json.loads(roa.io.to_json(cert.to_dict()))
     bad = json.loads(json.dumps(data))
-    q = bad["certificate"]["Q0"]
+    q = bad["certificate"]["parts"][0]["grams"][0]["Q"]
     q[0][0] = str(Fraction(q[0][0]) * 2)
     r = Certificate.from_dict(bad, dom.VDP).reverify()
     assert r.status is Verdict.INCONCLUSIVE and "does not hold exactly as stored" in r.message

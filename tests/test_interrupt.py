@@ -76,7 +76,7 @@ SDP = """
 import sys
 import numpy as np
 import cvxpy as cp
-from roa.search.polysdp import interruptible_scs
+from roa.search.sdp import interruptible_scs
 
 n = 120
 rng = np.random.default_rng(0)

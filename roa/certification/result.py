@@ -209,7 +209,7 @@ class Certificate:
     def reverify(self, interval: IntervalOptions | None = None) -> Certificate:
         """This claim proved again on its system: an exact SOS certificate (``method``
         ``"sos-exact"``) by re-checking its stored Gram matrices in exact arithmetic, without any
-        solver (:func:`roa.proof.sos_blocks.recheck`, block by block for independent blocks);
+        solver (:func:`roa.proof.sos_stored.recheck`, block by block for independent blocks);
         any other by interval validation
         (cached by content, :func:`roa.proof.reverify.reverify`). ``certified`` only if proved
         here."""
@@ -218,7 +218,7 @@ class Certificate:
         if self.system is None or self.V is None or self.level is None:
             raise RoaInputError("reverify: the certificate has no system, V or level")
         if self.method == SOS_EXACT and self.validation is not None:
-            from roa.proof.sos_blocks import recheck
+            from roa.proof.sos_stored import recheck
 
             with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
                 v = recheck(self.system, self.V, self.level, self.validation.meta)

@@ -37,8 +37,17 @@ from roa.options import (
 )
 from roa.progress import step
 from roa.proof.preconditions import Preconditions, Route, check_preconditions
+from roa.proof.putinar import check_level
+from roa.proof.recast import level_scale, recast_preconditions
+from roa.proof.recast_box import box_json
+from roa.proof.sos_blocks import blocks, restrict
+from roa.proof.sos_check import scale_data
+from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
+from roa.search.sos_certificate import default_eps, propose_certificate
+from roa.search.sos_putinar import propose_putinar
+from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
 from roa.status import LevelStatus, SosStatus, Verdict
 from roa.system import System
 
@@ -126,15 +135,6 @@ class IntervalValidator:
                                   time_limit=self.options.seconds())  # fmt: skip
 
 
-def _sparse_refusal(cand: Any, res: Any) -> str | None:
-    """Why a sparse SOS candidate (:meth:`SosValidator._sparse`) certifies nothing, or None."""
-    if res is None:
-        return f"sparse SOS solver failed ({cand.solver_status})"
-    if not res.ok:
-        return f"sparse SOS check failed: {res.reason}"
-    return None
-
-
 @dataclass(frozen=True)
 class SosValidator:
     """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
@@ -185,8 +185,6 @@ class SosValidator:
     route: str = "auto"  # "dense", "sparse" (chordal cliques) or "auto" (by the memory budget)
 
     def __post_init__(self) -> None:
-        from roa.search.sos_sparse import ROUTES
-
         if self.route not in ROUTES:
             raise RoaInputError(f"SosValidator route must be one of {ROUTES}, got {self.route!r}")
 
@@ -270,9 +268,6 @@ class SosValidator:
             first = self._prove_data(data, V, level, out)
         if first.status is Verdict.CERTIFIED:
             return first
-        from roa.proof.recast import level_scale
-        from roa.proof.sos_check import scale_data
-
         scale = level_scale(V, level)
         if all(r == 1 for r in scale):
             return first
@@ -286,145 +281,79 @@ class SosValidator:
                                    f"{[str(r) for r in scale]}; unscaled: {first.message})")  # fmt: skip
 
     def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The dense, block or sparse certificate of the exact data ``data`` (in ``d`` or in
-        rescaled variables)."""
-        from roa.proof.sos_blocks import blocks, restrict
-        from roa.proof.sos_check import check_certificate
-        from roa.search.sos_certificate import default_eps, propose_certificate
-        from roa.search.sos_sparse import choose_route
+        """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables): one
+        part per independent block of variables (:func:`roa.proof.sos_blocks.blocks`), each
+        proposed by the dense or the sparse program (:func:`roa.search.sos_sparse.choose_route`)
+        and proved by :func:`roa.proof.putinar.check_level`."""
+        import resource
 
         parts = blocks(data)
         whole = len(parts) == 1
-        if whole:
-            route, plan, why = choose_route(data, self.multiplier_degree, self.route)
-            if route == "sparse":
-                return self._check_sparse(data, level, plan, why, out)
-            if route == "too_large":
-                return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built: {why}",
-                           route=route)  # fmt: skip
-        certs: list[dict[str, Any]] = []
+        stored: list[dict[str, Any]] = []
         statuses: list[str] = []
         margins: list[float | None] = []
         sizes: list[int] = []
-        sdp_seconds = 0.0
         figures: dict[str, Any] = {}
+        sdp_seconds = 0.0
+        res: Any = None
+        plan: Any = None
         for block in parts:
             sub = data if whole else restrict(data, block)
+            where = "" if whole else f" (block {list(block)})"
+            route, plan, why = choose_route(sub, self.multiplier_degree, self.route)
+            if route == "too_large":
+                return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built{where}: {why}",
+                           route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
-            route_b, plan_b, why_b = ("dense", None, "") if whole else choose_route(
-                sub, self.multiplier_degree, self.route)  # fmt: skip
-            if route_b == "sparse" and plan_b is not None:
-                cand_s, res_s, fig = self._sparse(sub, level, plan_b, why_b)
-                sdp_seconds += cand_s.seconds
-                statuses.append(cand_s.solver_status)
-                margins.append(cand_s.margin)
-                sizes.append(plan_b.largest)
-                figures = {"solver_status": statuses, "margin": margins,
-                           "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
-                refused = _sparse_refusal(cand_s, res_s)
-                if refused is not None:
-                    return out(Verdict.INCONCLUSIVE, f"{refused} (block {list(block)})",
-                               **figures)  # fmt: skip
-                certs.append({"variables": list(block), "sum": fig.pop("certificate"),
-                              "residual": res_s.residual, "min_pivot": res_s.min_pivot,
-                              **res_s.meta})  # fmt: skip
-                res = res_s
-                continue
-            cand = propose_certificate(sub, level, eps=eps,
-                                       multiplier_degree=self.multiplier_degree,
-                                       solver_options=self.solver_options)  # fmt: skip
+            if route == "sparse":
+                cand = propose_sparse(sub, level, plan, eps=eps,
+                                      solver_options=self.solver_options)  # fmt: skip
+                figures.update(route="sparse", why_sparse=why, blocks=plan.sizes, **cand.sizes)
+                sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
+            else:
+                cand = propose_certificate(sub, level, eps=eps,
+                                           multiplier_degree=self.multiplier_degree,
+                                           solver_options=self.solver_options)  # fmt: skip
+                sizes.append(max(cand.sizes["gram_sizes"]))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
-            sizes.append(len(cand.basis0))
             sdp_seconds += cand.seconds
-            figures = {
-                "solver_status": statuses[0] if whole else statuses,
-                "margin": margins[0] if whole else margins,
-                "sdp_seconds": round(sdp_seconds, 3),
-                "gram_sizes": sizes,
-            }
-            where = "" if whole else f" (block {list(block)})"
-            if cand.Q0 is None:
+            figures.update(solver_status=statuses[0] if whole else statuses,
+                           margin=margins[0] if whole else margins,
+                           sdp_seconds=round(sdp_seconds, 3), gram_sizes=sizes)  # fmt: skip
+            if cand.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS solver failed{where} "
                            f"({cand.solver_status})", **figures)  # fmt: skip
-            res = check_certificate(sub, level, eps, cand.basis0, cand.Q0, cand.basis1,
-                                    cand.Q1)  # fmt: skip
-            if not res.ok:
+            t0 = time.perf_counter()
+            res = check_level(sub, level, eps, cand.certificate)
+            if route == "sparse":
+                figures.update(check_seconds=round(time.perf_counter() - t0, 3),
+                               peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+                                              / 1024))  # fmt: skip
+            if not res.ok or res.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed{where}: {res.reason}",
                            residual=res.residual, min_pivot=res.min_pivot, **figures)  # fmt: skip
-            assert res.Q0 is not None and res.Q1 is not None
-            certs.append({"variables": list(block),
-                          "basis0": [list(b) for b in cand.basis0],
-                          "basis1": [list(b) for b in cand.basis1],
-                          "Q0": [[str(v) for v in row] for row in res.Q0],
-                          "Q1": [[str(v) for v in row] for row in res.Q1],
-                          "residual": res.residual, "min_pivot": res.min_pivot,
-                          **res.meta})  # fmt: skip
-        if whole:  # one certificate, stored as before (meta: eps, digest, k, residual, ...)
-            one = certs[0]
-            stats = {key: one.pop(key) for key in ("residual", "min_pivot", "eps", "digest",
-                                                   "k")}  # fmt: skip
-            one.pop("variables")
-            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
-                       certificate=one, M=np.eye(V.n).tolist(), **figures,
-                       **stats)  # fmt: skip
+            extra = {"cliques": [list(c) for c in plan.cliques]} if route == "sparse" else {}
+            stored.append(part_json(list(block), res.certificate, None if whole else eps,
+                                    **extra))  # fmt: skip
+        if whole:  # eps, digest, k, residual, min_pivot in the meta (eps read by a re-check)
+            what = "SOS certificate"
+            if plan is not None:
+                what = (f"sparse SOS certificate ({len(plan.cliques)} cliques of sizes <= "
+                        f"{max(map(len, plan.cliques))})")  # fmt: skip
+            return out(Verdict.CERTIFIED, f"{what} checked exactly: {res.reason}",
+                       certificate={"parts": stored}, M=np.eye(V.n).tolist(), **figures,
+                       residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip
         # the whole of {V <= level} is proved (not one component): any frame bounds it
         reason = (f"{len(parts)} independent blocks of variables (sizes "
                   f"{[len(b) for b in parts]}), each: {res.reason}")  # fmt: skip
         return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
-                   certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
+                   certificate={"parts": stored}, M=np.eye(V.n).tolist(),
                    **figures)  # fmt: skip
 
-    def _sparse(self, data: Any, level: float, plan: Any, why: str) -> tuple[Any, Any, dict]:
-        """The correlative-sparsity certificate (:mod:`roa.search.sos_sparse` proposes,
-        :func:`roa.proof.sos_sum.check_sum` proves) of coupled data whose dense program does not
-        fit the memory budget (``why``): ``(candidate, check or None, figures)``, the figures
-        holding the stored ``certificate`` when the check passed."""
-        import resource
-
-        from roa.proof.sos_sum import check_sum, to_json
-        from roa.search.sos_certificate import default_eps
-        from roa.search.sos_sparse import propose_sparse
-
-        eps = default_eps(data, self.eps)
-        cand = propose_sparse(data, level, plan, eps=eps, solver_options=self.solver_options)
-        figures: dict[str, Any] = {
-            "route": "sparse", "why_sparse": why, "solver_status": cand.solver_status,
-            "margin": cand.margin, "sdp_seconds": round(cand.seconds, 3), **cand.figures,
-            "blocks": plan.sizes, "gram_sizes": [len(b) for b in plan.sigma]}  # fmt: skip
-        if cand.sigma is None or cand.lam is None:
-            return cand, None, figures
-        t0 = time.perf_counter()
-        res = check_sum(data, level, eps, list(zip(plan.sigma, cand.sigma, strict=True)),
-                        list(zip(plan.lam, cand.lam, strict=True)))  # fmt: skip
-        figures.update(check_seconds=round(time.perf_counter() - t0, 3), residual=res.residual,
-                       min_pivot=res.min_pivot,
-                       peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024))  # fmt: skip
-        if res.ok and res.sigma is not None and res.lam is not None:
-            figures["certificate"] = to_json(list(zip(plan.sigma, res.sigma, strict=True)),
-                                             list(zip(plan.lam, res.lam, strict=True)),
-                                             cliques=[list(c) for c in plan.cliques])  # fmt: skip
-        return cand, res, figures
-
-    def _check_sparse(self, data: Any, level: float, plan: Any, why: str,
-                      out: Any) -> Validation:  # fmt: skip
-        """The sparse certificate of the whole (:meth:`_sparse`) as a validation."""
-        cand, res, figures = self._sparse(data, level, plan, why)
-        refused = _sparse_refusal(cand, res)
-        if refused is not None:
-            return out(Verdict.INCONCLUSIVE, refused, **figures)
-        cert = {"sum": figures.pop("certificate")}
-        return out(Verdict.CERTIFIED, f"sparse SOS certificate ({len(plan.cliques)} cliques of "
-                   f"sizes <= {max(map(len, plan.cliques))}) checked exactly: {res.reason}",
-                   certificate=cert, M=np.eye(data.n).tolist(), **figures, **res.meta)  # fmt: skip
-
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
-        from roa.proof.recast import level_scale
-        from roa.proof.recast_box import box_json
-        from roa.proof.sos_putinar import check_putinar, recast_preconditions
-        from roa.search.sos_putinar import default_eps, propose_putinar
-
+        """The recast field's (or parameter box's) constrained certificate
+        (:func:`roa.proof.putinar.check_level` with the recast's constraints)."""
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
             scale = level_scale(V, level)
             data, why = recast_preconditions(system, V, level, self.taylor, scale)
@@ -435,15 +364,15 @@ class SosValidator:
             figures = {"solver_status": cand.solver_status, "margin": cand.margin,
                        "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
                        "sizes": cand.sizes, "recast": data.description}  # fmt: skip
-            if cand.blocks is None:
+            if cand.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
                            **figures)  # fmt: skip
-            res = check_putinar(data, level, eps, cand.blocks)
+            res = check_level(data, level, eps, cand.certificate)
             figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
-            if not res.ok or res.blocks is None:
+            if not res.ok or res.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            cert = {"putinar": res.blocks.to_json(), "taylor": data.taylor,
-                    "scale": [str(r) for r in data.scale]}  # fmt: skip
+            cert = {"parts": [part_json(list(range(V.n)), res.certificate)],
+                    "taylor": data.taylor, "scale": [str(r) for r in data.scale]}  # fmt: skip
             if data.parameters:  # the box it holds for (a re-check takes the system's)
                 cert["parameters"] = box_json(data.parameters)
             return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
@@ -634,7 +563,6 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     whose sparse program does (:func:`roa.search.sos_sparse.choose_route`: bisection with the
     chordal clique program), as an ``SOSResult``; None when the data are not polynomial or
     neither applies (then the one program of :func:`roa.search.sos.sos_level` is used)."""
-    from roa.proof.sos_blocks import blocks
     from roa.proof.sos_check import NotPolynomial, exact_data
     from roa.search.sos import SOSResult
     from roa.search.sos_bisection import block_levels
@@ -648,8 +576,6 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     parts = blocks(data)
     sparse, plan = False, None
     if len(parts) < 2:
-        from roa.search.sos_sparse import choose_route
-
         route, plan, _ = choose_route(data)
         if route != "sparse":
             return None

@@ -160,6 +160,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         interval_containment,
         margin_poly,
     )
+    from roa.proof.putinar import Certificate
     from roa.proof.sos_check import (
         NotPolynomial,
         exact_terms,
@@ -193,8 +194,9 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             Q0 = parse_matrix(stored.get("Q0"), len(b0), "domain Q0")
             Q1 = parse_matrix(stored.get("Q1"), len(b1), "domain Q1")
             eps = parse_eps(stored.get("eps"))
-            res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps, b0, Q0,
-                                           b1, Q1, stored=True)  # fmt: skip
+            grams = ((0, b0, Q0), (1, b1, Q1)) if b1 else ((0, b0, Q0),)
+            res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps,
+                                           Certificate(grams), stored=True)  # fmt: skip
         except (ValueError, TypeError, ZeroDivisionError, NotPolynomial) as exc:
             return refuse("domain", f"malformed domain certificate: {exc}")
         if not res.ok:
@@ -208,11 +210,11 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         try:
             mq = margin_poly(system, V)
             cand = propose(mq, exact_terms(V), V.n, level)
-            if cand.Q0 is None:
+            if cand.certificate is None:
                 why = f"Putinar candidate not found ({cand.solver_status})"
             else:
-                res = check_domain_certificate(mq, exact_terms(V), V.n, level, cand.eps, cand.basis0,
-                                               cand.Q0, cand.basis1, cand.Q1)  # fmt: skip
+                res = check_domain_certificate(mq, exact_terms(V), V.n, level, cand.eps,
+                                               cand.certificate)  # fmt: skip
                 if res.ok:
                     return Preconditions(None, {"method": "putinar", **(res.certificate or {})},
                                          {"domain": res.reason})  # fmt: skip

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.search.sdp import solve
 from roa.system import System
 
 #: Bound of the condition number of P per state (``trace(P) <= n * KAPPA``, ``P >= I``).
@@ -144,12 +145,11 @@ def box_lyapunov(
         M = A.T @ P + P @ A
         cons.append(0.5 * (M + M.T) << -t * eye)
     prob = cp.Problem(cp.Maximize(t), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL)
-    except cp.error.SolverError as exc:  # the solver gave up: no proposal
+    res = solve(prob)
+    if res.status.startswith("solver error"):  # the solver gave up: no proposal
         return BoxLyapunovResult(None, None, tuple(points), (), False, affine, "solver_error",
-                                 f"the LMI solver failed: {exc}", time.perf_counter() - t0)  # fmt: skip
-    status = str(prob.status)
+                                 f"the LMI solver failed: {res.status}", time.perf_counter() - t0)  # fmt: skip
+    status = res.status
     if P.value is None or t.value is None:
         return BoxLyapunovResult(None, None, tuple(points), (), False, affine, status,
                                  f"no common quadratic Lyapunov matrix (solver: {status})",

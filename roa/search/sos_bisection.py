@@ -44,8 +44,9 @@ class BlockLevels:
 
 
 def _feasible(data: ExactData, c: float, solver_options: dict[str, Any] | None) -> bool:
-    cand = propose_certificate(data, c, eps=default_eps(data), solver_options=solver_options)
-    return cand.Q0 is not None and cand.margin is not None and cand.margin > 0
+    return propose_certificate(
+        data, c, eps=default_eps(data), solver_options=solver_options
+    ).feasible
 
 
 #: Relative tolerance of the bisection with the sparse program (each step a re-solve).
@@ -72,8 +73,7 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
         nonlocal count
         count += 1
         if program is not None:
-            cand = program.solve(c)
-            return cand.sigma is not None and cand.margin is not None and cand.margin > 0
+            return program.solve(c).feasible
         return _feasible(data, c, solver_options)
 
     lo, hi = 1.0, 1.0

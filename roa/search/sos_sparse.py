@@ -3,7 +3,7 @@
 The program of :mod:`roa.search.sos_certificate` (``-V' - eps|d|^2k - lambda (c - V) = sigma``,
 ``lambda``, ``sigma`` SOS) with one Gram matrix over all monomials of degree ``k..D`` in ``n``
 variables needs ``O(n^2D)`` entries: at 20-30 states and degree 4, far more solver memory than
-the budget :data:`roa.search.polysdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
+the budget :data:`roa.search.sdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
 Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials instead:
 
 * the **interaction graph** joins two variables when they occur in one monomial of ``V'`` or
@@ -17,7 +17,7 @@ Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials inste
   times ``lambda_j``'s Gram matrix is a feasible value: ``lambda_j p_q d_q^2`` is exactly such a
   Gram form).
 
-Every block is an ordinary Gram form, so :func:`roa.proof.sos_sum.check_sum` proves the result
+Every block is an ordinary Gram form, so :func:`roa.proof.putinar.check_level` proves the result
 exactly whatever the structure. The program is a restriction of the dense one (a sum of these
 blocks is one Gram matrix with zeros elsewhere): whatever it certifies the dense program could,
 not conversely; it loses most where ``V' >= 0`` is first reached with many variables at once,
@@ -25,7 +25,7 @@ since each clique's blocks see only the part of ``V`` they hold. Each block is k
 maximised (``t <= 1``), as in the dense program.
 
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the
-memory budget :data:`roa.search.polysdp.MAX_SDP_BYTES`, else this one when it applies (diagonal
+memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else this one when it applies (diagonal
 quadratic V, a clique smaller than ``n``) and fits, else none (``too_large``).
 """
 
@@ -34,16 +34,17 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
-from roa.proof.sos_check import ExactData, Mono, norm_power
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search.sos_certificate import default_eps, degrees, gram_columns
+from roa.proof.putinar import Certificate
+from roa.proof.sos_check import ExactData, Mono
+from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
+from roa.search.sos_symmetry import sign_symmetries, split
 
 
 def interaction_graph(data: ExactData) -> Any:
@@ -159,21 +160,6 @@ def choose_route(data: ExactData, multiplier_degree: int | None = None, route: s
     return "sparse", p, too
 
 
-@dataclass(frozen=True)
-class SparseCandidate:
-    """Bases and float Gram blocks of a numerical sparse certificate (``sigma``, ``lam`` None when
-    the solver failed)."""
-
-    plan: SparsePlan
-    sigma: list[np.ndarray] | None
-    lam: list[np.ndarray] | None
-    eps: Fraction
-    margin: float | None
-    solver_status: str
-    seconds: float
-    figures: dict[str, Any] = field(default_factory=dict)
-
-
 class SparseProgram:
     """The sparse program of a plan, compiled once with the level as a parameter (cvxpy DPP), so
     that a bisection on the level re-solves it without building it again."""
@@ -183,75 +169,54 @@ class SparseProgram:
         import cvxpy as cp
 
         t0 = time.perf_counter()
-        n = data.n
         self.plan = plan
         self.eps = default_eps(data) if eps is None else Fraction(eps)
         self.solver_options = dict(solver_options or {})
-        k = data.low // 2
-        zero = tuple([0] * n)
-        target: dict[Mono, float] = {}
-        for m, c in data.Vdot.items():
-            target[m] = target.get(m, 0.0) - float(c)
-        for m, c in norm_power(n, k).items():
-            target[m] = target.get(m, 0.0) - float(self.eps * c)
-        rows: dict[Mono, int] = {m: i for i, m in enumerate(target)}
-        minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
-        bases = plan.sigma + plan.lam
-        # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
-        parts = [gram_columns(rows, b, {zero: 1.0}) for b in plan.sigma]
-        parts += [gram_columns(rows, b, minus_V) for b in plan.lam]
-        level_parts: list[tuple[list, list, list]] = [([], [], []) for _ in plan.sigma]
-        level_parts += [gram_columns(rows, b, {zero: 1.0}) for b in plan.lam]
-        offsets = np.cumsum([0] + [len(b) ** 2 for b in bases])
-        nrow, ncol = len(rows), int(offsets[-1])
-
-        def matrix(ps: list[tuple[list, list, list]]) -> Any:
-            r = np.concatenate([np.asarray(p[0], dtype=np.int64) for p in ps])
-            c = np.concatenate([np.asarray(p[1], dtype=np.int64) + offsets[i]
-                                for i, p in enumerate(ps)])  # fmt: skip
-            v = np.concatenate([np.asarray(p[2], dtype=float) for p in ps])
-            return sps.csr_matrix((v, (r, c)), shape=(nrow, ncol))
-
-        b = np.zeros(nrow)
-        for m, value in target.items():
-            b[rows[m]] = value
-        self.Qs = [cp.Variable((len(bb), len(bb)), symmetric=True) for bb in bases]
-        self.t = cp.Variable()
+        zero = tuple([0] * data.n)
+        prog = Program(data.n)
+        target = level_target(data, self.eps)
+        prog.const({m: -v for m, v in target.items()})
+        self.t = prog.scalar()
         self.level = cp.Parameter(nonneg=True)
-        x = cp.hstack([cp.vec(Q, order="C") for Q in self.Qs])
-        cons = [Q - self.t * np.eye(Q.shape[0]) >> 0 for Q in self.Qs]
-        cons += [self.t <= 1, matrix(parts) @ x + self.level * (matrix(level_parts) @ x) == b]
-        self.problem = cp.Problem(cp.Maximize(self.t), cons)
-        self.rows = nrow
+        minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
+        syms = sign_symmetries([target, data.V], data.n)  # each block split by parity class
+        for b in plan.sigma:
+            for piece in split(b, syms):
+                prog.gram(piece, {zero: 1.0}, sign=1.0, margin=self.t)
+        self.K = len(prog.grams)
+        # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
+        for b in plan.lam:
+            for piece in split(b, syms):
+                prog.gram(piece, minus_V, sign=1.0, margin=self.t, level=self.level,
+                          level_times={zero: 1.0})  # fmt: skip
+        self.bases = [b for b, _ in prog.grams]
+        self.Qs = [Q for _, Q in prog.grams]
+        self.problem = prog.problem(self.t, extra=[self.t <= 1])
+        self.rows = len(prog.rows)
         self.build_seconds = time.perf_counter() - t0
 
-    def solve(self, level: float) -> SparseCandidate:
+    def solve(self, level: float) -> Candidate:
         """The program at ``level``: float blocks and the margin ``t`` (None when it failed)."""
-        import cvxpy as cp
-
         t0 = time.perf_counter()
         self.level.value = float(level)
-        try:
-            self.problem.solve(solver=cp.CLARABEL, **self.solver_options)
-            status = str(self.problem.status)
-        except cp.error.SolverError as exc:
-            status = f"solver error: {exc}"
+        res = solve(self.problem, options=self.solver_options)
         Qs = self.Qs
-        ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and all(Q.value is not None for Q in Qs)
-        K = len(self.plan.sigma)
+        ok = res.usable and all(Q.value is not None for Q in Qs)
         vals = [np.asarray(Q.value) for Q in Qs] if ok else None
         t = self.t.value
         figures = {"rows": self.rows, "build_seconds": round(self.build_seconds, 3),
                    "solve_seconds": round(time.perf_counter() - t0, 3),
                    "estimated_gib": round(self.plan.bytes / 2**30, 4)}  # fmt: skip
-        return SparseCandidate(self.plan, None if vals is None else vals[:K],
-                               None if vals is None else vals[K:], self.eps,
-                               float(t) if ok and t is not None else None, status,
-                               time.perf_counter() - t0, figures)  # fmt: skip
+        cert = None
+        if vals is not None:
+            cert = Certificate(tuple((0 if i < self.K else 1, b, Q) for i, (b, Q) in
+                                     enumerate(zip(self.bases, vals, strict=True))))  # fmt: skip
+        return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,
+                         time.perf_counter() - t0, figures)  # fmt: skip
 
 
 def propose_sparse(data: ExactData, level: float, plan: SparsePlan, *, eps: Fraction | None = None,
-                   solver_options: dict[str, Any] | None = None) -> SparseCandidate:  # fmt: skip
+                   solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
     """Solve the sparse program of ``plan`` at ``level`` once (module docstring)."""
     prog = SparseProgram(data, plan, eps=eps, solver_options=solver_options)
     cand = prog.solve(level)

@@ -43,14 +43,11 @@ from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.parameters import describe_point
 from roa.progress import note, step
 from roa.search.polysdp import (
-    Identity,
     Poly,
-    ProgramTooLarge,
     add,
     diff,
     is_even,
     monomial,
-    monomials,
     mul,
     poly_of,
     poly_sum,
@@ -58,16 +55,14 @@ from roa.search.polysdp import (
     scale,
     total_degree,
 )
+from roa.search.sdp import SOLVERS, Program, ProgramTooLarge, monomials
 from roa.search.seed import seed_level
 from roa.search.sos import recast_field
 from roa.status import SosStatus
 from roa.system import System
 
-SOLVERS = ("auto", "clarabel", "scs")
-
-
 #: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
-#: bounded on their own by :data:`roa.search.sos.MAX_GRAM_BLOCK` (roa.search.polysdp.check_block).
+#: bounded on their own by :data:`roa.search.sdp.MAX_GRAM_BLOCK` (roa.search.sdp.check_block).
 MAX_V_TERMS = 5000
 
 
@@ -199,7 +194,7 @@ class _Problem:
         return [m for m in basis if sum(m[self.nd :]) == 0]
 
     # -- the decrease identity: (y'y)^k (V - gamma) + lambda V' + mu h - sigma g - sigma0 ----------
-    def decrease(self, ident: Identity, Vc: Any, lam: Any, gamma: Any) -> None:
+    def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> None:
         """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
         multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
         cols = [mul(self.yyk, monomial(m)) for m in self.vbasis]
@@ -223,7 +218,7 @@ class _Problem:
                 ident.gram(b, g)
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
-    def contain(self, ident: Identity, Vc: Any, lam2: Poly | None, beta: Any) -> None:
+    def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
         ident.const(mul(self.yyk2, self.p))
         ident.linear([scale(self.yyk2, -1.0)], beta)
         deg = 2 * self.D + 2
@@ -238,7 +233,7 @@ class _Problem:
         for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
             ident.gram(b, None)
 
-    def positive(self, ident: Identity, Vc: Any, eps: float) -> None:
+    def positive(self, ident: Program, Vc: Any, eps: float) -> None:
         """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
         ident.linear([monomial(m) for m in self.vbasis], Vc)
         ident.const(scale(self.yy, -eps))
@@ -246,7 +241,7 @@ class _Problem:
         for b in self.blocks(basis):
             ident.gram(b, None)
 
-    def linear_decrease(self, ident: Identity, Vc: Any, margin: float) -> None:
+    def linear_decrease(self, ident: Program, Vc: Any, margin: float) -> None:
         """Local decrease kept strict: ``-(A'Pv + Pv A) >= margin * mu0 I`` for the quadratic part
         ``Pv`` of V (``A`` the field's Jacobian at the equilibrium, ``mu0`` the seed's value),
         an LMI linear in V's coefficients. Without it the V step may drift to a V whose
@@ -313,7 +308,7 @@ def vs_search(
     ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
     shape function ``p(x) = (x - x_eq)' S (x - x_eq)`` (default ``V0.P``). Stops after ``rounds``
     V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
-    ``clarabel`` or ``scs`` (:meth:`roa.search.polysdp.Identity.solve`). ``budget``: wall-clock
+    ``clarabel`` or ``scs`` (:meth:`roa.search.sdp.Program.solve`). ``budget``: wall-clock
     seconds for the whole search; no SDP starts past it and each gets the time left as its solver
     time limit, so the search stops with the candidates of the rounds it completed: status
     ``stopped``, ``message`` saying when. With progress on (:func:`roa.progress.enable`), each
@@ -400,7 +395,7 @@ def vs_search(
         lams: list[Poly] = []
         gval: float | None = None
         for k, pk in enumerate(pbs):
-            ident = Identity(pk.nv)
+            ident = Program(pk.nv)
             gamma = ident.scalar()
             pk.decrease(ident, Vc, None, gamma)
             where = f" at {describe_point(points[k])}" if points else ""
@@ -421,7 +416,7 @@ def vs_search(
         sizes.setdefault("gram_blocks_gamma_step", ident.sizes())
         sizes.setdefault("solver", ident.solver)
         # beta step: the shape level inside {V <= 1}
-        ident = Identity(pb.nv)
+        ident = Program(pb.nv)
         beta = ident.scalar()
         pb.contain(ident, Vc, None, beta)
         with step(f"V-s round {r}: beta step"):
@@ -448,7 +443,7 @@ def vs_search(
                     message += f"; seed: {V0.name}"
             break
         # V step: V free, lambda and lambda2 fixed, maximise beta
-        ident = Identity(pb.nv)
+        ident = Program(pb.nv)
         vvar = ident.vector(len(pb.vbasis))
         beta = ident.scalar()
         pb.decrease(ident, vvar, lams[0], 1.0)

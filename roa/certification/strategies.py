@@ -40,8 +40,7 @@ from roa.proof.preconditions import Preconditions, Route, check_preconditions
 from roa.proof.putinar import check_level
 from roa.proof.recast import level_scale, recast_preconditions
 from roa.proof.recast_box import box_json
-from roa.proof.sos_blocks import blocks, restrict
-from roa.proof.sos_check import scale_data
+from roa.proof.reductions import IndependentBlocks, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
@@ -268,14 +267,15 @@ class SosValidator:
             first = self._prove_data(data, V, level, out)
         if first.status is Verdict.CERTIFIED:
             return first
-        scale = level_scale(V, level)
-        if all(r == 1 for r in scale):
+        rescale = Rescale(level_scale(V, level))
+        if not rescale.accepts(data):
             return first
+        (scaled,), scale = rescale.apply(data)
         with step(f"SOS exact validation of level {level:.6g}, variables rescaled"):
-            again = self._prove_data(scale_data(data, scale), V, level, out)
+            again = self._prove_data(scaled, V, level, out)
         if again.status is not Verdict.CERTIFIED:
             return first
-        cert = {**again.meta["certificate"], "scale": [str(r) for r in scale]}
+        cert = rescale.invert(again.meta["certificate"]["parts"], scale)
         return dataclasses.replace(again, meta={**again.meta, "certificate": cert},
                                    message=f"{again.message} (in d = diag(scale) y, scale "
                                    f"{[str(r) for r in scale]}; unscaled: {first.message})")  # fmt: skip
@@ -287,7 +287,8 @@ class SosValidator:
         and proved by :func:`roa.proof.putinar.check_level`."""
         import resource
 
-        parts = blocks(data)
+        split = IndependentBlocks()
+        subs, parts = split.apply(data)
         whole = len(parts) == 1
         stored: list[dict[str, Any]] = []
         statuses: list[str] = []
@@ -297,8 +298,7 @@ class SosValidator:
         sdp_seconds = 0.0
         res: Any = None
         plan: Any = None
-        for block in parts:
-            sub = data if whole else restrict(data, block)
+        for block, sub in zip(parts, subs, strict=True):
             where = "" if whole else f" (block {list(block)})"
             route, plan, why = choose_route(sub, self.multiplier_degree, self.route)
             if route == "too_large":
@@ -348,7 +348,7 @@ class SosValidator:
         reason = (f"{len(parts)} independent blocks of variables (sizes "
                   f"{[len(b) for b in parts]}), each: {res.reason}")  # fmt: skip
         return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
-                   certificate={"parts": stored}, M=np.eye(V.n).tolist(),
+                   certificate=split.invert(stored, parts), M=np.eye(V.n).tolist(),
                    **figures)  # fmt: skip
 
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
@@ -573,7 +573,7 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
         data = exact_data(system, V)
     except NotPolynomial:
         return None
-    parts = blocks(data)
+    parts = IndependentBlocks().blocks(data)
     sparse, plan = False, None
     if len(parts) < 2:
         route, plan, _ = choose_route(data)

@@ -37,13 +37,13 @@ from roa.proof.preconditions import Route, check_preconditions
 from roa.proof.putinar import Certificate, check_level
 from roa.proof.recast import recast_preconditions
 from roa.proof.recast_box import box_json
-from roa.proof.sos_blocks import check_partition, restrict
+from roa.proof.reductions import IndependentBlocks, Rescale
+from roa.proof.sos_blocks import check_partition
 from roa.proof.sos_check import (
     MAX_BASIS,
     parse_eps,
     parse_rational,
     preconditions,
-    scale_data,
     stored_scale,
 )
 from roa.proof.validation import Validation
@@ -207,11 +207,11 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
             return out(Verdict.INCONCLUSIVE, why)
         scale_ = stored_scale(form, n)
         if scale_ is not None:
-            data = scale_data(data, scale_)
+            (data,), _ = Rescale(scale_).apply(data)
         blocks = check_partition([p.get("variables") for p in parts], n)
+        subs, _ = IndependentBlocks(tuple(blocks)).apply(data)
         checks = []
-        for block, part in zip(blocks, parts, strict=True):
-            sub = data if len(blocks) == 1 else restrict(data, block)
+        for block, sub, part in zip(blocks, subs, parts, strict=True):
             res = check_level(sub, level, _eps(part, meta.get("eps")),
                               Certificate.parse(part, len(block)), rounded=True)  # fmt: skip
             if not res.ok:

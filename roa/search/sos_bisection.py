@@ -22,7 +22,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from roa.proof.sos_blocks import Block, blocks, restrict
+from roa.proof.reductions import IndependentBlocks
+from roa.proof.sos_blocks import Block
 from roa.proof.sos_check import ExactData
 from roa.search.sos_certificate import default_eps, propose_certificate
 
@@ -106,12 +107,11 @@ def block_levels(data: ExactData, *, rel_tol: float = 1e-7,
                  solver_options: dict[str, Any] | None = None) -> BlockLevels:  # fmt: skip
     """The least of the blocks' largest numerically feasible levels (module docstring)."""
     t0 = time.perf_counter()
-    parts = blocks(data)
+    subs, parts = IndependentBlocks().apply(data)
     seen: dict[tuple, float | None] = {}
     per: list[tuple[Block, float | None]] = []
     programs = 0
-    for block in parts:
-        sub = data if len(parts) == 1 else restrict(data, block)
+    for block, sub in zip(parts, subs, strict=True):
         key = (sub.n, tuple(sorted(sub.V.items())), tuple(sorted(sub.Vdot.items())))
         if key not in seen:
             seen[key], k = bisect_level(sub, rel_tol=rel_tol, solver_options=solver_options)

@@ -18,10 +18,21 @@ from roa.nn.mlp import Affine
 from roa.proof.relax import LINEAR, Lin, variables
 
 
-def _exact_affine(A: np.ndarray, c: float, d: list[Fraction]) -> Fraction:
+def _exact_affine(A: np.ndarray, c: float, d: list[Fraction]) -> Fraction | float:
+    """``A . d + c`` exactly; an infinite ``c`` (a side without a bound) as it is."""
+    assert np.all(np.isfinite(A)) and not np.isnan(c), (A, c)
+    if not np.isfinite(c):
+        return float(c)
     return Fraction(float(c)) + sum(
         (Fraction(float(a)) * di for a, di in zip(A, d, strict=True)), Fraction(0)
     )
+
+
+def _le(a: Fraction | float, b: Fraction | float) -> bool:
+    """``a <= b`` for Fractions and infinite floats."""
+    if isinstance(a, float) or isinstance(b, float):
+        return a == -np.inf or b == np.inf
+    return a <= b
 
 
 def _assert_encloses(q: Lin, k: int, x: list[float], mid: np.ndarray, exact: Fraction) -> None:
@@ -29,10 +40,18 @@ def _assert_encloses(q: Lin, k: int, x: list[float], mid: np.ndarray, exact: Fra
     d = [Fraction(float(p)) - Fraction(float(m)) for p, m in zip(x, mid[k], strict=True)]
     lo = _exact_affine(q.lA[k], q.lc[k], d)
     hi = _exact_affine(q.uA[k], q.uc[k], d)
-    assert lo <= exact, f"lower bound {float(lo)!r} above the exact value {float(exact)!r} at {x}"
-    assert exact <= hi, f"upper bound {float(hi)!r} below the exact value {float(exact)!r} at {x}"
+    assert _le(lo, exact), (
+        f"lower bound {float(lo)!r} above the exact value {float(exact)!r} at {x}"
+    )
+    assert _le(exact, hi), (
+        f"upper bound {float(hi)!r} below the exact value {float(exact)!r} at {x}"
+    )
     b_lo, b_hi = q.bounds()
-    assert Fraction(float(b_lo[k])) <= exact <= Fraction(float(b_hi[k])), (b_lo[k], b_hi[k])
+    assert _le(_frac(b_lo[k]), exact) and _le(exact, _frac(b_hi[k])), (b_lo[k], b_hi[k])
+
+
+def _frac(v: float) -> Fraction | float:
+    return Fraction(float(v)) if np.isfinite(v) else float(v)
 
 
 def _exact_pwl_net(net: MLP, x: list[float]) -> list[Fraction]:
@@ -80,3 +99,88 @@ def test_crown_back_substitution_whose_coefficient_underflows_is_still_enclosed(
     q = net(X, LINEAR)[0]
     for x in (-1e300, -2.5e299, 0.0, 1e299, 1e300):
         _assert_encloses(q, 0, [x], mid, _exact_pwl_net(net, [x])[0])
+
+
+# -- networks at kinks, at extreme scales, on degenerate and unbounded boxes --------------------------
+PWL = ["relu", ("leaky_relu", 0.1), ("leaky_relu", 3.0), ("clip", -0.5, 0.25)]
+
+
+def _corners_and_samples(rng, lo: np.ndarray, hi: np.ndarray, extra: list) -> list[np.ndarray]:
+    n = len(lo)
+    pts = [lo, hi, 0.5 * lo + 0.5 * hi]
+    pts += [np.where(rng.random(n) < 0.5, lo, hi) for _ in range(4)]
+    pts += [rng.uniform(lo, hi) for _ in range(4)]
+    pts += [np.clip(np.asarray(p, dtype=float), lo, hi) for p in extra]
+    return pts
+
+
+def _check_pwl_net(net: MLP, lo: np.ndarray, hi: np.ndarray, rng, extra=()) -> int:
+    X, mid = variables(lo, hi)
+    with np.errstate(all="ignore"):
+        out = net(X, LINEAR)
+    checked = 0
+    for k in range(len(lo)):
+        for x in _corners_and_samples(rng, lo[k], hi[k], list(extra)):
+            exact = _exact_pwl_net(net, list(x))
+            for j, q in enumerate(out):
+                _assert_encloses(q, k, list(x), mid, exact[j])
+                checked += 1
+    return checked
+
+
+@pytest.mark.parametrize("act", PWL)
+def test_crown_units_exactly_at_their_kinks(act):
+    """Biases chosen so that units sit exactly at 0 (and at the clip ends) at the box centre and
+    at corners: the relaxation's kink handling, checked exactly (Fractions) at those points."""
+    rng = np.random.default_rng(1)
+    W0 = np.array([[1.0, 0.0], [0.0, 1.0], [1.0, -1.0], [0.5, 0.5], [2.0, 0.0]])
+    b0 = np.array([0.0, 0.0, 0.0, -0.25, 0.5])  # unit 5 at its lower clip end where x0 = -0.5
+    W1 = np.array([[1.0, -1.0, 0.5, 2.0, -1.0], [-0.5, 0.25, 1.0, -1.0, 1.0]])
+    net = MLP([(W0, b0), (W1, np.array([0.0, -0.25])), (np.array([[1.0, -1.0]]), np.zeros(1))],
+              [act, act, None])  # fmt: skip
+    lo = np.array([[-1.0, -1.0], [0.0, 0.0], [-0.5, 0.0], [0.0, -2.0], [-1e-300, -1e-300],
+                   [0.5, 0.5]])  # fmt: skip
+    hi = np.array([[1.0, 1.0], [0.0, 0.0], [0.5, 0.5], [2.0, 0.0], [1e-300, 1e-300], [0.5, 0.5]])
+    kinks = [[0.0, 0.0], [0.25, 0.25], [-0.5, 0.0], [0.0, 0.25]]
+    assert _check_pwl_net(net, lo, hi, rng, kinks) == 6 * 15
+
+
+@pytest.mark.parametrize("scale", [2.0**-1074 * 3, 1e-300, 1e-150, 1e150, 1e300])
+def test_crown_with_extreme_weights_encloses_the_exact_network(scale):
+    """Weights and biases near the subnormal range and near overflow, boxes from width 0 to
+    radius 1e100: exact rational references (piecewise-linear activations)."""
+    rng = np.random.default_rng(int(np.log2(scale)) % 1000)
+    checked = 0
+    for i, act in enumerate(PWL):
+        W0, b0 = rng.normal(size=(4, 2)) * scale, rng.normal(size=4) * scale
+        W1, b1 = rng.normal(size=(3, 4)), rng.normal(size=3)
+        W2, b2 = rng.normal(size=(1, 3)) * scale, rng.normal(size=1)
+        net = MLP([(W0, b0), (W1, b1), (W2, b2)], [act, act, None])
+        c = rng.normal(size=(4, 2)) * 10.0 ** (2 * i)
+        r = np.array([0.0, 1e-8, 1.0, 1e100])[:, None] * rng.uniform(0.1, 1.0, (4, 2))
+        checked += _check_pwl_net(net, c - r, c + r, rng)
+    assert checked > 100
+
+
+def test_unbounded_and_overflowing_boxes_give_enclosures_or_nothing():
+    """Boxes with infinite sides, or sides at the largest double: the bounds hold (often the
+    whole line) at the finite points of the box."""
+    big = np.finfo(float).max
+    lo = np.array([[-np.inf, 0.0], [0.0, -1.0], [-np.inf, -np.inf], [-big, -big], [big, big]])
+    hi = np.array([[np.inf, 1.0], [np.inf, 1.0], [np.inf, np.inf], [big, big], [big, big]])
+    pts = {0: [[1e300, 0.5], [-3.0, 0.0]], 1: [[1e308, -1.0], [0.5, 0.5]], 2: [[1.0, -1e200]],
+           3: [[-big, big], [0.0, 1e308]], 4: [[big, big]]}  # fmt: skip
+    rng = np.random.default_rng(2)
+    for act in PWL:
+        net = MLP([(rng.normal(size=(3, 2)), rng.normal(size=3)), (rng.normal(size=(1, 3)),
+                   rng.normal(size=1))], [act, None])  # fmt: skip
+        with np.errstate(all="ignore"):
+            X, mid = variables(lo, hi)
+            q = net(X, LINEAR)[0]
+        b_lo, b_hi = q.bounds()
+        for k, xs in pts.items():
+            for x in xs:
+                v = _exact_pwl_net(net, x)[0]
+                assert (b_lo[k] == -np.inf or Fraction(float(b_lo[k])) <= v) and (
+                    b_hi[k] == np.inf or v <= Fraction(float(b_hi[k]))
+                ), (act, k, x)

@@ -356,3 +356,70 @@ def test_relaxation_bounds_alone_hold_at_sampled_points_and_at_50_digits(act):
         if F_hi[k] < 0 and inside.any():
             j = int(np.argmax(np.where(inside, v, -np.inf)))
             assert _vdot_50(system, P, S[j]) < 0, (k, lo[k], hi[k], S[j])
+
+
+# -- end to end: no certificate just above an independently found optimum ---------------------------
+def _witness_at_50_digits(system, P: np.ndarray) -> np.ndarray:
+    """The point of least V = x'Px with V' >= 0 (dense polar grid in V's own coordinates, then
+    SLSQP), moved outward along its ray until V' >= 0 holds at 50 digits."""
+    from scipy.optimize import minimize
+
+    from roa.backend import namespace
+
+    NP = namespace("numpy")
+
+    def vdot(S: np.ndarray) -> np.ndarray:
+        f = np.stack(system.field(0.0, [S[:, 0], S[:, 1]], NP), 1)
+        return 2.0 * np.einsum("mi,ij,mj->m", S, P, f)
+
+    T = np.linalg.inv(np.linalg.cholesky(P)).T  # x = T y: V = |y|^2
+    phi = np.linspace(0.0, 2 * np.pi, 1500, endpoint=False)
+    rho = np.linspace(0.02, 10.0, 2000)
+    Y = (rho[None, :, None] * np.stack([np.cos(phi), np.sin(phi)], 1)[:, None, :]).reshape(-1, 2)
+    X = Y @ T.T
+    ok = vdot(X) >= 0
+    assert ok.any()
+    x0 = X[np.argmin(np.where(ok, np.sum(Y * Y, 1), np.inf))]
+    res = minimize(lambda x: float(x @ P @ x), x0, method="SLSQP",
+                   constraints=[{"type": "ineq", "fun": lambda x: float(vdot(x[None])[0])}],
+                   options={"ftol": 1e-15, "maxiter": 500})  # fmt: skip
+    for x in (res.x, x0):
+        for t in (1.0, 1 + 1e-12, 1 + 1e-9, 1 + 1e-6):
+            if _vdot_50(system, P, x * t) >= 0:
+                return x * t
+    raise AssertionError("no witness with V' >= 0 at 50 digits")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("act", ["tanh", "sigmoid"])
+def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
+    """A fitted network pendulum: a point ``w`` with ``V'(w) >= 0`` at 50 digits found by a dense
+    grid and SLSQP (independent of the branch and bound) bounds the optimum by ``V(w)``; the
+    branch and bound, with the relaxation bounds deciding boxes, certifies 0.97 V(w) and does
+    not certify 1.001 V(w)."""
+    import roa.proof.validate as validate
+    from roa.linearisation import lyapunov_matrix
+    from roa.lyapunov import QuadraticLyapunov
+
+    system = _fitted_pendulum(act)
+    P = lyapunov_matrix(system)
+    V = QuadraticLyapunov(P, [0.0, 0.0])
+    w = _witness_at_50_digits(system, P)
+    cw = float(Fraction(float(w[0])) ** 2 * Fraction(float(P[0, 0]))
+               + 2 * Fraction(float(w[0])) * Fraction(float(w[1])) * Fraction(float(P[0, 1]))
+               + Fraction(float(w[1])) ** 2 * Fraction(float(P[1, 1])))  # fmt: skip
+    decided = []
+    original = validate.relaxation_bounds
+
+    def counting(system, lyap, lo, hi, level, Vb, vdot, F_hi, n_par=0):
+        vd, F = original(system, lyap, lo, hi, level, Vb, vdot, F_hi, n_par)
+        before = np.broadcast_to(vdot.hi, vd.hi.shape) < 0
+        decided.append(int(np.sum(((vd.hi < 0) | (F < 0)) & ~before & ~(F_hi < 0))))
+        return vd, F
+
+    monkeypatch.setattr(validate, "relaxation_bounds", counting)
+    below = validate.validate_level(system, V, 0.97 * cw, time_limit=300)
+    assert below.status.value == "certified", below.message
+    assert sum(decided) > 0  # the relaxation decided boxes the interval forms left
+    above = validate.validate_level(system, V, 1.001 * cw, time_limit=300)
+    assert above.status.value != "certified", above.message

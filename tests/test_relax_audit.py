@@ -423,3 +423,18 @@ def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
     assert sum(decided) > 0  # the relaxation decided boxes the interval forms left
     above = validate.validate_level(system, V, 1.001 * cw, time_limit=300)
     assert above.status.value != "certified", above.message
+
+
+def test_an_identity_step_of_from_ops_is_no_activation_in_every_namespace():
+    """``Activation("identity")`` passed to :meth:`MLP.from_ops` was kept as a step that the
+    numpy and interval namespaces do not have (AttributeError); it is now dropped."""
+    from roa.backend import namespace
+    from roa.nn.mlp import Activation
+    from roa.proof.interval import INTERVAL, Interval
+
+    W, b = np.array([[2.0, -1.0]]), np.array([0.5])
+    net = MLP.from_ops([Affine(W, b), Activation("identity")])
+    assert len(net.ops) == 1
+    assert float(net([1.0, 3.0], namespace("numpy"))[0]) == 2.0 - 3.0 + 0.5
+    iv = net([Interval(1.0), Interval(3.0)], INTERVAL)[0]
+    assert float(iv.lo) <= -0.5 <= float(iv.hi)

@@ -438,3 +438,23 @@ def test_an_identity_step_of_from_ops_is_no_activation_in_every_namespace():
     assert float(net([1.0, 3.0], namespace("numpy"))[0]) == 2.0 - 3.0 + 0.5
     iv = net([Interval(1.0), Interval(3.0)], INTERVAL)[0]
     assert float(iv.lo) <= -0.5 <= float(iv.hi)
+
+
+def test_a_complex_constant_is_refused_by_intervals_and_relaxations():
+    """``Interval * (1 + 2j)`` gave ``Interval`` (the imaginary part dropped with a numpy warning,
+    the real part taken as the constant): a wrong enclosure of a complex value. A complex
+    constant with an imaginary part is now refused; one with zero imaginary part is its real
+    part."""
+    from roa.errors import RoaInputError
+    from roa.proof.interval import Interval
+
+    x = Interval(np.array([1.0]), np.array([2.0]))
+    with pytest.raises(RoaInputError, match="complex constant"):
+        _ = x * (1 + 2j)
+    with pytest.raises(RoaInputError, match="complex constant"):
+        _ = x + np.complex128(3j)
+    X, _ = variables(np.array([[1.0]]), np.array([[2.0]]))
+    with pytest.raises(RoaInputError, match="complex constant"):
+        _ = X[0] * (-2.0) ** 0.5  # Python: a complex number
+    y = x * complex(3.0, 0.0)
+    assert float(y.lo[0]) <= 3.0 and 6.0 <= float(y.hi[0]) < 6.0 + 1e-14

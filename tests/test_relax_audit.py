@@ -458,3 +458,67 @@ def test_a_complex_constant_is_refused_by_intervals_and_relaxations():
         _ = X[0] * (-2.0) ** 0.5  # Python: a complex number
     y = x * complex(3.0, 0.0)
     assert float(y.lo[0]) <= 3.0 and 6.0 <= float(y.hi[0]) < 6.0 + 1e-14
+
+
+def _mp_net(net: MLP, x: list[float]) -> list:
+    """The network at 100 digits (smooth activations), affine maps summed exactly (fsum)."""
+    acts = {
+        "tanh": mp.tanh,
+        "sigmoid": lambda z: 1 / (1 + mp.exp(-z)),
+        "softplus": lambda z: mp.log1p(mp.exp(z)),
+    }
+    h = [mp.mpf(float(v)) for v in x]
+    for op in net.ops:
+        if isinstance(op, Affine):
+            h = [mp.fsum([mp.mpf(float(w)) * v for w, v in zip(row, h, strict=True)]
+                         + [mp.mpf(float(b))]) for row, b in zip(op.W, op.b, strict=True)]  # fmt: skip
+        else:
+            h = [acts[op.name](v) for v in h]
+    return h
+
+
+@pytest.mark.parametrize("act", ["tanh", "sigmoid", "softplus"])
+@pytest.mark.parametrize("scale", [1e-300, 1e-8, 1.0, 1e3, 1e150])
+def test_crown_with_smooth_activations_at_extreme_scales_encloses_100_digit_values(act, scale):
+    """Three-layer networks with weights of size ``scale`` (units saturated, or all in the
+    linear part), boxes of radius 0 to 1e6: the affine bounds at the corners, centre and random
+    points hold against the network at 100 digits."""
+    rng = np.random.default_rng(int(abs(np.log10(scale))) + len(act))
+    W0, b0 = rng.normal(size=(5, 2)) * scale, rng.normal(size=5)
+    W1, b1 = rng.normal(size=(4, 5)) * scale, rng.normal(size=4) * scale
+    W2, b2 = rng.normal(size=(2, 4)), rng.normal(size=2)
+    net = MLP([(W0, b0), (W1, b1), (W2, b2)], [act, act, None])
+    c = rng.normal(size=(5, 2))
+    r = np.array([0.0, 1e-9, 0.1, 2.0, 1e6])[:, None] * rng.uniform(0.2, 1.0, (5, 2))
+    lo, hi = c - r, c + r
+    X, mid = variables(lo, hi)
+    with np.errstate(all="ignore"):
+        out = net(X, LINEAR)
+    with mp.workdps(100):
+        for k in range(5):
+            for x in _corners_and_samples(rng, lo[k], hi[k], []):
+                ref = _mp_net(net, list(x))
+                d = [
+                    Fraction(float(p)) - Fraction(float(q)) for p, q in zip(x, mid[k], strict=True)
+                ]
+                for j, q in enumerate(out):
+                    lo_v = _exact_affine(q.lA[k], q.lc[k], d)
+                    hi_v = _exact_affine(q.uA[k], q.uc[k], d)
+                    lo_m = (
+                        lo_v
+                        if isinstance(lo_v, float)
+                        else mp.mpf(lo_v.numerator) / lo_v.denominator
+                    )
+                    hi_m = (
+                        hi_v
+                        if isinstance(hi_v, float)
+                        else mp.mpf(hi_v.numerator) / hi_v.denominator
+                    )
+                    assert lo_m <= ref[j] <= hi_m, (
+                        k,
+                        list(x),
+                        j,
+                        float(lo_m),
+                        float(ref[j]),
+                        float(hi_m),
+                    )

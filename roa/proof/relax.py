@@ -87,13 +87,14 @@ def _abs_dot(A: np.ndarray, r: np.ndarray) -> np.ndarray:
 
 
 def _underflow(k: int, mag: np.ndarray) -> np.ndarray:
-    """``k 2^-1022 (1 + sum_i mag_i)`` rounded up: the underflow part of the error of an affine
+    """``k 2^-1022 (1 + sum_i mag_i)``: a bound of the underflow part of the error of an affine
     function whose coefficients are sums of at most ``k`` products, each off by at most
     ``2^-1075`` absolutely, the coefficients multiplied by values ``|z_i| <= mag_i`` (last axis).
-    Without the factor ``1 + sum mag`` a coefficient that underflows to 0 would lose its whole
-    term over a wide box (``(x 1e-200) 1e-200`` on ``|x| <= 1e300``)."""
+    It exceeds that part by a factor ``2^53``, so the float evaluation of the sum needs no
+    rounding term. Without the factor ``1 + sum mag`` a coefficient that underflows to 0 would
+    lose its whole term over a wide box (``(x 1e-200) 1e-200`` on ``|x| <= 1e300``)."""
     with np.errstate(over="ignore", invalid="ignore"):
-        return round_up(k * _TINY * (1.0 + _abs_dot(np.ones(mag.shape[-1]), mag)))
+        return (k * _TINY) * (1.0 + np.sum(mag, axis=-1))
 
 
 class Lin:

@@ -522,3 +522,64 @@ def test_crown_with_smooth_activations_at_extreme_scales_encloses_100_digit_valu
                         float(ref[j]),
                         float(hi_m),
                     )
+
+
+@pytest.mark.parametrize("name", ["SYSTEM", "SYSTEM_RELU"])
+def test_relaxation_bounds_on_the_quadrotor_networks_hold_at_samples_and_50_digits(name):
+    """The planar quadrotor under its 6-16-16-2 controllers (CROWN through two hidden layers,
+    McCormick products with sin/cos of the pitch): relaxation_bounds alone on 120 boxes across
+    the level surface near the sampled optimum; every V' bound and every F < 0 claim checked
+    against 400 samples per box and the extreme ones at 50 digits."""
+    import sys
+    from pathlib import Path
+
+    from roa.backend import namespace
+    from roa.linearisation import lyapunov_matrix
+    from roa.lyapunov import QuadraticLyapunov
+    from roa.proof.interval import Interval
+    from roa.proof.relax_vdot import relaxation_bounds
+
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "examples" / "systems"))
+    try:
+        import quadrotor_nn
+    finally:
+        sys.path.pop(0)
+    system = getattr(quadrotor_nn, name)
+    P = lyapunov_matrix(system)
+    V = QuadraticLyapunov(P, np.zeros(6))
+    NP, MPX = namespace("numpy"), namespace("mpmath")
+
+    def vdot(S: np.ndarray) -> np.ndarray:
+        f = np.stack(system.field(0.0, [S[:, i] for i in range(6)], NP), 1)
+        return 2.0 * np.einsum("mi,ij,mj->m", S, P, f)
+
+    def vdot_50(x: np.ndarray):
+        with mp.workdps(50):
+            xm = [mp.mpf(float(v)) for v in x]
+            f = system.field(0.0, xm, MPX)
+            return 2 * mp.fsum(
+                xm[i] * mp.mpf(float(P[i, j])) * f[j] for i in range(6) for j in range(6)
+            )
+
+    rng = np.random.default_rng(0)
+    G = rng.normal(size=(200_000, 6))
+    G *= np.sqrt(rng.uniform(0.01, 30, len(G)) / V.value(G))[:, None]
+    pos = vdot(G) >= 0
+    assert pos.any()
+    level = 0.9 * float(V.value(G[pos]).min())
+    m = 120
+    u = rng.normal(size=(m, 6))
+    c = u * np.sqrt(level * rng.uniform(0.6, 1.4, m) / V.value(u))[:, None]
+    r = rng.choice([0.0, 0.005, 0.02, 0.1], (m, 1)) * rng.uniform(0.2, 1.0, (m, 6))
+    lo, hi = c - r, c + r
+    whole = Interval(np.full(m, -np.inf), np.full(m, np.inf))
+    vd, F_hi = relaxation_bounds(system, V, lo, hi, level, whole, whole, np.full(m, 1e300))
+    assert (F_hi < 0).sum() >= 2 and (vd.hi < 0).sum() >= 20  # the claims checked below
+    for k in range(m):
+        S = np.concatenate([rng.uniform(lo[k], hi[k], (400, 6)), [lo[k], hi[k]]])
+        v = vdot(S)
+        assert vdot_50(S[np.argmax(v)]) <= vd.hi[k], k
+        assert vdot_50(S[np.argmin(v)]) >= vd.lo[k], k
+        inside = V.value(S) <= level
+        if F_hi[k] < 0 and inside.any():
+            assert vdot_50(S[int(np.argmax(np.where(inside, v, -np.inf)))]) < 0, k

@@ -90,6 +90,8 @@ def _activation(spec: Any, where: str) -> Activation | None:
     if spec is None or spec == "identity" or spec == "linear":
         return None
     name, args = (spec, ()) if isinstance(spec, str) else (spec[0], tuple(spec[1:]))
+    if name in ("identity", "linear") and not args:  # also as a step of from_ops: no activation
+        return None
     if name not in ACTIVATION_NAMES:
         raise RoaInputError(
             f"MLP: {where}: unknown activation {name!r}; allowed: {', '.join(ACTIVATION_NAMES)}"

@@ -263,7 +263,7 @@ class Whitened(Lyapunov):
         self.name = f"{base.name} (whitened)"
         #: the exact polynomials in ``y`` (module doc), or None (the composition through ``x``)
         # the affine-field expansion of W' is for a flow; a map's W(F) - W goes through x
-        flow = system if system.time == "continuous" else None
+        flow = system if system is not None and system.time == "continuous" else None
         self.expanded = Expanded(base, flow, self.M) if base.terms is not None else None
         #: ``(basis, T' Q T)`` and the exact coefficients of ``W`` for a global cover
         #: (:func:`roa.proof.cover.gram_cover`), when V has a Gram matrix ``Q`` over a basis

@@ -19,7 +19,7 @@ from roa.nn import MLP
 
 def test_without_pytorch_the_importer_says_what_to_install(monkeypatch):
     monkeypatch.setitem(sys.modules, "torch", None)  # import torch raises ImportError
-    with pytest.raises(RoaInputError, match=r"roa-verify\[torch\]"):
+    with pytest.raises(RoaInputError, match=r"pip install torch"):
         MLP.from_torch(object())
 
 

@@ -57,7 +57,7 @@ def _modules(module: Any) -> list[tuple[str, Any]]:
         import torch
     except ImportError:
         raise RoaInputError(
-            "MLP.from_torch needs PyTorch: pip install 'roa-verify[torch]' (or pip install torch)"
+            "MLP.from_torch needs PyTorch: pip install torch (in a checkout of roa: pip install -e '.[torch]')"
         ) from None
     if not isinstance(module, torch.nn.Sequential):
         raise RoaInputError(

@@ -208,6 +208,15 @@ class MLP:
         return cls.from_ops(read_onnx(path))
 
     @classmethod
+    def from_torch(cls, module: Any) -> MLP:
+        """A network from a PyTorch ``nn.Sequential`` (:func:`roa.nn.pytorch.read_torch`; needs
+        PyTorch, the ``torch`` extra). Modules other than Linear, ReLU, Tanh, Sigmoid, LeakyReLU,
+        Hardtanh/ReLU6, Softplus (and Identity, Flatten, Dropout, skipped) are refused by name."""
+        from roa.nn.pytorch import read_torch
+
+        return cls.from_ops(read_torch(module))
+
+    @classmethod
     def load(cls, path: str | Path) -> MLP:
         """A network saved by :meth:`save` (an ``.npz``: ``W0, b0, W1, ...`` and ``activations``)."""
         import json

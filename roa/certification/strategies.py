@@ -181,12 +181,17 @@ class SosValidator:
     taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
     refutes: bool = False  # the pipeline refutes above with the branch and bound
     route: str = "auto"  # "dense", "sparse" (chordal cliques) or "auto" (by the memory budget)
+    backoff: int = 5  # lower levels tried when the exact check fails (roa.certification.backoff)
 
     def __post_init__(self) -> None:
         from roa.search.sos_sparse import ROUTES
 
         if self.route not in ROUTES:
             raise RoaInputError(f"SosValidator route must be one of {ROUTES}, got {self.route!r}")
+        if isinstance(self.backoff, bool) or not isinstance(self.backoff, int) or not (
+                0 <= self.backoff <= 20):  # fmt: skip
+            raise RoaInputError(f"SosValidator backoff must be an integer in [0, 20], got "
+                                f"{self.backoff!r}")  # fmt: skip
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:

@@ -152,3 +152,42 @@ def test_quadrotor2d_certified_by_the_exact_route_without_branch_and_bound():
     assert search is not None and search.witness is not None
     # below the level search's confirmed witness (V' >= 0 there): never above the optimum
     assert cert.level < float(search.level)
+
+
+# -- the solver and its memory estimate (roa.search.sdp_solver) ---------------------------------
+def test_solver_settings_in_each_solvers_keywords():
+    from roa.search.sdp_solver import settings
+
+    assert settings("scs", 1e-9, 100) == {"solver": "scs", "eps_abs": 1e-9, "eps_rel": 1e-9,
+                                          "max_iters": 100}  # fmt: skip
+    assert settings("clarabel", 1e-10) == {"solver": "clarabel", "tol_gap_abs": 1e-10,
+                                           "tol_gap_rel": 1e-10, "tol_feas": 1e-10}  # fmt: skip
+    for bad in ({"solver": "mosek"}, {"tolerance": 0.0}, {"tolerance": 2.0}, {"max_iter": 0}):
+        with pytest.raises(roa.RoaInputError):
+            settings(**bad)  # type: ignore[arg-type]
+
+
+def test_memory_estimate_chooses_the_first_order_solver_for_a_231_block():
+    from roa.search.sdp_solver import choose
+
+    # one Gram block of 231 monomials: s = 231 * 232 / 2 = 26796 svec entries, the interior
+    # point's dense scaling block 24 s^2 bytes = 16.06 GiB, over the 4 GiB budget
+    c = choose([231], rows=10626, nonzeros=231 * 231)
+    assert c.ipm_bytes == 24 * 26796**2
+    assert c.solver == "scs" and c.scs_bytes < 2**30
+    assert choose([50], 1000, 2500).solver == "clarabel"
+    assert choose([231], 10626, 231 * 231, "clarabel").solver is None  # refused, not built
+    assert choose([231], 10626, 231 * 231, budget=2**20).solver is None
+
+
+@pytest.mark.parametrize("solver", ["scs", "clarabel"])
+def test_the_solver_is_an_option_and_the_exact_check_still_decides(solver):
+    from roa.search.sdp_solver import settings
+
+    system = _poly2d()
+    V = roa.default_lyapunov(system)
+    opts = settings(solver, 1e-9, 200_000 if solver == "scs" else None)
+    v = roa.SosValidator(solver_options=opts).check(system, V, 0.99 * POLY2D_OPT)
+    assert v.status is Verdict.CERTIFIED
+    above = roa.SosValidator(solver_options=opts).check(system, V, 1.01 * POLY2D_OPT)
+    assert above.status is Verdict.INCONCLUSIVE  # the exact check never passes above

@@ -39,16 +39,15 @@ def check_block(size: int) -> None:
 
 
 def solve_margin(prob: Any, solver_options: dict[str, Any] | None = None) -> tuple[str, bool]:
-    """Solve a Gram program (cvxpy, Clarabel): ``(status, usable)``, ``usable`` for an optimal
+    """Solve a Gram program (cvxpy; Clarabel unless ``solver_options`` name another solver,
+    :mod:`roa.search.sdp_solver`): ``(status, usable)``, ``usable`` for an optimal
     or optimal-inaccurate solution (only a candidate: the exact check decides); a solver error
     is a status, never an exception."""
     import cvxpy as cp
 
-    try:
-        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
-        status = str(prob.status)
-    except cp.error.SolverError as exc:
-        status = f"solver error: {exc}"
+    from roa.search.sdp_solver import solve
+
+    status = solve(prob, solver_options)  # the solver and tolerances: roa.search.sdp_solver
     return status, status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE)
 
 

@@ -231,11 +231,9 @@ class SparseProgram:
 
         t0 = time.perf_counter()
         self.level.value = float(level)
-        try:
-            self.problem.solve(solver=cp.CLARABEL, **self.solver_options)
-            status = str(self.problem.status)
-        except cp.error.SolverError as exc:
-            status = f"solver error: {exc}"
+        from roa.search.sdp_solver import solve
+
+        status = solve(self.problem, self.solver_options)
         Qs = self.Qs
         ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and all(Q.value is not None for Q in Qs)
         K = len(self.plan.sigma)

@@ -299,7 +299,13 @@ class SosValidator:
             route, plan, why = choose_route(data, self.multiplier_degree, self.route)
             if route == "sparse":
                 return self._check_sparse(data, level, plan, why, out)
-            if route == "too_large":
+            if route == "too_large":  # sign symmetry and SDSOS (roa.certification.sdd_route)
+                from roa.certification.sdd_route import validate_sdd
+
+                alt = validate_sdd(data, level, default_eps(data, self.eps),
+                                   self.multiplier_degree, self.solver_options, why, out)  # fmt: skip
+                if alt is not None:
+                    return alt
                 return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built: {why}",
                            route=route)  # fmt: skip
         certs: list[dict[str, Any]] = []
@@ -651,6 +657,11 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
         from roa.search.sos_sparse import choose_route
 
         route, plan, _ = choose_route(data)
+        if route == "too_large":  # sign symmetry and SDSOS (roa.certification.sdd_route)
+            from roa.certification.sdd_route import sdd_level
+
+            with step("SOS level by bisection with the SDSOS program"):
+                return sdd_level(data, SosValidator.eps, o.solver_options())
         if route != "sparse":
             return None
         sparse = True

@@ -95,7 +95,8 @@ def check_partition(parts: Any, n: int) -> list[Block]:
 def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
     """Re-check a stored exact SOS certificate without any solver: one certificate
     (:func:`roa.proof.sos_check.recheck_stored`), a sparse one (``sum``: sums of Gram blocks,
-    :func:`roa.proof.sos_sum.recheck_sum`) or, when it has ``blocks``, one per block.
+    :func:`roa.proof.sos_sum.recheck_sum`), an SDSOS one (``sdd``: scaled diagonally dominant
+    blocks, :func:`roa.proof.sos_sdd.recheck_sdd`) or, when it has ``blocks``, one per block.
 
     A block certificate is ``{"variables": [...], "eps": "p/q", "basis0", "Q0", "basis1", "Q1"}``
     in the block's variables, or ``{"variables", "eps", "sum"}`` for a sparse one
@@ -142,6 +143,10 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
         from roa.proof.sos_sum import recheck_sum
 
         return recheck_sum(system, V, level, meta)
+    if isinstance(cert, dict) and "sdd" in cert:  # scaled diagonally dominant blocks (SDSOS)
+        from roa.proof.sos_sdd import recheck_sdd
+
+        return recheck_sdd(system, V, level, meta)
     if not (isinstance(cert, dict) and "blocks" in cert):
         return recheck_stored(system, V, level, meta)
     t0 = time.perf_counter()

@@ -86,6 +86,7 @@ def exact_data(system: Any, V: Any) -> ExactData:
 
     from roa.backend import namespace
     from roa.lyapunov.symbolic import exact_rationals
+    from roa.proof.fast_poly import field_polys
 
     terms = getattr(V, "terms", None)
     if terms is None:
@@ -99,16 +100,18 @@ def exact_data(system: Any, V: Any) -> ExactData:
     try:  # unevaluated, so that no float is rounded against a rational before it is made exact
         with sp.evaluate(False):
             f = system.field(0.0, xs, namespace("sympy"))
+        fast = field_polys(list(f), xs, center, d) if len(f) == n else None  # exact ring route
         shift = {
             xs[i]: d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)
         }
-        f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        if fast is None:
+            f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
         raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
     try:  # polynomial arithmetic over QQ (exact, and much faster than expanding expressions)
-        fp = [sp.Poly(fi, *d, domain="QQ") for fi in f]
+        fp = fast if fast is not None else [sp.Poly(fi, *d, domain="QQ") for fi in f]
     except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:
         raise NotPolynomial(
             f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"

@@ -191,3 +191,49 @@ def test_the_solver_is_an_option_and_the_exact_check_still_decides(solver):
     assert v.status is Verdict.CERTIFIED
     above = roa.SosValidator(solver_options=opts).check(system, V, 1.01 * POLY2D_OPT)
     assert above.status is Verdict.INCONCLUSIVE  # the exact check never passes above
+
+
+# -- sign symmetry of the recast program (roa.search.sos_putinar_sym) ---------------------------
+@pytest.mark.parametrize("path, level", [("examples/systems/pendulum.py:SYSTEM", 9.0),
+                                         ("examples/systems/quadrotor2d.py:SYSTEM", 0.12)])  # fmt: skip
+def test_symmetric_recast_program_is_lossless_and_checks(path, level):
+    from roa.proof.recast import level_scale
+    from roa.proof.sos_putinar import check_putinar, recast_preconditions
+    from roa.search.sos_putinar import default_eps, propose_putinar
+    from roa.search.sos_putinar_sym import propose_symmetric
+
+    system = roa.load_system(f"{ROOT / path}")
+    V = roa.default_lyapunov(system)
+    data, why = recast_preconditions(system, V, level, None, level_scale(V, level))
+    assert data is not None, why
+    eps = default_eps(data)
+    sym = propose_symmetric(data, level, eps=eps)
+    full = propose_putinar(data, level, eps=eps)
+    assert sym is not None and sym.sizes["symmetry_blocks"]  # the odd field splits
+    # averaging over the flips keeps the least eigenvalue: the optimal margins agree
+    assert sym.margin == pytest.approx(full.margin, abs=1e-5 * max(1.0, abs(full.margin)))
+    res = check_putinar(data, level, eps, sym.blocks)
+    assert res.ok == check_putinar(data, level, eps, full.blocks).ok
+    # between classes the assembled Gram matrices are zero
+    from roa.search.sos_putinar_sym import _key, symmetry_span
+
+    span = symmetry_span(data, eps)
+    for basis, Q in sym.blocks.grams:
+        Q = np.asarray(Q)
+        for i, j in zip(*np.nonzero(Q), strict=True):
+            assert _key(basis[i], span) == _key(basis[j], span)
+
+
+def test_a_field_without_sign_symmetry_uses_the_unsplit_program():
+    from roa.proof.recast import level_scale
+    from roa.proof.sos_putinar import recast_preconditions
+    from roa.search.sos_putinar_sym import propose_symmetric
+
+    # theta' = omega, omega' = -sin(theta) - omega + 0.1 cos(theta) - 0.1: not odd (cos even)
+    system = roa.System("lopsided", lambda t, x, xp: (x[1], -xp.sin(x[0]) - x[1]
+                                                      + 0.125 * xp.cos(x[0]) - 0.125),
+                        (0.0, 0.0), ("theta", "omega"))  # fmt: skip
+    V = roa.default_lyapunov(system)
+    data, why = recast_preconditions(system, V, 1.0, None, level_scale(V, 1.0))
+    assert data is not None, why
+    assert propose_symmetric(data, 1.0) is None

@@ -437,7 +437,11 @@ class SosValidator:
             if data is None:
                 return out(Verdict.INCONCLUSIVE, why)
             eps = default_eps(data, self.eps)
-            cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
+            from roa.search.sos_putinar_sym import propose_symmetric  # sign-symmetry blocks
+
+            cand = propose_symmetric(data, level, eps=eps, solver_options=self.solver_options)
+            if cand is None:
+                cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
             figures = {"solver_status": cand.solver_status, "margin": cand.margin,
                        "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
                        "sizes": cand.sizes, "recast": data.description}  # fmt: skip

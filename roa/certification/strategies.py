@@ -163,7 +163,15 @@ class SosValidator:
     program instead (:mod:`roa.search.sos_sparse`: one Gram block per maximal clique of a chordal
     extension of the variables' interaction graph), proved by the same exact identity over the sum
     of its blocks (:mod:`roa.proof.sos_sum`); its ``meta`` reports the cliques' and blocks' sizes,
-    the solver's and the check's seconds and the process's peak memory (``peak_mib``).
+    the solver's and the check's seconds and the process's peak memory (``peak_mib``). A dense
+    coupled system with neither gets the sign-symmetry blocks and, for those too large for the
+    interior point, scaled diagonally dominant blocks (:mod:`roa.certification.sdd_route`).
+
+    When the exact check fails at a proposed level (not one the caller gave), up to ``backoff``
+    lower levels are tried on this route before any branch and bound
+    (:mod:`roa.certification.backoff`; each try in the trace and in ``meta["backoff"]``).
+    ``solver_options`` may name the solver (``"solver"``: ``"clarabel"``, ``"scs"`` or
+    ``"auto"``) and its tolerances (:func:`roa.search.sdp_solver.settings`).
 
     Examples
     --------

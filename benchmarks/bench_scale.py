@@ -370,7 +370,7 @@ def table(rows: list[dict[str, Any]]) -> str:
         ratio = None if r["level"] is None else r["level"] / r["optimum"]
         bnb = r.get("bnb")
         bnb_s = "-" if bnb is None else f"{bnb['status']}, {bnb['seconds']:.1f} s"
-        sos = _fmt(r["sos_level"], ".7g") if r["sos_level"] else "none (too large)"
+        sos = _fmt(r["sos_level"], ".7g") if r["sos_level"] else "none"
         g = r["gram_sizes"] or []
         grams = f"{len(g)} ({max(g)})" if g else "-"
         ref = r["refutation"]

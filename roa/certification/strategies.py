@@ -190,7 +190,7 @@ class SosValidator:
     fallback: bool = True  # a field that cannot be recast goes to the branch and bound
     taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
     refutes: bool = False  # the pipeline refutes above with the branch and bound
-    route: str = "auto"  # "dense", "sparse" (chordal cliques) or "auto" (by the memory budget)
+    route: str = "auto"  # "dense", "sparse" (cliques), "sdsos" or "auto" (by the memory budget)
     backoff: int = 5  # lower levels tried when the exact check fails (roa.certification.backoff)
 
     def __post_init__(self) -> None:

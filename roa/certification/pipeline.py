@@ -307,7 +307,14 @@ def run(
         return float(choose(o)) if choose is not None else factor * o
 
     value = prop.level if given or choose is None else level_for(opt)
-    v = _validate(system, V, validator, value, trace, "validate")
+    from roa.certification.backoff import exact_first
+
+    first = None if given else exact_first(system, V, validator, value, trace)
+    backed_off = first is not None and first[1] != value
+    if first is not None:  # the exact SOS route and its back-off decided (before any B&B)
+        v, value = first
+    else:
+        v = _validate(system, V, validator, value, trace, "validate")
     notes: list[str] = []
     proof: tuple[Any, Any, float, Any] | None = None  # a confirmed witness below the optimum
     for _ in range(0 if given and not fresh else retries):
@@ -380,7 +387,7 @@ def run(
     if given and not fresh:
         return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                     level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
-    source = "backoff" if backoff else "witness" if notes else prop.source
+    source = "backoff" if backoff or backed_off else "witness" if notes else prop.source
     return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                 level_source=source,
                 message=message, candidate=opt,

@@ -48,9 +48,11 @@ class Certificate:
         sample point of the box: no level > 0; ``message`` names the parameter values).
     level_source : str or None
         Where the level came from: ``"given"``, ``"sos"``, ``"sampled"``, ``"candidate"``,
-        ``"witness"`` (chosen again below a confirmed refutation witness) or ``"backoff"`` (a
-        system with uncertain parameters: lowered after an inconclusive validation, since a level
-        proposed at the box's sample points is no bound between them).
+        ``"witness"`` (chosen again below a confirmed refutation witness) or ``"backoff"``
+        (lowered after the exact SOS check failed at the proposal, every try in the trace and in
+        ``meta["backoff"]``, :mod:`roa.certification.backoff`; or, for a system with uncertain
+        parameters, after an inconclusive validation, since a level proposed at the box's sample
+        points is no bound between them).
     candidate : float or None
         The level before the safety factor (SOS optimum or sampled optimum).
     above : Validation or None

@@ -152,7 +152,7 @@ class SosValidator:
 
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof.recast`) and proved by a constrained certificate
-    (:mod:`roa.proof.sos_putinar`, proposed by :mod:`roa.search.sos_putinar`); a field that
+    (:func:`roa.proof.putinar.check_level`, proposed by :mod:`roa.search.sos_putinar`); a field that
     cannot be recast (the term is named), or one with a domain, is decided by the interval branch
     and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
     inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
@@ -163,8 +163,17 @@ class SosValidator:
     memory budget (``route="auto"``; ``"sparse"`` forces it) gets the correlative-sparsity
     program instead (:mod:`roa.search.sos_sparse`: one Gram block per maximal clique of a chordal
     extension of the variables' interaction graph), proved by the same exact identity over the sum
-    of its blocks (:mod:`roa.proof.sos_sum`); its ``meta`` reports the cliques' and blocks' sizes,
-    the solver's and the check's seconds and the process's peak memory (``peak_mib``).
+    of its blocks (:func:`roa.proof.putinar.check_level`); its ``meta`` reports the cliques' and blocks' sizes,
+    the solver's and the check's seconds and the process's peak memory (``peak_mib``). A dense
+    coupled system with neither gets the sign-symmetry blocks and, for those too large for the
+    interior point, scaled diagonally dominant blocks (``route="sdsos"``,
+    :func:`roa.search.sos_sparse.sdsos_plan`), proved by exact scaled diagonal dominance.
+
+    When the exact check fails at a proposed level (not one the caller gave), up to ``backoff``
+    lower levels are tried on this route before any branch and bound
+    (:mod:`roa.certification.backoff`; each try in the trace and in ``meta["backoff"]``).
+    ``solver_options`` may name the solver (``"solver"``: ``"clarabel"``, ``"scs"`` or
+    ``"auto"``) and its tolerances (:func:`roa.search.sdp.settings`).
 
     Examples
     --------
@@ -181,11 +190,16 @@ class SosValidator:
     fallback: bool = True  # a field that cannot be recast goes to the branch and bound
     taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
     refutes: bool = False  # the pipeline refutes above with the branch and bound
-    route: str = "auto"  # "dense", "sparse" (chordal cliques) or "auto" (by the memory budget)
+    route: str = "auto"  # "dense", "sparse" (cliques), "sdsos" or "auto" (by the memory budget)
+    backoff: int = 5  # lower levels tried when the exact check fails (roa.certification.backoff)
 
     def __post_init__(self) -> None:
         if self.route not in ROUTES:
             raise RoaInputError(f"SosValidator route must be one of {ROUTES}, got {self.route!r}")
+        if isinstance(self.backoff, bool) or not isinstance(self.backoff, int) or not (
+                0 <= self.backoff <= 20):  # fmt: skip
+            raise RoaInputError(f"SosValidator backoff must be an integer in [0, 20], got "
+                                f"{self.backoff!r}")  # fmt: skip
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:
@@ -300,15 +314,16 @@ class SosValidator:
         plan: Any = None
         for block, sub in zip(parts, subs, strict=True):
             where = "" if whole else f" (block {list(block)})"
-            route, plan, why = choose_route(sub, self.multiplier_degree, self.route)
+            route, plan, why = choose_route(sub, self.multiplier_degree, self.route,
+                                            self.solver_options)  # fmt: skip
             if route == "too_large":
                 return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built{where}: {why}",
                            route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
-            if route == "sparse":
+            if plan is not None:  # the clique or the SDSOS pattern
                 cand = propose_sparse(sub, level, plan, eps=eps,
                                       solver_options=self.solver_options)  # fmt: skip
-                figures.update(route="sparse", why_sparse=why, blocks=plan.sizes, **cand.sizes)
+                figures.update(route=route, why_sparse=why, blocks=plan.sizes, **cand.sizes)
                 sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
             else:
                 cand = propose_certificate(sub, level, eps=eps,
@@ -326,7 +341,7 @@ class SosValidator:
                            f"({cand.solver_status})", **figures)  # fmt: skip
             t0 = time.perf_counter()
             res = check_level(sub, level, eps, cand.certificate)
-            if route == "sparse":
+            if plan is not None:
                 figures.update(check_seconds=round(time.perf_counter() - t0, 3),
                                peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
                                               / 1024))  # fmt: skip
@@ -334,11 +349,16 @@ class SosValidator:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed{where}: {res.reason}",
                            residual=res.residual, min_pivot=res.min_pivot, **figures)  # fmt: skip
             extra = {"cliques": [list(c) for c in plan.cliques]} if route == "sparse" else {}
+            if route == "sdsos":
+                extra = {"sdsos": plan.sizes}
             stored.append(part_json(list(block), res.certificate, None if whole else eps,
                                     **extra))  # fmt: skip
         if whole:  # eps, digest, k, residual, min_pivot in the meta (eps read by a re-check)
             what = "SOS certificate"
-            if plan is not None:
+            if plan is not None and plan.kind == "sdsos":
+                what = (f"SDSOS certificate (sign blocks {[len(b) for b in plan.sigma]}, scaled "
+                        f"diagonally dominant {plan.sizes['sdd_blocks']})")  # fmt: skip
+            elif plan is not None:
                 what = (f"sparse SOS certificate ({len(plan.cliques)} cliques of sizes <= "
                         f"{max(map(len, plan.cliques))})")  # fmt: skip
             return out(Verdict.CERTIFIED, f"{what} checked exactly: {res.reason}",
@@ -576,11 +596,12 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     parts = IndependentBlocks().blocks(data)
     sparse, plan = False, None
     if len(parts) < 2:
-        route, plan, _ = choose_route(data)
-        if route != "sparse":
+        route, plan, _ = choose_route(data, solver_options=o.solver_options())
+        if route not in ("sparse", "sdsos"):
             return None
         sparse = True
-    what = ("the sparse (chordal clique) program" if sparse
+    what = ("the sparse (chordal clique) program" if sparse and route == "sparse"
+            else "the SDSOS program (sign blocks, scaled diagonally dominant)" if sparse
             else f"{len(parts)} independent blocks of variables")  # fmt: skip
     with step(f"SOS level by bisection with {what}"):
         bl = block_levels(data, solver_options=o.solver_options())

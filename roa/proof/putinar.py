@@ -6,8 +6,13 @@ by coefficient, the identity::
 
     T - sum_{b : k_b >= 1} (m_b' Q_b m_b) t_{k_b} - sum_e mu_e h_e = sum_{b : k_b = 0} m_b' Q_b m_b
 
-with every Gram block ``Q_b`` positive definite (exact leading minors, python-flint) and the
-``mu_e`` polynomials with rational coefficients. Each block multiplies one factor (``k_b``); a
+with every Gram block ``Q_b`` positive definite and the ``mu_e`` polynomials with rational
+coefficients. A block is proved positive definite by its exact leading minors (LDL', python-flint),
+or, when it is flagged scaled diagonally dominant (an SDSOS block, ``cone`` ``"sdd"``), by exact
+strict scaled diagonal dominance with positive rationals ``w``: ``w_i Q_ii > sum_{j != i} |Q_ij|
+w_j`` for every row; then ``D Q D`` (``D = diag(w)``) is strictly diagonally dominant with a
+positive diagonal, positive definite by Gershgorin, and so is ``Q`` (``O(m^2)`` rational
+operations where the LDL' costs ``O(m^3)`` on growing integers). Each block multiplies one factor (``k_b``); a
 factor may have several blocks (a sparsity pattern: correlative cliques, or one block per factor
 for the dense certificate), and their sum is an SOS multiplier of the factor. So, wherever every
 ``t_k >= 0`` and every ``h_e = 0``, ``T >= 0``.
@@ -22,8 +27,9 @@ inequalities); at ``z(x)`` with ``V(x) <= c`` this gives ``-N >= eps |d|^(2k) > 
 factors ``k >= 1`` and the ``mu_e`` are kept as rounded, except that the constant of a circle's
 multiplier is set so that the circle's linear monomial (matched by no block) cancels; the blocks
 of factor 0 are then projected jointly (Frobenius norm, exact rationals) onto the affine space of
-the identity (:func:`roa.proof.sos_check.project_grams`). A stored certificate (``rounded=True``)
-is checked exactly as stored: nothing is moved.
+the identity (:func:`roa.proof.sos_check.project_grams`); an SDD block's scaling is then proposed
+from the float comparison matrix (:func:`dd_scaling`, dyadics) and checked exactly. A stored
+certificate (``rounded=True``) is checked exactly as stored, scalings included: nothing is moved.
 """
 
 from __future__ import annotations
@@ -31,6 +37,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
+
+import numpy as np
 
 from roa.proof.exact import exact_positive_definite
 from roa.proof.sos_check import (
@@ -56,27 +64,83 @@ from roa.proof.sos_check import (
 Matrix = list[list[Fraction]]
 
 
+def dominance_margin(Q: Matrix, w: list[Fraction]) -> Fraction | None:
+    """The least ``w_i Q_ii - sum_{j != i} |Q_ij| w_j`` over the rows (exact); None when ``w``
+    is not one positive rational per row."""
+    m = len(Q)
+    if len(w) != m or any(not v > 0 for v in w):
+        return None
+    slacks = [w[i] * Q[i][i] - sum((abs(Q[i][j]) * w[j] for j in range(m) if j != i and Q[i][j]),
+                                   Fraction(0)) for i in range(m)]  # fmt: skip
+    return min(slacks, default=Fraction(0))
+
+
+def dd_scaling(Q: Matrix, bits: int = 40) -> list[Fraction] | None:
+    """A scaling to check ``Q`` by dominance (floats only propose it): ``M^-1 1`` for the
+    comparison matrix ``M`` (``|Q_ii|`` on the diagonal, ``-|Q_ij|`` off it), positive when ``Q``
+    is scaled diagonally dominant; dyadics of ``bits`` bits. None when it is not positive."""
+    A = np.array([[float(v) for v in row] for row in Q])
+    M = -np.abs(A)
+    np.fill_diagonal(M, np.abs(np.diag(A)))
+    try:
+        w = np.linalg.solve(M, np.ones(len(A)))
+    except np.linalg.LinAlgError:
+        return None
+    if not np.all(np.isfinite(w)) or np.any(w <= 0):
+        return None
+    grid = Fraction(1, 2**bits)
+    out = [Fraction(round(Fraction(float(v)) / grid)) * grid for v in w / np.max(w)]
+    return out if all(v > 0 for v in out) else None
+
+
+def _definite(R: Matrix, cone: Any) -> tuple[bool, list[Fraction], Any]:
+    """``(ok, pivots or the dominance slack, cone as proved)``: exact LDL' for a PSD block,
+    exact scaled dominance for an SDD one (``"sdd"``: its scaling proposed here)."""
+    if cone is None or cone == "psd":
+        ok, piv = exact_positive_definite(R)
+        return ok, piv, "psd"
+    w = dd_scaling(R) if cone == "sdd" else list(cone)
+    margin = None if w is None else dominance_margin(R, w)
+    if w is None or margin is None or not margin > 0:
+        return False, [] if margin is None else [margin], cone
+    return True, [margin], tuple(w)
+
+
 @dataclass(frozen=True)
 class Certificate:
     """A Putinar certificate with its sparsity pattern: ``grams`` ``(factor, basis, Q)`` (factor
     0: the projected SOS part; 1: the level's multiplier ``c - V``; ``2 + j``: inequality ``j``;
-    several blocks per factor allowed) and ``free``: ``(basis, coefficients)`` per equality.
-    Matrices are floats (a candidate) or rationals (a checked or stored certificate)."""
+    several blocks per factor allowed), ``free``: ``(basis, coefficients)`` per equality, and
+    ``cones`` per Gram block (empty: all ``"psd"``): ``"psd"``, ``"sdd"`` (scaled diagonally
+    dominant, its scaling to be found) or the scaling itself (a tuple of rationals). Matrices
+    are floats (a candidate) or rationals (a checked or stored certificate)."""
 
     grams: tuple[tuple[int, list[Mono], Any], ...]
     free: tuple[tuple[list[Mono], Any], ...] = ()
+    cones: tuple[Any, ...] = ()
+
+    def cone(self, i: int) -> Any:
+        """Gram block ``i``'s cone (``"psd"`` unless flagged)."""
+        return self.cones[i] if i < len(self.cones) else "psd"
 
     def blocks(self, factor: int) -> list[tuple[list[Mono], Any]]:
         """The ``(basis, Q)`` blocks of ``factor``, in order."""
         return [(b, Q) for k, b, Q in self.grams if k == factor]
 
     def to_json(self) -> dict[str, Any]:
-        """The stored form: ``{"grams": [{"multiplies", "basis", "Q"}], "free": [{"basis",
-        "coeffs"}]}`` (rationals as strings)."""
-        return {"grams": [{"multiplies": k, "basis": [list(m) for m in b],
-                           "Q": [[str(v) for v in row] for row in Q]} for k, b, Q in self.grams],
-                "free": [{"basis": [list(m) for m in b], "coeffs": [str(v) for v in c]}
-                         for b, c in self.free]}  # fmt: skip
+        """The stored form: ``{"grams": [{"multiplies", "basis", "Q"[, "cone": "sdd",
+        "scaling"]}], "free": [{"basis", "coeffs"}]}`` (rationals as strings)."""
+        grams = []
+        for i, (k, b, Q) in enumerate(self.grams):
+            g: dict[str, Any] = {"multiplies": k, "basis": [list(m) for m in b],
+                                 "Q": [[str(v) for v in row] for row in Q]}  # fmt: skip
+            if self.cone(i) != "psd":
+                g["cone"] = "sdd"
+                if self.cone(i) != "sdd":
+                    g["scaling"] = [str(v) for v in self.cone(i)]
+            grams.append(g)
+        return {"grams": grams, "free": [{"basis": [list(m) for m in b],
+                                          "coeffs": [str(v) for v in c]} for b, c in self.free]}  # fmt: skip
 
     @staticmethod
     def parse(raw: Any, nv: int) -> Certificate:
@@ -90,13 +154,21 @@ class Certificate:
                 raise ValueError(f"{key} must be a list of at most {MAX_BASIS} objects")
             if not all(isinstance(item, dict) for item in items):
                 raise ValueError(f"{key}: every entry must be an object")
-        grams = []
+        grams, cones = [], []
         for i, g in enumerate(raw.get("grams", [])):
             k = g.get("multiplies", 0)
             if type(k) is not int or not 0 <= k <= MAX_BASIS:
                 raise ValueError(f"grams[{i}].multiplies must be a factor index >= 0")
             basis = parse_basis(g.get("basis"), nv, f"grams[{i}].basis")
             grams.append((k, basis, parse_matrix(g.get("Q"), len(basis), f"grams[{i}].Q")))
+            cone, w = g.get("cone", "psd"), g.get("scaling")
+            if cone not in ("psd", "sdd") or (cone == "psd") != (w is None):
+                raise ValueError(f"grams[{i}]: cone must be 'psd' (no scaling) or 'sdd' with a "
+                                 "scaling")  # fmt: skip
+            if cone == "sdd" and (not isinstance(w, list) or len(w) != len(basis)):
+                raise ValueError(f"grams[{i}].scaling must hold {len(basis)} rationals")
+            cones.append("psd" if w is None else tuple(
+                parse_rational(v, f"grams[{i}].scaling[{j}]") for j, v in enumerate(w)))  # fmt: skip
         free = []
         for i, f in enumerate(raw.get("free", [])):
             basis = parse_basis(f.get("basis"), nv, f"free[{i}].basis")
@@ -105,7 +177,7 @@ class Certificate:
                 raise ValueError(f"free[{i}].coeffs must match its basis")
             free.append((basis, [parse_rational(v, f"free[{i}].coeffs[{j}]")
                                  for j, v in enumerate(coeffs)]))  # fmt: skip
-        return Certificate(tuple(grams), tuple(free))
+        return Certificate(tuple(grams), tuple(free), tuple(cones))
 
 
 @dataclass(frozen=True)
@@ -168,14 +240,15 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
     count = {k: sum(1 for g in grams if g[0] == k) for k, _, _ in grams}
     index = {i: sum(1 for g in grams[:i] if g[0] == grams[i][0]) for i in range(len(grams))}
     pivots: list[Fraction] = []
+    proved: dict[int, Any] = {}  # block -> its cone as proved (an SDD block: its scaling)
     for i, (k, basis, R) in enumerate(grams):  # the multipliers: kept as rounded
         if k == 0:
             continue
-        ok, piv = exact_positive_definite(R)
+        ok, piv, proved[i] = _definite(R, cert.cone(i))
         pivots += piv
         if not ok:
             return ExactCheck(False, f"the Gram matrix of {block_name(k, index[i], count[k], names)}"
-                              " is not positive definite (exact)",
+                              f" is not {_what(cert.cone(i))} (exact)",
                               min_pivot=as_float(min(piv)) if piv else None)  # fmt: skip
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(gram_poly(basis, R),
                                                                          times[k])))  # fmt: skip
@@ -201,25 +274,36 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
     if P is None:
         return ExactCheck(False, why, None if residual is None else as_float(residual))
     assert residual is not None
-    for j, Pb in enumerate(P):
-        ok, piv = exact_positive_definite(Pb)
+    zeros = [i for i, g in enumerate(grams) if g[0] == 0]
+    for j, (i, Pb) in enumerate(zip(zeros, P, strict=True)):
+        ok, piv, proved[i] = _definite(Pb, cert.cone(i))
         pivots += piv
         if not ok:
             return ExactCheck(False, f"the projected Gram matrix {block_name(0, j, len(P), names)}"
-                              " is not positive definite (exact)", as_float(residual),
+                              f" is not {_what(cert.cone(i))} (exact)", as_float(residual),
                               as_float(min(piv)) if piv else None)  # fmt: skip
     it = iter(P)
+    cones = tuple(proved[i] for i in range(len(grams)))
     final = Certificate(tuple((k, basis, next(it) if k == 0 else R) for k, basis, R in grams),
-                        tuple(free))  # fmt: skip
+                        tuple(free), cones if any(c != "psd" for c in cones) else ())  # fmt: skip
+    scalings = [list(c) for c in cones if c != "psd"]
     meta = {
         "digest": matrix_digest(
             *[R for _, _, R in final.grams],
             *([[[v] for _, cs in free for v in cs]] if free else []),
+            *([scalings] if scalings else []),
         )
     }
-    return ExactCheck(True, f"identity exact, {len(grams)} Gram blocks positive definite (exact)",
+    dd = len(scalings)
+    how = (f"{len(grams) - dd} positive definite, {dd} strictly scaled diagonally dominant"
+           if dd else "positive definite")  # fmt: skip
+    return ExactCheck(True, f"identity exact, {len(grams)} Gram blocks {how} (exact)",
                       as_float(residual), as_float(min(pivots)) if pivots else None, final,
                       meta)  # fmt: skip
+
+
+def _what(cone: Any) -> str:
+    return "positive definite" if cone == "psd" else "strictly scaled diagonally dominant"
 
 
 def check_level(data: Any, level: Any, eps: Any, cert: Certificate, *, rounded: bool = False

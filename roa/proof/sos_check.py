@@ -84,6 +84,7 @@ def exact_data(system: Any, V: Any) -> ExactData:
 
     from roa.backend import namespace
     from roa.lyapunov.symbolic import exact_rationals
+    from roa.proof.fast_poly import field_polys
 
     terms = getattr(V, "terms", None)
     if terms is None:
@@ -98,21 +99,24 @@ def exact_data(system: Any, V: Any) -> ExactData:
     try:  # unevaluated, so that no float is rounded against a rational before it is made exact
         with sp.evaluate(False):
             f = system.dynamics(0.0, xs, namespace("sympy"))
+        fast = field_polys(list(f), xs, center, d) if len(f) == n else None  # exact ring route
         shift = {
             xs[i]: d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)
         }
-        f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        if fast is None:
+            f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
         if discrete:  # the image's offset from the fixed point: F(x) - x_eq, in d
-            f = [
-                fi - sp.Rational(c.numerator, c.denominator)
-                for fi, c in zip(f, center, strict=True)
-            ]
+            c_eq = [sp.Rational(c.numerator, c.denominator) for c in center]
+            if fast is not None:
+                fast = [fi - ci for fi, ci in zip(fast, c_eq, strict=True)]
+            else:
+                f = [fi - ci for fi, ci in zip(f, c_eq, strict=True)]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
         raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
     try:  # polynomial arithmetic over QQ (exact, and much faster than expanding expressions)
-        fp = [sp.Poly(fi, *d, domain="QQ") for fi in f]
+        fp = fast if fast is not None else [sp.Poly(fi, *d, domain="QQ") for fi in f]
     except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:
         raise NotPolynomial(
             f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"

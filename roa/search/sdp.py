@@ -14,6 +14,20 @@ by name) and maps its status to one of :data:`GROUPS`, as cvxpy groups them: ``o
 or the solver raised). A solution of either of the first two groups is a *candidate* only: the
 exact checks of :mod:`roa.proof` decide.
 
+The solver is an option: ``solver`` (or the key ``"solver"`` of the options) names it, and
+``"auto"`` takes Clarabel when the largest positive semidefinite block holds at most
+:data:`AUTO_SCS_BLOCK` monomials and its memory estimate fits :data:`MAX_SDP_BYTES`, else SCS
+(first order, memory linear in the program's size, less accurate: the exact check decides
+anyway). :func:`choose_solver` gives that choice from the blocks' sizes before a program is
+built (or refuses one too large for both); :func:`settings` writes a tolerance and an iteration
+limit in each solver's keywords.
+
+A Gram block may be *scaled diagonally dominant* (``cone="sdd"``, Ahmadi and Majumdar's SDSOS):
+``Q = t I + sum_{i<j} E_ij(a, b, c)``, one 2 x 2 positive semidefinite block ``[[a, c], [c, b]]``
+(a second-order cone) per pair of monomials at rows ``(i, j)``. A restriction of the PSD block
+(such ``Q`` are positive definite), whose memory grows with the pairs (:func:`sdd_bytes`), not
+with their square.
+
 Every program is bounded before it is built: a Gram block above :data:`MAX_GRAM_BLOCK` monomials
 or an estimated interior-point memory above :data:`MAX_SDP_BYTES` (:func:`sdp_bytes`) is refused.
 """
@@ -54,6 +68,83 @@ def sdp_bytes(block: int) -> int:
     """Estimated peak memory of the interior-point solve of a PSD block of ``block`` monomials."""
     entries = block * (block + 1) // 2
     return 3 * 8 * entries**2
+
+
+def sdd_bytes(block: int) -> int:
+    """Estimated memory of a scaled diagonally dominant block of ``block`` monomials (three
+    variables and one 3-dimensional cone per pair, a few dozen doubles of solver data each)."""
+    return 8 * 40 * 3 * (block * (block - 1) // 2 + block)
+
+
+def scs_bytes(blocks: list[int], rows: int, nonzeros: int) -> int:
+    """Estimated peak memory of SCS on PSD blocks of ``blocks`` monomials, ``rows`` equality rows
+    and ``nonzeros`` nonzeros: the factorisation of the sparse ``[I A'; A -I]`` (a few times its
+    nonzeros), a few copies of every vector and the largest block's eigendecomposition."""
+    entries = sum(m * (m + 1) // 2 for m in blocks)
+    return 8 * (20 * nonzeros + 12 * (entries + rows) + 4 * max(blocks, default=0) ** 2)
+
+
+@dataclass(frozen=True)
+class SolverChoice:
+    """The solver :func:`choose_solver` picked (``"clarabel"``, ``"scs"``; None: too large for
+    either, not to be built), both memory estimates and the reason."""
+
+    solver: str | None
+    ipm_bytes: int
+    scs_bytes: int
+    reason: str
+
+
+def choose_solver(blocks: list[int], rows: int = 0, nonzeros: int = 0, solver: str = "auto", *,
+                  budget: int | None = None) -> SolverChoice:  # fmt: skip
+    """The solver of a program with PSD blocks of ``blocks`` monomials, before it is built:
+    ``"auto"`` as :func:`solve` (Clarabel for blocks up to :data:`AUTO_SCS_BLOCK` that fit
+    ``budget``, default :data:`MAX_SDP_BYTES`, else SCS if its estimate fits); a named solver
+    is kept when its estimate fits, else refused (``solver`` None)."""
+    if solver not in SOLVERS:
+        raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    budget = MAX_SDP_BYTES if budget is None else budget
+    ipm = sum(sdp_bytes(m) for m in blocks)
+    scs = scs_bytes(blocks, rows, nonzeros)
+    gib = 2**30
+    small = max(blocks, default=0) <= AUTO_SCS_BLOCK
+    if ipm <= budget and (solver == "clarabel" or (solver == "auto" and small)):
+        return SolverChoice(
+            "clarabel", ipm, scs, f"interior point: an estimated {ipm / gib:.3g} GiB"
+        )
+    if solver == "clarabel":
+        return SolverChoice(None, ipm, scs, f"the interior-point solver needs an estimated "
+                            f"{ipm / gib:.3g} GiB (budget {budget / gib:.3g} GiB): not built")  # fmt: skip
+    if scs <= budget:
+        return SolverChoice("scs", ipm, scs, f"first order (SCS): an estimated {scs / gib:.3g} "
+                            f"GiB; the interior point would need {ipm / gib:.3g} GiB")  # fmt: skip
+    return SolverChoice(None, ipm, scs, f"an estimated {scs / gib:.3g} GiB even for the "
+                        f"first-order solver (budget {budget / gib:.3g} GiB): not built")  # fmt: skip
+
+
+def settings(solver: str = "clarabel", tolerance: float | None = None,
+             max_iter: int | None = None) -> dict[str, Any]:  # fmt: skip
+    """Solver options naming ``solver`` with ``tolerance`` (gaps and feasibility, relative and
+    absolute) and ``max_iter`` in that solver's keywords (``"auto"``: Clarabel's)."""
+    if solver not in SOLVERS:
+        raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    if tolerance is not None and (isinstance(tolerance, bool)
+                                  or not isinstance(tolerance, float | int)
+                                  or not 0 < tolerance < 1):  # fmt: skip
+        raise RoaInputError(f"tolerance must be a number in (0, 1), got {tolerance!r}")
+    if max_iter is not None and (isinstance(max_iter, bool) or not isinstance(max_iter, int)
+                                 or max_iter < 1):  # fmt: skip
+        raise RoaInputError(f"max_iter must be a positive integer, got {max_iter!r}")
+    out: dict[str, Any] = {"solver": solver}
+    if tolerance is not None:
+        t = float(tolerance)
+        if solver == "scs":
+            out.update(eps_abs=t, eps_rel=t)
+        else:
+            out.update(tol_gap_abs=t, tol_gap_rel=t, tol_feas=t)
+    if max_iter is not None:
+        out["max_iters" if solver == "scs" else "max_iter"] = max_iter
+    return out
 
 
 class ProgramTooLarge(RoaInputError):
@@ -125,13 +216,28 @@ def _options(solver: str, options: dict[str, Any] | None) -> dict[str, Any]:
     return opts
 
 
-def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | None = None
-          ) -> Solved:  # fmt: skip
-    """Solve the cvxpy ``problem`` with ``solver`` (a cvxpy solver name, any case; default
-    Clarabel) and ``options``; a solver error is a status (group ``error``), never an
-    exception."""
+def psd_sizes(problem: Any) -> list[int]:
+    """The sizes of a cvxpy problem's positive semidefinite constraints."""
     import cvxpy as cp
 
+    return [int(c.args[0].shape[0]) for c in problem.constraints
+            if isinstance(c, cp.constraints.PSD)]  # fmt: skip
+
+
+def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | None = None
+          ) -> Solved:  # fmt: skip
+    """Solve the cvxpy ``problem`` with ``solver`` (``options["solver"]`` wins when given; a
+    cvxpy solver name, any case, or ``"auto"``: module docstring) and the other ``options``; a
+    solver error is a status (group ``error``), never an exception."""
+    import cvxpy as cp
+
+    options = dict(options or {})
+    solver = str(options.pop("solver", solver)).lower()
+    if solver == "auto":  # SCS when its keywords were given or the blocks are large
+        scs_keys = any(k.startswith(("eps_", "acceleration")) for k in options)
+        sizes = psd_sizes(problem)
+        choice = choose_solver(sizes)
+        solver = "scs" if scs_keys or choice.solver != "clarabel" else "clarabel"
     name = solver.upper()
     t0 = time.perf_counter()
     try:
@@ -174,6 +280,7 @@ class Program:
         self.psd: list[Any] = shared.psd if shared is not None else []
         self.frees: list[tuple[list[tuple[int, ...]], Any]] = []
         self.grams: list[tuple[list[tuple[int, ...]], Any]] = []
+        self.cones: list[str] = []  # per Gram block: "psd" or "sdd"
         self.solver = ""
         self.status = "not solved"
 
@@ -250,24 +357,48 @@ class Program:
         return r, c, v
 
     def gram(self, basis: list[tuple[int, ...]], times: Poly | None = None, *, sign: float = -1.0,
-             margin: Any = None, level: Any = None, level_times: Poly | None = None) -> Any:  # fmt: skip
+             margin: Any = None, level: Any = None, level_times: Poly | None = None,
+             cone: str = "psd") -> Any:  # fmt: skip
         """``sign * b' Q b * times`` (plus ``sign * level * b' Q b * level_times`` with a cvxpy
         parameter ``level``) with ``Q >= margin I`` (``margin`` a variable; else ``Q >= 0``);
-        returns ``Q`` (None for an empty basis)."""
+        ``cone="sdd"``: ``Q - margin I`` scaled diagonally dominant instead (module docstring;
+        a block of one monomial stays PSD). Returns ``Q`` (a variable, or the expression of the
+        SDD block; None for an empty basis)."""
         import cvxpy as cp
 
+        if cone not in ("psd", "sdd"):
+            raise ValueError(f"cone must be 'psd' or 'sdd', got {cone!r}")
         if not basis:
             return None
         nb = len(basis)
-        check_block(nb)
         times = times or {tuple([0] * self.nv): 1.0}
-        Q = cp.Variable((nb, nb), symmetric=True)
-        self.psd.append(Q >> 0 if margin is None else Q - margin * np.eye(nb) >> 0)
-        vecQ = cp.vec(Q, order="C")
+        if cone == "sdd" and nb > 1:
+            I, J = np.triu_indices(nb, 1)
+            P = len(I)
+            u = cp.Variable(3 * P)  # per pair (i, j): [[a, c], [c, b]] >= 0 placed at (i, j)
+            a, b, c = u[:P], u[P : 2 * P], u[2 * P :]
+            self.psd.append(cp.SOC(a + b, cp.vstack([2 * c, a - b]), axis=0))
+            k = np.arange(P)
+            M = sps.csr_matrix((np.ones(4 * P), (np.concatenate([I * nb + I, J * nb + J,
+                                                                  I * nb + J, J * nb + I]),
+                                                  np.concatenate([k, P + k, 2 * P + k,
+                                                                  2 * P + k]))),
+                               shape=(nb * nb, 3 * P))  # fmt: skip
+            vecQ = M @ u
+            if margin is not None:
+                vecQ = vecQ + margin * np.eye(nb).reshape(-1)
+            Q: Any = cp.reshape(vecQ, (nb, nb), order="C")
+        else:
+            cone = "psd"
+            check_block(nb)
+            Q = cp.Variable((nb, nb), symmetric=True)
+            self.psd.append(Q >> 0 if margin is None else Q - margin * np.eye(nb) >> 0)
+            vecQ = cp.vec(Q, order="C")
         self.parts.append((*self._gram_columns(basis, times, sign), vecQ, nb * nb, None))
         if level is not None and level_times:
             self.parts.append((*self._gram_columns(basis, level_times, sign), vecQ, nb * nb, level))
         self.grams.append((basis, Q))
+        self.cones.append(cone)
         return Q
 
     def constraint(self) -> Any:
@@ -297,7 +428,10 @@ class Program:
 
     def sizes(self) -> list[int]:
         """Sizes of the Gram blocks of this identity and those sharing its constraints."""
-        return sorted((int(c.args[0].shape[0]) for c in self.psd), reverse=True)
+        import cvxpy as cp
+
+        return sorted((int(c.args[0].shape[0]) for c in self.psd
+                       if isinstance(c, cp.constraints.PSD)), reverse=True)  # fmt: skip
 
     def problem(self, objective: Any, *, maximise: bool = True, also: list[Program] | None = None,
                 extra: list[Any] | None = None) -> Any:  # fmt: skip
@@ -314,10 +448,9 @@ class Program:
               solver: str = "clarabel") -> tuple[bool, float | None, Poly | None]:  # fmt: skip
         """Solve (:func:`solve`); ``(ok, objective value, free multiplier free_index as a
         Poly)``. ``solver="auto"``: Clarabel when the largest block is at most
-        :data:`AUTO_SCS_BLOCK`, else SCS (first-order, to 1e-6: much faster on blocks of ~100
-        monomials; Clarabel's KKT systems grow with the cube of a block's triangle)."""
-        if solver == "auto":
-            solver = "clarabel" if max(self.sizes() or [0]) <= AUTO_SCS_BLOCK else "scs"
+        :data:`AUTO_SCS_BLOCK` (and fits the memory budget), else SCS (first-order, to 1e-6:
+        much faster on blocks of ~100 monomials; Clarabel's KKT systems grow with the cube of a
+        block's triangle)."""
         res = solve(self.problem(objective, maximise=maximise, also=also), solver=solver,
                     options=options)  # fmt: skip
         self.solver, self.status = res.solver, res.status

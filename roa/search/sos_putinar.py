@@ -106,6 +106,9 @@ def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = No
         for piece in split(B, syms):
             prog.gram(piece, T, sign=1.0, margin=t)
             factors.append(k)
+    # an invariant equality times mu: only mu's invariant monomials (the class of 1) matter
+    me = [[m for m in B if not any(sum(a * b for a, b in zip(sym, m, strict=True)) % 2
+                                   for sym in syms)] for B in me]  # fmt: skip
     mus = [prog.free({m: float(c) for m, c in h.items()}, B)
            for B, (_, h) in zip(me, data.equalities, strict=True)]  # fmt: skip
     res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)

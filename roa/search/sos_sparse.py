@@ -1,4 +1,4 @@
-"""Sparse numerical SOS certificate of a fixed level (correlative sparsity; proposes only).
+"""Patterned numerical SOS certificates of a fixed level (cliques, sign classes, SDSOS; proposes only).
 
 The program of :mod:`roa.search.sos_certificate` (``-V' - eps|d|^2k - lambda (c - V) = sigma``,
 ``lambda``, ``sigma`` SOS) with one Gram matrix over all monomials of degree ``k..D`` in ``n``
@@ -24,9 +24,20 @@ not conversely; it loses most where ``V' >= 0`` is first reached with many varia
 since each clique's blocks see only the part of ``V`` they hold. Each block is kept ``>= t I`` with the common margin ``t``
 maximised (``t <= 1``), as in the dense program.
 
+A dense coupled system (a complete interaction graph: no cliques) gets the **SDSOS pattern**
+(:func:`sdsos_plan`) instead: the dense program's bases split by sign symmetry
+(:mod:`roa.search.sos_symmetry`), and the largest ``sigma`` blocks, while the interior point's
+memory estimate exceeds the budget, made scaled diagonally dominant (``cone="sdd"`` of
+:meth:`roa.search.sdp.Program.gram`; Ahmadi and Majumdar 2019): a restriction, whatever it
+certifies the dense program could, with memory linear in the block's pairs. The exact check proves
+those blocks by scaled diagonal dominance (:func:`roa.proof.putinar.check_identity`). With
+``"solver": "scs"`` in the solver options every block stays PSD and SCS, whose memory grows with
+the program's size only, solves it.
+
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the
-memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else this one when it applies (diagonal
-quadratic V, a clique smaller than ``n``) and fits, else none (``too_large``).
+memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else the clique one when it applies (diagonal
+quadratic V, a clique smaller than ``n``) and fits, else the SDSOS one when it fits, else none
+(``too_large``).
 """
 
 from __future__ import annotations
@@ -42,7 +53,15 @@ import numpy as np
 
 from roa.proof.putinar import Certificate
 from roa.proof.sos_check import ExactData, Mono
-from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search.sdp import (
+    MAX_SDP_BYTES,
+    Program,
+    choose_solver,
+    monomials,
+    sdd_bytes,
+    sdp_bytes,
+    solve,
+)
 from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
 from roa.search.sos_symmetry import sign_symmetries, split
 
@@ -88,15 +107,26 @@ def _embed(local: list[Mono], clique: tuple[int, ...], n: int) -> list[Mono]:
 
 @dataclass(frozen=True)
 class SparsePlan:
-    """The bases of the sparse program: ``sigma`` blocks (one per clique, then the cross blocks)
-    and ``lambda`` blocks (one per clique)."""
+    """The bases of a patterned program: ``sigma`` blocks (one per clique, then the cross blocks;
+    or the sign classes of the SDSOS pattern) and ``lambda`` blocks (one per clique or class);
+    ``sdd[b]`` True when ``sigma`` block ``b`` is scaled diagonally dominant (empty: none)."""
 
     cliques: list[tuple[int, ...]]
     sigma: list[list[Mono]]
     lam: list[list[Mono]]
+    sdd: tuple[bool, ...] = ()
+    kind: str = "cliques"  # or "sdsos"
+
+    def is_sdd(self, b: int) -> bool:
+        return b < len(self.sdd) and self.sdd[b]
 
     @property
     def sizes(self) -> dict[str, Any]:
+        if self.kind == "sdsos":
+            return {"sign_blocks": [len(b) for b in self.sigma],
+                    "sdd_blocks": [len(b) for i, b in enumerate(self.sigma) if self.is_sdd(i)],
+                    "lambda_blocks": [len(b) for b in self.lam],
+                    "estimated_gib": round(self.bytes / 2**30, 4)}  # fmt: skip
         K = len(self.cliques)
         return {"cliques": [len(c) for c in self.cliques],
                 "sigma_clique_blocks": [len(b) for b in self.sigma[:K]],
@@ -110,7 +140,8 @@ class SparsePlan:
     @property
     def bytes(self) -> int:
         """Estimated peak memory of the interior-point solve: the blocks' sum."""
-        return sum(sdp_bytes(len(b)) for b in self.sigma + self.lam)
+        return sum(sdd_bytes(len(b)) if self.is_sdd(i) else sdp_bytes(len(b))
+                   for i, b in enumerate(self.sigma + self.lam))  # fmt: skip
 
 
 def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparsePlan | None, str]:
@@ -132,15 +163,49 @@ def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparseP
     return SparsePlan(cl, sigma, lam), ""
 
 
-ROUTES = ("auto", "dense", "sparse")
+def sdsos_plan(data: ExactData, multiplier_degree: int | None = None,
+               solver_options: dict[str, Any] | None = None, *, force: bool = False
+               ) -> tuple[SparsePlan | None, str]:  # fmt: skip
+    """The SDSOS pattern (module docstring): the dense bases split by sign symmetry, the largest
+    ``sigma`` blocks scaled diagonally dominant until the estimate fits :data:`MAX_SDP_BYTES`
+    (``force``: at least the largest one); with ``"solver": "scs"`` none, the estimate SCS's.
+    None and why when it does not fit."""
+    n = data.n
+    k, D, L = degrees(data, multiplier_degree)
+    syms = sign_symmetries([data.Vdot, data.V], n)
+    sigma = sorted(split(monomials(n, D, k), syms), key=len, reverse=True)
+    lam = sorted(split(monomials(n, L, k), syms), key=len, reverse=True) if L >= k else []
+    gib = 2**30
+    if str((solver_options or {}).get("solver", "clarabel")).lower() == "scs":
+        nnz = sum(len(b) ** 2 for b in sigma) + sum(len(b) ** 2 * len(data.V) for b in lam)
+        choice = choose_solver([len(b) for b in sigma + lam], len(monomials(n, 2 * D, 0)), nnz,
+                               "scs")  # fmt: skip
+        if choice.solver is None:
+            return None, choice.reason
+        return SparsePlan([tuple(range(n))], sigma, lam, kind="sdsos"), ""
+    sdd = [False] * len(sigma)
+    p = SparsePlan([tuple(range(n))], sigma, lam, tuple(sdd), "sdsos")
+    for i in range(len(sigma)):  # the largest first
+        if p.bytes <= MAX_SDP_BYTES and not (force and i == 0):
+            break
+        sdd[i] = True
+        p = SparsePlan([tuple(range(n))], sigma, lam, tuple(sdd), "sdsos")
+    if p.bytes > MAX_SDP_BYTES:
+        return None, (f"an estimated {p.bytes / gib:.3g} GiB even with the large blocks scaled "
+                      f"diagonally dominant (budget {MAX_SDP_BYTES / gib:.3g} GiB)")  # fmt: skip
+    return p, ""
 
 
-def choose_route(data: ExactData, multiplier_degree: int | None = None, route: str = "auto"
+ROUTES = ("auto", "dense", "sparse", "sdsos")
+
+
+def choose_route(data: ExactData, multiplier_degree: int | None = None, route: str = "auto",
+                 solver_options: dict[str, Any] | None = None
                  ) -> tuple[str, SparsePlan | None, str]:  # fmt: skip
-    """``("dense" | "sparse" | "too_large", plan, why)``: with ``route="auto"`` the dense
-    program if its Gram block fits :data:`MAX_SDP_BYTES`, else the sparse one if it applies and
-    fits, else neither; ``route="dense"`` or ``"sparse"`` forces one (``too_large`` with the
-    reason when it does not apply or fit)."""
+    """``("dense" | "sparse" | "sdsos" | "too_large", plan, why)``: with ``route="auto"`` the
+    dense program if its Gram block fits :data:`MAX_SDP_BYTES`, else the clique one if it
+    applies and fits, else the SDSOS one if it fits, else none; any other ``route`` forces
+    that program (``too_large`` with the reason when it does not apply or fit)."""
     if route not in ROUTES:
         raise ValueError(f"route must be one of {ROUTES}, got {route!r}")
     k, D, _ = degrees(data, multiplier_degree)
@@ -149,15 +214,23 @@ def choose_route(data: ExactData, multiplier_degree: int | None = None, route: s
         return "dense", None, ""
     too = (f"a dense Gram block of {dense} monomials needs an estimated "
            f"{sdp_bytes(dense) / 2**30:.3g} GiB (budget {MAX_SDP_BYTES / 2**30:.3g} GiB)")  # fmt: skip
-    if route == "sparse":
-        too = f"the sparse route was requested (the dense Gram block: {dense} monomials)"
-    p, why = plan(data, multiplier_degree)
-    if p is None:
-        return "too_large", None, f"{too}; {why}"
-    if p.bytes > MAX_SDP_BYTES:
-        return "too_large", p, (f"{too}; the sparse program's {len(p.sigma) + len(p.lam)} blocks "
-                                f"need an estimated {p.bytes / 2**30:.3g} GiB")  # fmt: skip
-    return "sparse", p, too
+    if route != "auto":
+        too = f"the {route} route was requested (the dense Gram block: {dense} monomials)"
+    p: SparsePlan | None = None
+    if route in ("auto", "sparse"):
+        p, why = plan(data, multiplier_degree)
+        if p is not None and p.bytes > MAX_SDP_BYTES:
+            why = (f"the sparse program's {len(p.sigma) + len(p.lam)} blocks need an estimated "
+                   f"{p.bytes / 2**30:.3g} GiB")  # fmt: skip
+        elif p is not None:
+            return "sparse", p, too
+        too = f"{too}; {why}"
+        if route == "sparse":
+            return "too_large", p, too
+    s, why = sdsos_plan(data, multiplier_degree, solver_options, force=route == "sdsos")
+    if s is None:
+        return "too_large", p, f"{too}; SDSOS: {why}"
+    return "sdsos", s, too
 
 
 class SparseProgram:
@@ -180,9 +253,10 @@ class SparseProgram:
         self.level = cp.Parameter(nonneg=True)
         minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
         syms = sign_symmetries([target, data.V], data.n)  # each block split by parity class
-        for b in plan.sigma:
+        for i, b in enumerate(plan.sigma):
             for piece in split(b, syms):
-                prog.gram(piece, {zero: 1.0}, sign=1.0, margin=self.t)
+                prog.gram(piece, {zero: 1.0}, sign=1.0, margin=self.t,
+                          cone="sdd" if plan.is_sdd(i) else "psd")  # fmt: skip
         self.K = len(prog.grams)
         # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
         for b in plan.lam:
@@ -191,6 +265,7 @@ class SparseProgram:
                           level_times={zero: 1.0})  # fmt: skip
         self.bases = [b for b, _ in prog.grams]
         self.Qs = [Q for _, Q in prog.grams]
+        self.cones = tuple(prog.cones) if "sdd" in prog.cones else ()
         self.problem = prog.problem(self.t, extra=[self.t <= 1])
         self.rows = len(prog.rows)
         self.build_seconds = time.perf_counter() - t0
@@ -210,7 +285,8 @@ class SparseProgram:
         cert = None
         if vals is not None:
             cert = Certificate(tuple((0 if i < self.K else 1, b, Q) for i, (b, Q) in
-                                     enumerate(zip(self.bases, vals, strict=True))))  # fmt: skip
+                                     enumerate(zip(self.bases, vals, strict=True))), (),
+                               self.cones)  # fmt: skip
         return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,
                          time.perf_counter() - t0, figures)  # fmt: skip
 

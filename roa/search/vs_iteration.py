@@ -283,7 +283,11 @@ class _Problem:
         terms = [
             (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
         ]
-        return PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+        V = PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+        from roa.search.vs_gram import attach_gram
+
+        attach_gram(V)  # a positive definite Gram matrix: the exact route's V >= mu |d|^2
+        return V
 
 
 def vs_search(

@@ -12,16 +12,13 @@ import json
 
 import numpy as np
 import pytest
+from sos_systems import poly3d_block as _poly3d
 
 import roa
 from roa.certification import Certificate
 from roa.proof.sos_blocks import blocks, check_partition, restrict
 from roa.proof.sos_check import exact_data
 from roa.search.sdp import monomials
-
-
-def _poly3d(x, o):
-    return (-x[o] + x[o + 1] * x[o + 2], -x[o + 1] + x[o] * x[o + 2], -x[o + 2] + x[o] * x[o + 1])
 
 
 def _copies(k: int) -> roa.System:

@@ -6,14 +6,11 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
+from sos_systems import poly3d_block as _poly3d
 
 import roa
 from roa.proof.reductions import IndependentBlocks, Rescale
 from roa.proof.sos_check import exact_data
-
-
-def _poly3d(x, o):
-    return (-x[o] + x[o + 1] * x[o + 2], -x[o + 1] + x[o] * x[o + 2], -x[o + 2] + x[o] * x[o + 1])
 
 
 def _data(field, n):

@@ -15,6 +15,8 @@ import json
 from pathlib import Path
 
 import pytest
+from sos_systems import poly3d_block as _poly3d
+from sos_systems import ring as _ring
 
 import roa
 from roa.certification.result import Certificate
@@ -23,16 +25,6 @@ from roa.status import Verdict
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 OLD = json.loads((Path(__file__).parent / "data" / "sos_certificates_old_forms.json").read_text())
-
-
-def _poly3d(x, o):
-    return (-x[o] + x[o + 1] * x[o + 2], -x[o + 1] + x[o] * x[o + 2], -x[o + 2] + x[o] * x[o + 1])
-
-
-def _ring(n):
-    return roa.System(f"ring-{n}", lambda t, x, xp: tuple(-x[i] + 0.5 * x[(i + 1) % n] + x[i] ** 3
-                                                          for i in range(n)),
-                      (0.0,) * n, tuple(f"x{i}" for i in range(n)))  # fmt: skip
 
 
 SYSTEMS = {

@@ -104,8 +104,15 @@ def test_a_network_from_pytorch_certifies_the_same_closed_loop(tmp_path):
     same weights bit for bit, and the closed loop certified at 0.99 x the level search's
     optimum of the committed example and refuted at 1.01 x it."""
     torch = pytest.importorskip("torch")
+    import importlib.util
+    from pathlib import Path
+
     import roa
-    from examples.systems import pendulum_nn
+
+    where = Path(__file__).parents[1] / "examples" / "systems" / "pendulum_nn.py"
+    spec = importlib.util.spec_from_file_location("pendulum_nn", where)
+    pendulum_nn = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(pendulum_nn)
 
     ref = MLP.load(pendulum_nn.HERE / "pendulum_nn_tanh.npz")
     (W0, b0), (W1, b1) = ref.layers

@@ -163,6 +163,12 @@ def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparseP
     return SparsePlan(cl, sigma, lam), ""
 
 
+#: Largest block the automatic route makes scaled diagonally dominant: the solve time grows with
+#: the number of 2 x 2 cones (one per pair of monomials), so larger blocks are built only when
+#: the SDSOS route is requested.
+MAX_SDD_BLOCK = 256
+
+
 def sdsos_plan(data: ExactData, multiplier_degree: int | None = None,
                solver_options: dict[str, Any] | None = None, *, force: bool = False
                ) -> tuple[SparsePlan | None, str]:  # fmt: skip
@@ -193,6 +199,11 @@ def sdsos_plan(data: ExactData, multiplier_degree: int | None = None,
     if p.bytes > MAX_SDP_BYTES:
         return None, (f"an estimated {p.bytes / gib:.3g} GiB even with the large blocks scaled "
                       f"diagonally dominant (budget {MAX_SDP_BYTES / gib:.3g} GiB)")  # fmt: skip
+    if not force and len(sigma[0]) > MAX_SDD_BLOCK:
+        return None, (f"its largest block of {len(sigma[0])} monomials would hold "
+                      f"{len(sigma[0]) * (len(sigma[0]) - 1) // 2} cones, more than the automatic "
+                      f"route takes (blocks up to {MAX_SDD_BLOCK} monomials); not built: "
+                      "route='sdsos' forces it")  # fmt: skip
     return p, ""
 
 

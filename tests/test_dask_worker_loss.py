@@ -33,23 +33,25 @@ RULES = StopRules(t_final=5.0)
 pytest.importorskip("distributed")
 
 
+def _start_worker(address: str, tmp_path) -> subprocess.Popen:
+    """One dask worker process (no nanny: a SIGKILL ends it for good) joining ``address``."""
+    env = {**os.environ,
+           "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}  # fmt: skip
+    return subprocess.Popen(
+        [sys.executable, "-m", "distributed.cli.dask_worker", address, "--no-nanny", "--nthreads",
+         "1", "--no-dashboard", "--local-directory", str(tmp_path / "worker")],
+        env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )  # fmt: skip
+
+
 def test_a_killed_worker_ends_the_run_within_a_bounded_time_and_it_resumes(tmp_path):
     from dask.distributed import LocalCluster
 
     smp = grid_slice(SYSTEM, ("x1", "x2"), [(-3, 3), (-3, 3)], (40, 40))
     out = tmp_path / "run"
-    env = {
-        **os.environ,
-        "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")]),
-    }
     with LocalCluster(n_workers=0, processes=False, protocol="tcp://", host="127.0.0.1",
                       dashboard_address=None) as cluster:  # fmt: skip
-        worker = subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
-             "--no-nanny", "--nthreads", "1", "--no-dashboard", "--local-directory",
-             str(tmp_path / "worker")],
-            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
+        worker = _start_worker(cluster.scheduler_address, tmp_path)
         t0 = time.monotonic()  # a loaded machine starts the worker slowly: wait until it joined
         while not cluster.scheduler.workers and time.monotonic() - t0 < 120:
             time.sleep(0.1)
@@ -95,16 +97,9 @@ def test_a_result_lost_with_its_worker_before_it_was_gathered_ends_the_wait(tmp_
 
     from roa.montecarlo.dask_client import POLL, _result, _Watch
 
-    env = {**os.environ,
-           "PYTHONPATH": os.pathsep.join([str(ROOT), os.environ.get("PYTHONPATH", "")])}  # fmt: skip
     with LocalCluster(n_workers=0, processes=False, protocol="tcp://", host="127.0.0.1",
                       dashboard_address=None) as cluster:  # fmt: skip
-        worker = subprocess.Popen(
-            [sys.executable, "-m", "distributed.cli.dask_worker", cluster.scheduler_address,
-             "--no-nanny", "--nthreads", "1", "--no-dashboard", "--local-directory",
-             str(tmp_path / "worker")],
-            env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
+        worker = _start_worker(cluster.scheduler_address, tmp_path)
         client = Client(cluster.scheduler_address, set_as_default=False)
         try:
             client.wait_for_workers(1, timeout=120)

@@ -51,9 +51,9 @@ Poly = dict[tuple[int, ...], float]
 MAX_GRAM_BLOCK = 400
 
 #: Memory budget of one SOS program's interior-point solve (bytes). Clarabel's step on a PSD block
-#: of B monomials forms a dense matrix over its B (B + 1) / 2 entries; the process peaked at about
-#: 3 x its 8-byte size (16.9 GB for B = 231, a 20-state cubic V'). Beyond the budget a program is
-#: refused before it is built (about B = 160 for 4 GiB).
+#: of B monomials forms a dense matrix over its B (B + 1) / 2 entries; the estimate
+#: (:func:`sdp_bytes`) takes the process's peak as 3 x its 8-byte size. Beyond the budget a
+#: program is refused before it is built (about B = 160 for 4 GiB).
 MAX_SDP_BYTES = 4 * 2**30
 
 #: The status groups of :func:`solve` (cvxpy's grouping of solver statuses).

@@ -689,7 +689,7 @@ class System:
 
     def decrease_expr(self, V: Any, x: Any, xp: Any) -> Any:
         """The function a Lyapunov certificate proves negative, at the components ``x`` in
-        ``xp``: ``V' = grad V . f`` (continuous time), or ``Delta V = V(F(x)) - V(x)``
+        ``xp``: ``V' = grad V · f`` (continuous time), or ``Delta V = V(F(x)) - V(x)``
         (discrete time). ``V`` is a :class:`roa.lyapunov.Lyapunov`."""
         if self.map is None:
             g = V.gradient_expr(x, xp)

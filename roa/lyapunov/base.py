@@ -115,7 +115,7 @@ class Lyapunov:
     # -- derived ---------------------------------------------------------------------------------
     def vdot_expr(self, system: System, x: Any, xp: Any) -> Any:
         """The decrease of V along the system as an expression of ``x`` in ``xp``:
-        ``V' = grad V . f``, or ``V(F(x)) - V(x)`` for a discrete-time system
+        ``V' = grad V · f``, or ``V(F(x)) - V(x)`` for a discrete-time system
         (:meth:`roa.System.decrease_expr`)."""
         return system.decrease_expr(self, x, xp)
 
@@ -136,7 +136,7 @@ class Lyapunov:
         return np.stack([np.broadcast_to(np.asarray(gi, float), x.shape[:-1]) for gi in g], -1)
 
     def derivative(self, system: System, x: np.ndarray) -> np.ndarray:
-        """The decrease of V on states of shape ``(..., n)`` (numpy): ``V' = grad V . f``, or
+        """The decrease of V on states of shape ``(..., n)`` (numpy): ``V' = grad V · f``, or
         ``V(F(x)) - V(x)`` for a discrete-time system (:meth:`roa.System.decrease`)."""
         return system.decrease(self, x)
 

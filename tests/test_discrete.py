@@ -220,6 +220,21 @@ def test_basin_of_the_map_agrees_with_direct_iteration():
 
 
 # -- discretised flows --------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    "h, method, named",
+    [(0.0, "rk4", "h"), (-0.1, "euler", "h"), (float("inf"), "rk4", "h"), (True, "rk4", "h"),
+     ("0.1", "rk4", "h"), (0.1, "midpoint", "method")],
+)  # fmt: skip
+def test_discretise_refuses_a_bad_step_naming_it(h, method, named):
+    from roa.discrete import discretise
+    from roa.systems.vanderpol import vanderpol
+
+    with pytest.raises(RoaInputError, match=named):
+        discretise(vanderpol(), h, method)
+    with pytest.raises(RoaInputError, match="already discrete-time"):
+        discretise(cubic_map(), 0.1)
+
+
 def test_discretise_writes_the_euler_and_rk4_steps_in_every_namespace():
     from roa.discrete import discretise
     from roa.proof.exact import exact_equilibrium

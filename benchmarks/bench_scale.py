@@ -391,7 +391,7 @@ def volume_shares(Vs: list[tuple[Any, float]], half: np.ndarray, *, samples: int
                   seed: int = 0) -> list[tuple[float, float]]:  # fmt: skip
     """Share of the box ``[-half, half]`` (around the origin) inside each ``{V <= level}``, with
     its binomial standard error, from the same uniform samples."""
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     X = np.random.default_rng(seed).uniform(-half, half, (samples, len(half)))
     out = []

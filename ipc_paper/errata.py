@@ -9,9 +9,9 @@ from typing import Any
 import sympy as sp
 
 from ipc_paper import symbolic as S
-from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import Options
+from roa.studies.experiment import accepts
 
 
 def analyse() -> dict[str, Any]:

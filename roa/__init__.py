@@ -42,8 +42,8 @@ _LAZY: dict[str, str] = {
     "RoaInputError": "roa.errors",
     "SolverError": "roa.errors",
     "SystemDefinitionError": "roa.errors",
-    "LevelSearchResult": "roa.levelset",
-    "level_search": "roa.levelset",
+    "LevelSearchResult": "roa.search.levelset",
+    "level_search": "roa.search.levelset",
     "FunctionLyapunov": "roa.lyapunov",
     "Lyapunov": "roa.lyapunov",
     "PolynomialLyapunov": "roa.lyapunov",
@@ -64,8 +64,8 @@ _LAZY: dict[str, str] = {
     "SampleSearchOptions": "roa.options",
     "SosOptions": "roa.options",
     "VsOptions": "roa.options",
-    "Trajectory": "roa.simulation",
-    "simulate": "roa.simulation",
+    "Trajectory": "roa.integration.simulation",
+    "simulate": "roa.integration.simulation",
     "BasinStatus": "roa.status",
     "LevelStatus": "roa.status",
     "RegionStatus": "roa.status",
@@ -73,8 +73,8 @@ _LAZY: dict[str, str] = {
     "SosStatus": "roa.status",
     "StopRules": "roa.status",
     "Verdict": "roa.status",
-    "System": "roa.system",
-    "closed_loop": "roa.control_system",
+    "System": "roa.model.system",
+    "closed_loop": "roa.model.system",
     "load_system": "roa.systems",
 }
 
@@ -92,9 +92,8 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         VsIteration,
         certify,
     )
-    from roa.control_system import closed_loop
     from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
-    from roa.levelset import LevelSearchResult, level_search
+    from roa.integration.simulation import Trajectory, simulate
     from roa.lyapunov import (
         FunctionLyapunov,
         Lyapunov,
@@ -102,6 +101,8 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         QuadraticLyapunov,
         default_lyapunov,
     )
+    from roa.model.system import closed_loop
+    from roa.model.system import System
     from roa.montecarlo.basin import BasinResult, basin
     from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
     from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
@@ -115,7 +116,7 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         SosOptions,
         VsOptions,
     )
-    from roa.simulation import Trajectory, simulate
+    from roa.search.levelset import LevelSearchResult, level_search
     from roa.status import (
         BasinStatus,
         LevelStatus,
@@ -125,7 +126,6 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         StopRules,
         Verdict,
     )
-    from roa.system import System
     from roa.systems import load_system
 
 __all__ = [

@@ -49,7 +49,7 @@ def test_quadratic_is_a_lyapunov_and_unchanged():
     x = np.array([[0.3, -1.2], [2.0, 0.5]])
     d = x - V.center
     assert np.array_equal(V.value(x), np.einsum("...i,ij,...j->...", d, V.P, d))
-    from roa.backend import NP
+    from roa.model.backend import NP
 
     assert np.allclose(V.expr([x[:, 0], x[:, 1]], NP), V.value(x))
     assert np.allclose(V.gradient(x), 2 * d @ V.P)

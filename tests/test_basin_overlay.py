@@ -18,7 +18,7 @@ from scipy.integrate import solve_ivp
 
 import roa
 from roa.cli import main
-from roa.montecarlo import dopri as I  # noqa: N812
+from roa.integration import dopri as I  # noqa: N812
 from roa.plotting.basin import MAX_TRAJECTORIES, TRAJECTORY_COLOURS, trajectory_starts
 
 

@@ -18,7 +18,7 @@ import pytest
 import roa
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.fingerprint import system_fingerprint
+from roa.model.fingerprint import system_fingerprint
 from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.proof.reverify import content_key, reverify
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol

@@ -284,7 +284,7 @@ def test_compositions_never_produce_inverted_intervals(a, b, c, d, chain):
 
 def _half_plane_system():
     """Toy system x' = -x (V = |x|^2, V' = -2 |x|^2 < 0 everywhere) on the domain x1 < 1."""
-    from roa.system import System
+    from roa.model.system import System
 
     return System(
         name="decay_half_plane",
@@ -328,7 +328,7 @@ def _jet_and_mp_derivatives(fn, x, lo, hi):
     """Interval jet (order 2) of ``fn`` on the box [lo, hi] and 40-digit mpmath derivatives at x."""
     import mpmath as mp
 
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     n = len(x)
     J = fn(Jet.variables(lo[None, :], hi[None, :], order=2), JET)

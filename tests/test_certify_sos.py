@@ -65,7 +65,7 @@ def test_symmetry_reduction_keeps_the_vanderpol_optimum():
 
 
 def test_symmetry_true_on_a_non_odd_field_is_rejected():
-    from roa.system import System
+    from roa.model.system import System
 
     sys_ = System(
         name="quadratic_drift",
@@ -89,7 +89,7 @@ def test_ipc_exact_sos_solves_with_symmetry_and_matches_sampled_optimum():
     solver tolerance) a lower bound of the true level, compared with the independent IPOPT
     optimum (an upper bound attained at a witness)."""
     from ipc_paper.system.lyapunov import paper_lyapunov
-    from roa.levelset import level_search
+    from roa.search.levelset import level_search
 
     system, V = transformed(), paper_lyapunov()
     r = sos_level(system, V, recast_mode="exact", aux_degree=2)

@@ -20,8 +20,9 @@ import pytest
 from scipy.optimize import minimize
 
 import roa
-from roa.control_system import RICCATI_NAME, closed_loop, lqr_parts
-from roa.linearisation import jacobian, lyapunov_matrix
+from roa import closed_loop
+from roa.model.control_system import RICCATI_NAME, lqr_parts
+from roa.model.linearisation import jacobian, lyapunov_matrix
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "examples"))

@@ -75,7 +75,7 @@ def test_a_map_is_a_system_whose_field_refuses_to_be_a_derivative():
         roa.System.discrete(lambda t, x, xp: [x[0] / 2], name="x", equilibrium=(0.0,),
                             state_names=("a",), sample_time=-1.0)  # fmt: skip
     # parameters: with_params changes the map, and the fingerprint sees it
-    from roa.fingerprint import system_fingerprint
+    from roa.model.fingerprint import system_fingerprint
 
     other = s.with_params(mu=2.0)
     np.testing.assert_allclose(other.step(X), F_numpy(X, mu=2.0), rtol=1e-15)
@@ -84,7 +84,7 @@ def test_a_map_is_a_system_whose_field_refuses_to_be_a_derivative():
 
 def test_default_candidate_solves_the_discrete_lyapunov_equation():
     """A = lam R with R a rotation: A'PA - P = -I has the solution P = I / (1 - lam^2)."""
-    from roa.linearisation import linearise
+    from roa.model.linearisation import linearise
 
     s = cubic_map()
     lin = linearise(s)
@@ -226,7 +226,7 @@ def test_basin_of_the_map_agrees_with_direct_iteration():
      ("0.1", "rk4", "h"), (0.1, "midpoint", "method")],
 )  # fmt: skip
 def test_discretise_refuses_a_bad_step_naming_it(h, method, named):
-    from roa.discrete import discretise
+    from roa.model.discrete import discretise
     from roa.systems.vanderpol import vanderpol
 
     with pytest.raises(RoaInputError, match=named):
@@ -236,7 +236,7 @@ def test_discretise_refuses_a_bad_step_naming_it(h, method, named):
 
 
 def test_discretise_writes_the_euler_and_rk4_steps_in_every_namespace():
-    from roa.discrete import discretise
+    from roa.model.discrete import discretise
     from roa.proof.exact import exact_equilibrium
     from roa.proof.interval import INTERVAL, Interval
     from roa.systems.vanderpol import vanderpol

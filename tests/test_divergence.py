@@ -1,7 +1,7 @@
 """Divergence by growth and --diverge-bound (#25): a blow-up at t_final is ``diverged``.
 
 The cases are linear or logistic 1-D growths whose solutions are closed-form, so which rule of
-:func:`roa.divergence.blows_up` holds is derived, with margins far above the integrators' error.
+:func:`roa.integration.divergence.blows_up` holds is derived, with margins far above the integrators' error.
 """
 
 from __future__ import annotations

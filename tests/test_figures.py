@@ -20,12 +20,12 @@ import pytest  # noqa: E402
 from ipc_paper import summary_figure as sf  # noqa: E402
 from ipc_paper import system as ipc  # noqa: E402
 from ipc_paper.figures import IPC_LABELS  # noqa: E402
-from roa.experiment import run_experiment  # noqa: E402
-from roa.montecarlo import dopri as I  # noqa: E402, N812
+from roa.integration import dopri as I  # noqa: E402, N812
+from roa.lyapunov.regions import Region  # noqa: E402
 from roa.montecarlo.sampling import grid_slice  # noqa: E402
 from roa.plotting import basin as pb  # noqa: E402
 from roa.plotting.trajectories import state_labels  # noqa: E402
-from roa.regions import Region  # noqa: E402
+from roa.studies.experiment import run_experiment  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 UNIT = re.compile(r"\[[^\]]+\]")

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 
 import roa
-from roa.control_system import closed_loop
-from roa.linearisation import jacobian
+from roa import closed_loop
+from roa.model.linearisation import jacobian
 
 G = 9.81
 A = np.array([[0.0, 1.0], [-G, -0.1]])
@@ -132,7 +132,7 @@ def test_docstring_examples_run():
     import doctest
     import importlib
 
-    for mod in ("roa.control_system", "roa.system"):
+    for mod in ("roa.model.system",):
         failed, tried = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)
         assert failed == 0 and tried > 0, mod
 

@@ -1,4 +1,4 @@
-"""Kernels generated from a field written against ``xp`` (roa/montecarlo/kernel_cache.py).
+"""Kernels generated from a field written against ``xp`` (roa/integration/kernel_cache.py).
 
 The generated kernel and the numpy backend integrate the same ODE with the same Dormand-Prince
 5(4) step control (scipy's), so they take the same accepted steps up to rounding: the field's
@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 
 import roa
-from roa.montecarlo import kernel_cache as kc
-from roa.montecarlo.integrator import CONVERGED, integrate_batch
-from roa.montecarlo.trace import Untraceable
+from roa.integration import kernel_cache as kc
+from roa.integration.integrator import CONVERGED, integrate_batch
+from roa.integration.trace import Untraceable
 from roa.systems.vanderpol import vanderpol
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -141,8 +141,8 @@ SCRIPT = """
 import sys, json
 import numpy as np
 import roa
-from roa.montecarlo import kernel_cache as kc
-from roa.montecarlo.integrator import integrate_batch
+from roa.integration import kernel_cache as kc
+from roa.integration.integrator import integrate_batch
 gain = float(sys.argv[1])
 system = roa.System(name="cached", field=lambda t, x, xp: (x[1], -xp.sin(x[0]) - gain * x[1]),
                     equilibrium=(0.0, 0.0), state_names=("a", "b"))
@@ -198,7 +198,7 @@ def test_generated_factory_survives_pickling_and_with_params(tmp_path, monkeypat
 
 
 def test_code_key_follows_constants_closures_and_globals():
-    from roa.montecarlo.code_identity import code_key
+    from roa.integration.code_identity import code_key
 
     def make(gain):
         return lambda t, x, xp: (x[1], -gain * x[0])
@@ -257,7 +257,7 @@ def test_an_index_entry_without_the_users_tag_is_ignored(tmp_path, monkeypatch):
 def test_quadratic_terminal_set_in_the_generated_kernel_matches_numpy(tmp_path, monkeypatch):
     """Runs entering a certified ellipsoid of Van der Pol stop there in both backends alike (the
     published P at level 1, inside the certified 2.3045)."""
-    from roa.montecarlo.terminal import TerminalSet
+    from roa.integration.terminal import TerminalSet
     from roa.systems.vanderpol import P_BENCHMARK
 
     monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))

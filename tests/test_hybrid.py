@@ -20,9 +20,9 @@ from ipc_paper.system.hybrid import (
     hybrid_to_physical,
     physical_to_hybrid_or_inf,
 )
+from roa.integration.simulation import simulate
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
-from roa.simulation import simulate
 from roa.status import StopRules
 
 
@@ -74,8 +74,8 @@ def test_physical_and_hybrid_simulations_agree(x0):
 
 
 def test_hybrid_equilibrium_is_exact_and_linearisation_hurwitz():
-    from roa.levelset import jacobian
     from roa.proof.exact import exact_equilibrium
+    from roa.search.levelset import jacobian
 
     h = hybrid()
     assert exact_equilibrium(h, h.x_eq)

@@ -387,7 +387,7 @@ def test_outward_rounding_never_tightens():
 def _exact_jacobian(system):
     import sympy as sp
 
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     xs = sp.symbols(f"x0:{system.n}")
     f = system.field(0.0, list(xs), namespace("sympy"))
@@ -523,7 +523,7 @@ def test_certified_sector_rejects_bad_input():
 
 def test_interval_namespace_sector_matches_float_form():
     """quadratic_form gives the same function in the float and the interval namespace."""
-    from roa.backend import NP
+    from roa.model.backend import NP
     from roa.proof.sector import quadratic_form
 
     P = np.array([[2.0, 0.3], [0.1, 1.0]])  # not symmetric: P_ij + P_ji = 0.4 (not a double)

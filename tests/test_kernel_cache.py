@@ -1,4 +1,4 @@
-"""numba's disk cache sees changes of the kernels' dependencies (roa/montecarlo/integrator.py).
+"""numba's disk cache sees changes of the kernels' dependencies (roa/integration/integrator.py).
 
 numba keys a cached function by the source of its own file only; the batch kernels compile in
 code of other modules (the polynomial terminal-set test of terminal_poly.py, the tableau of
@@ -24,8 +24,8 @@ import dataclasses, json
 import numpy as np
 import roa
 from roa.lyapunov import PolynomialLyapunov
-from roa.montecarlo.integrator import integrate_batch
-from roa.montecarlo.terminal import TerminalSet
+from roa.integration.integrator import integrate_batch
+from roa.integration.terminal import TerminalSet
 from roa.status import StopRules
 from ipc_paper import system as ipc
 

@@ -7,7 +7,10 @@ from typing import Any
 import numpy as np
 import pytest
 
-from roa.levelset import (
+from roa.lyapunov import QuadraticLyapunov
+from roa.model.system import System
+from roa.options import SampledOptions
+from roa.search.levelset import (
     AGREEMENT_RTOL,
     WITNESS_ATOL,
     casadi_level,
@@ -16,10 +19,7 @@ from roa.levelset import (
     lyapunov_matrix,
     sampled_level,
 )
-from roa.lyapunov import QuadraticLyapunov
-from roa.options import SampledOptions
 from roa.status import LevelStatus
-from roa.system import System
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 

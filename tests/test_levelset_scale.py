@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 import roa
-from roa.levelset import casadi_level, level_search
-from roa.levelset_core import finish, problem, vdot_order
 from roa.lyapunov import QuadraticLyapunov
+from roa.model.system import System
+from roa.search.levelset import casadi_level, level_search
+from roa.search.levelset_core import finish, problem, vdot_order
 from roa.status import LevelStatus
-from roa.system import System
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "systems"
 

@@ -37,7 +37,7 @@ def test_the_sos_proposer_on_a_sin_field_says_the_validator_recasts_it():
 
 
 def test_fewer_casadi_starts_than_asked_are_explained():
-    from roa.levelset_casadi import casadi_level
+    from roa.search.levelset_casadi import casadi_level
     from roa.systems.vanderpol import vanderpol
 
     s = vanderpol()

@@ -2,7 +2,7 @@
 
 Reference problem: the IPC closed loop (ipc_paper.system.closed_loop, physical coordinates) and the
 time-reversed Van der Pol benchmark; the reference integrator is scipy's solve_ivp (method RK45,
-the same Dormand-Prince 5(4) pair, same tolerances and events) through roa.simulation.simulate.
+the same Dormand-Prince 5(4) pair, same tolerances and events) through roa.integration.simulation.simulate.
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import pytest
 
 from ipc_paper import system as ipc
 from roa.errors import ResultsError
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.simulation import simulate
+from roa.lyapunov.regions import Region
 from roa.montecarlo.engine import run_basin, wilson_interval
 from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
-from roa.regions import Region
-from roa.simulation import simulate
 from roa.status import StopRules
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 

@@ -19,8 +19,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from roa.backend import ACTIVATIONS, namespace
 from roa.errors import RoaInputError
+from roa.model.backend import ACTIVATIONS, namespace
 from roa.nn import MLP, Activation
 from roa.proof.interval import INTERVAL, Interval, interval_affine
 from roa.proof.jet import JET, Jet
@@ -31,7 +31,7 @@ ALPHA = 0.01
 
 
 def _exact(name: str, x: mp.mpf, alpha: float = ALPHA) -> mp.mpf:
-    """50-digit activation values (the definitions of roa.backend)."""
+    """50-digit activation values (the definitions of roa.model.backend)."""
     if name == "tanh":
         return mp.tanh(x)
     if name == "sigmoid":
@@ -493,7 +493,7 @@ def test_pendulum_nn_certified_at_099_of_the_optimum_down_to_the_equilibrium(nam
     the default quadratic V (15.93 tanh, 18.96 ReLU), with the Hessian proof on a box around
     the equilibrium (no excluded region), and refutes 1.01 x with a 50-digit witness."""
     import roa
-    from roa.linearisation import lyapunov_matrix
+    from roa.model.linearisation import lyapunov_matrix
 
     system = getattr(_example(), name)
     P = lyapunov_matrix(system)
@@ -516,8 +516,8 @@ def test_relu_network_is_affine_near_the_equilibrium_and_the_local_proof_sees_it
     jets take the linear branches, and the Hessian proof of V' < 0 holds there. With zero
     biases every unit is at its kink at 0, every box around 0 has an unbounded Hessian and the
     local proof (so the certificate) fails: the network must not kink at the equilibrium."""
-    from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import QuadraticLyapunov
+    from roa.model.linearisation import lyapunov_matrix
     from roa.proof.local import local_box, local_box_proof
 
     ex = _example()
@@ -594,8 +594,8 @@ def test_sympy_fields_with_tanh_and_a_network_controller_compile_for_monte_carlo
     import sympy as sp
 
     from roa import System
-    from roa.montecarlo.codegen import kernel_source
-    from roa.montecarlo.trace import trace_system
+    from roa.integration.codegen import kernel_source
+    from roa.integration.trace import trace_system
 
     a, b = sp.symbols("a b", real=True)
     s = System.from_sympy([b, -sp.tanh(a + b) - b], [a, b])

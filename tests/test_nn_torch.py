@@ -12,8 +12,8 @@ import sys
 import numpy as np
 import pytest
 
-from roa.backend import namespace
 from roa.errors import RoaInputError
+from roa.model.backend import namespace
 from roa.nn import MLP
 
 

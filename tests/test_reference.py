@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from ipc_paper.reference import REGISTRY
-from roa import reference
 from roa.cli import main
+from roa.studies import reference
 
 REF = Path(__file__).resolve().parents[1] / "results" / "reference.json"
 

@@ -20,14 +20,14 @@ import roa
 from ipc_paper import system as ipc
 from roa.cli import main
 from roa.errors import RoaInputError
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.terminal import TerminalSet
 from roa.lyapunov import PolynomialLyapunov
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.lyapunov.regions import Region
 from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import grid_slice, region_sample
-from roa.montecarlo.terminal import TerminalSet
 from roa.plotting.basin import region_label
-from roa.regions import Region
 from roa.status import StopRules
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 

@@ -15,7 +15,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from roa.backend import namespace
+from roa.model.backend import namespace
 from roa.nn import MLP
 from roa.nn.mlp import Affine
 from roa.proof.interval import INTERVAL, Interval

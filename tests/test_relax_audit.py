@@ -283,7 +283,7 @@ def _fitted_pendulum(act, seed: int = 0):
     """A damped pendulum under a 2-8-1 network whose output layer is least squares on a
     stabilising law (random hidden layer), centred so that the origin is an equilibrium."""
     from roa import System
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     rng = np.random.default_rng(seed)
     W0, b0 = rng.normal(size=(8, 2)) * 1.5, rng.normal(size=8)
@@ -302,7 +302,7 @@ def _fitted_pendulum(act, seed: int = 0):
 
 
 def _vdot_50(system, P: np.ndarray, x: np.ndarray):
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     with mp.workdps(50):
         xm = [mp.mpf(float(v)) for v in x]
@@ -318,9 +318,9 @@ def test_relaxation_bounds_alone_hold_at_sampled_points_and_at_50_digits(act):
     around the level surface of the linearisation's V: its V' bounds contain V' at 300 samples
     per box (the extreme samples re-evaluated at 50 digits), and wherever it claims the
     multiplier bound F < 0, V' < 0 at every sample with V <= level."""
-    from roa.backend import namespace
-    from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import QuadraticLyapunov
+    from roa.model.backend import namespace
+    from roa.model.linearisation import lyapunov_matrix
     from roa.proof.interval import Interval
     from roa.proof.relax_vdot import relaxation_bounds
 
@@ -364,7 +364,7 @@ def _witness_at_50_digits(system, P: np.ndarray) -> np.ndarray:
     SLSQP), moved outward along its ray until V' >= 0 holds at 50 digits."""
     from scipy.optimize import minimize
 
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     NP = namespace("numpy")
 
@@ -398,8 +398,8 @@ def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
     branch and bound, with the relaxation bounds deciding boxes, certifies 0.97 V(w) and does
     not certify 1.001 V(w)."""
     import roa.proof.validate as validate
-    from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import QuadraticLyapunov
+    from roa.model.linearisation import lyapunov_matrix
 
     system = _fitted_pendulum(act)
     P = lyapunov_matrix(system)
@@ -428,7 +428,7 @@ def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
 def test_an_identity_step_of_from_ops_is_no_activation_in_every_namespace():
     """``Activation("identity")`` passed to :meth:`MLP.from_ops` was kept as a step that the
     numpy and interval namespaces do not have (AttributeError); it is now dropped."""
-    from roa.backend import namespace
+    from roa.model.backend import namespace
     from roa.nn.mlp import Activation
     from roa.proof.interval import INTERVAL, Interval
 
@@ -533,9 +533,9 @@ def test_relaxation_bounds_on_the_quadrotor_networks_hold_at_samples_and_50_digi
     import sys
     from pathlib import Path
 
-    from roa.backend import namespace
-    from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import QuadraticLyapunov
+    from roa.model.backend import namespace
+    from roa.model.linearisation import lyapunov_matrix
     from roa.proof.interval import Interval
     from roa.proof.relax_vdot import relaxation_bounds
 

@@ -15,12 +15,12 @@ from scipy.optimize import minimize
 import roa
 from roa.cli import main
 from roa.lyapunov import as_lyapunov
-from roa.parameters import ParameterBox, over, sample_points
+from roa.model.parameters import ParameterBox, over, sample_points
+from roa.model.system import System
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.robust import validate_robust
 from roa.search.robust_witness import sampled_witness
 from roa.status import Verdict
-from roa.system import System
 
 P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V
 
@@ -217,7 +217,7 @@ def test_every_proof_namespace_sees_the_box():
     namespaces see the point; an unknown namespace is refused (never a point by default)."""
     from types import SimpleNamespace
 
-    from roa.backend import NP
+    from roa.model.backend import NP
     from roa.proof.jet import JET, Jet
 
     s = over(vdp_box(), ParameterBox(("mu",), (0.8,), (1.2,)))

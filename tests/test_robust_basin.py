@@ -20,8 +20,9 @@ import pytest
 import roa
 from roa.cli import main
 from roa.errors import ResultsError
-from roa.montecarlo import integrator as I  # noqa: N812
-from roa.montecarlo.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE
+from roa.model.system import System
 from roa.montecarlo.robust_basin import (
     MAX_PARAM_SAMPLES,
     RobustBasinResult,
@@ -29,7 +30,6 @@ from roa.montecarlo.robust_basin import (
     robust_basin,
 )
 from roa.status import BasinStatus
-from roa.system import System
 
 P_VDP = [[1.5, -0.5], [-0.5, 1.0]]
 

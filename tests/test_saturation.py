@@ -11,7 +11,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ipc_paper import system as ipc
-from roa.backend import FUNCTIONS, PIECEWISE, namespace
+from roa.model.backend import FUNCTIONS, PIECEWISE, namespace
 from roa.proof.interval import INTERVAL, Interval, box_offsets, iabs, iclip, imaximum, iminimum
 from roa.proof.jet import JET, Jet
 
@@ -270,7 +270,7 @@ def test_saturated_field_is_the_same_in_every_namespace():
 
 
 def test_saturated_linearisation_is_the_unsaturated_one():
-    from roa.linearisation import jacobian
+    from roa.model.linearisation import jacobian
 
     np.testing.assert_allclose(
         jacobian(ipc.closed_loop(saturation=1.0)), jacobian(ipc.closed_loop()), atol=1e-14
@@ -336,7 +336,7 @@ def test_flat_saturated_loop_is_the_physical_one_in_flat_coordinates():
 
 # -- certificates of saturated loops ----------------------------------------------------------------
 def _saturated_pendulum():
-    from roa.system import System
+    from roa.model.system import System
 
     def field(t, x, xp):
         u = xp.clip(-2.0 * x[0] - 2.0 * x[1], -1.0, 1.0)  # PD law, |u| <= 1
@@ -359,10 +359,10 @@ def test_saturated_toy_certified_at_0999_and_refuted_just_above():
     (the set reaches into saturation: V' < 0 is proved for the clipped field) and refuted at
     1.001 with a saturated 50-digit witness."""
     from roa.certification import certify
-    from roa.levelset import level_search
-    from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import PolynomialLyapunov
+    from roa.model.linearisation import lyapunov_matrix
     from roa.options import IntervalOptions
+    from roa.search.levelset import level_search
 
     s = _saturated_pendulum()
     V = PolynomialLyapunov.from_gram(np.eye(2, dtype=int), lyapunov_matrix(s), np.zeros(2))
@@ -378,8 +378,8 @@ def test_saturated_toy_certified_at_0999_and_refuted_just_above():
 
 
 def test_quadratic_fast_path_rechecks_a_clip_field_witness():
-    from roa.linearisation import lyapunov_matrix
     from roa.lyapunov import QuadraticLyapunov
+    from roa.model.linearisation import lyapunov_matrix
     from roa.proof.validate import validate_level
 
     s = _saturated_pendulum()
@@ -390,8 +390,8 @@ def test_quadratic_fast_path_rechecks_a_clip_field_witness():
 def _ipc_saturated_certificate(fraction: float):
     from ipc_paper.system.lyapunov import paper_lyapunov
     from roa.certification import certify
-    from roa.levelset import level_search
     from roa.options import IntervalOptions
+    from roa.search.levelset import level_search
 
     s = ipc.transformed(saturation=1.0)  # the physical loop |u| <= 1 in flat coordinates
     V = paper_lyapunov()
@@ -434,7 +434,7 @@ def test_saturated_certificates_are_kept_apart_and_drawn_on_the_saturated_map(tm
     from ipc_paper.basins import _basin_title, slice_panels
     from ipc_paper.certified import ipc_certified_regions, ipc_saturated_regions
     from ipc_paper.system.lyapunov import paper_lyapunov
-    from roa.montecarlo import integrator as I  # noqa: N812
+    from roa.integration import integrator as I  # noqa: N812
     from roa.montecarlo.sampling import grid_slice
 
     entry = {"name": "saturated loop |u| <= 1, optimised quadratic V: V <= 0.1 (certified)",

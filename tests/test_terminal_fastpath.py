@@ -28,9 +28,9 @@ from ipc_paper import basins
 from ipc_paper import system as ipc
 from ipc_paper.system import fast
 from roa.errors import RoaInputError
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.terminal import TerminalSet
 from roa.montecarlo.sampling import box_sample, grid_slice
-from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -1,4 +1,4 @@
-"""Membership in a polynomial terminal set (roa/montecarlo/terminal_poly.py).
+"""Membership in a polynomial terminal set (roa/integration/terminal_poly.py).
 
 * the numpy and numba versions give the same answer, point for point, on random points, on points
   next to the level set (bisected onto it in float) and next to the box's faces, and on inf/NaN;
@@ -15,9 +15,9 @@ from fractions import Fraction
 
 import numpy as np
 
+from roa.integration.terminal import TerminalSet
+from roa.integration.terminal_poly import member_numba, member_numpy
 from roa.lyapunov import PolynomialLyapunov
-from roa.montecarlo.terminal import TerminalSet
-from roa.montecarlo.terminal_poly import member_numba, member_numpy
 
 #: A degree-4 V in 3 variables with cross terms (positive definite quadratic part).
 MONO = [[2, 0, 0], [0, 2, 0], [0, 0, 2], [1, 1, 0], [0, 1, 1], [4, 0, 0], [2, 2, 0], [1, 1, 2],

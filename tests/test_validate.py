@@ -11,8 +11,8 @@ import pytest
 
 import roa
 from roa import System
-from roa.backend import namespace
 from roa.lyapunov import PolynomialLyapunov
+from roa.model.backend import namespace
 from roa.proof.cover import connected_to_center
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet

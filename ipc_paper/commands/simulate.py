@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ipc_paper import system as ipc
     from ipc_paper.system.controller import Gains, make_reference
-    from roa.simulation import simulate
+    from roa.integration.simulation import simulate
     from roa.status import StopRules
 
     x0 = np.array(floats(args.ic, "--ic", 4))

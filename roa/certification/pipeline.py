@@ -44,16 +44,16 @@ from roa.certification.strategies import (
     VsIteration,
     WorstCase,
 )
-from roa.checks import check_system
 from roa.errors import RoaInputError
-from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
+from roa.model.checks import check_system
+from roa.model.parameters import ParameterBox
+from roa.model.system import System
 from roa.options import BNB_DIM, IntervalOptions, SampledOptions, SosOptions, VsOptions
-from roa.parameters import ParameterBox
 from roa.progress import step
 from roa.proof.validation import Validation
+from roa.search.levelset import LevelSearchResult, level_search
 from roa.status import Verdict
-from roa.system import System
 
 METHODS = ("sos", "interval", "both")
 #: Times a proposed level is chosen again below a confirmed witness.
@@ -404,7 +404,7 @@ def _not_locally_negative(
     level > 0 holds for this V (V' >= 0 arbitrarily close to the equilibrium, or, for a zero
     eigenvalue, nothing from the linearisation)."""
     from roa.lyapunov.defaults import worst_linearisation
-    from roa.parameters import describe_point
+    from roa.model.parameters import describe_point
 
     if not system.parameters:
         return None

@@ -35,7 +35,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa import reference, studies
+    from roa import studies
+    from roa.studies import reference
 
     if args.recompute is not None:
         if args.update or args.only:
@@ -55,7 +56,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.only:  # the outputs of the study's experiments next to the reference file
         from pathlib import Path
 
-        from roa.experiment import verify_outputs
+        from roa.studies.experiment import verify_outputs
 
         study = studies.get(args.study)
         for summary in sorted(Path(args.reference).parent.glob("*/summary.json")):
@@ -69,12 +70,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _recompute(args: argparse.Namespace) -> list[dict]:
-    """Rows of ``--recompute`` (:mod:`roa.recompute`)."""
+    """Rows of ``--recompute`` (:mod:`roa.studies.recompute`)."""
     from pathlib import Path
 
     from roa import studies
-    from roa.experiment import experiments_dir
-    from roa.recompute import recompute
+    from roa.studies.experiment import experiments_dir
+    from roa.studies.recompute import recompute
 
     results = Path(args.reference).parent
     configs = experiments_dir(studies.get(args.study))

@@ -23,7 +23,7 @@ def run(args: argparse.Namespace) -> int:
 
     from roa import studies
     from roa.errors import ResultsError
-    from roa.experiment import write_report
+    from roa.studies.experiment import write_report
 
     study = studies.get(args.study)
     out = args.out or study.report_name
@@ -32,7 +32,7 @@ def run(args: argparse.Namespace) -> int:
             f"no experiment summaries in {Path(args.results).resolve()} (expected "
             "RESULTS/NAME/summary.json): run roa reproduce first, or pass --results"
         )
-    from roa.experiment import verify_outputs
+    from roa.studies.experiment import verify_outputs
 
     problems = [
         problem

@@ -35,7 +35,12 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     from roa import studies
-    from roa.experiment import experiments_dir, list_experiments, run_experiment, write_report
+    from roa.studies.experiment import (
+        experiments_dir,
+        list_experiments,
+        run_experiment,
+        write_report,
+    )
 
     study = studies.get(args.study)
     results = args.results or ("results-quick" if args.quick else "results")

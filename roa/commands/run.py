@@ -23,7 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa.experiment import run_experiment
+    from roa.studies.experiment import run_experiment
 
     results = args.results or ("results-quick" if args.quick else "results")
     summary = run_experiment(args.config, results=results, quick=args.quick, force=args.force)

@@ -7,7 +7,7 @@ from typing import Any
 from roa.errors import RoaInputError
 from roa.lyapunov.base import Lyapunov
 from roa.lyapunov.polynomial import QuadraticLyapunov
-from roa.system import System
+from roa.model.system import System
 
 
 def as_lyapunov(system: System, V: Any = None) -> Lyapunov:
@@ -34,7 +34,7 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
 
     For a system with uncertain parameters, that candidate (at the nominal values) is kept when
     ``A(p)'P + PA(p) < 0`` at every sample point ``p`` of the box (nominal value, vertices and
-    three points along each axis, :func:`roa.parameters.sample_points`). Otherwise it is not a
+    three points along each axis, :func:`roa.model.parameters.sample_points`). Otherwise it is not a
     Lyapunov function at some parameter value, and the candidate is designed for the box: ``P``
     of the common Lyapunov LMIs at those points (:func:`roa.search.box_lyapunov.box_lyapunov`), when
     they are feasible (else the nominal candidate, whose failure the analyses then report). Either
@@ -50,14 +50,14 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
     """
     if system.equilibrium is None:
         raise RoaInputError(f"system {system.name!r} has no equilibrium: no Lyapunov candidate")
-    from roa.checks import check_system
+    from roa.model.checks import check_system
 
     check_system(system)  # a malformed field or a false equilibrium: a clear error first
     if system.lyapunov is not None:
         label = system.meta.get("lyapunov_name") or f"{system.name} V"
         V = QuadraticLyapunov.for_system(system, system.lyapunov, name=str(label))
     else:
-        from roa.linearisation import lyapunov_matrix
+        from roa.model.linearisation import lyapunov_matrix
 
         at = system.nominal() if system.parameters else system
         eq = "A'PA - P = -I" if system.time == "discrete" else "A'P + PA = -I"
@@ -88,8 +88,8 @@ def worst_linearisation(
     check at those points only: nothing is claimed between them."""
     if not system.parameters:
         return None
-    from roa.levelset_core import locally_negative
-    from roa.parameters import sample_points
+    from roa.model.parameters import sample_points
+    from roa.search.levelset_core import locally_negative
 
     for p in sample_points(system, per_axis=per_axis):
         ok, lam = locally_negative(system.at(**p), V)

@@ -9,7 +9,7 @@ within :data:`LIBM_ULPS` ulps of the exact value; ``tests/test_libm.py`` measure
 against 50-digit mpmath values and fails if the assumption does not hold on this platform.
 ``x * x`` on the *same* object is evaluated as a square (tight, never negative).
 
-:data:`INTERVAL` is a namespace in the style of :mod:`roa.backend`, so ``system.field(t, x, INTERVAL)``
+:data:`INTERVAL` is a namespace in the style of :mod:`roa.model.backend`, so ``system.field(t, x, INTERVAL)``
 encloses the field over boxes. Jets (derivative enclosures) build on it in :mod:`roa.proof.jet`.
 """
 

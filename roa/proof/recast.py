@@ -387,8 +387,8 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     the sin bounds (default from the angles' scale, :func:`taylor_order`)."""
     import sympy as sp
 
-    from roa.backend import namespace
     from roa.lyapunov.symbolic import exact_rationals
+    from roa.model.backend import namespace
 
     terms = getattr(V, "terms", None)
     if terms is None:

@@ -40,7 +40,8 @@ import sympy as sp
 
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
-from roa.parameters import describe_point
+from roa.model.parameters import describe_point
+from roa.model.system import System
 from roa.progress import note, step
 from roa.search.polysdp import (
     Poly,
@@ -59,7 +60,6 @@ from roa.search.sdp import SOLVERS, Program, ProgramTooLarge, monomials
 from roa.search.seed import seed_level
 from roa.search.sos import recast_field
 from roa.status import SosStatus
-from roa.system import System
 
 #: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
 #: bounded on their own by :data:`roa.search.sdp.MAX_GRAM_BLOCK` (roa.search.sdp.check_block).
@@ -489,7 +489,7 @@ def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:
     the validator of :func:`roa.certify` decides for every parameter of the box."""
     if not system.parameters:
         return [], "none"
-    from roa.parameters import ParameterBox, sample_points
+    from roa.model.parameters import ParameterBox, sample_points
 
     box = ParameterBox.of(system)
     if _field_affine(system, box):

@@ -1,7 +1,7 @@
 """Batch adaptive Dormand-Prince 5(4) integration of many initial conditions, each with its own events.
 
 Every trajectory has its own step size and stops at its own first event, with the semantics of
-:func:`roa.simulation.simulate` / scipy's ``solve_ivp(method="RK45")``:
+:func:`roa.integration.simulation.simulate` / scipy's ``solve_ivp(method="RK45")``:
 
 * ``converged``: ``||x - x_eq|| - converge_tol`` goes from >= 0 to <= 0;
 * ``left_domain``: the system's ``margin(x) - margin_tol`` goes from >= 0 to <= 0 (``margin_tol`` is 0
@@ -13,7 +13,7 @@ Every trajectory has its own step size and stops at its own first event, with th
   :data:`MAX_TINY_STEPS` steps shorter than ``TINY_STEP_FRACTION * t_final``) (code
   :data:`STEP_FAILURE`, counted as undecided but reported apart: no run does unbounded work);
   after the batch, undecided runs sitting at another equilibrium are ``converged_elsewhere`` and
-  those blowing up (:func:`roa.divergence.blows_up`, confirmed by the reference integrator)
+  those blowing up (:func:`roa.integration.divergence.blows_up`, confirmed by the reference integrator)
   ``diverged``.
 
 When several events trigger in one step, each root is located on the step's dense output (bisection
@@ -26,7 +26,7 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
 ``system.f``. A system with neither gets a fast path generated from its field
-(:mod:`roa.montecarlo.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
+(:mod:`roa.integration.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
 disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
 ``system.numba_fast``: the same functions as ``numba.njit`` functions, compiled into a kernel of
 their own (:func:`compile_kernel`: no call through a pointer, the field fused with the map to a
@@ -49,11 +49,10 @@ import numpy as np
 from numba.core.imputils import lower_constant
 from numba.extending import models, register_model, typeof_impl
 
-from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
-from roa.montecarlo import budget
-from roa.montecarlo import dopri as _base
-from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tableau)
+from roa.integration import budget
+from roa.integration import dopri as _base
+from roa.integration.dopri import (  # noqa: F401  (re-exported: codes and tableau)
     CODE_STATUS,
     CONVERGED,
     CONVERGED_ELSEWHERE,
@@ -76,12 +75,13 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     UNDECIDED,
     check_tolerances,
 )
-from roa.montecarlo.integrator_numpy import integrate_numpy
-from roa.montecarlo.lazy_cfunc import LazyCfuncs
-from roa.montecarlo.terminal import ENTERED, REASON, TerminalSet
-from roa.montecarlo.terminal_poly import member_numba
+from roa.integration.equilibria import settled_elsewhere
+from roa.integration.integrator_numpy import integrate_numpy
+from roa.integration.lazy_cfunc import LazyCfuncs
+from roa.integration.terminal import ENTERED, REASON, TerminalSet
+from roa.integration.terminal_poly import member_numba
+from roa.model.system import System
 from roa.status import StopRules
-from roa.system import System
 
 _ARR = numba.types.float64[::1]
 #: Signature of a compiled field ``field(t, x, params, out)`` (``numba.cfunc``).
@@ -107,7 +107,7 @@ def integrate_batch(
 ) -> BatchResult:
     """Integrate ``system`` from every row of ``x0`` (shape ``(m, n)``) until its own event.
 
-    A discrete-time system's map is iterated instead (:func:`roa.montecarlo.iterate.iterate_map`:
+    A discrete-time system's map is iterated instead (:func:`roa.integration.iterate.iterate_map`:
     ``t_final`` in units of its ``sample_time``; tolerances and backend unused).
 
     Parameters
@@ -125,15 +125,15 @@ def integrate_batch(
     backend : {"auto", "numba", "numpy"}
         ``auto`` uses the system's numba kernel (``system.numba`` / ``numba_fast``) when it has
         one, else for 2000 rows or more (``kernel_cache.COMPILE_FROM``) a kernel generated from its
-        field (:mod:`roa.montecarlo.kernel_cache`), else numpy (for a field that cannot be
-        compiled with a :class:`~roa.montecarlo.kernel_cache.KernelFallbackWarning` saying why);
+        field (:mod:`roa.integration.kernel_cache`), else numpy (for a field that cannot be
+        compiled with a :class:`~roa.integration.kernel_cache.KernelFallbackWarning` saying why);
         ``numba`` refuses the fallback (:class:`roa.RoaInputError`).
     terminal : TerminalSet, optional
         A certified set: runs entering it stop as ``converged`` (``entered`` marks them; see
-        :mod:`roa.montecarlo.terminal`).
+        :mod:`roa.integration.terminal`).
     deadline : float, optional
-        Absolute wall-clock deadline (:mod:`roa.montecarlo.budget`): past it the batch stops with
-        :class:`roa.montecarlo.budget.BudgetExhausted` and returns nothing (checked between slices
+        Absolute wall-clock deadline (:mod:`roa.integration.budget`): past it the batch stops with
+        :class:`roa.integration.budget.BudgetExhausted` and returns nothing (checked between slices
         of ``budget.SLICE`` rows on the numba kernel, at every field evaluation with numpy).
     """
     rules = StopRules() if rules is None else rules
@@ -149,7 +149,7 @@ def integrate_batch(
         raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
     bound = None if terminal is None else terminal.bind(system)
     if system.time == "discrete":  # a map: iterated, nothing to integrate
-        from roa.montecarlo.iterate import iterate_map
+        from roa.integration.iterate import iterate_map
 
         res = iterate_map(system, x0, rules=rules, margin_tol=margin_tol, terminal=bound,
                           deadline=deadline)  # fmt: skip
@@ -157,7 +157,7 @@ def integrate_batch(
         res.code[entered] = CONVERGED
         return _elsewhere(system, BatchResult(res.code, res.t_end, res.x_end, res.steps, entered),
                           rules.converge_tol)  # fmt: skip
-    from roa.montecarlo.kernel_cache import NUMPY, compiled_system
+    from roa.integration.kernel_cache import NUMPY, compiled_system
 
     system, ran, _ = compiled_system(system, backend, terminal, x0.shape[0])
     if ran != NUMPY:
@@ -189,7 +189,7 @@ def integrate_batch(
 def kernel_terminal(terminal: TerminalSet | None, n: int) -> tuple[Any, ...]:
     """The terminal set as the numba kernels take it: ``(kind, P, center, threshold, Mi, E, A,
     B, g, D)``, kind 0 (none), 1 (quadratic: ``P``) or 2 (polynomial: the arrays of
-    :class:`roa.montecarlo.terminal_poly.PolyArrays`; unused entries are empty)."""
+    :class:`roa.integration.terminal_poly.PolyArrays`; unused entries are empty)."""
     z2, e = np.zeros((n, n)), np.zeros((0, n), np.int64)
     if terminal is None:
         return (0, z2, np.zeros(n), -np.inf, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
@@ -214,7 +214,7 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
     """
     fast = system.numba_fast
     name = None if terminal is None else terminal.coords
-    ready = getattr(fast, "kernel", None)  # a generated kernel (roa.montecarlo.kernel_cache)
+    ready = getattr(fast, "kernel", None)  # a generated kernel (roa.integration.kernel_cache)
     if ready is not None and name is None:
         return ready()
     if fast is not None:
@@ -272,7 +272,7 @@ def _public_kernel() -> Callable[..., None]:
 
 @dataclass(frozen=True)
 class BatchResult(_base.BatchResult):
-    """:class:`roa.montecarlo.dopri.BatchResult` plus ``entered``: the converged runs that entered
+    """:class:`roa.integration.dopri.BatchResult` plus ``entered``: the converged runs that entered
     the terminal set (their ``t_end`` is the entry time, their reason :data:`REASON`)."""
 
     entered: np.ndarray | None = None
@@ -296,7 +296,7 @@ def _elsewhere(system: System, res: BatchResult, converge_tol: float) -> BatchRe
 
 def _grown(system: System, x0: np.ndarray, res: BatchResult, rules: StopRules, rtol: float,
            atol: float) -> BatchResult:  # fmt: skip
-    """Undecided runs blowing up at t_final become DIVERGED (:func:`roa.divergence.blows_up`).
+    """Undecided runs blowing up at t_final become DIVERGED (:func:`roa.integration.divergence.blows_up`).
 
     The batch keeps no history, so runs ending far out (``||x_end - x_eq|| >= diverge_bound /
     diverge_growth``, the rule's first condition) are run again by the reference integrator
@@ -309,7 +309,7 @@ def _grown(system: System, x0: np.ndarray, res: BatchResult, rules: StopRules, r
         return res
     with np.errstate(all="ignore"):
         far = np.linalg.norm(res.x_end[undecided] - system.x_eq, axis=1)
-    from roa.simulation import _integrate
+    from roa.integration.simulation import _integrate
     from roa.status import RunStatus
 
     ivp = {"rtol": rtol, "atol": atol, "method": "RK45", "t_eval": None, "max_step": np.inf}

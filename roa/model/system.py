@@ -1,7 +1,7 @@
 """The system abstraction: a vector field (or a map) written once for every array namespace.
 
 A continuous-time system is ``x' = f(t, x)``; a discrete-time one is ``x+ = F(x)``
-(:meth:`System.discrete`, or :func:`roa.discrete.discretise` for the Euler / RK4 step of a
+(:meth:`System.discrete`, or :func:`roa.model.discrete.discretise` for the Euler / RK4 step of a
 continuous one). Every analysis reads a system through the same few members, whatever its time:
 :attr:`System.time`, :attr:`System.dynamics` (``f`` or ``F``), :meth:`System.residual_expr`
 (``f(x)`` or ``F(x) - x``: zero at an equilibrium) and :meth:`System.decrease_expr` (the
@@ -30,8 +30,8 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
-from roa.backend import NP
 from roa.errors import RoaInputError
+from roa.model.backend import NP
 
 Field = Callable[..., Sequence[Any]]
 Margin = Callable[[Any, Any], Any]
@@ -175,7 +175,7 @@ class System:
     field : callable
         ``field(t, x, xp) -> sequence of n components`` (a :class:`NoVectorField` for a map). ``x`` is indexable by component (numpy
         arrays of any common shape, CasADi or sympy symbols); ``xp`` is a namespace from
-        :mod:`roa.backend`. Use only ``xp`` functions and arithmetic.
+        :mod:`roa.model.backend`. Use only ``xp`` functions and arithmetic.
     equilibrium : sequence of float
         The equilibrium studied (``None`` for a time-varying run without one).
     state_names, state_units : tuple of str
@@ -202,16 +202,16 @@ class System:
         Proofs hold for the whole box; :meth:`at` fixes values.
     numba : callable, optional
         Factory of the batch integrator's compiled field (``() -> (field, margin, params)``,
-        the cfunc protocol of :mod:`roa.montecarlo.integrator`), for this system's parameter
+        the cfunc protocol of :mod:`roa.integration.integrator`), for this system's parameter
         values: :meth:`at`, :meth:`with_params` and :meth:`with_ranges` rebuild it for other values
         with ``factory.with_params(values)`` when it has that method, else drop it (the numpy
         backend then runs). ``dataclasses.replace(system, params=...)`` does neither: use those
         methods.
     numba_fast : callable, optional
-        Factory of the njit fast path of the same field (:mod:`roa.montecarlo.integrator`).
+        Factory of the njit fast path of the same field (:mod:`roa.integration.integrator`).
     analysis_coords : object, optional
         Coordinates that certificates of this system may live in (terminal sets,
-        :mod:`roa.montecarlo.terminal`): ``names``, ``systems`` (certified system name ->
+        :mod:`roa.integration.terminal`): ``names``, ``systems`` (certified system name ->
         coordinates name), ``__call__(name)`` (the numpy map) and ``system(name)``.
     input_names, input_units : tuple of str
         Names and units of the inputs ``u`` of a closed loop (``from_control`` takes the names
@@ -345,7 +345,7 @@ class System:
         **kwargs
             As :class:`System` (``margin``, ``lyapunov``, ``norm``, ``domain_description``, ...).
 
-        The field is compiled once (:mod:`roa.sympy_system`) and runs in every namespace: numpy,
+        The field is compiled once (:mod:`roa.model.sympy_system`) and runs in every namespace: numpy,
         CasADi, sympy, mpmath, intervals and jets (rationals enclosed). An unsupported function
         or symbol is an error naming it.
 
@@ -357,9 +357,9 @@ class System:
         >>> vdp.f([0.5, 0.5]).tolist()
         [-0.5, 0.125]
         """
-        from roa.sympy_system import system_from_sympy
+        from roa.model.sympy_system import system_from_sympy
 
-        return system_from_sympy(exprs, states, equilibrium=equilibrium, parameters=parameters,
+        return system_from_sympy(cls, exprs, states, equilibrium=equilibrium, parameters=parameters,
                                  params=params, name=name, state_units=state_units,
                                  **kwargs)  # fmt: skip
 
@@ -411,7 +411,7 @@ class System:
             control law, so ``roa.simulate`` reports and plots ``u(t)``.
 
         The analysed field (traced or ``field=``) is checked against ``updfcn`` on numpy at
-        sample points around ``x_eq`` (:mod:`roa.control_system`); a difference is an error.
+        sample points around ``x_eq`` (:mod:`roa.model.control_system`); a difference is an error.
         Needs python-control (``pip install control``, or ``pip install ".[control]"`` in a clone).
 
         Examples
@@ -425,9 +425,9 @@ class System:
         >>> closed.state_names
         ('x0', 'x1')
         """
-        from roa.control_system import from_control
+        from roa.model.control_system import from_control
 
-        return from_control(sys, K, field=field, equilibrium=equilibrium, u_eq=u_eq,
+        return from_control(cls, sys, K, field=field, equilibrium=equilibrium, u_eq=u_eq,
                             params=params, name=name, lqr=lqr, **kwargs)  # fmt: skip
 
     @classmethod
@@ -759,3 +759,56 @@ class System:
                 f"{what} outside the domain of {self.name}: {self.domain_description}"
             )
         return arr
+
+
+def closed_loop(
+    field: Any,
+    K: Any,
+    states: Sequence[str],
+    *,
+    equilibrium: Sequence[float] | None = None,
+    u_eq: Sequence[float] | None = None,
+    name: str = "closed-loop",
+    **kwargs: Any,
+) -> System:
+    """The :class:`roa.System` of ``x' = field(t, x, u, xp)`` under ``u = u_eq - K (x - x_eq)``.
+
+    Parameters
+    ----------
+    field : callable
+        ``field(t, x, u, xp) -> n components``, written with arithmetic and ``xp`` functions only
+        (as a :class:`roa.System` field, plus the inputs ``u``, a sequence of m values).
+    K : m x n matrix
+        The state-feedback gain (``control.lqr(A, B, Q, R)[0]``).
+    states : sequence of str
+        State names (n of them).
+    equilibrium : sequence of float, optional
+        ``x_eq`` (default the origin).
+    u_eq : sequence of float, optional
+        The input holding the plant at ``x_eq`` (default zero): ``field(t, x_eq, u_eq) = 0``.
+    name : str
+        As :class:`roa.System`.
+    **kwargs
+        As :class:`roa.System` (``state_units``, ``input_names``, ``input_units``, ``margin``,
+        ``lyapunov``, ...). ``input_names`` defaults to ``u0, u1, ...``.
+
+    Returns
+    -------
+    roa.System
+        Its field evaluates ``field`` in every namespace; roa's checks (``f(x_eq) = 0``, the
+        linearisation ``A - B K`` Hurwitz) run when it is analysed. Its ``feedback`` is the
+        control law (:class:`LinearFeedback`), so a simulation reports ``u(t)``.
+
+    Examples
+    --------
+    >>> from roa import closed_loop
+    >>> def pendulum(t, x, u, xp):
+    ...     return (x[1], -xp.sin(x[0]) - 0.1 * x[1] + u[0])
+    >>> cl = closed_loop(pendulum, [[1.0, 2.0]], ("theta", "omega"))
+    >>> cl.f([0.0, 1.0]).tolist()
+    [1.0, -2.1]
+    """
+    from roa.model.control_system import build_closed_loop
+
+    return build_closed_loop(System, field, K, states, equilibrium=equilibrium, u_eq=u_eq,
+                             name=name, **kwargs)  # fmt: skip

@@ -6,7 +6,7 @@ that it lies inside the domain, and classifies the linearisation (Hurwitz / dege
 unstable). The analyses call it: :func:`roa.level_search` and :func:`roa.certify` refuse an
 unstable linearisation; a degenerate one gets a note (higher-order terms decide).
 
-The field is also evaluated once on probe values (:mod:`roa.field_probe`): a state-dependent
+The field is also evaluated once on probe values (:mod:`roa.model.field_probe`): a state-dependent
 integer power above ``MAX_POWER`` (100) or more than ``MAX_OPS`` operations is refused by every
 check; for an analysis (``analysis=True``: certify, level search), so is a numpy function applied
 to a state, named (the analyses evaluate the field in namespaces numpy's functions do not know).
@@ -20,8 +20,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from roa.errors import RoaInputError, SystemDefinitionError
-from roa.linearisation import Linearisation, linearise
-from roa.system import System
+from roa.model.field_probe import check_functions
+from roa.model.linearisation import Linearisation, linearise
+from roa.model.system import System
 
 #: |f(x_eq)| must be below this times the field's scale near the equilibrium.
 RESIDUAL_RTOL = 1e-8
@@ -57,25 +58,8 @@ def evaluate(system: System, x: np.ndarray) -> np.ndarray:
     return values
 
 
-def check_functions(system: System, *, strict: bool = True) -> None:
-    """The field's size and, with ``strict``, the numpy functions it applies to the states
-    (:mod:`roa.field_probe`, at the equilibrium): a :class:`SystemDefinitionError` names the
-    function or the bound (and the file and line of a user's field)."""
-    from roa.field_probe import Log, probe
-
-    log = Log(strict=strict)
-    try:
-        probe(system, log)
-    except SystemDefinitionError:  # a user's field: its wrapper names the file and the line
-        if log.refused:
-            raise
-    except Exception as exc:  # noqa: BLE001 - the field's own failures are reported elsewhere
-        if log.refused:
-            raise SystemDefinitionError(f"system {system.name!r}: {exc}") from None
-
-
 def _np():  # noqa: ANN202 - the numpy namespace
-    from roa.backend import NP
+    from roa.model.backend import NP
 
     return NP
 
@@ -114,7 +98,7 @@ def _check_box(system: System, analysis: bool) -> None:
     points of the parameter box (its vertices, nominal value and a few points along each axis);
     an error names the parameter values where it fails. (Proofs check the equilibrium exactly
     over the whole box, :func:`roa.proof.exact.exact_equilibrium`.)"""
-    from roa.parameters import describe_point, sample_points
+    from roa.model.parameters import describe_point, sample_points
 
     for p in sample_points(system, per_axis=BOX_POINTS_PER_AXIS):
         try:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from roa.system import System
+from roa.model.system import System
 
 
 def settled_elsewhere(

@@ -1,7 +1,7 @@
 """Shared base of the batch integrators: status codes, the Dormand-Prince 5(4) tableau, results.
 
-:mod:`roa.montecarlo.integrator` (numba kernel and dispatch) and
-:mod:`roa.montecarlo.integrator_numpy` (vectorised numpy) both build on this module.
+:mod:`roa.integration.integrator` (numba kernel and dispatch) and
+:mod:`roa.integration.integrator_numpy` (vectorised numpy) both build on this module.
 """
 
 from __future__ import annotations

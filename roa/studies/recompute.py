@@ -122,7 +122,7 @@ def recompute(configs: Path, results: Path, names: list[str]) -> list[dict[str, 
     ``results``) and compare; one row per name: ``{"key", "status", "error"}`` with status ``ok``
     (every compared value agrees), ``differs`` (the first differences in ``error``) or ``error``
     (the experiment could not be recomputed: the reason)."""
-    from roa.experiment import load_config, run_experiment
+    from roa.studies.experiment import load_config, run_experiment
 
     rows = []
     configs, results = configs.resolve(), results.resolve()  # the runs happen in a scratch folder

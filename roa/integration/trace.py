@@ -1,7 +1,7 @@
 """A system's field and margin traced once into sympy expressions (for compiled kernels).
 
 :func:`trace_system` evaluates ``system.field(t, x, xp)`` and ``system.margin(x, xp)`` with the
-sympy namespace of :mod:`roa.backend` on symbols ``x0 .. x{n-1}`` (real), so a field written
+sympy namespace of :mod:`roa.model.backend` on symbols ``x0 .. x{n-1}`` (real), so a field written
 against ``xp`` becomes one expression per component. Parameters (``System.params``, the nominal
 values of uncertain ones included) are traced as symbols ``p0 ..``, which the compiled kernel takes
 as an argument, so other parameter values (``System.at``, ``with_params``) reuse the same kernel;
@@ -13,11 +13,11 @@ Claims and assumptions:
 * The trace is what the field computes for real states with this code path: a field that branches
   on the namespace (``xp.name``) or on types could compute something else in numpy; the caller
   compares the compiled field with the numpy one on sample states
-  (:func:`roa.montecarlo.kernel_cache.check_against_numpy`).
+  (:func:`roa.integration.kernel_cache.check_against_numpy`).
 * Whatever cannot be traced raises :class:`Untraceable` with the reason, naming the term: an
   exception of the field under sympy (a numpy function applied to a symbol, ``float(x[0])``, an
   ``if`` on a state), a component that is not an expression, or a symbol that is not a state or
-  a parameter. :mod:`roa.montecarlo.codegen` names the functions it cannot compile.
+  a parameter. :mod:`roa.integration.codegen` names the functions it cannot compile.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-from roa.system import BoundField, Params, System
+from roa.model.system import BoundField, Params, System
 
 
 class Untraceable(Exception):
@@ -83,7 +83,7 @@ def trace_system(system: System, *, symbolic_params: bool = True) -> Trace:
     are taken as constants."""
     import sympy as sp
 
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     SP = namespace("sympy")
     n = system.n

@@ -40,8 +40,8 @@ from dataclasses import dataclass
 from typing import Any
 
 from roa.errors import RoaInputError
-from roa.field_probe import MAX_POWER
-from roa.lyapunov.symbolic import FUNCTIONS
+from roa.model.field_probe import MAX_POWER
+from roa.model.sympy_eval import FUNCTIONS
 
 #: What :func:`compile_exprs` accepts, for messages.
 SUPPORTED = (
@@ -90,7 +90,7 @@ def _run(ins: Instruction, vals: list[Any], x: Any, xp: Any, p: Any) -> Any:
     if op == "p":
         return p[ins[1]]
     if op == "rat":
-        from roa.lyapunov.symbolic import exact_constant
+        from roa.model.sympy_eval import exact_constant
 
         return exact_constant(ins[1], ins[2], xp)
     if op == "float":
@@ -282,6 +282,7 @@ def _symbols(items: Any, what: str) -> list[Any]:
 
 
 def system_from_sympy(
+    system_cls: Any,
     exprs: Any,
     states: Sequence[Any],
     *,
@@ -294,8 +295,6 @@ def system_from_sympy(
 ) -> Any:
     """The :class:`roa.System` of ``x' = exprs(x)``; see :meth:`roa.System.from_sympy`."""
     import sympy as sp
-
-    from roa.system import System
 
     exprs = list(sp.Matrix(exprs)) if isinstance(exprs, sp.MatrixBase) else list(exprs)
     state_syms = _symbols(states, "states")
@@ -327,7 +326,7 @@ def system_from_sympy(
     field = compile_exprs(renamed, state_syms, param_syms)
     n = len(state_syms)
     eq = tuple(float(v) for v in equilibrium) if equilibrium is not None else (0.0,) * n
-    return System(
+    return system_cls(
         name=name,
         field=field,
         equilibrium=eq,

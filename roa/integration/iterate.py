@@ -1,6 +1,6 @@
 """Monte Carlo runs of a discrete-time system: the map ``x+ = F(x)`` iterated on a batch.
 
-The discrete counterpart of the batch integrator (:func:`roa.montecarlo.integrator.integrate_batch`
+The discrete counterpart of the batch integrator (:func:`roa.integration.integrator.integrate_batch`
 dispatches here for a system with ``system.time == "discrete"``). Every row is iterated until its
 own first event, checked at every iterate ``x_k`` (``k = 0, 1, ...``), in this order:
 
@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from roa.backend import NP
-from roa.montecarlo import budget
-from roa.montecarlo import dopri as I  # noqa: N812
-from roa.montecarlo.terminal import ENTERED, BoundTerminal
+from roa.integration import budget
+from roa.integration import dopri as I  # noqa: N812
+from roa.integration.terminal import ENTERED, BoundTerminal
+from roa.model.backend import NP
+from roa.model.system import System
 from roa.status import StopRules
-from roa.system import System
 
 
 def max_steps(system: System, t_final: float) -> int:
@@ -61,8 +61,8 @@ def iterate_map(
 ) -> I.BatchResult:
     """Iterate ``system``'s map from every row of ``x0`` (shape ``(m, n)``) until its event
     (module doc). Runs that enter ``terminal`` get the internal code
-    :data:`roa.montecarlo.terminal.ENTERED`; past ``deadline`` the next step raises
-    :class:`roa.montecarlo.budget.BudgetExhausted`."""
+    :data:`roa.integration.terminal.ENTERED`; past ``deadline`` the next step raises
+    :class:`roa.integration.budget.BudgetExhausted`."""
     x0 = np.asarray(x0, dtype=float)
     m = len(x0)
     h = float(system.sample_time or 1.0)

@@ -1,8 +1,8 @@
-"""CasADi/IPOPT method of Khalil's level-set search (see :mod:`roa.levelset`).
+"""CasADi/IPOPT method of Khalil's level-set search (see :mod:`roa.search.levelset`).
 
 :func:`casadi_level` minimises the shape ``s(x)`` subject to ``V'(x) / s(x)^(p/2) >= 0`` from the
 first violations along random rays; the problem set-up and the witness refinement are shared with the sampled method
-(:mod:`roa.levelset_core`).
+(:mod:`roa.search.levelset_core`).
 """
 
 from __future__ import annotations
@@ -11,11 +11,11 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import namespace
-from roa.levelset_core import LevelSetResult, crossings, finish, start, unit, vdot_order
 from roa.lyapunov import Lyapunov
+from roa.model.backend import namespace
+from roa.model.system import System
 from roa.options import CasadiOptions
-from roa.system import System
+from roa.search.levelset_core import LevelSetResult, crossings, finish, start, unit, vdot_order
 
 
 def casadi_level(
@@ -34,12 +34,12 @@ def casadi_level(
     ``S=None`` (a non-quadratic ``V``, shape "level"): the shape is ``V`` itself.
 
     The infimum of ``s`` over ``{V' >= 0, x != x0}`` is c* (V' < 0 near ``x0``). ``p`` is the
-    degree at which V' starts at ``x0`` (:func:`roa.levelset_core.vdot_order`: 2 for a definite
+    degree at which V' starts at ``x0`` (:func:`roa.search.levelset_core.vdot_order`: 2 for a definite
     linearisation, 4 when it is degenerate), so that the constraint stays negative, away from 0,
     next to ``x0`` and IPOPT cannot satisfy it there to its tolerance.
 
     Starts: ``n_candidates`` random directions are scanned as rays on a geometric grid of shape
-    radii over ``r_start`` (:func:`roa.levelset_core.crossings`); IPOPT starts at the first
+    radii over ``r_start`` (:func:`roa.search.levelset_core.crossings`); IPOPT starts at the first
     violation of the ``n_starts`` rays that violate earliest (well separated directions), i.e.
     next to the boundary, from outside. With a domain (``system.margin``), the first exit from it
     is a violation too. ``details`` reports the rays, how many violate, the shape value searched up

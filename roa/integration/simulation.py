@@ -14,12 +14,12 @@ from typing import Any
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from roa.backend import NP
-from roa.divergence import blows_up, growth_message
-from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
+from roa.integration.divergence import blows_up, growth_message
+from roa.integration.equilibria import settled_elsewhere
+from roa.model.backend import NP
+from roa.model.system import System
 from roa.status import RunStatus, StopRules
-from roa.system import System
 
 
 @dataclass(frozen=True)
@@ -162,7 +162,7 @@ def simulate(
     Events (terminal): entering the convergence ball (autonomous systems with an equilibrium),
     reaching the domain boundary, exceeding the divergence bound. Non-finite states end the run as
     ``diverged``; nothing is returned as a silent NaN. A run still going at ``t_final`` that grows
-    exponentially far out is ``diverged`` too (:func:`roa.divergence.blows_up`, the factor
+    exponentially far out is ``diverged`` too (:func:`roa.integration.divergence.blows_up`, the factor
     ``rules.diverge_growth``).
 
     Parameters
@@ -198,7 +198,7 @@ def simulate(
         raise RoaInputError(
             f"time_limit must be a finite number of seconds > 0, got {time_limit!r}"
         )
-    from roa.checks import check_system
+    from roa.model.checks import check_system
 
     if system.parameters:
         box = ", ".join(f"{k} in [{r.low:g}, {r.high:g}]" for k, r in system.parameters.items())
@@ -220,9 +220,9 @@ def simulate(
 
 def _iterate(system: System, x0: Any, rules: StopRules | None,
              time_limit: float | None) -> Trajectory:  # fmt: skip
-    """The orbit of a discrete-time system (:func:`roa.montecarlo.iterate.orbit`)."""
-    from roa.montecarlo.dopri import CODE_STATUS
-    from roa.montecarlo.iterate import orbit
+    """The orbit of a discrete-time system (:func:`roa.integration.iterate.orbit`)."""
+    from roa.integration.dopri import CODE_STATUS
+    from roa.integration.iterate import orbit
 
     rules = StopRules() if rules is None else rules
     x0 = system.check_state(x0, what="initial state")

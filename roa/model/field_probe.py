@@ -15,7 +15,7 @@ Claims and assumptions:
   are not seen (a branch on the state's value); what is seen is named.
 * An integer power ``v ** k`` of a state-dependent value with ``|k| > MAX_POWER``, or more than
   :data:`MAX_OPS` operations, stops the probe: such a field is refused where it is loaded
-  (:func:`roa.checks.check_system`), since its symbolic and interval routes would not end.
+  (:func:`roa.model.checks.check_system`), since its symbolic and interval routes would not end.
 * The probe computes with floats; any other failure of the field on probe values is ignored here
   (the numpy checks and the namespaces that need the field report it).
 """
@@ -25,9 +25,14 @@ from __future__ import annotations
 import math
 import operator
 from dataclasses import dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+from roa.errors import SystemDefinitionError
+
+if TYPE_CHECKING:
+    from roa.model.system import System
 
 #: Largest integer exponent of a state-dependent power in a field (the documented bound of
 #: every front door: a user's field, from_sympy, from_control).
@@ -83,7 +88,7 @@ class Log:
 
 
 def _available() -> tuple[str, ...]:
-    from roa.backend import FUNCTIONS, PIECEWISE
+    from roa.model.backend import FUNCTIONS, PIECEWISE
 
     return FUNCTIONS + PIECEWISE
 
@@ -221,10 +226,10 @@ class Probe:
 
 
 def namespace() -> Any:
-    """The namespace of a probe: every :mod:`roa.backend` function, on probe values."""
+    """The namespace of a probe: every :mod:`roa.model.backend` function, on probe values."""
     from types import SimpleNamespace
 
-    from roa.backend import NP
+    from roa.model.backend import NP
 
     def lift(name: str) -> Any:
         fn = getattr(NP, name)
@@ -255,3 +260,18 @@ def probe(system: Any, log: Log) -> None:
     x = [Probe(v, log) for v in np.asarray(system.x_eq, dtype=float)]
     with np.errstate(all="ignore"):
         system.dynamics(0.0, x, namespace())
+
+
+def check_functions(system: System, *, strict: bool = True) -> None:
+    """The field's size and, with ``strict``, the numpy functions it applies to the states
+    (:func:`probe`, at the equilibrium): a :class:`SystemDefinitionError` names the
+    function or the bound (and the file and line of a user's field)."""
+    log = Log(strict=strict)
+    try:
+        probe(system, log)
+    except SystemDefinitionError:  # a user's field: its wrapper names the file and the line
+        if log.refused:
+            raise
+    except Exception as exc:  # noqa: BLE001 - the field's own failures are reported elsewhere
+        if log.refused:
+            raise SystemDefinitionError(f"system {system.name!r}: {exc}") from None

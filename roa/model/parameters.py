@@ -29,12 +29,12 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.system import Params, System
+from roa.model.system import Params, System
 
 #: Namespaces of enclosures: they see every uncertain parameter as its interval.
 PROOF_NAMESPACES = ("interval", "interval-jet")
 #: Float namespaces: they see the uncertain parameters at the piece's point (searches only, and
-#: the probe of :mod:`roa.field_probe`).
+#: the probe of :mod:`roa.model.field_probe`).
 POINT_NAMESPACES = ("numpy", "mpmath", "casadi", "probe")
 
 #: At most this many vertices are sampled (2^4: all vertices up to 4 uncertain parameters).

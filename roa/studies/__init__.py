@@ -36,7 +36,7 @@ class Study:
     experiments : Path
         Directory of its experiment configs (``*.toml``), used when ``./experiments`` is absent.
     reference : str
-        ``"module:NAME"`` of its registry of reference values (``{key: roa.reference.Entry}``).
+        ``"module:NAME"`` of its registry of reference values (``{key: roa.studies.reference.Entry}``).
     report : str
         ``"module:function"`` rendering its report: ``render(results, out) -> str``.
     report_name : str

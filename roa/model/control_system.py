@@ -1,4 +1,4 @@
-"""Closed loops from python-control models: :meth:`roa.System.from_control`, :func:`closed_loop`.
+"""Closed loops from python-control models: :meth:`roa.System.from_control`, :func:`roa.closed_loop`.
 
 python-control users hold a plant ``x' = f(t, x, u)`` (a ``control.NonlinearIOSystem`` whose
 ``updfcn(t, x, u, params)`` is written with numpy, or a ``control.StateSpace``) and a gain ``K``
@@ -17,7 +17,7 @@ Claims and assumptions:
 * Tracing fails, with a message saying what to write instead, when ``updfcn`` branches on the
   state (``if x[0] > 0``, ``np.clip``, ``np.where``), converts it to a float (``float(x[0])``,
   ``math.sin``, writing into ``np.zeros(n)``) or calls a function outside numpy's ufuncs listed in
-  :data:`roa.sympy_system.SUPPORTED`. The remedy is ``field=``: the same equations written once as
+  :data:`roa.model.sympy_system.SUPPORTED`. The remedy is ``field=``: the same equations written once as
   ``field(t, x, u, xp)`` with ``xp.sin``, ``xp.cos``, ... (checked against ``updfcn`` the same way).
 * The plant must be autonomous (roa analyses an equilibrium of ``x' = f(x)``): ``updfcn`` is
   called with a symbolic ``t`` at numeric sample states (an expression in ``t``, or a comparison or
@@ -29,7 +29,7 @@ Claims and assumptions:
   is an input error (never its real part taken).
 * ``params`` of the model are fixed at their values when the system is built.
 * ``control`` is imported only by :meth:`System.from_control` (``pip install control``);
-  :func:`closed_loop` needs no python-control.
+  :func:`roa.closed_loop` needs no python-control.
 """
 
 from __future__ import annotations
@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.field_probe import MAX_OPS
+from roa.model.field_probe import MAX_OPS
 
 #: Largest relative difference |f_roa - updfcn| / (1 + |updfcn|) accepted at the sample points.
 AGREEMENT_RTOL = 1e-9
@@ -140,7 +140,8 @@ def _vector(value: Any, n: int, what: str) -> tuple[float, ...]:
     return tuple(float(v) for v in arr)
 
 
-def closed_loop(
+def build_closed_loop(
+    system_cls: Any,
     field: ControlField,
     K: Any,
     states: Sequence[str],
@@ -150,45 +151,7 @@ def closed_loop(
     name: str = "closed-loop",
     **kwargs: Any,
 ) -> Any:
-    """The :class:`roa.System` of ``x' = field(t, x, u, xp)`` under ``u = u_eq - K (x - x_eq)``.
-
-    Parameters
-    ----------
-    field : callable
-        ``field(t, x, u, xp) -> n components``, written with arithmetic and ``xp`` functions only
-        (as a :class:`roa.System` field, plus the inputs ``u``, a sequence of m values).
-    K : m x n matrix
-        The state-feedback gain (``control.lqr(A, B, Q, R)[0]``).
-    states : sequence of str
-        State names (n of them).
-    equilibrium : sequence of float, optional
-        ``x_eq`` (default the origin).
-    u_eq : sequence of float, optional
-        The input holding the plant at ``x_eq`` (default zero): ``field(t, x_eq, u_eq) = 0``.
-    name : str
-        As :class:`roa.System`.
-    **kwargs
-        As :class:`roa.System` (``state_units``, ``input_names``, ``input_units``, ``margin``,
-        ``lyapunov``, ...). ``input_names`` defaults to ``u0, u1, ...``.
-
-    Returns
-    -------
-    roa.System
-        Its field evaluates ``field`` in every namespace; roa's checks (``f(x_eq) = 0``, the
-        linearisation ``A - B K`` Hurwitz) run when it is analysed. Its ``feedback`` is the
-        control law (:class:`LinearFeedback`), so a simulation reports ``u(t)``.
-
-    Examples
-    --------
-    >>> from roa.control_system import closed_loop
-    >>> def pendulum(t, x, u, xp):
-    ...     return (x[1], -xp.sin(x[0]) - 0.1 * x[1] + u[0])
-    >>> cl = closed_loop(pendulum, [[1.0, 2.0]], ("theta", "omega"))
-    >>> cl.f([0.0, 1.0]).tolist()
-    [1.0, -2.1]
-    """
-    from roa.system import System
-
+    """:func:`roa.closed_loop` building an instance of ``system_cls``."""
     names = tuple(states)
     n = len(names)
     try:
@@ -208,7 +171,7 @@ def closed_loop(
         )
     if m:
         kwargs.setdefault("feedback", LinearFeedback(gain, x_eq, u0))
-    return System(
+    return system_cls(
         name=name,
         field=ClosedLoopField(field, gain, x_eq, u0),
         equilibrium=x_eq,
@@ -247,7 +210,7 @@ class TimeDependent(RoaInputError):
 
 class TraceTooLarge(RoaInputError):
     """An ``updfcn`` did more operations on the symbolic states than a field may
-    (:data:`roa.field_probe.MAX_OPS`, the bound of a field written as ``field=``)."""
+    (:data:`roa.model.field_probe.MAX_OPS`, the bound of a field written as ``field=``)."""
 
 
 #: Work bound of one trace: the sizes (arguments) of the expressions it builds, summed. sympy
@@ -509,6 +472,7 @@ def _time_varying(sys: Any, params: Mapping[str, Any], X: np.ndarray,
 
 
 def from_control(
+    system_cls: Any,
     sys: Any,
     K: Any = None,
     *,
@@ -569,20 +533,22 @@ def from_control(
                 "roa.System(..., time_varying=True)"
             )
     if field is not None:
-        system = closed_loop(field, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
+        system = build_closed_loop(
+            system_cls, field, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs
+        )
         if not isinstance(sys, control.StateSpace):
             _check_agreement(system, sys, all_params, loop.inputs, "field=")
         return system
     if isinstance(sys, control.StateSpace):
         plant = AffinePlant(_matrix(sys.A, (n, n), "sys.A"), _matrix(sys.B, (n, m), "sys.B"))
-        return closed_loop(plant, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs)
-    from roa.system import System
-
+        return build_closed_loop(
+            system_cls, plant, gain, names, equilibrium=x_eq, u_eq=u0, name=label, **kwargs
+        )
     try:
         exprs = _trace(sys, all_params, x_eq, u0, gain, names)
         if m:
             kwargs.setdefault("feedback", LinearFeedback(gain, x_eq, u0))
-        system = System.from_sympy(exprs, names, equilibrium=x_eq, name=label, **kwargs)
+        system = system_cls.from_sympy(exprs, names, equilibrium=x_eq, name=label, **kwargs)
     except TraceTooLarge:
         raise
     except RoaInputError as exc:  # Untraceable, or a function from_sympy cannot evaluate

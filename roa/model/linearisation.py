@@ -12,7 +12,7 @@ import numpy as np
 from scipy import linalg
 
 from roa.errors import RoaInputError
-from roa.system import System
+from roa.model.system import System
 
 #: Real parts within this (relative to the Jacobian's norm) of zero count as zero.
 DEGENERATE_RTOL = 1e-9
@@ -30,7 +30,7 @@ def jacobian(system: System, x: np.ndarray | None = None) -> np.ndarray:
     """
     import casadi as ca
 
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     x = system.x_eq if x is None else np.asarray(x, dtype=float)
     sym = ca.SX.sym("x", system.n)
@@ -62,9 +62,9 @@ class Linearisation:
 def linearise(system: System) -> Linearisation:
     """Jacobian at the equilibrium and its classification (see :class:`Linearisation`).
 
-    The field must apply no numpy function to a state (:func:`roa.checks.check_functions`: CasADi
+    The field must apply no numpy function to a state (:func:`roa.model.field_probe.check_functions`: CasADi
     would differentiate numpy's own) and have a finite Jacobian there."""
-    from roa.checks import check_functions
+    from roa.model.field_probe import check_functions
 
     check_functions(system)
     A = jacobian(system)

@@ -17,7 +17,7 @@ A polynomial V (``roa certify --degree D``, ``candidate_kind`` in its JSON) is a
 degree-2 one becomes the quadratic form above; for a higher degree the set is ``{V <= level}``
 inside a box proved to lie in the bounding box of the certified component of the level set (the
 one holding the equilibrium; :mod:`roa.proof.component`), tested with the same
-arithmetic in numpy and in the numba kernels (:mod:`roa.montecarlo.terminal_poly`, which also
+arithmetic in numpy and in the numba kernels (:mod:`roa.integration.terminal_poly`, which also
 allows for the rounding error of V).
 Runs that enter are finished with status ``converged`` at the time of the accepted step that enters
 (the batch integrators test every accepted step after the usual events, which take precedence);
@@ -33,9 +33,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.montecarlo.terminal_poly import PolyArrays, member_numpy, poly_arrays
+from roa.integration.terminal_poly import PolyArrays, member_numpy, poly_arrays
+from roa.model.system import System
 from roa.proof.component import component_box
-from roa.system import System
 
 if TYPE_CHECKING:
     from roa.lyapunov import PolynomialLyapunov
@@ -235,7 +235,7 @@ class TerminalSet:
     def contains(self, y: np.ndarray) -> np.ndarray:
         """Analysis-coordinate points ``y`` (shape ``(m, n)``) inside the set, with the margin."""
         y = np.asarray(y, dtype=float)
-        if self.poly is not None:  # the kernels' arithmetic (roa/montecarlo/terminal_poly.py)
+        if self.poly is not None:  # the kernels' arithmetic (roa/integration/terminal_poly.py)
             return member_numpy(y, self.center, self.poly, self.threshold)
         return self.value(y) <= self.threshold  # NaN compares False
 

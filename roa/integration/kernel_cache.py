@@ -2,8 +2,8 @@
 
 :func:`compiled_system` gives a system without a hand-written numba field a kernel factory
 (``System.numba_fast``, a :class:`GeneratedKernels`): the field and margin traced once with sympy
-(:mod:`roa.montecarlo.trace`), compiled with the batch Dormand-Prince kernel
-(:mod:`roa.montecarlo.codegen`), and checked against the numpy field on sample states. When that
+(:mod:`roa.integration.trace`), compiled with the batch Dormand-Prince kernel
+(:mod:`roa.integration.codegen`), and checked against the numpy field on sample states. When that
 fails the numpy backend runs, and the reason (the term and why) is given once per system and
 process as a :class:`KernelFallbackWarning`; the basin result records which backend ran.
 
@@ -45,9 +45,9 @@ from typing import Any
 
 import numpy as np
 
+from roa.integration.trace import Untraceable, trace_system
 from roa.io import atomic_write_json, atomic_write_text, cache_dir, cache_tag, tag_matches, to_json
-from roa.montecarlo.trace import Untraceable, trace_system
-from roa.system import System
+from roa.model.system import System
 
 #: Environment variable naming the kernel cache directory.
 CACHE_ENV = "ROA_KERNEL_CACHE"
@@ -173,7 +173,7 @@ class GeneratedKernels:
         return np.array(self.values, dtype=float)
 
     def kernel(self) -> tuple[Any, np.ndarray]:
-        """``(run, params)``: the batch kernel of :mod:`roa.montecarlo.codegen` (compiled now,
+        """``(run, params)``: the batch kernel of :mod:`roa.integration.codegen` (compiled now,
         or loaded from the cache, with a progress line on stderr while a compilation runs)."""
         mod = load_module(self.text, self.digest)
         if not mod.run.signatures:
@@ -199,7 +199,7 @@ def _warm_up(mod: Any, name: str, n_params: int) -> None:
     """Compile (or load) ``mod.run`` for the argument types of an integration without a terminal
     set, with a progress line on stderr when it compiles (numba's cache has no index for it, or
     when that cannot be told, after :data:`PROGRESS_AFTER` seconds)."""
-    from roa.montecarlo.integrator import kernel_terminal
+    from roa.integration.integrator import kernel_terminal
 
     n = int(mod.STATES)
     t0 = time.perf_counter()
@@ -260,10 +260,10 @@ def check_against_numpy(system: System, factory: GeneratedKernels, *, seed: int 
 
 def kernel_stamp() -> str:
     """SHA-256 (first 16 hex digits) of the sources the generated kernels come from: the
-    integrator's, :data:`roa.montecarlo.integrator.KERNEL_STAMP` (dopri.py, terminal.py,
+    integrator's, :data:`roa.integration.integrator.KERNEL_STAMP` (dopri.py, terminal.py,
     terminal_poly.py), the tracer's and the code generator's. Part of the generated text, so a
     change there gives a new kernel file."""
-    from roa.montecarlo import integrator
+    from roa.integration import integrator
 
     here = Path(__file__).parent
     mine = [integrator._source_digest(str(here / f))
@@ -274,8 +274,8 @@ def kernel_stamp() -> str:
 
 def _index_path(system: System) -> Path | None:
     """Where the digest of ``system``'s generated kernel is remembered, keyed by its field's and
-    margin's code (:mod:`roa.montecarlo.code_identity`); None when the code has no key."""
-    from roa.montecarlo.code_identity import code_key
+    margin's code (:mod:`roa.integration.code_identity`); None when the code has no key."""
+    from roa.integration.code_identity import code_key
 
     field = system.field
     func = getattr(field, "func", field)
@@ -356,7 +356,7 @@ def generate(system: System) -> GeneratedKernels:
     :class:`Untraceable` with the reason if there is none. Cached per process, and on disk by
     the field's code (``kernel_dir()/index``: a later process finds the kernel without tracing,
     after the same check against numpy)."""
-    from roa.montecarlo.codegen import kernel_source
+    from roa.integration.codegen import kernel_source
 
     key = _key(system)
     hit = _TRACES.get(key) if key is not None else None

@@ -3,8 +3,8 @@
 :func:`level_search` is the one entry point. Two independent methods, each returning a witness on
 the boundary of the admissible set (``V'(x) = 0`` to rounding, or the domain boundary):
 
-* ``"sampled"`` (:mod:`roa.levelset_sampled`): rays in random directions, bisection, cap refinement;
-* ``"casadi"`` (:mod:`roa.levelset_casadi`): IPOPT multi-start ``min s(x) s.t. V'(x)/s(x)^(p/2) >= 0``
+* ``"sampled"`` (:mod:`roa.search.levelset_sampled`): rays in random directions, bisection, cap refinement;
+* ``"casadi"`` (:mod:`roa.search.levelset_casadi`): IPOPT multi-start ``min s(x) s.t. V'(x)/s(x)^(p/2) >= 0``
   (``p`` the degree at which V' starts), started at the first violations along random rays;
 * ``"both"`` runs the two and checks that they agree.
 
@@ -21,17 +21,17 @@ from typing import Any
 
 import numpy as np
 
-from roa.checks import check_system
 from roa.errors import RoaInputError
-from roa.levelset_casadi import casadi_level
-from roa.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
-from roa.levelset_sampled import sampled_level
-from roa.linearisation import jacobian, lyapunov_matrix
 from roa.lyapunov import Lyapunov, as_lyapunov
+from roa.model.checks import check_system
+from roa.model.linearisation import jacobian, lyapunov_matrix
+from roa.model.system import System
 from roa.options import CasadiOptions, SampledOptions
 from roa.progress import step
+from roa.search.levelset_casadi import casadi_level
+from roa.search.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
+from roa.search.levelset_sampled import sampled_level
 from roa.status import LevelStatus
-from roa.system import System
 
 __all__ = [
     "AGREEMENT_RTOL",
@@ -292,10 +292,10 @@ def _rank(res: LevelSearchResult) -> float:
 
 def _worst_over_box(system: System, V: Any, **kw: Any) -> LevelSearchResult:
     """The search at each sample point of an uncertain system's parameter box (nominal value,
-    vertices; :func:`roa.parameters.sample_points`), the lowest level reported with the
+    vertices; :func:`roa.model.parameters.sample_points`), the lowest level reported with the
     parameter values it was found at (``details["parameters"]``) and every point's level
     (``details["per_parameter"]``). A proposal: nothing is searched between the points."""
-    from roa.parameters import describe_point, sample_points
+    from roa.model.parameters import describe_point, sample_points
 
     check_system(system, analysis=True)  # the box's sample points, with their parameter values
     rows, best, best_p = [], None, None

@@ -1,4 +1,4 @@
-"""Sampled method of Khalil's level-set search (see :mod:`roa.levelset`).
+"""Sampled method of Khalil's level-set search (see :mod:`roa.search.levelset`).
 
 Rays in random directions on the unit sphere of the shape; the first sign change of V' along each
 ray is bracketed on a geometric radial grid and refined by bisection, then the best directions are
@@ -17,10 +17,10 @@ from typing import Any
 
 import numpy as np
 
-from roa.levelset_core import LevelSetResult, Problem, crossings, finish, start, unit
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.options import SampledOptions
-from roa.system import System
+from roa.search.levelset_core import LevelSetResult, Problem, crossings, finish, start, unit
 
 #: A refined direction stops after at most this many rounds per allowed miss (a safety cap).
 MAX_ROUNDS_PER_MISS = 50

@@ -6,7 +6,7 @@ values in its closure and the module globals it names, followed into the functio
 value, modules by name, dataclass-like objects by their fields. An object it cannot take by
 value (an arbitrary instance without a picklable state) makes the key None: no shortcut, the
 field is traced. The key is a shortcut only: the generated kernel found with it is still compared
-with the numpy field on sample states before use (:mod:`roa.montecarlo.kernel_cache`).
+with the numpy field on sample states before use (:mod:`roa.integration.kernel_cache`).
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def _value(v: Any, depth: int, seen: set[int]) -> Any:
         return ("dataclass", type(v).__qualname__,
                 [(f.name, _value(getattr(v, f.name), depth, seen))
                  for f in dataclasses.fields(v)])  # fmt: skip
-    if hasattr(v, "items") and hasattr(v, "keys"):  # mappings (roa.system.Params, ...)
+    if hasattr(v, "items") and hasattr(v, "keys"):  # mappings (roa.model.system.Params, ...)
         return ("mapping", type(v).__qualname__,
                 [(repr(k), _value(v[k], depth, seen)) for k in v.keys()])  # fmt: skip
     try:

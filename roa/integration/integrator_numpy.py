@@ -1,6 +1,6 @@
 """Vectorised numpy version of the batch DP5(4) integrator (any system, through ``system.f``).
 
-Same semantics as the numba kernel of :mod:`roa.montecarlo.integrator`: per-row step sizes,
+Same semantics as the numba kernel of :mod:`roa.integration.integrator`: per-row step sizes,
 scipy's RK45 step control, events located by bisection on the dense output. Rows are dropped from
 the active set as soon as they stop.
 """
@@ -9,11 +9,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from roa.montecarlo import budget
-from roa.montecarlo import dopri as I  # noqa: N812
-from roa.montecarlo.terminal import ENTERED, BoundTerminal
+from roa.integration import budget
+from roa.integration import dopri as I  # noqa: N812
+from roa.integration.terminal import ENTERED, BoundTerminal
+from roa.model.system import System
 from roa.status import StopRules
-from roa.system import System
 
 
 def _rms(v: np.ndarray) -> np.ndarray:
@@ -33,7 +33,7 @@ def _events(system: System, x: np.ndarray, rules: StopRules, margin_tol: float) 
 
 
 def _np():
-    from roa.backend import NP
+    from roa.model.backend import NP
 
     return NP
 
@@ -49,11 +49,11 @@ def integrate_numpy(
     terminal: BoundTerminal | None = None,
     deadline: float | None = None,
 ) -> I.BatchResult:
-    """See :func:`roa.montecarlo.integrator.integrate_batch` (``backend="numpy"``).
+    """See :func:`roa.integration.integrator.integrate_batch` (``backend="numpy"``).
 
-    Runs that enter ``terminal`` get the internal code :data:`roa.montecarlo.terminal.ENTERED`.
+    Runs that enter ``terminal`` get the internal code :data:`roa.integration.terminal.ENTERED`.
     Past ``deadline`` (absolute wall-clock time) the next field evaluation raises
-    :class:`roa.montecarlo.budget.BudgetExhausted`.
+    :class:`roa.integration.budget.BudgetExhausted`.
     """
     m, n = x0.shape
     code = np.full(m, -1, np.int8)

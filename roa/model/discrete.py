@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from roa.errors import RoaInputError
-from roa.system import BoundField, System
+from roa.model.system import BoundField, System
 
 #: The explicit one-step methods of :func:`discretise`.
 METHODS = ("euler", "rk4")

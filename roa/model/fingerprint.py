@@ -21,7 +21,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.system import System
+from roa.model.system import System
 
 #: Number of trace points and their seed (part of the fingerprint's definition: do not change).
 N_POINTS = 8
@@ -53,7 +53,7 @@ def system_fingerprint(system: System) -> str:
         if system.margin is not None:
             try:
                 comps = [X[:, i] for i in range(system.n)]
-                from roa.backend import NP
+                from roa.model.backend import NP
 
                 margin = _rounded(np.broadcast_to(system.margin(comps, NP), X.shape[:1]))
             except Exception:  # noqa: BLE001
@@ -123,7 +123,7 @@ def _identity(obj: Any, depth: int = 0) -> Any:
         return ["ndarray", str(obj.dtype), list(obj.shape), digest]
     if type(obj) in (tuple, list):
         return [type(obj).__name__, [_identity(v, depth + 1) for v in obj]]
-    if type(obj) is dict or isinstance(obj, Mapping) and type(obj).__module__ == "roa.system":
+    if type(obj) is dict or isinstance(obj, Mapping) and type(obj).__module__ == "roa.model.system":
         items = sorted(((repr(k), _identity(v, depth + 1)) for k, v in obj.items()), key=str)
         return ["mapping", items]
     if type(obj) is types.FunctionType:

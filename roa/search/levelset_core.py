@@ -1,4 +1,4 @@
-"""Shared base of the level-set search methods (:mod:`roa.levelset`): the problem and its witness.
+"""Shared base of the level-set search methods (:mod:`roa.search.levelset`): the problem and its witness.
 
 Given a system with an equilibrium ``x0``, a candidate ``V`` centred on it (any
 :class:`roa.lyapunov.Lyapunov`) and a *shape* ``s(x) = (x - x0)' S (x - x0)`` (``S`` positive
@@ -8,7 +8,7 @@ is::
     c* = sup { c > 0 : V'(x) < 0 for all x with 0 < s(x) <= c, x inside the system's domain }
        = inf { s(x) : x != x0, V'(x) >= 0 or x outside the domain }
 
-Each method (:mod:`roa.levelset_sampled`, :mod:`roa.levelset_casadi`) returns a
+Each method (:mod:`roa.search.levelset_sampled`, :mod:`roa.search.levelset_casadi`) returns a
 :class:`LevelSetResult` whose witness lies on the boundary of the admissible set, moved exactly onto
 ``V' = 0`` along its ray by :func:`finish`.
 """
@@ -22,9 +22,9 @@ import numpy as np
 from scipy import linalg, optimize
 
 from roa.errors import RoaInputError
-from roa.linearisation import decrease_matrix, jacobian
 from roa.lyapunov import Lyapunov, check_positive_definite
-from roa.system import System
+from roa.model.linearisation import decrease_matrix, jacobian
+from roa.model.system import System
 
 #: Relative agreement required between the two methods.
 AGREEMENT_RTOL = 1e-4

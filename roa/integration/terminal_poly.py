@@ -1,6 +1,6 @@
 """Membership in a polynomial terminal set: one arithmetic, in numpy and in the numba kernels.
 
-The set (:meth:`roa.montecarlo.terminal.TerminalSet.polynomial`) is
+The set (:meth:`roa.integration.terminal.TerminalSet.polynomial`) is
 
     { y : z = Mi (y - c) in [lo, hi],  V(y) + g S(y) <= thr },
 

@@ -178,7 +178,7 @@ def sector_level(V: Any, degrees: float = 60.0) -> float:
 def _cases(p: dict[str, Any], results: Path) -> dict[str, Any]:
     import roa
     from ipc_paper.system import transformed_uncertain
-    from roa.lyapunov import as_lyapunov
+    from roa.search.candidate import as_lyapunov
 
     system = transformed_uncertain(delta_low=p["delta_low"], delta_high=p["delta_high"])
     itv = roa.IntervalOptions(max_boxes=p["max_boxes"], sampled_safety=p["safety"])

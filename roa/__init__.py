@@ -48,7 +48,7 @@ _LAZY: dict[str, str] = {
     "Lyapunov": "roa.lyapunov",
     "PolynomialLyapunov": "roa.lyapunov",
     "QuadraticLyapunov": "roa.lyapunov",
-    "default_lyapunov": "roa.lyapunov",
+    "default_lyapunov": "roa.search.candidate",
     "BasinResult": "roa.montecarlo.basin",
     "basin": "roa.montecarlo.basin",
     "RobustBasinResult": "roa.montecarlo.robust_basin",
@@ -99,10 +99,8 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         Lyapunov,
         PolynomialLyapunov,
         QuadraticLyapunov,
-        default_lyapunov,
     )
-    from roa.model.system import closed_loop
-    from roa.model.system import System
+    from roa.model.system import System, closed_loop
     from roa.montecarlo.basin import BasinResult, basin
     from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
     from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
@@ -116,6 +114,7 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         SosOptions,
         VsOptions,
     )
+    from roa.search.candidate import default_lyapunov
     from roa.search.levelset import LevelSearchResult, level_search
     from roa.status import (
         BasinStatus,

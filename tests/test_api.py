@@ -126,7 +126,7 @@ def test_every_public_name_is_documented_with_an_example():
         assert "Parameters" in doc or name == "default_lyapunov", name
         assert "Examples" in doc and ">>>" in doc, name
     modules = ["roa.integration.simulation", "roa.search.levelset", "roa.certification.pipeline", "roa.montecarlo.basin",
-               "roa.lyapunov.defaults", "roa.lyapunov.polynomial", "roa.lyapunov.function",
+               "roa.search.candidate", "roa.lyapunov.polynomial", "roa.lyapunov.function",
                "roa.options", "roa.status", "roa.model.linearisation", "roa.systems"]  # fmt: skip
     for mod in modules:
         failed, tried = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)

@@ -8,9 +8,8 @@ import pytest
 
 import roa
 from roa.cli import main
-from roa.lyapunov import as_lyapunov
-from roa.lyapunov.defaults import worst_linearisation
 from roa.search.box_lyapunov import box_lyapunov, is_affine
+from roa.search.candidate import as_lyapunov, worst_linearisation
 from roa.status import Verdict
 
 P_BENCH = np.array([[1.5, -0.5], [-0.5, 1.0]])  # vanderpol's own V (designed at mu = 1)

@@ -10,8 +10,8 @@ import numpy as np
 import sympy as sp
 
 import roa
-from roa.lyapunov import default_lyapunov
 from roa.proof.recast import _pretty, shown_coefficient
+from roa.search.candidate import default_lyapunov
 
 
 def test_exact_constants_print_as_decimals_small_rationals_stay():

@@ -14,11 +14,11 @@ from scipy.optimize import minimize
 
 import roa
 from roa.cli import main
-from roa.lyapunov import as_lyapunov
 from roa.model.parameters import ParameterBox, over, sample_points
 from roa.model.system import System
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.robust import validate_robust
+from roa.search.candidate import as_lyapunov
 from roa.search.robust_witness import sampled_witness
 from roa.status import Verdict
 

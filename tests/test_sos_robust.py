@@ -18,9 +18,9 @@ from scipy.optimize import minimize
 
 import roa
 from roa.certification import Certificate
-from roa.lyapunov.defaults import as_lyapunov
 from roa.model.system import System
 from roa.proof.sos_stored import recheck as recheck_stored
+from roa.search.candidate import as_lyapunov
 from roa.status import Verdict
 
 P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V

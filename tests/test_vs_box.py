@@ -15,7 +15,7 @@ from scipy.optimize import minimize
 
 import roa
 from roa.cli import main
-from roa.lyapunov import as_lyapunov
+from roa.search.candidate import as_lyapunov
 from roa.search.vs_iteration import parameter_points, vs_search
 from roa.status import SosStatus, Verdict
 

@@ -139,8 +139,7 @@ class RangeField:
         namespace is refused (a proof must never see a point where it needs the box)."""
         name = getattr(xp, "name", None)
         if name in PROOF_NAMESPACES:
-            from roa.proof.interval import Interval
-
+            Interval = xp.interval  # noqa: N806 - the proof namespaces' interval type
             given = _VALUES.get()
             if given is not None:
                 if len(given) != len(self.box.names):

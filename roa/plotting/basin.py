@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -28,7 +28,10 @@ from roa.integration import dopri as I  # noqa: N812  (status codes, without num
 from roa.io import atomic_savefig
 from roa.lyapunov.regions import Region
 from roa.model.system import System
-from roa.montecarlo.sampling import GridSlice
+
+if TYPE_CHECKING:
+    from roa.montecarlo.sampling import GridSlice
+
 
 #: Colour per status display index (step-size failures are drawn as undecided); converged points
 #: are drawn with :data:`TIME_CMAP` instead when stop times are given.

@@ -525,6 +525,7 @@ def interval_affine(W: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray
 
 INTERVAL = SimpleNamespace(
     name="interval",
+    interval=Interval,  # the constructor, for code that must not import this module
     sqrt=isqrt,
     abs=iabs,
     sin=isin,

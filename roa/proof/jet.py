@@ -537,6 +537,7 @@ def _jet_fn(f0: Any, f1: Any, f2: Any) -> Any:
 
 JET = SimpleNamespace(
     name="interval-jet",
+    interval=Interval,  # the constructor, for code that must not import this module
     abs=jabs,
     minimum=jminimum,
     maximum=jmaximum,

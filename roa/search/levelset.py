@@ -22,12 +22,13 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov import Lyapunov, as_lyapunov
+from roa.lyapunov import Lyapunov
 from roa.model.checks import check_system
 from roa.model.linearisation import jacobian, lyapunov_matrix
 from roa.model.system import System
 from roa.options import CasadiOptions, SampledOptions
 from roa.progress import step
+from roa.search.candidate import as_lyapunov
 from roa.search.levelset_casadi import casadi_level
 from roa.search.levelset_core import AGREEMENT_RTOL, WITNESS_ATOL, LevelSetResult, inner_level
 from roa.search.levelset_sampled import sampled_level

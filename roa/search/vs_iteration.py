@@ -530,8 +530,8 @@ def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov,
     ``V0'`` is positive near the equilibrium has no level, so the iteration could not start."""
     if not system.parameters:
         return V0, False
-    from roa.lyapunov.defaults import worst_linearisation
     from roa.search.box_lyapunov import box_lyapunov
+    from roa.search.candidate import worst_linearisation
 
     if worst_linearisation(system, V0) is None:
         return V0, False

@@ -88,8 +88,8 @@ def worst_linearisation(
     check at those points only: nothing is claimed between them."""
     if not system.parameters:
         return None
+    from roa.lyapunov.local import locally_negative
     from roa.model.parameters import sample_points
-    from roa.search.levelset_core import locally_negative
 
     for p in sample_points(system, per_axis=per_axis):
         ok, lam = locally_negative(system.at(**p), V)

@@ -54,7 +54,7 @@ def test_corrected_314_is_tight_in_alpha():
 
 
 def test_cli_bound_json(capsys):
-    assert main(["bound", "--json"]) == 0
+    assert main(["study", "ipc", "bound", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["paper"]["c_tilde"] == pytest.approx(2.25)
     assert out["corrected"]["c_tilde"] == pytest.approx(1.125)
@@ -90,7 +90,7 @@ def test_cli_errors(capsys):
         main(["khalil", "--shape", "cube"])
     assert exc.value.code == 2
     with pytest.raises(SystemExit) as exc:
-        main(["bound", "--nonsense"])
+        main(["study", "ipc", "bound", "--nonsense"])
     assert exc.value.code == 2
     assert main(["khalil", "--system", "nosuch"]) == 2
     assert "not a built-in system" in capsys.readouterr().err

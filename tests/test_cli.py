@@ -17,7 +17,7 @@ def run_cli(*args: str) -> subprocess.CompletedProcess:
 
 @pytest.mark.parametrize("ic", ["0.4,0.25,0.2,2", "0,0,1.2,0.2", "1,0,-0.8,0"])
 def test_simulate_paper_points_converge(ic, capsys):
-    assert main(["ipc-simulate", "--ic", ic, "--json"]) == 0
+    assert main(["study", "ipc", "simulate", "--ic", ic, "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["status"] == "converged"
     assert len(out["final_state"]) == 4
@@ -28,7 +28,9 @@ def test_simulate_tracking_reports_error(capsys):
     assert (
         main(
             [
-                "ipc-simulate",
+                "study",
+                "ipc",
+                "simulate",
                 "--ic",
                 "0,0,1,0",
                 "--reference",
@@ -48,7 +50,9 @@ def test_simulate_tracking_reports_error(capsys):
 def test_simulate_flat_coordinates_agree(capsys):
     main(
         [
-            "ipc-simulate",
+            "study",
+            "ipc",
+            "simulate",
             "--ic",
             "0.4,0.25,0.2,2",
             "--json",
@@ -59,7 +63,7 @@ def test_simulate_flat_coordinates_agree(capsys):
         ]
     )
     flat = json.loads(capsys.readouterr().out)
-    main(["ipc-simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
+    main(["study", "ipc", "simulate", "--ic", "0.4,0.25,0.2,2", "--json", "--t-final", "5"])
     phys = json.loads(capsys.readouterr().out)
     assert flat["status"] == phys["status"] == "undecided"
     assert flat["final_state"] == pytest.approx(phys["final_state"], abs=1e-6)
@@ -76,13 +80,13 @@ def test_simulate_flat_coordinates_agree(capsys):
     ],
 )
 def test_simulate_bad_input(args, message, capsys):
-    assert main(["ipc-simulate", *args]) == 2
+    assert main(["study", "ipc", "simulate", *args]) == 2
     assert message in capsys.readouterr().err
 
 
 def test_unknown_arguments_raise():
     with pytest.raises(SystemExit):
-        build_parser().parse_args(["ipc-simulate", "--ic", "0,0,0,0", "--bogus", "1"])
+        build_parser().parse_args(["study", "ipc", "simulate", "--ic", "0,0,0,0", "--bogus", "1"])
     with pytest.raises(SystemExit):
         build_parser().parse_args(["nonexistent-command"])
 

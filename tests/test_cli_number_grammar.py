@@ -17,7 +17,7 @@ BASIN = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "3x3",
 SAMPLES = ["basin", "--system", "vanderpol", "--box", "x1=-1:1,x2=-1:1", "--jobs", "1"]
 CERT = ["certify", "--system", "vanderpol", "--level", "1"]
 KHALIL = ["khalil", "--system", "vanderpol"]
-IPC = ["ipc-simulate", "--ic", "0.1,0,0.1,0"]
+IPC = ["study", "ipc", "simulate", "--ic", "0.1,0,0.1,0"]
 
 #: (base argv, option, template of its value)
 OPTIONS = [

@@ -36,7 +36,7 @@ GRID = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "3x3",
 SAMPLES = ["basin", "--system", "vanderpol", "--box", "x1=-1:1,x2=-1:1", "--jobs", "1",
            "--t-final", "5", "--time-limit", "2"]  # fmt: skip
 CERT = ["certify", "--system", "vanderpol", "--max-boxes", "3000"]
-IPC = ["ipc-simulate", "--ic", "0.1,0,0.1,0", "--time-limit", "5"]
+IPC = ["study", "ipc", "simulate", "--ic", "0.1,0,0.1,0", "--time-limit", "5"]
 KHALIL = ["khalil", "--system", "vanderpol", "--method", "sampled", "--directions", "64"]
 
 #: (base argv, option, how the fuzzed text is put into the option's value)
@@ -114,5 +114,5 @@ FOUND = [
 
 @pytest.mark.parametrize("arg, named", FOUND, ids=[a for a, _ in FOUND])
 def test_numbers_the_fuzz_found_exit_2_naming_the_option(arg, named, capsys):
-    rc, err = _run(["ipc-simulate", "--ic", "0.1,0,0.1,0", arg], capsys)
+    rc, err = _run(["study", "ipc", "simulate", "--ic", "0.1,0,0.1,0", arg], capsys)
     assert rc == 2 and named in err and "Traceback" not in err, err

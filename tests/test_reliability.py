@@ -150,11 +150,11 @@ def test_cli_reference_is_an_input_error(tmp_path, capsys):
     from roa.cli import main
 
     marker = tmp_path / "F"
-    assert main(["ipc-simulate", "--ic", "0,0,1,0", "--reference",
+    assert main(["study", "ipc", "simulate", "--ic", "0,0,1,0", "--reference",
                  f'__import__("os").system("touch {marker}")']) == 2  # fmt: skip
     assert "reference: cannot use" in capsys.readouterr().err
     assert not marker.exists()
-    assert main(["ipc-simulate", "--ic", "0,0,1,0", "--reference", "1/0"]) == 2
+    assert main(["study", "ipc", "simulate", "--ic", "0,0,1,0", "--reference", "1/0"]) == 2
 
 
 # ---------------------------------------------------------------------------------------------

@@ -8,7 +8,8 @@ from roa.errors import RoaInputError
 from roa.io import to_json
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction, study: str | None = None) -> None:
+    """Add the command; under ``roa study NAME`` (``study``) it has no ``--study``."""
     p = sub.add_parser("check", help="recompute stored reference values (results/reference.json)")
     p.add_argument("--only", nargs="+", metavar="KEY", default=None, help="check only these keys")
     p.add_argument(
@@ -16,9 +17,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="recompute and STORE the selected keys (all if no --only) instead of checking",
     )
-    p.add_argument(
-        "--study", default=None, help="the study whose values are checked (default: ipc)"
-    )
+    if study is None:
+        p.add_argument(
+            "--study", default=None, help="the study whose values are checked (default: ipc)"
+        )
     p.add_argument("--reference", default="results/reference.json",
                    help="reference file (default results/reference.json of the checkout)")  # fmt: skip
     p.add_argument(
@@ -31,7 +33,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "edits that the hashes cannot (the reference values are not checked in this mode)",
     )
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, **({} if study is None else {"study": study}))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction, study: str | None = None) -> None:
+    """Add the command; under ``roa study NAME`` (``study``) it has no ``--study``."""
     p = sub.add_parser("report", help="generate the study's report (paper_repro.md) from results/")
-    p.add_argument("--study", default=None, help="the study (default: ipc)")
+    if study is None:
+        p.add_argument("--study", default=None, help="the study (default: ipc)")
     p.add_argument("--results", default="results", help="results directory (default results/)")
     p.add_argument("--out", default=None, help="output path (default the study's, paper_repro.md)")
     p.add_argument(
@@ -15,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="exit 1 if the file differs from what would be generated",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, **({} if study is None else {"study": study}))
 
 
 def run(args: argparse.Namespace) -> int:

@@ -66,3 +66,34 @@ def test_without_studies_only_the_library_built_ins_remain(registry):
     assert builtin_names() == dict.fromkeys(BUILTIN)
     with pytest.raises(RoaInputError, match=r"not a built-in system \(vanderpol, cubic-map\)"):
         load_system("ipc")
+
+
+def test_roa_study_lists_each_study_with_its_commands(capsys):
+    from roa.cli import main
+
+    assert main(["study"]) == 0
+    assert (
+        "ipc: roa study ipc {run, reproduce, report, check, bound, simulate}"
+        in capsys.readouterr().out
+    )
+
+
+def test_a_studys_own_commands_are_not_top_level_commands(capsys):
+    from roa.cli import build_parser
+
+    for name in ("bound", "ipc-simulate"):
+        with pytest.raises(SystemExit):
+            build_parser().parse_args([name])
+    build_parser().parse_args(["study", "ipc", "bound"])  # where they live
+
+
+def test_reproduce_outside_a_study_checkout_writes_nothing_and_names_the_study_command(
+    tmp_path, monkeypatch, capsys
+):
+    from roa.cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(["reproduce", "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert "roa reproduce: error" in err and "roa study ipc reproduce" in err
+    assert list(tmp_path.iterdir()) == []

@@ -203,3 +203,23 @@ def test_cli_reports_each_long_step_on_stderr_and_the_library_stays_silent(capsy
     progress.enable(False)
     roa.certify(vanderpol(), level=2.3)
     assert capsys.readouterr().err == ""
+
+
+def test_the_public_names_are_written_once():
+    """``PUBLIC`` gives ``__all__`` and the lazy table; the type-checking imports list the same
+    (module, name) pairs, and each name is defined by the module it is listed under."""
+    import ast
+    import importlib
+
+    tree = ast.parse((ROOT / "roa" / "__init__.py").read_text())
+    block = next(
+        n
+        for n in tree.body
+        if isinstance(n, ast.If) and getattr(n.test, "id", "") == "TYPE_CHECKING"
+    )
+    pairs = {(imp.module, a.name) for imp in block.body for a in imp.names}
+    listed = {(module, name) for module, names in roa.PUBLIC.items() for name in names}
+    assert pairs == listed
+    assert sorted(roa.__all__) == sorted(name for _, name in listed)
+    for module, name in listed:
+        assert getattr(importlib.import_module(module), name) is getattr(roa, name), name

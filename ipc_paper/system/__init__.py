@@ -189,7 +189,7 @@ def transformed(
     ``w2'``: with ``a = phi2(w1) + w2^2 phi3(w1)`` the law is ``u = (a - v) / phi1(w1)`` (2.5), and
     the model gives ``w2' = a - phi1(w1) u`` for any applied force ``u`` (``z2' = w1 + phi0 w2^2``
     does not depend on it), so ``w2' = a - phi1(w1) clip(u, -saturation, saturation)``: ``v`` where
-    the force is not saturated. ``tests/test_saturation.py`` checks it against the physical loop
+    the force is not saturated. ``ipc_paper/tests/test_saturation.py`` checks it against the physical loop
     pushed through (2.2).
     """
     gains, reference = _settings(gains, reference)

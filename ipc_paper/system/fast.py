@@ -2,7 +2,7 @@
 
 The same formulas as :func:`ipc_paper.system.closed_loop` (physical coordinates, zero reference,
 optional saturation) and :func:`ipc_paper.system.transformed` ((3.8), flat coordinates), written as
-scalar code. ``tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
+scalar code. ``ipc_paper/tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
 Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
 
 Each function exists twice, from one body: as a ``numba.cfunc`` of the public signatures of
@@ -11,7 +11,7 @@ a ``numba.njit`` function for the fast path (``System.numba_fast``, preferred by
 engine: the kernel is compiled for these functions and calls them directly, no call through a
 pointer; :func:`roa.integration.integrator.compile_kernel`). The fast path also fuses the field
 with the map to the coordinates of a terminal set, so the set test after each step reuses the
-field's sin, cos and log. ``tests/test_terminal_fastpath.py`` checks that both paths give the
+field's sin, cos and log. ``ipc_paper/tests/test_terminal_fastpath.py`` checks that both paths give the
 same trajectories bit for bit.
 """
 

@@ -210,7 +210,7 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
     :func:`compile_kernel`) is used when the system provides it, with a terminal set in other
     coordinates when it has a map to them; else the public ``system.numba`` (cfuncs of
     ``FIELD_SIGNATURE``, ...) with the shared kernel. Both give the same trajectories bit for bit
-    (tests/test_terminal_fastpath.py).
+    (ipc_paper/tests/test_terminal_fastpath.py).
     """
     fast = system.numba_fast
     name = None if terminal is None else terminal.coords

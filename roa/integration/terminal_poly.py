@@ -27,7 +27,7 @@ evaluated in floats as in the quadratic test: its rounding is part of the simula
 error, which no terminal set test bounds (nor does the baseline's integration).
 
 :func:`member_numpy` (rows of an array) and :func:`member_numba` (one point, in the kernels) do
-the same operations in the same order, so they give the same bits (tests/test_terminal_poly.py);
+the same operations in the same order, so they give the same bits (tests/integration/test_terminal_poly.py);
 the box test comes first, so a point outside the box costs ``n^2`` multiply-adds, not V.
 """
 

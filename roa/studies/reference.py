@@ -1,7 +1,7 @@
 """Regression values: a reference file (``results/reference.json``) and the functions that recompute them.
 
 ``roa check`` recomputes every stored value and exits non-zero naming each one that drifts beyond
-its tolerance (or is missing, unregistered or fails); ``tests/test_reference.py`` runs the same check.
+its tolerance (or is missing, unregistered or fails); ``ipc_paper/tests/test_reference.py`` runs the same check.
 The registry ``{key: Entry}`` belongs to a study (:mod:`roa.studies`); the functions here take it
 as an argument and never read the working directory on their own.
 

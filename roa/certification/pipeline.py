@@ -243,7 +243,7 @@ def _proposers(
         return [CandidateLevel(candidate, interval.sampled_safety)]
     sos = SosOptions() if sos is None else sos
     if method == "sos":
-        if lyap.as_quadratic() is None:
+        if not lyap.is_quadratic:
             raise RoaInputError(
                 f"method='sos' needs a QuadraticLyapunov; V {lyap.name!r} is "
                 f"{type(lyap).__name__}: use method='both' or 'interval' (sampled search, then "
@@ -692,7 +692,7 @@ def _positive_level(value: Any) -> float:
 def quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:
     """``V`` as a quadratic Lyapunov function of ``system``, or an error starting with ``what``."""
     given = as_lyapunov(system, V)
-    seed = given.as_quadratic()
+    seed = given.quadratic_view()
     if seed is None:
         raise RoaInputError(
             f"{what} {given.name!r} is {type(given).__name__}: give a matrix P or a "

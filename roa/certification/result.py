@@ -268,8 +268,9 @@ class Certificate:
         c = self.V.center
         style = "-" if self.certified else "--"
         label = f"V <= {self.level:.6g} ({self.status})"
-        if self.V.P is not None:
-            Pij = self.V.P[np.ix_([i, j], [i, j])]
+        P = self.V.quadratic_matrix()
+        if P is not None:
+            Pij = P[np.ix_([i, j], [i, j])]
             t = np.linspace(0, 2 * np.pi, n)
             L = np.linalg.cholesky(Pij)
             pts = np.sqrt(self.level) * np.linalg.solve(L.T, np.stack([np.cos(t), np.sin(t)]))

@@ -202,7 +202,7 @@ class SosValidator:
                                 f"{self.backoff!r}")  # fmt: skip
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        if getattr(V, "terms", None) is None or system.equilibrium is None:
+        if not V.is_polynomial or system.equilibrium is None:
             return False
         if system.time_varying:
             return False
@@ -547,12 +547,12 @@ class SosLevel:
     only: bool = False
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        return V.as_quadratic() is not None and system.time == "continuous"
+        return V.is_quadratic and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
         from roa.search.sos import sos_level
 
-        quad = V.as_quadratic()
+        quad = V.quadratic_view()
         assert quad is not None
         o = self.options
         res = _block_sos_level(system, V, o)

@@ -144,7 +144,7 @@ class TerminalSet:
         must lie in the bounding box of the component of ``{V <= level}`` holding the centre
         (default: found and proved by :func:`roa.proof.component.component_box`)."""
 
-        if V.terms is None:
+        if not V.is_polynomial:
             raise RoaInputError(
                 f"TerminalSet.polynomial: V must be a PolynomialLyapunov, got {type(V).__name__}"
             )
@@ -207,7 +207,9 @@ class TerminalSet:
                 f"level={self.level!r}, coords={self.coords!r})"
             )
         assert self.V is not None and self.frame is not None and self.box is not None
-        terms = [[list(a), c] for a, c in self.V.terms.items()]
+        poly = self.V.polynomial_view()
+        assert poly is not None  # checked by TerminalSet.polynomial
+        terms = [[list(a), c] for a, c in poly.items()]
         return (
             f"TerminalSet(V={terms!r}, center={self.center.tolist()!r}, level={self.level!r}, "
             f"coords={self.coords!r}, frame={self.frame.tolist()!r}, "

@@ -36,7 +36,7 @@ from roa.proof.interval import INTERVAL, Interval, round_up
 
 def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]] | None:
     """Half-widths of a cube around the centre that holds all of ``{V <= level}``, or None."""
-    gram = getattr(lyap, "gram", None)
+    gram = lyap.gram_view()
     if gram is None:
         return None
     basis, Q = gram
@@ -53,7 +53,7 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
     for i, j in itertools.product(range(m), range(m)):
         key = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
         pairs.setdefault(key, []).append((i, j))
-    terms = getattr(lyap, "terms", {})
+    terms = lyap.polynomial_view() or {}
     if set(terms) - set(pairs):
         return None
     for key, idx in pairs.items():  # make m' Qx m equal the polynomial exactly

@@ -206,7 +206,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
     if route.domain_by_boxes:
         return Preconditions(None, None, {"domain": "proved box by box by the route"})
     why = ""
-    if propose is not None and not recheck and getattr(V, "terms", None) is not None:
+    if propose is not None and not recheck and V.is_polynomial:
         try:
             mq = margin_poly(system, V)
             cand = propose(mq, exact_terms(V), V.n, level)

@@ -75,7 +75,7 @@ def content_key(system: System, V: Lyapunov, level: float) -> str | None:
     pinned down exactly: a system without an exact identity (:func:`system_identity`) or a V whose
     description does not determine it (a function V)."""
     identity = system_identity(system)
-    if identity is None or (V.P is None and V.terms is None):
+    if identity is None or not V.has_exact_description():
         return None
     data = {
         "system": identity,

@@ -163,7 +163,7 @@ class QuadraticForm:
         self.n = lyap.n
         self.center = np.asarray(lyap.center, dtype=float)
         self.coef: dict[tuple[int, int], Any] = {}
-        for a, q in (lyap.terms or {}).items():
+        for a, q in (lyap.polynomial_view() or {}).items():
             idx = [i for i, k in enumerate(a) for _ in range(k)]
             f = float(q)
             exact = Fraction(f) == (q if isinstance(q, Fraction) else Fraction(f))
@@ -172,7 +172,7 @@ class QuadraticForm:
     @classmethod
     def of(cls, lyap: Lyapunov) -> QuadraticForm | None:
         """The closed form of ``lyap``, or None when its exact terms are not all of degree 2."""
-        terms = getattr(lyap, "terms", None)
+        terms = lyap.polynomial_view()
         if not terms or any(sum(a) != 2 for a in terms):
             return None
         return cls(lyap)
@@ -439,7 +439,7 @@ def _branch_and_bound(
     and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
     that Hessian is diagonal or not definite, or a ``bounding_box`` is given)."""
     t0 = time.perf_counter()
-    if whiten and bounding_box is None and not lyap.whitened:
+    if whiten and bounding_box is None and lyap.unwhitened() is None:
         M = whitening_for(lyap)
         if M is not None:
             W = Whitened(lyap, system, M)

@@ -18,8 +18,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 
@@ -55,14 +56,99 @@ from roa.system import System
 @runtime_checkable
 class Validator(Protocol):
     """Decides ``V' < 0`` on ``{V <= level}`` minus the equilibrium: certified, refuted (with a
-    witness) or inconclusive."""
+    witness) or inconclusive; and declares what it can do, which the pipeline reads instead of
+    its class:
+
+    * ``refutes``: whether it looks for a witness (an SOS check never refutes);
+    * ``max_bnb_dim``: the states plus uncertain parameters its branch and bound decides within
+      its budget (above, a witness of the level search refutes first);
+    * ``backoff``: lower levels its exact route tries when the exact check fails;
+    * ``exact_only``: whether its exact route is all it has (no branch and bound behind it).
+
+    :class:`ValidatorBase` gives every member a default; an object with only ``name``,
+    ``accepts`` and ``check`` is taken with those defaults (:func:`as_validator`)."""
 
     @property
     def name(self) -> str: ...
 
+    @property
+    def refutes(self) -> bool: ...
+
+    @property
+    def max_bnb_dim(self) -> int: ...
+
+    @property
+    def backoff(self) -> int: ...
+
+    @property
+    def exact_only(self) -> bool: ...
+
     def accepts(self, system: System, V: Lyapunov) -> bool: ...
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation: ...
+
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None: ...
+
+    def refuter(self) -> Validator: ...
+
+    def with_cover(self, half: Callable[[], np.ndarray | None]) -> Validator: ...
+
+    def without_witness_search(self) -> Validator: ...
+
+
+class ValidatorBase:
+    """Defaults of the :class:`Validator` capabilities: it refutes, its branch and bound covers
+    :data:`roa.options.BNB_DIM` states and parameters, it has no exact route tried first, no
+    cover of its own to take and no witness search to turn off."""
+
+    refutes: bool = True
+    max_bnb_dim: int = BNB_DIM
+    backoff: int = 5
+    exact_only: bool = False
+
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
+        """The exact SOS validator tried first (with its back-off) before this one decides, or
+        None (:mod:`roa.certification.backoff`)."""
+        return None
+
+    def refuter(self) -> Validator:
+        """The validator that decides a level above the optimum: this one when it refutes, else
+        the branch and bound (which looks for a witness, checked at 50 digits)."""
+        return cast(Validator, self) if self.refutes else IntervalValidator()
+
+    def with_cover(self, half: Callable[[], np.ndarray | None]) -> Validator:
+        """This validator with the box of half-widths ``half()`` (found along rays, proved by
+        ``V > level`` on its faces) as the cover of a freshly found V, where it takes one
+        (``half`` is called only then)."""
+        return cast(Validator, self)
+
+    def without_witness_search(self) -> Validator:
+        """This validator without the level search's witness (just run by the caller)."""
+        return cast(Validator, self)
+
+
+@dataclass(frozen=True)
+class Declared(ValidatorBase):
+    """A validator object with only ``name``, ``accepts`` and ``check``, taken with the default
+    capabilities of :class:`ValidatorBase`."""
+
+    inner: Any
+
+    @property
+    def name(self) -> str:
+        return str(self.inner.name)
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return bool(self.inner.accepts(system, V))
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        return cast(Validation, self.inner.check(system, V, level))
+
+
+def as_validator(obj: Any) -> Validator:
+    """``obj`` as a :class:`Validator`: itself when it declares its capabilities (a
+    :class:`ValidatorBase`), else with the defaults (:class:`Declared`)."""
+    return cast(Validator, obj) if isinstance(obj, ValidatorBase) else Declared(obj)
 
 
 def _preconditions(system: System, V: Lyapunov, level: float, route: Route) -> Preconditions:
@@ -96,7 +182,7 @@ SOS_ROUTE = Route("sos-exact", parameters=True)
 
 
 @dataclass(frozen=True)
-class IntervalValidator:
+class IntervalValidator(ValidatorBase):
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
     Accepts every autonomous system with an equilibrium and every V, continuous-time (``V' < 0``)
@@ -114,6 +200,12 @@ class IntervalValidator:
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return system.equilibrium is not None and not system.time_varying
 
+    def with_cover(self, half: Callable[[], np.ndarray | None]) -> Validator:
+        if self.bounding_box is not None:
+            return self
+        h = half()
+        return IntervalValidator(self.options, None if h is None else 1.3 * h)
+
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         pre = _preconditions(system, V, level, INTERVAL_ROUTE)
         if pre.refusal is not None:
@@ -123,7 +215,8 @@ class IntervalValidator:
             from roa.search.robust_witness import sampled_witness
 
             with step(f"robust interval validation of level {level:.6g}", own_budget=True):
-                return validate_robust(system, V, level, witness_search=sampled_witness,
+                x, worst, _ = sampled_witness(system, V, level)
+                return validate_robust(system, V, level, proposal=(x, worst),
                                        max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
@@ -135,7 +228,7 @@ class IntervalValidator:
 
 
 @dataclass(frozen=True)
-class SosValidator:
+class SosValidator(ValidatorBase):
     """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
 
     The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
@@ -192,6 +285,7 @@ class SosValidator:
     refutes: bool = False  # the pipeline refutes above with the branch and bound
     route: str = "auto"  # "dense", "sparse" (cliques), "sdsos" or "auto" (by the memory budget)
     backoff: int = 5  # lower levels tried when the exact check fails (roa.certification.backoff)
+    exact_only: bool = True  # its exact route is all it has (the back-off's failure is its verdict)
 
     def __post_init__(self) -> None:
         if self.route not in ROUTES:
@@ -200,6 +294,10 @@ class SosValidator:
                 0 <= self.backoff <= 20):  # fmt: skip
             raise RoaInputError(f"SosValidator backoff must be an integer in [0, 20], got "
                                 f"{self.backoff!r}")  # fmt: skip
+
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
+        sos = dataclasses.replace(self, fallback=False)
+        return sos if sos.accepts(system, V) else None
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if not V.is_polynomial or system.equilibrium is None:
@@ -401,7 +499,7 @@ class SosValidator:
 
 
 @dataclass(frozen=True)
-class AutoValidator:
+class AutoValidator(ValidatorBase):
     """The route that certifies, chosen from the problem's form.
 
     Where the branch and bound's dimension allows it (states plus uncertain parameters at most
@@ -424,6 +522,15 @@ class AutoValidator:
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return system.equilibrium is not None and not system.time_varying
+
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
+        if self.bounding_box is not None or V.n + len(system.uncertain) <= self.max_bnb_dim:
+            return None
+        sos = SosValidator(fallback=False)
+        return sos if sos.accepts(system, V) else None
+
+    def without_witness_search(self) -> Validator:
+        return dataclasses.replace(self, witness_search=False)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         itv = IntervalValidator(self.options, self.bounding_box)
@@ -489,6 +596,56 @@ class LevelProposer(Protocol):
     def propose(self, system: System, V: Lyapunov) -> Proposal: ...
 
 
+class ProposerBase:
+    """What the pipeline asks of a level proposer beyond :class:`LevelProposer`, with defaults:
+
+    * ``given``: the caller's level, validated as it is (no linearisation refusal, no retry, no
+      back-off);
+    * ``fallback``: a search that takes over when an earlier proposer declines V (the
+      certificate's message then says why the earlier one did not apply);
+    * :meth:`over_box`: the proposer for a system with a parameter box (default: run at the
+      box's sample points, the lowest level wins, :class:`WorstCase`);
+    * ``label``: its name in the trace."""
+
+    given: bool = False
+    fallback: bool = False
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        raise NotImplementedError
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        raise NotImplementedError
+
+    def over_box(self) -> ProposerBase:
+        return WorstCase(self)
+
+    @property
+    def label(self) -> str:
+        return type(self).__name__
+
+
+@dataclass(frozen=True)
+class ForeignProposer(ProposerBase):
+    """A :class:`LevelProposer` object that is no :class:`ProposerBase`, with its defaults."""
+
+    inner: Any
+
+    @property
+    def label(self) -> str:
+        return type(self.inner).__name__
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return bool(self.inner.accepts(system, V))
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        return cast(Proposal, self.inner.propose(system, V))
+
+
+def as_proposer(obj: Any) -> ProposerBase:
+    """``obj`` (a :class:`LevelProposer`) with the capabilities of :class:`ProposerBase`."""
+    return obj if isinstance(obj, ProposerBase) else ForeignProposer(obj)
+
+
 def _positive(value: Any, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
         raise RoaInputError(f"{what} must be a finite number > 0, got {value!r}")
@@ -498,10 +655,14 @@ def _positive(value: Any, what: str) -> float:
 
 
 @dataclass(frozen=True)
-class GivenLevel:
+class GivenLevel(ProposerBase):
     """The caller's level, validated as it is (no safety factor, no retry below it)."""
 
     level: float
+    given = True
+
+    def over_box(self) -> ProposerBase:
+        return self
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "level", _positive(self.level, "level"))
@@ -514,12 +675,15 @@ class GivenLevel:
 
 
 @dataclass(frozen=True)
-class CandidateLevel:
+class CandidateLevel(ProposerBase):
     """A largest level found elsewhere (a number, or a :class:`roa.LevelSearchResult`),
     validated at ``safety`` x it."""
 
     candidate: LevelSearchResult | float
     safety: float = 0.999
+
+    def over_box(self) -> ProposerBase:
+        return self
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return True
@@ -536,7 +700,7 @@ class CandidateLevel:
 
 
 @dataclass(frozen=True)
-class SosLevel:
+class SosLevel(ProposerBase):
     """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
     for a polynomial system whose V and V' split over independent blocks of variables, the least
     of the blocks' levels found by bisection (:mod:`roa.search.sos_bisection`); validated at
@@ -622,12 +786,13 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
 
 
 @dataclass(frozen=True)
-class SampledLevel:
+class SampledLevel(ProposerBase):
     """The sampled level search's optimum (:func:`roa.level_search`, any V), validated at
     ``safety`` x it."""
 
     options: SampledOptions | None = None
     safety: float = 0.999
+    fallback = True
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return True
@@ -643,7 +808,7 @@ class SampledLevel:
 
 
 @dataclass(frozen=True)
-class WorstCase:
+class WorstCase(ProposerBase):
     """A proposer run at each sample point of an uncertain system's parameter box
     (:func:`roa.parameters.sample_points`: nominal value, vertices and ``per_axis`` points along
     each axis); the lowest level wins.
@@ -651,6 +816,9 @@ class WorstCase:
 
     inner: LevelProposer
     per_axis: int = 3  # interior points along each parameter's axis, beside the vertices
+
+    def over_box(self) -> ProposerBase:
+        return self
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return self.inner.accepts(system.nominal(), V)
@@ -675,6 +843,41 @@ class WorstCase:
 
 
 # -- sources of V ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Candidate:
+    """A candidate V of a source with the proposer of its level (proves nothing).
+
+    ``choose(opt)``: the level validated for an optimum ``opt`` (default: the proposal's factor x
+    ``opt``); ``fresh``: V was just found by a search whose witness may refute the level above;
+    ``search``: the candidate's level search (kept in the certificate); ``level_source``: the
+    certificate's level source unless a witness chose the level; ``label``: the progress step of
+    its validation."""
+
+    V: Lyapunov
+    proposer: LevelProposer
+    choose: Callable[[float], float] | None = None
+    fresh: bool = False
+    search: LevelSearchResult | None = None
+    level_source: str | None = None
+    label: str | None = None
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """What a source of V found: ``pairs`` in the order they are tried (at most ``validate`` of
+    them validated), the search's own ``result`` (``Certificate.vs``); when there is none, why
+    (``message``), the certificate's ``method``, and its ``V`` and ``search`` when the search
+    got that far."""
+
+    pairs: tuple[Candidate, ...]
+    result: Any
+    validate: int
+    message: str = ""
+    method: str = "sos"
+    V: Lyapunov | None = None
+    search: LevelSearchResult | None = None
+
+
 @runtime_checkable
 class VSource(Protocol):
     """Proposes candidates V from a quadratic seed (never proves them)."""
@@ -685,10 +888,20 @@ class VSource(Protocol):
     @property
     def degree(self) -> int: ...
 
-    def search(self, system: System, seed: Any) -> Any: ...
+    def search(self, system: System, seed: Any, proposer: LevelProposer) -> Candidates:
+        """The candidates found from ``seed``; ``proposer`` proposes the level of a candidate
+        that brings no proposer of its own."""
+        ...
 
 
 DEGREES = (2, 4, 6, 8)
+
+
+def positive_level(value: Any) -> float:
+    """``value`` as a level: a finite number > 0, else a :class:`RoaInputError`."""
+    if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+        raise RoaInputError(f"level must be a finite number > 0, got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -704,17 +917,23 @@ class VsIteration:
         if self.degree not in DEGREES:
             raise RoaInputError(f"degree must be one of {DEGREES}, got {self.degree!r}")
 
-    def search(self, system: System, seed: Any) -> Any:
+    def search(self, system: System, seed: Any, proposer: LevelProposer) -> Candidates:
         from roa.search.vs_iteration import vs_search
 
         vs = self.options
         with step(f"SOS V-s iteration, degree {self.degree}", own_budget=True):
-            return vs_search(system, seed, degree=self.degree,
-                             shape=None if vs.shape is None else np.asarray(vs.shape),
-                             rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
-                             symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
-                             tol=vs.tol, solver_options=vs.solver_options(),
-                             solver=vs.solver, budget=vs.budget)  # fmt: skip
+            res = vs_search(system, seed, degree=self.degree,
+                            shape=None if vs.shape is None else np.asarray(vs.shape),
+                            rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
+                            symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
+                            tol=vs.tol, solver_options=vs.solver_options(),
+                            solver=vs.solver, budget=vs.budget)  # fmt: skip
+        if not res.candidates:
+            return Candidates((), res, vs.validate,
+                              f"V-s iteration found no candidate: {res.message}", "sos")  # fmt: skip
+        order = [res.candidates[int(i)] for i in np.argsort(res.betas)[::-1]]  # best level first
+        return Candidates(tuple(Candidate(V, proposer, label=f"validation of {V.name}")
+                                for V in order), res, vs.validate)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -733,9 +952,31 @@ class CuttingPlanes:
     def degree(self) -> int:
         return int(self.options.degree)
 
-    def search(self, system: System, seed: Any) -> Any:
+    def search(self, system: System, seed: Any, proposer: LevelProposer) -> Candidates:
+        """The candidate with its own proposer (its sampled level, validated at the chosen
+        level); ``proposer`` is not used."""
         from roa.search.cutting_planes import sample_search
 
         with step(f"sampled search of V, degree {self.options.degree}"):
-            return sample_search(system, seed, hard=self.hard, soft=self.soft,
-                                 options=self.options)  # fmt: skip
+            res = sample_search(system, seed, hard=self.hard, soft=self.soft,
+                                options=self.options)  # fmt: skip
+        if res.V is None:
+            return Candidates((), res, 1, f"the sampled search found no candidate: {res.message}",
+                              "sampled search")  # fmt: skip
+        V = res.V
+        with step("sampled level search of the candidate"):
+            lv = level_search(system, V, shape="level", method="sampled")
+        if lv.level is None:
+            return Candidates((), res, 1, f"no sampled level for the candidate: {lv.message}",
+                              "level search", V=V, search=lv)  # fmt: skip
+        safety, chosen, found = self.options.level_safety, self.level, float(lv.level)
+        if chosen is None:
+            choose = lambda opt: min(1.0, safety * opt)  # noqa: E731 - 1: the search's target
+        elif callable(chosen):
+            choose = lambda opt: positive_level(chosen(V, opt))  # noqa: E731
+        else:
+            fixed = positive_level(chosen)
+            choose = lambda opt: fixed if opt == found else safety * opt  # noqa: E731
+        cand = Candidate(V, CandidateLevel(lv, safety), choose=choose, fresh=True, search=lv,
+                         level_source="given" if chosen is not None else "sampled")  # fmt: skip
+        return Candidates((cand,), res, 1)

@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
-from roa.proof.validation import Validation
+from roa.proof.validation import Reason, Validation
 from roa.status import Verdict
 from roa.system import System
 
@@ -90,8 +90,10 @@ class Preconditions:
 
 def _refuse(level: float, t0: float, status: Verdict, precondition: str, message: str,
             route: Route, **meta: Any) -> Preconditions:  # fmt: skip
+    why = Reason.DOMAIN if precondition == "domain" else Reason.PRECONDITION
     v = Validation(status, float(level), 0, time.perf_counter() - t0, message=message,
-                   meta={"method": route.name, "precondition": precondition, **meta})  # fmt: skip
+                   meta={"method": route.name, "precondition": precondition, **meta},
+                   reason=why)  # fmt: skip
     return Preconditions(v)
 
 

@@ -93,7 +93,7 @@ from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
 from roa.proof.local import local_box
 from roa.proof.relax_vdot import relaxation_bounds
-from roa.proof.validation import Validation
+from roa.proof.validation import Reason, Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
 from roa.proof.witness import recheck_domain_witness, recheck_witness
 from roa.status import Verdict
@@ -454,7 +454,8 @@ def _branch_and_bound(
     box, info, why = prove_cover(lyap, level, bounding_box, budget=max_boxes)
     if box is None:
         return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
-                   f"no proved box cover of the level set: {why}", meta=info)  # fmt: skip
+                   f"no proved box cover of the level set: {why}", meta=info,
+                   reason=Reason.NO_COVER)  # fmt: skip
     lo0, hi0 = box
     c = lyap.center
     n = lyap.n
@@ -464,7 +465,8 @@ def _branch_and_bound(
                    "precondition 'invariant' not met: the cover holds only the equilibrium's "
                    "component of {V <= level}, and a map may jump out of it (prove the whole "
                    "sublevel set: a V with a positive definite Gram matrix, no bounding_box)",
-                   meta={**info, "precondition": "invariant"})  # fmt: skip
+                   meta={**info, "precondition": "invariant"},
+                   reason=Reason.PRECONDITION)  # fmt: skip
     plo = phi = np.zeros(0)
     if parameters is not None:
         plo, phi = (np.asarray(a, dtype=float).ravel() for a in parameters)
@@ -510,7 +512,8 @@ def _branch_and_bound(
                                "the domain (float and 50 digits); no certificate for this level",
                                meta={**info, **local, "domain_witness": [float(v) for v in w],
                                      "domain_check": check, "precondition": "domain",
-                                     "domain_level": float(lyap.value(w[None])[0])})  # fmt: skip
+                                     "domain_level": float(lyap.value(w[None])[0])},
+                               reason=Reason.DOMAIN)  # fmt: skip
         if len(lo):
             w = _witness(system, lyap, 0.5 * (lo[:, :n] + hi[:, :n]), level)
             if w is not None:

@@ -357,7 +357,7 @@ def plan(
         if level is not None or candidate is not None or method != "both":
             raise RoaInputError("degree= searches V and its level: drop level, candidate, method")
         source = source_of_degree(degree, vs)
-    elif isinstance(V, VsIteration | CuttingPlanes):
+    elif isinstance(V, VSource):  # a source of V given as V, seeded by its own seed
         source, V = V, V.seed
     _check_system(system)
     if method == "sos" and level is None and system.time != "continuous":

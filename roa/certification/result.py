@@ -221,9 +221,11 @@ class Certificate:
             raise RoaInputError("reverify: the certificate has no system, V or level")
         if self.method == SOS_EXACT and self.validation is not None:
             from roa.proof.sos_stored import recheck
+            from roa.search.outside import domain_witness
 
             with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
-                v = recheck(self.system, self.V, self.level, self.validation.meta)
+                v = recheck(self.system, self.V, self.level, self.validation.meta,
+                            find_outside=domain_witness)  # fmt: skip
             return Certificate(status=v.status, level=self.level, method=SOS_EXACT,
                                level_source="reverified", seconds=v.seconds, message=v.message,
                                validation=v, trace=({"stage": "reverify", "by": SOS_EXACT,
@@ -231,8 +233,10 @@ class Certificate:
                                system=self.system, V=self.V)  # fmt: skip
         from roa.certification.strategies import INTERVAL_ROUTE
         from roa.proof.preconditions import check_preconditions
+        from roa.search.outside import domain_witness
 
-        pre = check_preconditions(self.system, self.V, self.level, INTERVAL_ROUTE, recheck=True)
+        pre = check_preconditions(self.system, self.V, self.level, INTERVAL_ROUTE, recheck=True,
+                                  find_outside=domain_witness)  # fmt: skip
         if pre.refusal is not None:
             v = pre.refusal
             return Certificate(status=v.status, level=self.level, method="interval",

@@ -154,10 +154,12 @@ def as_validator(obj: Any) -> Validator:
 def _preconditions(system: System, V: Lyapunov, level: float, route: Route) -> Preconditions:
     """:func:`roa.proof.preconditions.check_preconditions` for a fresh certificate (a Putinar
     candidate of the domain containment proposed by :mod:`roa.search.sos_domain`)."""
+    from roa.search.outside import domain_witness
     from roa.search.sos_domain import propose_domain_certificate
 
     with step(f"preconditions of level {level:.6g} ({route.name})"):
-        return check_preconditions(system, V, level, route, propose=propose_domain_certificate)
+        return check_preconditions(system, V, level, route, propose=propose_domain_certificate,
+                                   find_outside=domain_witness)  # fmt: skip
 
 
 def _with_domain(v: Validation, pre: Preconditions) -> Validation:

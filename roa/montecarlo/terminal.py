@@ -35,6 +35,7 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.montecarlo.terminal_poly import PolyArrays, member_numpy, poly_arrays
 from roa.proof.component import component_box
+from roa.search.rays import component_candidates
 from roa.system import System
 
 if TYPE_CHECKING:
@@ -156,7 +157,7 @@ class TerminalSet:
         if M.shape != (n, n) or not np.isfinite(M).all() or abs(np.linalg.det(M)) == 0:
             raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix")
         if box is None:
-            box = component_box(V, float(level), M)
+            box = component_box(V, float(level), M, component_candidates(V, float(level), M))
         lo, hi = (np.array(b, dtype=float).reshape(-1) for b in box)
         if (
             lo.shape != (n,)

@@ -106,6 +106,7 @@ def check_preconditions(
     stored_domain: Any = None,
     propose: Callable[..., Any] | None = None,
     recheck: bool = False,
+    find_outside: Callable[[System, Lyapunov], Any] | None = None,
 ) -> Preconditions:
     """Check every precondition of :data:`PRECONDITIONS` for ``{V <= level}`` on ``route``.
 
@@ -113,7 +114,11 @@ def check_preconditions(
     re-checked exactly as stored); ``recheck``: a stored certificate is being re-checked (no
     solver: without a stored domain certificate the containment is proved by intervals);
     ``propose(margin, Vq, n, level)``: the search of a Putinar candidate
-    (:func:`roa.search.sos_domain.propose_domain_certificate`) for a fresh certificate."""
+    (:func:`roa.search.sos_domain.propose_domain_certificate`) for a fresh certificate;
+    ``find_outside(system, V) -> (value, x, check) | None``: the search of a point of the set
+    outside the domain (:func:`roa.search.outside.domain_witness`), whose ``x`` refutes the
+    levels from ``V(x)`` up once proved here (:func:`roa.proof.domain.confirmed_outside`);
+    without it no level is refuted for leaving the domain (its containment is proved or not)."""
     from roa.proof.cover import gram_cover
 
     t0 = time.perf_counter()
@@ -149,16 +154,16 @@ def check_preconditions(
                       "over the linear monomials): {V <= level} may be unbounded")  # fmt: skip
     if system.margin is None:
         return Preconditions(None)
-    return _domain(system, V, lvl, route, stored_domain, propose, recheck, refuse)
+    return _domain(system, V, lvl, route, stored_domain, propose, recheck, refuse, find_outside)
 
 
 def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any,
-            propose: Any, recheck: bool, refuse: Callable[..., Preconditions]
-            ) -> Preconditions:  # fmt: skip
+            propose: Any, recheck: bool, refuse: Callable[..., Preconditions],
+            find_outside: Any = None) -> Preconditions:  # fmt: skip
     """The ``domain`` precondition (module docstring)."""
     from roa.proof.domain import (
         check_domain_certificate,
-        domain_witness,
+        confirmed_outside,
         interval_containment,
         margin_poly,
     )
@@ -177,7 +182,10 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             return refuse("domain", f"the equilibrium is not inside the domain ({where})")
     except (ValueError, TypeError, ArithmeticError) as exc:
         return refuse("domain", f"the margin cannot be evaluated ({exc})")
-    found = domain_witness(system, V)
+    found = None if find_outside is None else find_outside(system, V)
+    if found is not None:  # the search's point, proved here
+        proved = confirmed_outside(system, V, found[1])
+        found = None if proved is None else (proved[0], found[1], proved[1])
     if found is not None and found[0] * (1 + 1e-12) <= level:
         value, x, check = found
         return refuse("domain", f"the level set leaves the domain ({where}): V = {value:.10g} "

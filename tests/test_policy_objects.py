@@ -304,3 +304,19 @@ def test_a_proposed_witness_is_proved_and_a_tampered_one_refused():
     assert confirmed_bound(system, V, x) == (val, check)
     inside = np.asarray(V.center) + 0.1 * (x - np.asarray(V.center))  # V' < 0 there
     assert confirmed_bound(system, V, inside) is None
+
+
+def test_proof_imports_no_optimiser():
+    """roa.proof checks proposed points and levels; optimisers run in roa.search (import-linter
+    cannot forbid a subpackage of an external package, so this scan does)."""
+    found = []
+    for path in sorted((ROOT / "roa" / "proof").rglob("*.py")):
+        for n in ast.walk(ast.parse(path.read_text())):
+            names = []
+            if isinstance(n, ast.Import):
+                names = [a.name for a in n.names]
+            elif isinstance(n, ast.ImportFrom) and n.module:
+                names = [n.module] + [f"{n.module}.{a.name}" for a in n.names]
+            if any(m == "scipy.optimize" or m.startswith("scipy.optimize.") for m in names):
+                found.append(f"{path.relative_to(ROOT)}:{n.lineno}")
+    assert not found, found

@@ -35,6 +35,7 @@ from roa.certification.strategies import (
 from roa.lyapunov import FunctionLyapunov, PolynomialLyapunov, QuadraticLyapunov
 from roa.options import BNB_DIM
 from roa.proof.validation import Reason, Validation
+from roa.search.rays import ray_box
 from roa.status import Verdict
 from roa.systems.vanderpol import vanderpol
 
@@ -283,7 +284,7 @@ def test_the_validations_reason_is_set_where_the_verdict_is_made():
         [[2, 0], [0, 2]], [1.0, 1.0], [0.0, 0.0]
     )  # no Gram matrix: no global cover
     # a bounding box whose faces lie inside the level set (V = 0.01 there): no proved cover
-    v = validate_level(system, V, 0.5, bounding_box=np.full(2, 0.1))
+    v = validate_level(system, V, 0.5, bounding_box=np.full(2, 0.1), cover_estimate=ray_box)
     assert v.status is Verdict.INCONCLUSIVE and v.reason is Reason.NO_COVER
 
 

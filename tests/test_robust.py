@@ -18,6 +18,7 @@ from roa.lyapunov import as_lyapunov
 from roa.parameters import ParameterBox, over, sample_points
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.robust import validate_robust
+from roa.search.rays import ray_box
 from roa.search.robust_witness import sampled_witness
 from roa.status import Verdict
 from roa.system import System
@@ -149,10 +150,14 @@ def test_wide_box_certified_below_and_refuted_above_the_worst_case():
     s = vdp_box(0.7, 1.5)
     V = as_lyapunov(s, P)
     lo = min(slsqp_optimum(0.7), slsqp_optimum(1.5))
-    res = validate_robust(s, V, 0.99 * lo, proposal=sampled_witness(s, V, 0.99 * lo)[:2])
+    res = validate_robust(
+        s, V, 0.99 * lo, proposal=sampled_witness(s, V, 0.99 * lo)[:2], cover_estimate=ray_box
+    )
     assert res.status is Verdict.CERTIFIED
     assert res.meta["local_parameter_pieces"] >= 1
-    above = validate_robust(s, V, 1.01 * lo, proposal=sampled_witness(s, V, 1.01 * lo)[:2])
+    above = validate_robust(
+        s, V, 1.01 * lo, proposal=sampled_witness(s, V, 1.01 * lo)[:2], cover_estimate=ray_box
+    )
     assert above.status is Verdict.REFUTED and above.witness_parameters["mu"] == 0.7
 
 
@@ -162,7 +167,11 @@ def test_box_where_v_is_not_a_lyapunov_function_is_refuted():
     bound would only wear its budget down: the witness is found next to the equilibrium)."""
     s = vdp_box(0.5, 1.5)
     res = validate_robust(
-        s, as_lyapunov(s, P), 0.05, proposal=sampled_witness(s, as_lyapunov(s, P), 0.05)[:2]
+        s,
+        as_lyapunov(s, P),
+        0.05,
+        proposal=sampled_witness(s, as_lyapunov(s, P), 0.05)[:2],
+        cover_estimate=ray_box,
     )
     assert res.status is Verdict.REFUTED
     assert res.witness_parameters == {"mu": 0.5}

@@ -197,7 +197,7 @@ class WitnessRefuter:
             return refuted_by(proof[0], proof[1], top, how, parameters=proof[3])
         validator = run.validator.refuter()
         if run.fresh:
-            from roa.proof.cover import ray_box
+            from roa.search.rays import ray_box
 
             validator = validator.with_cover(lambda: ray_box(V, top))
         searchable = _searchable(system)

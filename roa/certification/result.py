@@ -222,10 +222,11 @@ class Certificate:
         if self.method == SOS_EXACT and self.validation is not None:
             from roa.proof.sos_stored import recheck
             from roa.search.outside import domain_witness
+            from roa.search.rays import ray_box
 
             with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
                 v = recheck(self.system, self.V, self.level, self.validation.meta,
-                            find_outside=domain_witness)  # fmt: skip
+                            find_outside=domain_witness, cover_estimate=ray_box)  # fmt: skip
             return Certificate(status=v.status, level=self.level, method=SOS_EXACT,
                                level_source="reverified", seconds=v.seconds, message=v.message,
                                validation=v, trace=({"stage": "reverify", "by": SOS_EXACT,
@@ -234,9 +235,10 @@ class Certificate:
         from roa.certification.strategies import INTERVAL_ROUTE
         from roa.proof.preconditions import check_preconditions
         from roa.search.outside import domain_witness
+        from roa.search.rays import ray_box
 
         pre = check_preconditions(self.system, self.V, self.level, INTERVAL_ROUTE, recheck=True,
-                                  find_outside=domain_witness)  # fmt: skip
+                                  find_outside=domain_witness, cover_estimate=ray_box)  # fmt: skip
         if pre.refusal is not None:
             v = pre.refusal
             return Certificate(status=v.status, level=self.level, method="interval",
@@ -245,7 +247,8 @@ class Certificate:
                                                      "status": v.status.value},),
                                system=self.system, V=self.V)  # fmt: skip
         with step(f"re-verifying {self.V.name} <= {self.level:.6g} ({self.system.name})"):
-            proof = reverify(self.system, self.V, self.level, interval=interval)
+            proof = reverify(self.system, self.V, self.level, interval=interval,
+                             cover_estimate=ray_box)  # fmt: skip
         record = dict(proof.validation)
         validation = Validation(proof.status, self.level, int(record.get("boxes", 0) or 0),
                                 proof.seconds, message=proof.message,
@@ -295,7 +298,7 @@ class Certificate:
 def _contour(ax: Any, V: Lyapunov, level: float, axes: tuple[int, int], n: int, style: str,
              label: str) -> None:  # fmt: skip
     """The curve V = level on the slice of two states through the centre (any candidate)."""
-    from roa.proof.cover import ray_box
+    from roa.search.rays import ray_box
 
     i, j = axes
     c = V.center

@@ -45,6 +45,7 @@ from roa.proof.reductions import IndependentBlocks, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
+from roa.search.rays import ray_box
 from roa.search.sos_certificate import default_eps, propose_certificate
 from roa.search.sos_putinar import propose_putinar
 from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
@@ -159,7 +160,8 @@ def _preconditions(system: System, V: Lyapunov, level: float, route: Route) -> P
 
     with step(f"preconditions of level {level:.6g} ({route.name})"):
         return check_preconditions(system, V, level, route, propose=propose_domain_certificate,
-                                   find_outside=domain_witness)  # fmt: skip
+                                   find_outside=domain_witness,
+                                   cover_estimate=ray_box)  # fmt: skip
 
 
 def _with_domain(v: Validation, pre: Preconditions) -> Validation:
@@ -222,11 +224,13 @@ class IntervalValidator(ValidatorBase):
                                        max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
-                                       time_limit=self.options.seconds())  # fmt: skip
+                                       time_limit=self.options.seconds(),
+                                       cover_estimate=ray_box)  # fmt: skip
         with step(f"interval validation of level {level:.6g}", own_budget=True):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch, bounding_box=self.bounding_box,
-                                  time_limit=self.options.seconds())  # fmt: skip
+                                  time_limit=self.options.seconds(),
+                                  cover_estimate=ray_box)  # fmt: skip
 
 
 @dataclass(frozen=True)

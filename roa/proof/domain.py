@@ -163,14 +163,16 @@ def interval_containment(
     *,
     max_boxes: int = 200_000,
     time_limit: float = 60.0,
+    cover_estimate: Any = None,
 ) -> Containment:
     """Prove ``{V <= level}`` inside ``{margin > 0}`` by interval branch and bound (module
-    docstring); ``inconclusive`` with the reason when the budget is spent first."""
+    docstring); ``inconclusive`` with the reason when the budget is spent first.
+    ``cover_estimate``: see :func:`roa.proof.cover.prove_cover`."""
     from roa.proof.cover import bisect_widest, interval_value, prove_cover
 
     t0 = time.perf_counter()
     assert system.margin is not None
-    box, info, why = prove_cover(V, level, None, budget=max_boxes)
+    box, info, why = prove_cover(V, level, None, budget=max_boxes, estimate=cover_estimate)
     if box is None:
         return Containment("inconclusive", f"no proved cover of the level set: {why}", 0, info)
     scope = "the equilibrium's component of " if "component" in str(info.get("cover", "")) else ""

@@ -107,6 +107,7 @@ def check_preconditions(
     propose: Callable[..., Any] | None = None,
     recheck: bool = False,
     find_outside: Callable[[System, Lyapunov], Any] | None = None,
+    cover_estimate: Callable[[Lyapunov, float], Any] | None = None,
 ) -> Preconditions:
     """Check every precondition of :data:`PRECONDITIONS` for ``{V <= level}`` on ``route``.
 
@@ -118,7 +119,9 @@ def check_preconditions(
     ``find_outside(system, V) -> (value, x, check) | None``: the search of a point of the set
     outside the domain (:func:`roa.search.outside.domain_witness`), whose ``x`` refutes the
     levels from ``V(x)`` up once proved here (:func:`roa.proof.domain.confirmed_outside`);
-    without it no level is refuted for leaving the domain (its containment is proved or not)."""
+    without it no level is refuted for leaving the domain (its containment is proved or not);
+    ``cover_estimate``: the proposal of a box holding the set for the interval containment
+    (:func:`roa.proof.cover.prove_cover`)."""
     from roa.proof.cover import gram_cover
 
     t0 = time.perf_counter()
@@ -154,12 +157,14 @@ def check_preconditions(
                       "over the linear monomials): {V <= level} may be unbounded")  # fmt: skip
     if system.margin is None:
         return Preconditions(None)
-    return _domain(system, V, lvl, route, stored_domain, propose, recheck, refuse, find_outside)
+    return _domain(system, V, lvl, route, stored_domain, propose, recheck, refuse, find_outside,
+                   cover_estimate)  # fmt: skip
 
 
 def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any,
             propose: Any, recheck: bool, refuse: Callable[..., Preconditions],
-            find_outside: Any = None) -> Preconditions:  # fmt: skip
+            find_outside: Any = None, cover_estimate: Any = None
+            ) -> Preconditions:  # fmt: skip
     """The ``domain`` precondition (module docstring)."""
     from roa.proof.domain import (
         check_domain_certificate,
@@ -231,7 +236,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
                 why = res.reason
         except NotPolynomial as exc:
             why = str(exc)
-    box = interval_containment(system, V, level)
+    box = interval_containment(system, V, level, cover_estimate=cover_estimate)
     if box.status == "proved":
         return Preconditions(None, {"method": "interval", "boxes": box.boxes},
                              {"domain": box.message})  # fmt: skip

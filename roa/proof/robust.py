@@ -46,13 +46,15 @@ def validate_robust(
     bounding_box: Any = None,
     time_limit: float | None = None,
     proposal: tuple[Any, dict[str, float]] | None = None,
+    cover_estimate: Any = None,
 ) -> Validation:
     """Decide ``V'_p < 0`` on ``{V <= level} \\ {x_eq}`` for every ``p`` of the system's box (module
     doc). ``max_boxes`` is the budget of boxes (states and parameters). ``proposal`` ``(x, p)``:
     a proposed refutation ``x`` (or None) at the sample point ``p`` of the box found by a search
     (:func:`roa.search.robust_witness.sampled_witness`); ``p`` also hosts the branch and bound's
     float searches (default: the nominal value, no point). A proposal proves nothing: its point
-    counts once re-checked here at 50 digits, in the equilibrium's component."""
+    counts once re-checked here at 50 digits, in the equilibrium's component.
+    ``cover_estimate``: see :func:`roa.proof.validate.validate_level`."""
     t0 = time.perf_counter()
     level = float(level)
     if not (np.isfinite(level) and level > 0):
@@ -85,7 +87,8 @@ def validate_robust(
     # sample point
     res = validate_level(over(system, full, point=worst), lyap, level, max_boxes=max_boxes,
                          batch=batch, bounding_box=bounding_box, time_limit=time_limit,
-                         parameters=(np.asarray(full.lo), np.asarray(full.hi)))  # fmt: skip
+                         parameters=(np.asarray(full.lo), np.asarray(full.hi)),
+                         cover_estimate=cover_estimate)  # fmt: skip
     meta = {**res.meta, "witness_search_parameters": worst}
     if res.status is Verdict.REFUTED:
         return out(Verdict.REFUTED, res.boxes, f"{res.message} for {describe_point(worst)}",

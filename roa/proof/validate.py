@@ -80,6 +80,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -378,6 +379,7 @@ def validate_level(
     bounding_box: Any = None,
     parameters: tuple[Any, Any] | None = None,
     time_limit: float | None = None,
+    cover_estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -397,8 +399,12 @@ def validate_level(
     bounding_box : array, optional
         ``n`` half-widths around the equilibrium, or a ``(lo, hi)`` pair, of a box holding the
         level set (``V > level`` is proved on its faces; the run is then in ``x``). Default: a
-        global bound from V's Gram matrix when there is one (every quadratic V), else a box found
-        along rays and proved.
+        global bound from V's Gram matrix when there is one (every quadratic V), else a box
+        grown from ``cover_estimate`` and proved.
+    cover_estimate : callable, optional
+        ``cover_estimate(V, level)``: half-widths of a box reached by the level set, a proposal
+        (:func:`roa.search.rays.ray_box`); without it, a V with no Gram matrix and no
+        ``bounding_box`` has no cover (``inconclusive``).
     parameters : (lo, hi), optional
         For a system over a parameter box (:func:`roa.parameters.over`): the box's bounds. The
         branch and bound then runs over states and parameters (boxes of ``n + k`` columns, the
@@ -416,7 +422,8 @@ def validate_level(
         res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
                                 bounding_box=bounding_box, parameters=parameters,
                                 deadline=None if time_limit is None
-                                else time.perf_counter() + float(time_limit))  # fmt: skip
+                                else time.perf_counter() + float(time_limit),
+                                estimate=cover_estimate)  # fmt: skip
     if "M" not in res.meta:  # boxes in x: the frame (of the component box argument) is I
         meta = {**res.meta, "coordinates": "x", "M": np.eye(lyap.n).tolist()}
         res = dataclasses.replace(res, meta=meta)
@@ -434,6 +441,7 @@ def _branch_and_bound(
     whiten: bool = True,
     parameters: tuple[Any, Any] | None = None,
     deadline: float | None = None,
+    estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
 ) -> Validation:
     """The loop of the module doc. ``whiten``: run it on boxes in ``y`` with ``x = x_eq + M y``
     and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
@@ -445,13 +453,13 @@ def _branch_and_bound(
             W = Whitened(lyap, system, M)
             res = _branch_and_bound(whitened_system(system, W), W, level, max_boxes=max_boxes,
                                     batch=batch, whiten=False, parameters=parameters,
-                                    deadline=deadline)  # fmt: skip
+                                    deadline=deadline, estimate=estimate)  # fmt: skip
             return _in_x(res, system, lyap, W)
 
     def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
         return Validation(status, level, boxes, time.perf_counter() - t0, message=message, **kw)
 
-    box, info, why = prove_cover(lyap, level, bounding_box, budget=max_boxes)
+    box, info, why = prove_cover(lyap, level, bounding_box, budget=max_boxes, estimate=estimate)
     if box is None:
         return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
                    f"no proved box cover of the level set: {why}", meta=info,

@@ -1,5 +1,9 @@
 """Estimates along rays from the centre of a Lyapunov candidate (proposals, never proofs).
 
+:func:`ray_box` proposes the half-widths of a box reached by ``{V <= level}`` (random directions
+and the axes, first exits by bisection, :func:`ray_exits`); :func:`roa.proof.cover.prove_cover`
+proves ``V > level`` on the faces of a box grown from it.
+
 :func:`component_candidates` proposes, for each side of a box in the frame ``y = M^-1 (x - c)``,
 the exit points of ``{V <= level}`` along rays (random directions, the axes and the extreme
 directions of V's quadratic part, the best refined by random perturbations), most extreme first;
@@ -9,11 +13,48 @@ component.
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
-from roa.proof.cover import ray_exits
+
+
+def ray_box(
+    lyap: Lyapunov, level: float, *, n_dirs: int = 4000, seed: int = 0
+) -> np.ndarray | None:
+    """Half-widths of the box around the centre reached by ``{V <= level}`` along rays (an
+    estimate, proved afterwards by :func:`prove_boundary`); None if V stays below the level."""
+    n, c = lyap.n, lyap.center
+    rng = np.random.default_rng(seed)
+    U = rng.standard_normal((n_dirs, n)) @ lyap.whitening().T
+    U /= np.linalg.norm(U, axis=1, keepdims=True)
+    U = np.concatenate([U, np.eye(n), -np.eye(n)])
+    _, hi, found = ray_exits(lyap.value, c, U, level)
+    if not found.all():
+        return None
+    return np.max(np.abs(hi[:, None] * U), axis=0)
+
+
+def ray_exits(
+    value: Any, c: np.ndarray, U: np.ndarray, level: float
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Along the rays ``c + t u`` (rows ``u`` of ``U``): ``(lo, hi, found)``, a bracket of the
+    first ``t`` in [1e-6, 1e6] (a geometric grid, then 50 bisections) where ``value`` exceeds
+    ``level`` (NaN counts as above); ``found`` is False where it never does on the grid."""
+    t = np.geomspace(1e-6, 1e6, 241)
+    with np.errstate(all="ignore"):
+        above = ~(value(c + t[None, :, None] * U[:, None, :]) <= level)
+    k = np.argmax(above, axis=1)
+    hi = t[k]
+    lo = np.where(k > 0, t[np.maximum(k - 1, 0)], 0.0)
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        with np.errstate(all="ignore"):
+            b = ~(value(c + mid[:, None] * U) <= level)
+        hi, lo = np.where(b, mid, hi), np.where(b, lo, mid)
+    return lo, hi, above.any(axis=1)
 
 
 def _exits(V: Lyapunov, level: float, U: np.ndarray) -> np.ndarray:

@@ -307,12 +307,15 @@ def test_a_proposed_witness_is_proved_and_a_tampered_one_refused():
     assert confirmed_bound(system, V, inside) is None
 
 
-def test_proof_imports_no_optimiser():
-    """roa.proof checks proposed points and levels; optimisers run in roa.search (import-linter
-    cannot forbid a subpackage of an external package, so this scan does)."""
+def test_proof_neither_optimises_nor_samples():
+    """roa.proof checks proposed points and levels; optimisers and random samples are in
+    roa.search (import-linter cannot forbid a subpackage of an external package nor an
+    attribute, so this scan does)."""
     found = []
     for path in sorted((ROOT / "roa" / "proof").rglob("*.py")):
         for n in ast.walk(ast.parse(path.read_text())):
+            if isinstance(n, ast.Attribute) and n.attr in ("random", "default_rng"):
+                found.append(f"{path.relative_to(ROOT)}:{n.lineno}: {n.attr}")
             names = []
             if isinstance(n, ast.Import):
                 names = [a.name for a in n.names]

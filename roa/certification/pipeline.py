@@ -544,16 +544,19 @@ def run(
         policy.back_off(r, a)
     above = _above(r, a, prop, check_above)
     message = _message(r, a, prop, skipped and not given, local)
-    v = a.v
-    method = v.meta.get("method", r.validator.name)
     if given and not fresh:
-        return r.done(status=v.status, level=a.value, method=method, level_source="given",
-                      message=message, validation=v, above=above, candidate=a.value)  # fmt: skip
+        return r.done(status=a.v.status, level=a.value, method=_method(r, a), level_source="given",
+                      message=message, validation=a.v, above=above, candidate=a.value)  # fmt: skip
     source = "backoff" if a.backoff or backed_off else "witness" if a.notes else prop.source
-    return r.done(status=v.status, level=a.value, method=method, level_source=source,
+    return r.done(status=a.v.status, level=a.value, method=_method(r, a), level_source=source,
                   message=message, candidate=a.opt,
-                  safety_factor=None if choose is not None else factor, validation=v,
+                  safety_factor=None if choose is not None else factor, validation=a.v,
                   above=above, sos=sos_res, search=prop.search)  # fmt: skip
+
+
+def _method(r: Run, a: Attempt) -> str:
+    """The route that decided: the validation's own ``method``, else the validator's name."""
+    return str(a.v.meta.get("method", r.validator.name))
 
 
 def _first_validation(r: Run, prop: Proposal, given: bool) -> tuple[Attempt, bool]:

@@ -9,9 +9,14 @@ Each is a small object with ``accepts(system, V)`` and one action, as cvxpy's re
   (:class:`LevelProposer`): :class:`GivenLevel`, :class:`CandidateLevel` (a level found
   elsewhere), :class:`SosLevel` (quadratic V), :class:`SampledLevel` (any V).
 * **Sources of V** propose candidates (:class:`VSource`): :class:`VsIteration` (SOS V-s
-  iteration), :class:`CuttingPlanes` (sampled cutting planes); a given V is its own source.
+  iteration), :class:`CuttingPlanes` (sampled cutting planes), each as :class:`Candidates`, pairs
+  of a V and the proposer of its level; a given V is its own source.
 
-Proposers and sources prove nothing; only a validator's verdict reaches ``certified``.
+Each declares what it can do as fields and methods (:class:`ValidatorBase`: ``refutes``,
+``max_bnb_dim``, ``backoff``, ``exact_only``, ``exact_route``, ``refuter``, ``with_cover``;
+:class:`ProposerBase`: ``given``, ``fallback``, ``over_box``), which the pipeline reads instead of
+their classes. Proposers and sources prove nothing; only a validator's verdict reaches
+``certified``.
 """
 
 from __future__ import annotations

@@ -25,6 +25,7 @@ from roa.proof.local import local_box
 from roa.proof.validate import evaluate_boxes, validate_level
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
 from roa.search.levelset import level_search
+from roa.search.rays import ray_box
 from roa.search.sos import sos_level
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
@@ -35,7 +36,7 @@ def uniform_grid(system, V, level, *, max_boxes=4_000_000):
     M = whitening_for(V)
     W = V if M is None else Whitened(V, system, M)
     S = system if M is None else whitened_system(system, W)
-    (lo0, hi0), _, _ = prove_cover(W, level, None)
+    (lo0, hi0), _, _ = prove_cover(W, level, None, estimate=ray_box)
     found = local_box(S, W, lo0, hi0)
     loc_lo, loc_hi = (W.center, W.center) if found is None else found[:2]
     n, total, k = V.n, 0, 4
@@ -77,7 +78,7 @@ def main() -> None:
         time.perf_counter() - t,
     )
     for f in (0.999, 1.001):
-        v = validate_level(vdp, Vv, f * RHO_BENCHMARK)
+        v = validate_level(vdp, Vv, f * RHO_BENCHMARK, cover_estimate=ray_box)
         row(f"VdP interval B&B at {f} x 2.3045", v.status, v.boxes, v.seconds)
     st, b, sec = uniform_grid(vdp, Vv, 0.999 * RHO_BENCHMARK)
     row("VdP baseline uniform grid at 0.999 x 2.3045", st, b, sec)
@@ -87,12 +88,12 @@ def main() -> None:
     t = time.perf_counter()
     opt = float(level_search(ipc, Vp, shape="level", method="sampled").level)
     row(f"IPC sampled optimum {opt:.6f}", "sampled", 0, time.perf_counter() - t)
-    v = validate_level(ipc, Vp, 0.999 * opt)
+    v = validate_level(ipc, Vp, 0.999 * opt, cover_estimate=ray_box)
     row("IPC interval B&B at 0.999 x optimum (target 60 s)", v.status, v.boxes, v.seconds)
     st, b, sec = uniform_grid(ipc, Vp, 0.999 * opt, max_boxes=2_000_000)
     row("IPC baseline uniform grid at 0.999 x optimum", st, b, sec)
     print(f"ratio baseline/B&B time: {sec / v.seconds:.1f}x ({'baseline ' + st})")
-    v2 = validate_level(ipc, Vp, 1.001 * opt)
+    v2 = validate_level(ipc, Vp, 1.001 * opt, cover_estimate=ray_box)
     row("IPC interval B&B at 1.001 x optimum", v2.status, v2.boxes, v2.seconds)
     s = sos_level(ipc, Vp, recast_mode="enclosure")
     row(f"IPC SOS enclosure rho = {s.level}", s.status, 0, s.seconds)

@@ -101,6 +101,7 @@ from roa.integration.simulation import simulate
 from roa.integration.terminal import TerminalSet
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample
+from roa.search.rays import ray_box
 from roa.status import StopRules
 
 BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
@@ -179,7 +180,9 @@ def degree4_set(coords: str = "flat") -> TerminalSet:
     V = lyapunov_from_json(row["V"], np.zeros(4), name=row["V"]["lyapunov"])
     name = f"{row['V']['lyapunov']} <= {row['level']:.6g}"
     analysis = ipc.closed_loop().analysis_coords.system(coords)
-    proof = reverify(analysis, V, row["level"])  # its frame; cached after the first run
+    proof = reverify(
+        analysis, V, row["level"], cover_estimate=ray_box
+    )  # its frame; cached after the first run
     if not proof.certified:
         raise SystemExit(f"{DEGREES}: the {coords} degree-4 V did not re-verify: {proof.message}")
     return TerminalSet.polynomial(V, row["level"], coords=coords, name=name, frame=proof.frame)

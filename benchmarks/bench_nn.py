@@ -131,6 +131,7 @@ def run(name: str, baseline: bool, time_limit: float) -> dict[str, Any]:
     import roa.proof.relax_vdot as rv
     from roa.model.linearisation import lyapunov_matrix
     from roa.proof.validate import validate_level
+    from roa.search.rays import ray_box
 
     system = _load(name)
     ratio, horizon = SYSTEMS[name][2], SYSTEMS[name][3]
@@ -141,16 +142,16 @@ def run(name: str, baseline: bool, time_limit: float) -> dict[str, Any]:
     out: dict[str, Any] = {"system": name, "n": system.n, "optimum": opt,
                            "optimum_s": round(time.perf_counter() - t0, 1), "ratio": ratio}  # fmt: skip
     t0 = time.perf_counter()
-    cert = validate_level(system, V, ratio * opt, time_limit=time_limit)
+    cert = validate_level(system, V, ratio * opt, time_limit=time_limit, cover_estimate=ray_box)
     out.update(status=cert.status.value, level=ratio * opt, boxes=cert.boxes,
                seconds=round(time.perf_counter() - t0, 1), local=cert.meta.get("local_proof"),
                peak_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1))  # fmt: skip
-    above = validate_level(system, V, 1.01 * opt, time_limit=time_limit)
+    above = validate_level(system, V, 1.01 * opt, time_limit=time_limit, cover_estimate=ray_box)
     out["above"] = above.status.value
     if baseline:
         rv.ENABLED = False
         t0 = time.perf_counter()
-        base = validate_level(system, V, ratio * opt, time_limit=time_limit)
+        base = validate_level(system, V, ratio * opt, time_limit=time_limit, cover_estimate=ray_box)
         rv.ENABLED = True
         out.update(baseline_status=base.status.value, baseline_boxes=base.boxes,
                    baseline_seconds=round(time.perf_counter() - t0, 1),

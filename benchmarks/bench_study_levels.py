@@ -28,6 +28,7 @@ import numpy as np
 
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof.validate import validate_level
+from roa.search.rays import ray_box
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -79,7 +80,7 @@ def main() -> None:
             ("1.001 x cert", 1.001 * blk["below"]["level"], "-", None),
         ]
         for what, level, committed, cboxes in rows:
-            r = validate_level(system, V, level, max_boxes=args.max_boxes)
+            r = validate_level(system, V, level, max_boxes=args.max_boxes, cover_estimate=ray_box)
             base = ""
             if args.baseline and committed == "-":
                 b = validate_quadratic_baseline(system, V, level, max_boxes=args.max_boxes)

@@ -50,6 +50,7 @@ from roa.proof.jet import JET, Jet
 from roa.proof.local import hessian_negative_definite
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
+from roa.search.rays import ray_box
 from roa.status import Verdict
 from roa.systems.vanderpol import vanderpol
 
@@ -421,7 +422,9 @@ def main() -> None:
     )
     ap.add_argument("--repeats", type=int, default=3, help="calls per path and case (min taken)")
     args = ap.parse_args()
-    validate_level(vanderpol(), roa.default_lyapunov(vanderpol()), 1.0)  # warm imports
+    validate_level(
+        vanderpol(), roa.default_lyapunov(vanderpol()), 1.0, cover_estimate=ray_box
+    )  # warm imports
     validate_quadratic_baseline(vanderpol(), roa.default_lyapunov(vanderpol()), 1.0)
     head = (
         f"{'case':<10} {'level':>5} {'path':<5} {'verdict base/one':<21} {'boxes b':>8} "
@@ -438,7 +441,10 @@ def main() -> None:
             b, sb = timed(lambda: validate_quadratic_baseline(system, V, level), args.repeats)  # noqa: B023
             for label, W, jets in (("quad", V, False), ("poly", P, False), ("jets", V, True)):
                 with jets_for_v() if jets else _nothing():
-                    g, sg = timed(lambda: validate_level(system, W, level), args.repeats)  # noqa: B023
+                    g, sg = timed(
+                        lambda: validate_level(system, W, level, cover_estimate=ray_box),  # noqa: B023
+                        args.repeats,
+                    )
                 cover = int(g.meta.get("cover_boxes", 0))
                 verdicts = f"{b.status.value}/{g.status.value}"
                 if b.status != g.status:

@@ -21,6 +21,7 @@ from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet
 from roa.proof.local import local_box, local_box_proof
 from roa.proof.validate import validate_level
+from roa.search.rays import ray_box
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 finite = st.floats(-5, 5, allow_nan=False)
@@ -76,8 +77,8 @@ def test_square_of_straddling_interval_is_nonnegative():
 def test_vanderpol_certify_and_refute_around_published_level():
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
-    below = validate_level(system, V, 0.999 * RHO_BENCHMARK)
-    above = validate_level(system, V, 1.001 * RHO_BENCHMARK)
+    below = validate_level(system, V, 0.999 * RHO_BENCHMARK, cover_estimate=ray_box)
+    above = validate_level(system, V, 1.001 * RHO_BENCHMARK, cover_estimate=ray_box)
     assert below.status == "certified" and below.boxes > 0
     assert above.status == "refuted"
     assert above.witness_check["confirmed"]
@@ -120,16 +121,16 @@ def test_ipc_paper_V_certify_below_refute_above_the_optimum():
     V = QuadraticLyapunov.for_system(system, _paper_V())
     opt = _slsqp_optimum(system, V)
     assert 2.0 < opt < 2.5
-    below = validate_level(system, V, 0.999 * opt)
+    below = validate_level(system, V, 0.999 * opt, cover_estimate=ray_box)
     assert below.status == "certified", below.message
-    above = validate_level(system, V, 1.001 * opt)
+    above = validate_level(system, V, 1.001 * opt, cover_estimate=ray_box)
     assert above.status == "refuted" and above.witness_check["confirmed"]
 
 
 def test_budget_exhaustion_is_inconclusive_not_certified():
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
-    v = validate_level(system, V, 0.9999 * RHO_BENCHMARK, max_boxes=50)
+    v = validate_level(system, V, 0.9999 * RHO_BENCHMARK, max_boxes=50, cover_estimate=ray_box)
     assert v.status == "inconclusive"
 
 
@@ -144,7 +145,10 @@ def test_local_proof_fails_for_an_unstable_candidate():
     # (-2 mu x2^2 vanishes on the x1 axis)
     assert local_box(system, V, np.full(2, -1.0), np.full(2, 1.0)) is None
     # (a budget of 2e5 boxes: the branch and bound ends inconclusive, never certified)
-    assert validate_level(system, V, 0.5, max_boxes=200_000).status != "certified"
+    assert (
+        validate_level(system, V, 0.5, max_boxes=200_000, cover_estimate=ray_box).status
+        != "certified"
+    )
 
 
 def test_not_positive_definite_candidate_rejected():
@@ -157,7 +161,7 @@ def test_bad_level_rejected():
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, P_BENCHMARK)
     with pytest.raises(ValueError, match="level"):
-        validate_level(system, V, -1.0)
+        validate_level(system, V, -1.0, cover_estimate=ray_box)
 
 
 @settings(max_examples=300, deadline=None)
@@ -301,15 +305,18 @@ def test_level_set_cut_by_the_domain_is_not_certified():
     # enough, the sublevel set must lie inside the domain (it does for level 0.81 < 1)
     system = _half_plane_system()
     V = QuadraticLyapunov.for_system(system, np.eye(2))
-    cut = validate_level(system, V, 4.0)
+    cut = validate_level(system, V, 4.0, cover_estimate=ray_box)
     assert cut.status == "refuted"  # a point of the set outside the domain refutes the level
     assert "leaves the domain" in cut.message and cut.meta["precondition"] == "domain"
     w = np.asarray(cut.meta["domain_witness"])
     assert V.value(w) <= 4.0 and w[0] >= 1.0
-    assert validate_level(system, V, 0.81).status == "certified"
+    assert validate_level(system, V, 0.81, cover_estimate=ray_box).status == "certified"
     # the bounding cube of {V <= 0.999} has x1 <= 0.9995 < 1: provably inside the domain
-    assert validate_level(system, V, 0.999, max_boxes=20_000).status == "certified"
-    assert validate_level(system, V, 1.0001).status != "certified"
+    assert (
+        validate_level(system, V, 0.999, max_boxes=20_000, cover_estimate=ray_box).status
+        == "certified"
+    )
+    assert validate_level(system, V, 1.0001, cover_estimate=ray_box).status != "certified"
 
 
 def _composite(x, xp):

@@ -21,6 +21,7 @@ from hypothesis import strategies as st
 from roa.errors import RoaInputError
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
+from roa.search.rays import ray_box
 
 
 # -- reference jets: exact (Fraction) or 50-digit (mpmath) ------------------------------------------
@@ -436,7 +437,7 @@ def test_hessian_of_vdot_at_the_equilibrium_is_enclosed_exactly(name):
     S = [[2 * (PA[i][j] + PA[j][i]) for j in range(n)] for i in range(n)]
     H = mat(T(M), mat(S, M))
     zero = np.zeros((1, n))
-    box, _, _ = prove_cover(W, 2.0, None)
+    box, _, _ = prove_cover(W, 2.0, None, estimate=ray_box)
     assert box is not None
     found = local_box(Sw, W, *box)
     assert found is not None and found[2]["local_proof"] == "hessian"

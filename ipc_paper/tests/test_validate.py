@@ -18,6 +18,7 @@ from roa.proof.interval import INTERVAL, Interval
 from roa.proof.jet import JET, Jet
 from roa.proof.validate import QuadraticForm, evaluate_boxes, validate_level
 from roa.proof.whiten import Whitened, affine_components, whitening_for
+from roa.search.rays import ray_box
 
 C = (0.5, -0.25, 1.0)
 
@@ -134,9 +135,9 @@ def test_multiplier_test_refuses_when_vdot_is_positive_inside():
 @pytest.mark.parametrize(("make", "top"), [(_cubic, 1.0), (_bump, 0.9025)])
 def test_certified_just_below_and_refuted_just_above_closed_form(make, top, gap):
     s, V = make()
-    below = validate_level(s, V, top * (1 - gap))
+    below = validate_level(s, V, top * (1 - gap), cover_estimate=ray_box)
     assert below.status is roa.Verdict.CERTIFIED
-    above = validate_level(s, V, top * (1 + gap))
+    above = validate_level(s, V, top * (1 + gap), cover_estimate=ray_box)
     assert above.status is roa.Verdict.REFUTED and above.witness_check["confirmed"]
 
 
@@ -145,10 +146,13 @@ def test_face_budget_is_the_callers_max_boxes():
     s = System(name="lin", field=lambda t, x, xp: (-x[0],), equilibrium=(0.0,),
                state_names=("x",))  # fmt: skip
     V = PolynomialLyapunov([[2], [4]], [1.0, 1.0], [0.0])
-    short = validate_level(s, V, 2.0, max_boxes=1)
+    short = validate_level(s, V, 2.0, max_boxes=1, cover_estimate=ray_box)
     assert short.status is roa.Verdict.INCONCLUSIVE and "faces" in short.message
     assert "budget 1" in short.message
-    assert validate_level(s, V, 2.0, max_boxes=100).status is roa.Verdict.CERTIFIED
+    assert (
+        validate_level(s, V, 2.0, max_boxes=100, cover_estimate=ray_box).status
+        is roa.Verdict.CERTIFIED
+    )
 
 
 # The IPC's degree-4 V of the degrees experiment (flat coordinates, sampled cutting planes, round
@@ -231,7 +235,10 @@ def test_whitened_gram_quadratic_gets_the_global_cover():
     y = np.random.default_rng(0).standard_normal((2000, 2))
     y *= np.sqrt(2.3 / W.value(y))[:, None]  # points of the level surface in y
     assert info["cover"].startswith("global") and np.all(np.abs(y) <= half)
-    ok, bad = validate_level(s, V, 2.30), validate_level(s, V, 2.31)
+    ok, bad = (
+        validate_level(s, V, 2.30, cover_estimate=ray_box),
+        validate_level(s, V, 2.31, cover_estimate=ray_box),
+    )
     assert ok.status.value == "certified" and ok.meta["cover"].startswith("global")
     assert bad.status.value == "refuted" and bad.witness_check["confirmed"]
 

@@ -28,13 +28,16 @@ from __future__ import annotations
 import dataclasses
 import time
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 from roa.model.system import System
 from roa.proof.validation import Validation
 from roa.status import Verdict
+
+if TYPE_CHECKING:
+    from roa.certification.strategies import Validator
 
 #: Relative steps below the proposal tried while no level is certified.
 STEPS = (1e-3, 1e-2, 3e-2, 1e-1)
@@ -75,23 +78,12 @@ class Backoff:
         return "exact SOS back-off: " + "; ".join(parts)
 
 
-def exact_route(validator: Any, system: System, V: Lyapunov) -> Any:
+def exact_route(validator: Validator, system: System, V: Lyapunov) -> Any:
     """The exact SOS validator the back-off runs, or None when the validator does not try the
     SOS route first (the branch and bound decides first, or the field is neither polynomial nor
-    exactly recast)."""
-    from roa.certification.strategies import AutoValidator, SosValidator
-
-    if isinstance(validator, SosValidator):
-        sos = dataclasses.replace(validator, fallback=False)
-    elif isinstance(validator, AutoValidator):
-        if validator.bounding_box is not None:
-            return None
-        if V.n + len(system.uncertain) <= validator.max_bnb_dim:
-            return None
-        sos = SosValidator(fallback=False)
-    else:
-        return None
-    return sos if sos.accepts(system, V) else None
+    exactly recast): :meth:`Validator.exact_route
+    <roa.certification.strategies.Validator.exact_route>`."""
+    return validator.exact_route(system, V)
 
 
 def can_back_off(v: Validation) -> bool:
@@ -193,22 +185,22 @@ def back_off(system: System, V: Lyapunov, sos: Any, proposal: float, *,
     return dataclasses.replace(out, validation=dataclasses.replace(val, meta=meta, message=message))
 
 
-def exact_first(system: System, V: Lyapunov, validator: Any, level: float,
+def exact_first(system: System, V: Lyapunov, validator: Validator, level: float,
                 trace: list[dict[str, Any]]) -> tuple[Validation, float] | None:  # fmt: skip
     """The exact SOS route and its back-off (:func:`back_off`) run before the validator
     ``validator`` when it tries that route first (:func:`exact_route`): ``(validation, level)``
     of the largest certified level, or, for a :class:`SosValidator` (which has no other route),
-    the proposal's failed validation with every try in its message and ``meta["backoff"]``;
+    the proposal's failed validation with every try in its message and ``meta["backoff"]``
+    (``validator.exact_only``);
     None when the route does not apply or the back-off certified nothing and the validator
     decides the proposal itself (the branch and bound backs the SOS route up). Each try is a
     ``trace`` entry."""
-    from roa.certification.strategies import SosValidator
     from roa.progress import step
 
     sos = exact_route(validator, system, V)
     if sos is None:
         return None
-    tries = getattr(validator, "backoff", TRIES)
+    tries = validator.backoff
     with step(f"exact SOS check of level {level:.6g}, backing off when it fails"):
         bo = back_off(system, V, sos, level, tries=tries)
     for k, t in enumerate(bo.tries):
@@ -217,7 +209,7 @@ def exact_first(system: System, V: Lyapunov, validator: Any, level: float,
                       "seconds": round(t.seconds, 3), "margin": t.margin})  # fmt: skip
     if bo.validation is not None and bo.level is not None:
         return bo.validation, bo.level
-    if isinstance(validator, SosValidator) and bo.first is not None:
+    if validator.exact_only and bo.first is not None:
         v = bo.first
         if len(bo.tries) > 1:
             meta = {**v.meta, "backoff": [t.to_json() for t in bo.tries]}

@@ -1,28 +1,32 @@
 """``roa.certify``: a pipeline of strategies, "find V, propose a level, prove it, refute above".
 
-The stages, each an object of :mod:`roa.certification.strategies`:
+The stages, each an object of :mod:`roa.certification.strategies` or of this module:
 
-1. **V**: the caller's candidate (default :func:`roa.default_lyapunov`), or candidates from a
-   source of V (:class:`~roa.certification.strategies.VsIteration`,
+1. **V**: the caller's candidate (default :func:`roa.default_lyapunov`), or ``(V, proposer)``
+   pairs from a source of V (:class:`~roa.certification.strategies.VsIteration`,
    :class:`~roa.certification.strategies.CuttingPlanes`) seeded by a quadratic V.
 2. **Level**: the first proposer that accepts V and finds a level (default: SOS for a quadratic V,
    else the sampled level search); each proposer owns its safety factor.
 3. **Proof**: the validator (the interval branch and bound) decides the level. It alone can
    certify.
-4. **Refinement**: a proposed level refuted by a confirmed witness (V' >= 0 at 50 digits, in the
-   equilibrium's component) is chosen again below ``V(witness)``, which bounds the true optimum
-   (``retries`` times at most; a level the caller gave is never changed).
-5. **Refutation above**: with ``check_above``, ``check_above`` x the optimum is refuted, by a
-   confirmed witness below it when there is one, else by the validator.
+4. **Refinement** (:class:`RetryPolicy`): a proposed level refuted by a confirmed witness (V' >= 0
+   at 50 digits, in the equilibrium's component) is chosen again below ``V(witness)``, which
+   bounds the true optimum (``retries`` times at most; a level the caller gave is never changed);
+   a level proposed at sample points of a parameter box and left inconclusive is backed off.
+5. **Refutation above** (:class:`WitnessRefuter`): with ``check_above``, ``check_above`` x the
+   optimum is refuted, by a confirmed witness below it when there is one, else by the validator.
 
-Every stage leaves an entry in ``Certificate.trace``.
+:func:`certify` maps its arguments (numbers, mode and validator names, shorthands) to these
+objects in one place (:func:`plan`); :func:`run` and the stages see objects only. Every stage
+leaves an entry in ``Certificate.trace``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -32,36 +36,216 @@ from roa.certification.strategies import (
     DEGREES,
     AutoValidator,
     CandidateLevel,
+    Candidates,
     CuttingPlanes,
     GivenLevel,
     IntervalValidator,
     LevelProposer,
     Proposal,
+    ProposerBase,
     SampledLevel,
     SosLevel,
     SosValidator,
     Validator,
     VsIteration,
-    WorstCase,
+    VSource,
+    as_proposer,
+    as_validator,
+    positive_level,
 )
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov, QuadraticLyapunov
 from roa.model.checks import check_system
 from roa.model.parameters import ParameterBox
 from roa.model.system import System
-from roa.options import BNB_DIM, IntervalOptions, SampledOptions, SosOptions, VsOptions
+from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
-from roa.proof.validation import Validation
+from roa.proof.validation import Reason, Validation
 from roa.search.candidate import as_lyapunov
 from roa.search.levelset import LevelSearchResult, level_search
 from roa.status import Verdict
 
 METHODS = ("sos", "interval", "both")
+VALIDATORS = ("interval", "sos", "auto")
 #: Times a proposed level is chosen again below a confirmed witness.
 RETRIES = 3
 #: Factors of the levels tried after an inconclusive validation of a level proposed at sample
 #: points of a parameter box (the worst case may lie between them).
 BACKOFF = (0.98, 0.95, 0.9)
+
+#: A confirmed witness ``(x, check, V(x), parameters)`` bounding the optimum from above.
+Proof = tuple[Any, Any, float, Any]
+
+
+# -- policies ----------------------------------------------------------------------------------------
+@dataclass
+class Attempt:
+    """The level under validation and what the pipeline knows about it: its validation ``v``,
+    the level ``value``, the least known upper bound ``opt`` of the optimum, a confirmed witness
+    ``proof`` below it, and the notes of the refinement and of the back-off."""
+
+    v: Validation
+    value: float
+    opt: float
+    proof: Proof | None = None
+    notes: list[str] = field(default_factory=list)
+    backoff: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class RetryPolicy:
+    """What follows the first validation of a proposed level (never of a level the caller gave).
+
+    * :meth:`refine`: up to ``retries`` times, a level refuted by a confirmed witness (``V' >= 0``
+      at 50 digits, in the equilibrium's component) or by a confirmed point outside the domain is
+      chosen again below the value of V there, which bounds the true optimum;
+    * :meth:`back_off`: for a system with a parameter box, an inconclusive level proposed at the
+      box's sample points is tried at ``backoff`` factors of itself (at most ``retries`` of them),
+      unless the domain or the cover made it inconclusive (neither depends on the level's place
+      below the worst case).
+    """
+
+    retries: int = RETRIES
+    backoff: tuple[float, ...] = BACKOFF
+
+    def __post_init__(self) -> None:
+        r = self.retries
+        if isinstance(r, bool) or not isinstance(r, int) or not 0 <= r <= 10:
+            raise RoaInputError(f"retries must be an integer in [0, 10], got {r!r}")
+
+    def bound(self, system: System, V: Lyapunov, v: Validation) -> tuple[float, str, Any] | None:
+        """``(value, why, proof)``: the upper bound of the optimum that ``v`` proves (a point
+        outside the domain, or the lowest confirmed witness near its witness, ``proof`` then
+        the witness when it bounds), or None."""
+        outside = v.meta.get("domain_level") if v.status is Verdict.REFUTED else None
+        if outside is not None:  # the set leaves the domain at V = outside (50 digits)
+            return float(outside), "a point outside the domain", None
+        confirmed = (v.witness_check or {}).get("confirmed")
+        if v.status is not Verdict.REFUTED or v.witness is None or not confirmed:
+            return None
+        from roa.search.witness import lowest_confirmed_witness
+
+        wp = v.witness_parameters
+        at = system.at(**wp) if wp else system
+        bound, x, check = lowest_confirmed_witness(at, V, np.asarray(v.witness, dtype=float))
+        if not bound > 0 or x is None:  # only a point proved in the component bounds c*
+            return None
+        return bound, "V' >= 0", (x, check, bound, wp)
+
+    def refine(self, run: Run, a: Attempt, rounds: int, level_for: Callable[[float], float],
+               factor: float) -> None:  # fmt: skip
+        """Choose the level again below each confirmed bound, ``rounds`` times at most."""
+        for _ in range(rounds):
+            found = self.bound(run.system, run.V, a.v)
+            if found is None:
+                break
+            bound, why, proof = found
+            if proof is not None and bound <= a.opt:
+                a.proof = proof  # refutes every level >= V(x)
+            a.opt = min(a.opt, bound)
+            new = (
+                min(level_for(a.opt), factor * a.opt) if run.choose is not None else factor * a.opt
+            )
+            if not 0 < new < a.value:
+                break
+            a.notes.append(f"refuted at {a.value:.7g} ({why} at V = {bound:.10g}, 50 digits)")
+            run.trace.append({"stage": "refine", "witness_level": bound, "next_level": new})
+            a.value = new
+            a.v = run.validate(a.value, "validate below the witness")
+
+    def back_off(self, run: Run, a: Attempt) -> None:
+        """Lower levels after an inconclusive validation of a level proposed at a parameter
+        box's sample points (class doc)."""
+        if not run.system.parameters or a.v.status is not Verdict.INCONCLUSIVE:
+            return
+        for factor in self.backoff[: max(self.retries, 0)]:
+            if a.v.reason in (Reason.DOMAIN, Reason.NO_COVER):
+                break  # neither depends on where the level is below the worst case
+            new = factor * a.value
+            a.backoff.append(f"inconclusive at {a.value:.7g}, backed off to {new:.7g}")
+            run.trace.append({"stage": "back off", "from": a.value, "next_level": new})
+            a.value = new
+            a.v = run.validate(a.value, "validate below (back off)")
+            if a.v.status is not Verdict.INCONCLUSIVE:
+                break
+
+
+@dataclass(frozen=True)
+class WitnessRefuter:
+    """Refutes a level ``top`` above the optimum: by a confirmed witness below it (a retry's,
+    or the proposal's own search witness for a freshly found V or a parameter box, proved again
+    at 50 digits in the equilibrium's component), else by the validator's refuter
+    (:meth:`Validator.refuter <roa.certification.strategies.Validator.refuter>`, with a cover
+    from rays for a freshly found V), with the level search's witness
+    (:func:`witness_by_search`) where the branch and bound cannot decide: first above the
+    dimension it covers, else after an inconclusive validation."""
+
+    def refute(self, run: Run, top: float, proof: Proof | None, prop: Proposal) -> Validation:
+        from roa.proof.witness import WITNESS_SLACK, refuted_by
+        from roa.search.witness import lowest_confirmed_witness
+
+        system, V, trace = run.system, run.V, run.trace
+        own = run.fresh or bool(system.parameters)
+        if own and proof is None and prop.search is not None and prop.search.witness is not None:
+            w = np.asarray(prop.search.witness, dtype=float)
+            wp = prop.parameters if system.parameters else None
+            val, x, check = lowest_confirmed_witness(system.at(**wp) if wp else system, V, w)
+            if x is not None and val * WITNESS_SLACK <= top:
+                proof = (x, check, val, wp)
+        if proof is not None and proof[2] * WITNESS_SLACK <= top:
+            how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
+            trace.append({"stage": "refute above", "by": "witness", "level": top})
+            return refuted_by(proof[0], proof[1], top, how, parameters=proof[3])
+        validator = run.validator.refuter()
+        if run.fresh:
+            from roa.search.rays import ray_box
+
+            validator = validator.with_cover(lambda: ray_box(V, top))
+        searchable = _searchable(system)
+        v = None
+        if not (searchable and V.n > validator.max_bnb_dim):
+            with step(f"refutation check of {V.name} at level {top:.6g}"):
+                v = _validate(system, V, validator, top, trace, "refute above")
+            if v.status is not Verdict.INCONCLUSIVE or not searchable:
+                return v
+        found, note = witness_by_search(system, V, top, trace)
+        if found is not None:
+            return found
+        validator = validator.without_witness_search()  # the search just ran: not again
+        if v is None:
+            with step(f"refutation check of {V.name} at level {top:.6g}"):
+                v = _validate(system, V, validator, top, trace, "refute above")
+        if note and v.status is Verdict.INCONCLUSIVE:
+            v = dataclasses.replace(v, message=f"{v.message}; {note}")
+        return v
+
+
+# -- the one adapter: certify's arguments as objects ------------------------------------------------
+@dataclass(frozen=True)
+class Plan:
+    """What :func:`certify` runs, as objects: ``V`` with its level ``proposers``, or a ``source``
+    of ``(V, proposer)`` pairs seeded by ``seed`` (``proposer`` the level of a candidate that
+    brings none); the ``validator``, the retry ``policy``, the ``refuter`` and ``check_above``."""
+
+    validator: Validator
+    policy: RetryPolicy = field(default_factory=RetryPolicy)
+    V: Lyapunov | None = None
+    proposers: tuple[ProposerBase, ...] = ()
+    source: VSource | None = None
+    seed: QuadraticLyapunov | None = None
+    proposer: LevelProposer | None = None
+    check_above: float | None = None
+    refuter: WitnessRefuter = field(default_factory=WitnessRefuter)
+
+    def run(self, system: System, t0: float | None = None) -> Certificate:
+        t0 = time.perf_counter() if t0 is None else t0
+        if self.source is not None:
+            assert self.seed is not None and self.proposer is not None
+            return from_source(system, self.seed, self.source, self.proposer, self.validator,
+                               self.check_above, self.policy, t0, self.refuter)  # fmt: skip
+        assert self.V is not None
+        return run(system, self.V, self.proposers, self.validator, check_above=self.check_above,
+                   retries=self.policy, t0=t0, refuter=self.refuter)  # fmt: skip
 
 
 def certify(
@@ -79,7 +263,7 @@ def certify(
     degree: int | None = None,
     vs: VsOptions | None = None,
     validator: Validator | str | None = None,
-    retries: int = RETRIES,
+    retries: int | RetryPolicy = RETRIES,
 ) -> Certificate:
     """Certify (or refute) that ``{V <= level}`` lies in the region of attraction.
 
@@ -118,8 +302,9 @@ def certify(
         the exact SOS certificate above, each backing up the other), ``"interval"``
         (:class:`roa.IntervalValidator`, the branch and bound only) or ``"sos"``
         (:class:`roa.SosValidator`).
-    retries : int
-        Times a proposed level is chosen again below a confirmed refutation witness (0 to 10).
+    retries : int or RetryPolicy
+        Times a proposed level is chosen again below a confirmed refutation witness (0 to 10),
+        or the policy itself (:class:`RetryPolicy`).
 
     Returns
     -------
@@ -136,29 +321,44 @@ def certify(
     <Verdict.REFUTED: 'refuted'>
     """
     t0 = time.perf_counter()
-    if isinstance(retries, bool) or not isinstance(retries, int) or not 0 <= retries <= 10:
-        raise RoaInputError(f"retries must be an integer in [0, 10], got {retries!r}")
+    return plan(system, V, level=level, method=method, sos=sos, interval=interval,
+                sampled=sampled, candidate=candidate, check_above=check_above,
+                bounding_box=bounding_box, degree=degree, vs=vs, validator=validator,
+                retries=retries).run(system, t0)  # fmt: skip
+
+
+def plan(
+    system: System,
+    V: Any = None,
+    *,
+    level: Any = None,
+    method: str = "both",
+    sos: SosOptions | None = None,
+    interval: IntervalOptions | None = None,
+    sampled: SampledOptions | None = None,
+    candidate: Any = None,
+    check_above: float | None = None,
+    bounding_box: Any = None,
+    degree: int | None = None,
+    vs: VsOptions | None = None,
+    validator: Any = None,
+    retries: int | RetryPolicy = RETRIES,
+) -> Plan:
+    """The objects of :func:`certify`'s arguments (the one place that reads mode and validator
+    names, numbers and shorthands), every argument checked before any program is built."""
+    policy = retries if isinstance(retries, RetryPolicy) else RetryPolicy(retries)
     if check_above is not None and not (np.isfinite(check_above) and check_above > 1):
         raise RoaInputError(f"check_above must be a finite number > 1, got {check_above!r}")
     interval = IntervalOptions() if interval is None else interval
     if validator is not None and not isinstance(validator, str) and bounding_box is not None:
         raise RoaInputError("bounding_box belongs to the validator: give one or the other")
-    check = _validator(validator, interval, bounding_box)
-    source: VsIteration | CuttingPlanes | None = None
+    check = validator_named(validator, interval, bounding_box)
+    source: VSource | None = None
     if degree is not None:
         if level is not None or candidate is not None or method != "both":
             raise RoaInputError("degree= searches V and its level: drop level, candidate, method")
-        if degree not in DEGREES:
-            raise RoaInputError(f"degree must be one of {DEGREES}, got {degree!r}")
-        vs = VsOptions() if vs is None else vs
-        if vs.method == "sampled":
-            from roa.options import SampleSearchOptions
-
-            o = (SampleSearchOptions() if vs.sampled is None else vs.sampled).replace(degree=degree)
-            source = CuttingPlanes(o)
-        else:
-            source = VsIteration(degree, vs)
-    elif isinstance(V, VsIteration | CuttingPlanes):
+        source = source_of_degree(degree, vs)
+    elif isinstance(V, VSource):  # a source of V given as V, seeded by its own seed
         source, V = V, V.seed
     _check_system(system)
     if method == "sos" and level is None and system.time != "continuous":
@@ -174,23 +374,20 @@ def certify(
         )
     if source is not None:
         seed = quadratic_seed(system, V, "the search of V starts from a quadratic seed; V")
-        return _from_source(system, seed, source, check, sampled, interval, check_above,
-                            retries, t0)  # fmt: skip
+        return Plan(check, policy, source=source, seed=seed, check_above=check_above,
+                    proposer=SampledLevel(sampled, interval.sampled_safety))  # fmt: skip
     lyap = as_lyapunov(system, V)
     if isinstance(level, int | float) and not isinstance(level, bool):
-        representable_level(system, lyap, _positive_level(level))
+        representable_level(system, lyap, positive_level(level))
         if check_above is not None:
             representable_level(system, lyap, check_above * level, what="check_above x level")
-    proposers = _proposers(lyap, level, method, candidate, sos, interval, sampled)
-    return run(system, lyap, proposers, check, check_above=check_above, retries=retries,
-               t0=t0)  # fmt: skip
+    proposers = proposers_of(lyap, level, method, candidate, sos, interval, sampled)
+    return Plan(check, policy, V=lyap, proposers=tuple(proposers), check_above=check_above)
 
 
-VALIDATORS = ("interval", "sos", "auto")
-
-
-def _validator(validator: Any, interval: IntervalOptions, bounding_box: Any) -> Validator:
-    """The validator object of ``certify``'s ``validator`` argument (an object or a name)."""
+def validator_named(validator: Any, interval: IntervalOptions, bounding_box: Any) -> Validator:
+    """The validator object of ``certify``'s ``validator`` argument (an object or a name of
+    :data:`VALIDATORS`)."""
     if validator == "interval":
         return IntervalValidator(interval, bounding_box)
     if validator is None or validator == "auto":
@@ -202,7 +399,21 @@ def _validator(validator: Any, interval: IntervalOptions, bounding_box: Any) -> 
     if isinstance(validator, str):
         raise RoaInputError(f"validator must be one of {VALIDATORS} or a validator object, "
                             f"got {validator!r}")  # fmt: skip
-    return validator
+    return as_validator(validator)
+
+
+def source_of_degree(degree: Any, vs: VsOptions | None) -> VSource:
+    """The source of V of ``certify``'s ``degree=`` shorthand: :class:`VsIteration`, or
+    :class:`CuttingPlanes` for ``vs.method="sampled"``."""
+    if degree not in DEGREES:
+        raise RoaInputError(f"degree must be one of {DEGREES}, got {degree!r}")
+    vs = VsOptions() if vs is None else vs
+    if vs.method == "sampled":
+        from roa.options import SampleSearchOptions
+
+        o = (SampleSearchOptions() if vs.sampled is None else vs.sampled).replace(degree=degree)
+        return CuttingPlanes(o)
+    return VsIteration(degree, vs)
 
 
 def _check_system(system: System) -> None:
@@ -211,7 +422,7 @@ def _check_system(system: System) -> None:
     check_system(system, analysis=True)
 
 
-def _proposers(
+def proposers_of(
     lyap: Lyapunov,
     level: Any,
     method: str,
@@ -219,8 +430,9 @@ def _proposers(
     sos: SosOptions | None,
     interval: IntervalOptions,
     sampled: SampledOptions | None,
-) -> list[LevelProposer]:
-    """The level proposers of the shorthand arguments, in the order they are tried."""
+) -> list[ProposerBase]:
+    """The level proposers of ``certify``'s shorthand arguments (``level``, ``candidate`` and
+    the ``method`` of :data:`METHODS`), in the order they are tried."""
     if method not in METHODS:
         raise RoaInputError(f"method must be one of {METHODS}, got {method!r}")
     if level is not None and not isinstance(level, int | float):
@@ -230,7 +442,7 @@ def _proposers(
             raise RoaInputError(
                 f"level must be a number > 0 or a level proposer, got {type(level).__name__}"
             )
-        return [level]
+        return [as_proposer(level)]
     if level is not None:
         if method == "sos":
             raise RoaInputError(
@@ -244,7 +456,7 @@ def _proposers(
         return [CandidateLevel(candidate, interval.sampled_safety)]
     sos = SosOptions() if sos is None else sos
     if method == "sos":
-        if lyap.as_quadratic() is None:
+        if not lyap.is_quadratic:
             raise RoaInputError(
                 f"method='sos' needs a QuadraticLyapunov; V {lyap.name!r} is "
                 f"{type(lyap).__name__}: use method='both' or 'interval' (sampled search, then "
@@ -255,6 +467,29 @@ def _proposers(
     return [SosLevel(sos), sampled_level] if method == "both" else [sampled_level]
 
 
+# -- the run: propose, prove, refine, refute above ---------------------------------------------------
+@dataclass
+class Run:
+    """One run of the pipeline on ``V``: what every step reads, and the ``trace`` it writes."""
+
+    system: System
+    V: Lyapunov
+    validator: Validator
+    policy: RetryPolicy
+    refuter: WitnessRefuter
+    t0: float
+    choose: Callable[[float], float] | None = None
+    fresh: bool = False
+    trace: list[dict[str, Any]] = field(default_factory=list)
+
+    def validate(self, level: float, stage: str) -> Validation:
+        return _validate(self.system, self.V, self.validator, level, self.trace, stage)
+
+    def done(self, **kw: Any) -> Certificate:
+        return Certificate(seconds=time.perf_counter() - self.t0, system=self.system, V=self.V,
+                           trace=tuple(self.trace), **kw)  # fmt: skip
+
+
 def run(
     system: System,
     V: Lyapunov,
@@ -262,138 +497,118 @@ def run(
     validator: Validator,
     *,
     check_above: float | None = None,
-    retries: int = RETRIES,
+    retries: int | RetryPolicy = RETRIES,
     t0: float | None = None,
     choose: Any = None,
     fresh: bool = False,
+    refuter: WitnessRefuter | None = None,
 ) -> Certificate:
     """Propose a level for ``V``, prove it, refine below a witness, refute above.
 
     ``choose(opt)`` is the level validated for an optimum ``opt`` (default: the proposal's factor
     x ``opt``); ``fresh``: V was just found by a search (its level search's witness may refute
-    the level above, whose cover is then taken from rays).
+    the level above, whose cover is then taken from rays); ``retries``: the number of
+    refinements or the :class:`RetryPolicy`; ``refuter``: default :class:`WitnessRefuter`.
     """
-    t0 = time.perf_counter() if t0 is None else t0
-    trace: list[dict[str, Any]] = []
-    if not validator.accepts(system, V):
-        raise RoaInputError(f"validator {validator.name!r} does not accept V {V.name!r}")
-
-    def done(**kw: Any) -> Certificate:
-        return Certificate(seconds=time.perf_counter() - t0, system=system, V=V,
-                           trace=tuple(trace), **kw)  # fmt: skip
-
+    policy = retries if isinstance(retries, RetryPolicy) else RetryPolicy(retries)
+    r = Run(system, V, as_validator(validator), policy, refuter or WitnessRefuter(),
+            time.perf_counter() if t0 is None else t0, choose, fresh)  # fmt: skip
+    if not r.validator.accepts(system, V):
+        raise RoaInputError(f"validator {r.validator.name!r} does not accept V {V.name!r}")
+    chain = [as_proposer(p) for p in proposers]
     local = _not_locally_negative(system, V)
-    if local is not None and not any(isinstance(p, GivenLevel) for p in proposers):
-        trace.append({"stage": "linearisation", "parameters": local[0], "max_eig": local[1]})
-        return done(status=Verdict.INCONCLUSIVE, level=None, method="linearisation",
-                    level_source=None, message=local[2])  # fmt: skip
+    if local is not None and not any(p.given for p in chain):
+        r.trace.append({"stage": "linearisation", "parameters": local[0], "max_eig": local[1]})
+        return r.done(status=Verdict.INCONCLUSIVE, level=None, method="linearisation",
+                      level_source=None, message=local[2])  # fmt: skip
     if system.parameters:  # levels proposed at the box's sample points, the lowest first
-        proposers = [p if isinstance(p, GivenLevel | CandidateLevel | WorstCase) else WorstCase(p)
-                     for p in proposers]  # fmt: skip
-    prop, sos_res, skipped = _propose(system, V, proposers, trace)
+        chain = [p.over_box() for p in chain]
+    prop, sos_res, skipped = _propose(system, V, chain, r.trace)
     if prop.final:
-        return done(status=Verdict.INCONCLUSIVE, level=prop.candidate, method="sos",
-                    level_source="sos" if prop.candidate is not None else None,
-                    message=prop.message, sos=prop.sos, candidate=prop.candidate)  # fmt: skip
+        return r.done(status=Verdict.INCONCLUSIVE, level=prop.candidate, method="sos",
+                      level_source="sos" if prop.candidate is not None else None,
+                      message=prop.message, sos=prop.sos, candidate=prop.candidate)  # fmt: skip
     if prop.level is None:
-        return done(status=Verdict.INCONCLUSIVE, level=None, method="level search",
-                    level_source=None, message=prop.message, sos=sos_res,
-                    search=prop.search)  # fmt: skip
+        return r.done(status=Verdict.INCONCLUSIVE, level=None, method="level search",
+                      level_source=None, message=prop.message, sos=sos_res,
+                      search=prop.search)  # fmt: skip
     assert prop.candidate is not None
     given = prop.source == "given"
-    opt = prop.candidate
+    a, backed_off = _first_validation(r, prop, given)
     factor = 1.0 if prop.factor is None else prop.factor
 
     def level_for(o: float) -> float:
         return float(choose(o)) if choose is not None else factor * o
 
-    value = prop.level if given or choose is None else level_for(opt)
+    policy.refine(r, a, 0 if given and not fresh else policy.retries, level_for, factor)
+    if not given:
+        policy.back_off(r, a)
+    above = _above(r, a, prop, check_above)
+    message = _message(r, a, prop, skipped and not given, local)
+    if given and not fresh:
+        return r.done(status=a.v.status, level=a.value, method=_method(r, a), level_source="given",
+                      message=message, validation=a.v, above=above, candidate=a.value)  # fmt: skip
+    source = "backoff" if a.backoff or backed_off else "witness" if a.notes else prop.source
+    return r.done(status=a.v.status, level=a.value, method=_method(r, a), level_source=source,
+                  message=message, candidate=a.opt,
+                  safety_factor=None if choose is not None else factor, validation=a.v,
+                  above=above, sos=sos_res, search=prop.search)  # fmt: skip
+
+
+def _method(r: Run, a: Attempt) -> str:
+    """The route that decided: the validation's own ``method``, else the validator's name."""
+    return str(a.v.meta.get("method", r.validator.name))
+
+
+def _first_validation(r: Run, prop: Proposal, given: bool) -> tuple[Attempt, bool]:
+    """The proposal's level validated: by the exact SOS route and its back-off where the
+    validator tries it first (:func:`roa.certification.backoff.exact_first`, never for a given
+    level), else by the validator; and whether the exact back-off moved the level."""
     from roa.certification.backoff import exact_first
 
-    first = None if given else exact_first(system, V, validator, value, trace)
-    backed_off = first is not None and first[1] != value
+    assert prop.candidate is not None and prop.level is not None
+    opt = prop.candidate
+    value = prop.level if given or r.choose is None else float(r.choose(opt))
+    first = None if given else exact_first(r.system, r.V, r.validator, value, r.trace)
     if first is not None:  # the exact SOS route and its back-off decided (before any B&B)
-        v, value = first
-    else:
-        v = _validate(system, V, validator, value, trace, "validate")
-    notes: list[str] = []
-    proof: tuple[Any, Any, float, Any] | None = None  # a confirmed witness below the optimum
-    for _ in range(0 if given and not fresh else retries):
-        w = v.witness
-        confirmed = (v.witness_check or {}).get("confirmed")
-        outside = v.meta.get("domain_level") if v.status is Verdict.REFUTED else None
-        if outside is not None:  # the set leaves the domain at V = outside (50 digits)
-            bound, why = float(outside), "a point outside the domain"
-        else:
-            if v.status is not Verdict.REFUTED or w is None or not confirmed:
-                break
-            from roa.proof.witness import lowest_confirmed_witness
+        return Attempt(first[0], first[1], opt), first[1] != value
+    return Attempt(r.validate(value, "validate"), value, opt), False
 
-            wp = v.witness_parameters
-            at = system.at(**wp) if wp else system
-            bound, x, check = lowest_confirmed_witness(at, V, np.asarray(w, dtype=float))
-            if not bound > 0 or x is None:  # only a point proved in the component bounds c*
-                break
-            if bound <= opt:
-                proof = (x, check, bound, wp)  # refutes every level >= V(x)
-            why = "V' >= 0"
-        opt = min(opt, bound)
-        new = min(level_for(opt), factor * opt) if choose is not None else factor * opt
-        if not 0 < new < value:
-            break
-        notes.append(f"refuted at {value:.7g} ({why} at V = {bound:.10g}, 50 digits)")
-        trace.append({"stage": "refine", "witness_level": bound, "next_level": new})
-        value = new
-        v = _validate(system, V, validator, value, trace, "validate below the witness")
-    backoff: list[str] = []
-    if system.parameters and not given and v.status is Verdict.INCONCLUSIVE:
-        # a level proposed at sample points of the box is no bound between them: back off
-        for factor_back in BACKOFF[: max(retries, 0)]:
-            if v.meta.get("precondition") == "domain" or "box cover" in v.message:
-                break  # neither depends on where the level is below the worst case
-            new = factor_back * value
-            backoff.append(f"inconclusive at {value:.7g}, backed off to {new:.7g}")
-            trace.append({"stage": "back off", "from": value, "next_level": new})
-            value = new
-            v = _validate(system, V, validator, value, trace, "validate below (back off)")
-            if v.status is not Verdict.INCONCLUSIVE:
-                break
-    above = None
-    if check_above is not None:
-        try:
-            representable_level(system, V, check_above * opt, what="check_above x the optimum")
-        except RoaInputError as exc:  # refused before any program: no verdict above
-            above = Validation(Verdict.INCONCLUSIVE, check_above * opt, 0, 0.0, message=str(exc))
-        else:
-            above = _refute_above(system, V, validator, check_above * opt, proof, prop, fresh,
-                                  trace)  # fmt: skip
-    message = v.message
-    if notes:
-        sampled_opt = prop.candidate
+
+def _above(r: Run, a: Attempt, prop: Proposal, check_above: float | None) -> Validation | None:
+    """``check_above`` x the optimum refuted (:class:`WitnessRefuter`), or None without it."""
+    if check_above is None:
+        return None
+    top = check_above * a.opt
+    try:
+        representable_level(r.system, r.V, top, what="check_above x the optimum")
+    except RoaInputError as exc:  # refused before any program: no verdict above
+        return Validation(Verdict.INCONCLUSIVE, top, 0, 0.0, message=str(exc))
+    return r.refuter.refute(r, top, a.proof, prop)
+
+
+def _message(r: Run, a: Attempt, prop: Proposal, skipped: bool,
+             local: tuple[dict[str, float], float, str] | None) -> str:  # fmt: skip
+    """The certificate's message: the validation's, then the refinement's and the back-off's
+    notes, why SOS did not propose (``skipped``), the linearisation's refusal of a given level."""
+    message = a.v.message
+    if a.notes:
         message = (f"{message}; retried below confirmed witnesses (sampled optimum "
-                   f"{sampled_opt:.7g}): " + "; ".join(notes))  # fmt: skip
-    if backoff:
+                   f"{prop.candidate:.7g}): " + "; ".join(a.notes))  # fmt: skip
+    if a.backoff:
         message = (f"{message}; the proposal is the worst of the parameter box's sample points, "
-                   "not a bound between them: " + "; ".join(backoff))  # fmt: skip
-    if skipped and not given:
+                   "not a bound between them: " + "; ".join(a.backoff))  # fmt: skip
+    if skipped:
         why = (
             "to continuous-time systems only (this one is a map)"
-            if system.time == "discrete"
-            else f"to quadratic V only ({type(V).__name__})"
+            if r.system.time == "discrete"
+            else f"to quadratic V only ({type(r.V).__name__})"
         )
         message = (f"SOS applies {why}: level from the sampled search, checked by the "
                    f"validator. {message}")  # fmt: skip
     if local is not None:  # a given level: the validator's verdict, and why
         message = f"{local[2]}. {message}"
-    if given and not fresh:
-        return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
-                    level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
-    source = "backoff" if backoff or backed_off else "witness" if notes else prop.source
-    return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
-                level_source=source,
-                message=message, candidate=opt,
-                safety_factor=None if choose is not None else factor, validation=v,
-                above=above, sos=sos_res, search=prop.search)  # fmt: skip
+    return message
 
 
 def _not_locally_negative(
@@ -423,23 +638,23 @@ def _not_locally_negative(
 
 
 def _propose(
-    system: System, V: Lyapunov, proposers: Sequence[LevelProposer], trace: list[dict[str, Any]]
+    system: System, V: Lyapunov, proposers: Sequence[ProposerBase], trace: list[dict[str, Any]]
 ) -> tuple[Proposal, Any, bool]:
     """The first proposal with a level (or the last one), the SOS result met on the way, and
-    whether a proposer declined V."""
+    whether a proposer declined V before a fallback search proposed."""
     prop: Proposal | None = None
     sos_res, skipped = None, False
     for proposer in proposers:
         if not proposer.accepts(system, V):
             skipped = True
-            trace.append({"stage": "propose", "by": type(proposer).__name__, "accepted": False})
+            trace.append({"stage": "propose", "by": proposer.label, "accepted": False})
             continue
         prop = proposer.propose(system, V)
-        trace.append({"stage": "propose", "by": type(proposer).__name__, "source": prop.source,
+        trace.append({"stage": "propose", "by": proposer.label, "source": prop.source,
                       "candidate": prop.candidate, "level": prop.level})  # fmt: skip
         sos_res = prop.sos if prop.sos is not None else sos_res
         if prop.level is not None or prop.final:
-            return prop, sos_res, skipped and isinstance(proposer, SampledLevel)
+            return prop, sos_res, skipped and proposer.fallback
     if prop is None:
         raise RoaInputError(f"no level proposer accepts V {V.name!r}")
     return prop, sos_res, False
@@ -450,63 +665,6 @@ def _validate(system: System, V: Lyapunov, validator: Validator, level: float,
     v = validator.check(system, V, level)
     trace.append({"stage": stage, "by": validator.name, "level": level, "status": v.status.value,
                   "boxes": v.boxes, "seconds": round(v.seconds, 3)})  # fmt: skip
-    return v
-
-
-def _refute_above(
-    system: System,
-    V: Lyapunov,
-    validator: Validator,
-    top: float,
-    proof: tuple[Any, Any, float, Any] | None,
-    prop: Proposal,
-    fresh: bool,
-    trace: list[dict[str, Any]],
-) -> Validation:
-    """``top`` refuted by a confirmed witness below it (a retry's, or for a freshly found V the
-    level search's), else decided by the validator."""
-    from roa.proof.witness import WITNESS_SLACK, lowest_confirmed_witness, refuted_by
-
-    # the proposal's own witness (a freshly found V's search, or the worst sample point of a
-    # parameter box), proved again here (50 digits, in the equilibrium's component)
-    own = fresh or bool(system.parameters)
-    if own and proof is None and prop.search is not None and prop.search.witness is not None:
-        w = np.asarray(prop.search.witness, dtype=float)
-        wp = prop.parameters if system.parameters else None
-        val, x, check = lowest_confirmed_witness(system.at(**wp) if wp else system, V, w)
-        if x is not None and val * WITNESS_SLACK <= top:
-            proof = (x, check, val, wp)
-    if proof is not None and proof[2] * WITNESS_SLACK <= top:
-        how = f"local minimum of V on {{V' >= 0}}, V = {proof[2]:.10g}"
-        trace.append({"stage": "refute above", "by": "witness", "level": top})
-        return refuted_by(proof[0], proof[1], top, how, parameters=proof[3])
-    if not getattr(validator, "refutes", True):  # an SOS check never refutes: the branch and
-        validator = IntervalValidator()  # bound looks for a witness (checked at 50 digits)
-    if fresh and isinstance(validator, IntervalValidator) and validator.bounding_box is None:
-        from roa.proof.cover import ray_box
-
-        half = ray_box(V, top)  # a cover from rays, proved by V > level on its faces
-        validator = IntervalValidator(validator.options, None if half is None else 1.3 * half)
-    # a witness of the level search refutes where the validator cannot: first above the
-    # dimension the branch and bound covers (it would spend its whole budget before ending
-    # inconclusive), else after an inconclusive validation; only where _searchable
-    searchable = _searchable(system)
-    v = None
-    if not (searchable and V.n > getattr(validator, "max_bnb_dim", BNB_DIM)):
-        with step(f"refutation check of {V.name} at level {top:.6g}"):
-            v = _validate(system, V, validator, top, trace, "refute above")
-        if v.status is not Verdict.INCONCLUSIVE or not searchable:
-            return v
-    found, note = witness_by_search(system, V, top, trace)
-    if found is not None:
-        return found
-    if isinstance(validator, AutoValidator):  # the search just ran: not again inside it
-        validator = dataclasses.replace(validator, witness_search=False)
-    if v is None:
-        with step(f"refutation check of {V.name} at level {top:.6g}"):
-            v = _validate(system, V, validator, top, trace, "refute above")
-    if note and v.status is Verdict.INCONCLUSIVE:
-        v = dataclasses.replace(v, message=f"{v.message}; {note}")
     return v
 
 
@@ -523,12 +681,14 @@ def witness_by_search(
 ) -> tuple[Validation | None, str]:
     """``top`` refuted by a witness the validator could not find (the branch and bound in more
     dimensions than it covers, or an SOS check, which never refutes): Khalil's level search
-    (CasADi) gives a point of ``{V' >= 0}``, from which :func:`lowest_confirmed_witness` finds a
-    local minimum of V whose ``V' >= 0`` holds at 50 digits, in the equilibrium's component of
-    its sublevel set; it refutes ``top`` when ``V(x) <= top``. Else ``(None, note)``, the note
-    naming a confirmed witness above ``top`` (an upper bound of the largest level of V).
-    ``(None, "")`` at once for a system that is not :func:`_searchable`."""
-    from roa.proof.witness import WITNESS_SLACK, lowest_confirmed_witness, refuted_by
+    (CasADi) gives a point of ``{V' >= 0}``, from which :func:`lowest_confirmed_witness
+    <roa.search.witness.lowest_confirmed_witness>` finds a local minimum of V whose ``V' >= 0``
+    holds at 50 digits, in the equilibrium's component of its sublevel set; it refutes ``top``
+    when ``V(x) <= top``. Else ``(None, note)``, the note naming a confirmed witness above
+    ``top`` (an upper bound of the largest level of V). ``(None, "")`` at once for a system
+    that is not :func:`_searchable`."""
+    from roa.proof.witness import WITNESS_SLACK, refuted_by
+    from roa.search.witness import lowest_confirmed_witness
 
     if not _searchable(system):
         return None, ""
@@ -554,83 +714,52 @@ def witness_by_search(
     return refuted_by(x, check, top, how), ""
 
 
-def _from_source(
+def from_source(
     system: System,
     seed: QuadraticLyapunov,
-    source: VsIteration | CuttingPlanes,
+    source: VSource,
+    proposer: LevelProposer,
     validator: Validator,
-    sampled: SampledOptions | None,
-    interval: IntervalOptions,
     check_above: float | None,
-    retries: int,
+    policy: RetryPolicy,
     t0: float,
+    refuter: WitnessRefuter | None = None,
 ) -> Certificate:
-    """Certify the candidates of a source of V (see :func:`certify`)."""
-    res = source.search(system, seed)
-    if isinstance(source, CuttingPlanes):
-        return _cutting_planes(system, seed, source, res, validator, check_above, retries, t0)
-    assert isinstance(source, VsIteration)
-    if not res.candidates:
-        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="sos",
+    """Certify the ``(V, proposer)`` pairs of a source of V, in its order, until one is
+    certified or ``validate`` of them were validated (a candidate without a level costs no
+    proof); ``proposer`` proposes for a candidate that brings none."""
+    found: Candidates = source.search(system, seed, proposer)
+    if not found.pairs:
+        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method=found.method,
                            level_source=None, seconds=time.perf_counter() - t0,
-                           message=f"V-s iteration found no candidate: {res.message}", vs=res,
-                           system=system, V=seed)  # fmt: skip
+                           message=found.message, vs=found.result, search=found.search,
+                           system=system, V=seed if found.V is None else found.V)  # fmt: skip
     last, tried = None, 0
-    for i in np.argsort(res.betas)[::-1]:  # best shape level first
-        cand = res.candidates[int(i)]
-        with step(f"validation of {cand.name}"):
-            cert = run(system, cand, [SampledLevel(sampled, interval.sampled_safety)], validator,
-                       check_above=check_above, retries=retries)  # fmt: skip
+    for cand in found.pairs:
+        with step(cand.label) if cand.label else _quiet():
+            cert = run(system, cand.V, [cand.proposer], validator, check_above=check_above,
+                       retries=policy, t0=t0, choose=cand.choose, fresh=cand.fresh,
+                       refuter=refuter)  # fmt: skip
         if cert.validation is None and last is not None:
             continue  # a candidate without a sampled level costs no proof
-        last = dataclasses.replace(cert, vs=res, seconds=time.perf_counter() - t0)
+        extra: dict[str, Any] = {}
+        if cand.search is not None:
+            extra["search"] = cand.search
+        if cand.level_source is not None and cert.level_source != "witness":
+            extra["level_source"] = cand.level_source
+        last = dataclasses.replace(cert, vs=found.result, seconds=time.perf_counter() - t0,
+                                   **extra)  # fmt: skip
         tried += cert.validation is not None
-        if cert.certified or tried >= source.options.validate:
+        if cert.certified or tried >= found.validate:
             return last
     assert last is not None
     return last
 
 
-def _cutting_planes(
-    system: System,
-    seed: QuadraticLyapunov,
-    source: CuttingPlanes,
-    res: Any,
-    validator: Validator,
-    check_above: float | None,
-    retries: int,
-    t0: float,
-) -> Certificate:
-    """The candidate of the cutting-plane search, validated at its chosen level."""
-    if res.V is None:
-        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="sampled search",
-                           level_source=None, seconds=time.perf_counter() - t0,
-                           message=f"the sampled search found no candidate: {res.message}",
-                           vs=res, system=system, V=seed)  # fmt: skip
-    V = res.V
-    with step("sampled level search of the candidate"):
-        lv = level_search(system, V, shape="level", method="sampled")
-    if lv.level is None:
-        return Certificate(status=Verdict.INCONCLUSIVE, level=None, method="level search",
-                           level_source=None, seconds=time.perf_counter() - t0,
-                           message=f"no sampled level for the candidate: {lv.message}",
-                           search=lv, vs=res, system=system, V=V)  # fmt: skip
-    safety, chosen, found = source.options.level_safety, source.level, float(lv.level)
-    if chosen is None:
-        choose = lambda opt: min(1.0, safety * opt)  # noqa: E731 - 1: the search's target
-    elif callable(chosen):
-        choose = lambda opt: _positive_level(chosen(V, opt))  # noqa: E731
-    else:
-        fixed = _positive_level(chosen)
-        choose = lambda opt: fixed if opt == found else safety * opt  # noqa: E731
-    prop = CandidateLevel(lv, safety)
-    cert = run(system, V, [prop], validator, check_above=check_above, retries=retries, t0=t0,
-               choose=choose, fresh=True)  # fmt: skip
-    source_name = cert.level_source
-    if source_name != "witness":
-        source_name = "given" if chosen is not None else "sampled"
-    return dataclasses.replace(cert, vs=res, search=lv, level_source=source_name,
-                               seconds=time.perf_counter() - t0)  # fmt: skip
+def _quiet() -> Any:
+    import contextlib
+
+    return contextlib.nullcontext()
 
 
 #: The geometric grid of ray parameters on which :func:`representable_level` finds the level
@@ -684,16 +813,10 @@ def representable_level(system: System, V: Lyapunov, level: float, what: str = "
     return float(level)
 
 
-def _positive_level(value: Any) -> float:
-    if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
-        raise RoaInputError(f"level must be a finite number > 0, got {value!r}")
-    return float(value)
-
-
 def quadratic_seed(system: System, V: Any, what: str) -> QuadraticLyapunov:
     """``V`` as a quadratic Lyapunov function of ``system``, or an error starting with ``what``."""
     given = as_lyapunov(system, V)
-    seed = given.as_quadratic()
+    seed = given.quadratic_view()
     if seed is None:
         raise RoaInputError(
             f"{what} {given.name!r} is {type(given).__name__}: give a matrix P or a "

@@ -221,9 +221,12 @@ class Certificate:
             raise RoaInputError("reverify: the certificate has no system, V or level")
         if self.method == SOS_EXACT and self.validation is not None:
             from roa.proof.sos_stored import recheck
+            from roa.search.outside import domain_witness
+            from roa.search.rays import ray_box
 
             with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
-                v = recheck(self.system, self.V, self.level, self.validation.meta)
+                v = recheck(self.system, self.V, self.level, self.validation.meta,
+                            find_outside=domain_witness, cover_estimate=ray_box)  # fmt: skip
             return Certificate(status=v.status, level=self.level, method=SOS_EXACT,
                                level_source="reverified", seconds=v.seconds, message=v.message,
                                validation=v, trace=({"stage": "reverify", "by": SOS_EXACT,
@@ -231,8 +234,11 @@ class Certificate:
                                system=self.system, V=self.V)  # fmt: skip
         from roa.certification.strategies import INTERVAL_ROUTE
         from roa.proof.preconditions import check_preconditions
+        from roa.search.outside import domain_witness
+        from roa.search.rays import ray_box
 
-        pre = check_preconditions(self.system, self.V, self.level, INTERVAL_ROUTE, recheck=True)
+        pre = check_preconditions(self.system, self.V, self.level, INTERVAL_ROUTE, recheck=True,
+                                  find_outside=domain_witness, cover_estimate=ray_box)  # fmt: skip
         if pre.refusal is not None:
             v = pre.refusal
             return Certificate(status=v.status, level=self.level, method="interval",
@@ -241,7 +247,8 @@ class Certificate:
                                                      "status": v.status.value},),
                                system=self.system, V=self.V)  # fmt: skip
         with step(f"re-verifying {self.V.name} <= {self.level:.6g} ({self.system.name})"):
-            proof = reverify(self.system, self.V, self.level, interval=interval)
+            proof = reverify(self.system, self.V, self.level, interval=interval,
+                             cover_estimate=ray_box)  # fmt: skip
         record = dict(proof.validation)
         validation = Validation(proof.status, self.level, int(record.get("boxes", 0) or 0),
                                 proof.seconds, message=proof.message,
@@ -268,8 +275,9 @@ class Certificate:
         c = self.V.center
         style = "-" if self.certified else "--"
         label = f"V <= {self.level:.6g} ({self.status})"
-        if self.V.P is not None:
-            Pij = self.V.P[np.ix_([i, j], [i, j])]
+        P = self.V.quadratic_matrix()
+        if P is not None:
+            Pij = P[np.ix_([i, j], [i, j])]
             t = np.linspace(0, 2 * np.pi, n)
             L = np.linalg.cholesky(Pij)
             pts = np.sqrt(self.level) * np.linalg.solve(L.T, np.stack([np.cos(t), np.sin(t)]))
@@ -290,7 +298,7 @@ class Certificate:
 def _contour(ax: Any, V: Lyapunov, level: float, axes: tuple[int, int], n: int, style: str,
              label: str) -> None:  # fmt: skip
     """The curve V = level on the slice of two states through the centre (any candidate)."""
-    from roa.proof.cover import ray_box
+    from roa.search.rays import ray_box
 
     i, j = axes
     c = V.center

@@ -9,17 +9,23 @@ Each is a small object with ``accepts(system, V)`` and one action, as cvxpy's re
   (:class:`LevelProposer`): :class:`GivenLevel`, :class:`CandidateLevel` (a level found
   elsewhere), :class:`SosLevel` (quadratic V), :class:`SampledLevel` (any V).
 * **Sources of V** propose candidates (:class:`VSource`): :class:`VsIteration` (SOS V-s
-  iteration), :class:`CuttingPlanes` (sampled cutting planes); a given V is its own source.
+  iteration), :class:`CuttingPlanes` (sampled cutting planes), each as :class:`Candidates`, pairs
+  of a V and the proposer of its level; a given V is its own source.
 
-Proposers and sources prove nothing; only a validator's verdict reaches ``certified``.
+Each declares what it can do as fields and methods (:class:`ValidatorBase`: ``refutes``,
+``max_bnb_dim``, ``backoff``, ``exact_only``, ``exact_route``, ``refuter``, ``with_cover``;
+:class:`ProposerBase`: ``given``, ``fallback``, ``over_box``), which the pipeline reads instead of
+their classes. Proposers and sources prove nothing; only a validator's verdict reaches
+``certified``.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol, runtime_checkable
+from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 
@@ -45,6 +51,7 @@ from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
 from roa.search.levelset import LevelSearchResult, level_search
+from roa.search.rays import ray_box
 from roa.search.sos_certificate import default_eps, propose_certificate
 from roa.search.sos_putinar import propose_putinar
 from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
@@ -55,23 +62,111 @@ from roa.status import LevelStatus, SosStatus, Verdict
 @runtime_checkable
 class Validator(Protocol):
     """Decides ``V' < 0`` on ``{V <= level}`` minus the equilibrium: certified, refuted (with a
-    witness) or inconclusive."""
+    witness) or inconclusive; and declares what it can do, which the pipeline reads instead of
+    its class:
+
+    * ``refutes``: whether it looks for a witness (an SOS check never refutes);
+    * ``max_bnb_dim``: the states plus uncertain parameters its branch and bound decides within
+      its budget (above, a witness of the level search refutes first);
+    * ``backoff``: lower levels its exact route tries when the exact check fails;
+    * ``exact_only``: whether its exact route is all it has (no branch and bound behind it).
+
+    :class:`ValidatorBase` gives every member a default; an object with only ``name``,
+    ``accepts`` and ``check`` is taken with those defaults (:func:`as_validator`)."""
 
     @property
     def name(self) -> str: ...
+
+    @property
+    def refutes(self) -> bool: ...
+
+    @property
+    def max_bnb_dim(self) -> int: ...
+
+    @property
+    def backoff(self) -> int: ...
+
+    @property
+    def exact_only(self) -> bool: ...
 
     def accepts(self, system: System, V: Lyapunov) -> bool: ...
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation: ...
 
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None: ...
+
+    def refuter(self) -> Validator: ...
+
+    def with_cover(self, half: Callable[[], np.ndarray | None]) -> Validator: ...
+
+    def without_witness_search(self) -> Validator: ...
+
+
+class ValidatorBase:
+    """Defaults of the :class:`Validator` capabilities: it refutes, its branch and bound covers
+    :data:`roa.options.BNB_DIM` states and parameters, it has no exact route tried first, no
+    cover of its own to take and no witness search to turn off."""
+
+    refutes: bool = True
+    max_bnb_dim: int = BNB_DIM
+    backoff: int = 5
+    exact_only: bool = False
+
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
+        """The exact SOS validator tried first (with its back-off) before this one decides, or
+        None (:mod:`roa.certification.backoff`)."""
+        return None
+
+    def refuter(self) -> Validator:
+        """The validator that decides a level above the optimum: this one when it refutes, else
+        the branch and bound (which looks for a witness, checked at 50 digits)."""
+        return cast(Validator, self) if self.refutes else IntervalValidator()
+
+    def with_cover(self, half: Callable[[], np.ndarray | None]) -> Validator:
+        """This validator with the box of half-widths ``half()`` (found along rays, proved by
+        ``V > level`` on its faces) as the cover of a freshly found V, where it takes one
+        (``half`` is called only then)."""
+        return cast(Validator, self)
+
+    def without_witness_search(self) -> Validator:
+        """This validator without the level search's witness (just run by the caller)."""
+        return cast(Validator, self)
+
+
+@dataclass(frozen=True)
+class Declared(ValidatorBase):
+    """A validator object with only ``name``, ``accepts`` and ``check``, taken with the default
+    capabilities of :class:`ValidatorBase`."""
+
+    inner: Any
+
+    @property
+    def name(self) -> str:
+        return str(self.inner.name)
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return bool(self.inner.accepts(system, V))
+
+    def check(self, system: System, V: Lyapunov, level: float) -> Validation:
+        return cast(Validation, self.inner.check(system, V, level))
+
+
+def as_validator(obj: Any) -> Validator:
+    """``obj`` as a :class:`Validator`: itself when it declares its capabilities (a
+    :class:`ValidatorBase`), else with the defaults (:class:`Declared`)."""
+    return cast(Validator, obj) if isinstance(obj, ValidatorBase) else Declared(obj)
+
 
 def _preconditions(system: System, V: Lyapunov, level: float, route: Route) -> Preconditions:
     """:func:`roa.proof.preconditions.check_preconditions` for a fresh certificate (a Putinar
     candidate of the domain containment proposed by :mod:`roa.search.sos_domain`)."""
+    from roa.search.outside import domain_witness
     from roa.search.sos_domain import propose_domain_certificate
 
     with step(f"preconditions of level {level:.6g} ({route.name})"):
-        return check_preconditions(system, V, level, route, propose=propose_domain_certificate)
+        return check_preconditions(system, V, level, route, propose=propose_domain_certificate,
+                                   find_outside=domain_witness,
+                                   cover_estimate=ray_box)  # fmt: skip
 
 
 def _with_domain(v: Validation, pre: Preconditions) -> Validation:
@@ -96,7 +191,7 @@ SOS_ROUTE = Route("sos-exact", parameters=True)
 
 
 @dataclass(frozen=True)
-class IntervalValidator:
+class IntervalValidator(ValidatorBase):
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
     Accepts every autonomous system with an equilibrium and every V, continuous-time (``V' < 0``)
@@ -114,6 +209,12 @@ class IntervalValidator:
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return system.equilibrium is not None and not system.time_varying
 
+    def with_cover(self, half: Callable[[], np.ndarray | None]) -> Validator:
+        if self.bounding_box is not None:
+            return self
+        h = half()
+        return IntervalValidator(self.options, None if h is None else 1.3 * h)
+
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         pre = _preconditions(system, V, level, INTERVAL_ROUTE)
         if pre.refusal is not None:
@@ -123,19 +224,22 @@ class IntervalValidator:
             from roa.search.robust_witness import sampled_witness
 
             with step(f"robust interval validation of level {level:.6g}", own_budget=True):
-                return validate_robust(system, V, level, witness_search=sampled_witness,
+                x, worst, _ = sampled_witness(system, V, level)
+                return validate_robust(system, V, level, proposal=(x, worst),
                                        max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
-                                       time_limit=self.options.seconds())  # fmt: skip
+                                       time_limit=self.options.seconds(),
+                                       cover_estimate=ray_box)  # fmt: skip
         with step(f"interval validation of level {level:.6g}", own_budget=True):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch, bounding_box=self.bounding_box,
-                                  time_limit=self.options.seconds())  # fmt: skip
+                                  time_limit=self.options.seconds(),
+                                  cover_estimate=ray_box)  # fmt: skip
 
 
 @dataclass(frozen=True)
-class SosValidator:
+class SosValidator(ValidatorBase):
     """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
 
     The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
@@ -192,6 +296,7 @@ class SosValidator:
     refutes: bool = False  # the pipeline refutes above with the branch and bound
     route: str = "auto"  # "dense", "sparse" (cliques), "sdsos" or "auto" (by the memory budget)
     backoff: int = 5  # lower levels tried when the exact check fails (roa.certification.backoff)
+    exact_only: bool = True  # its exact route is all it has (the back-off's failure is its verdict)
 
     def __post_init__(self) -> None:
         if self.route not in ROUTES:
@@ -201,8 +306,12 @@ class SosValidator:
             raise RoaInputError(f"SosValidator backoff must be an integer in [0, 20], got "
                                 f"{self.backoff!r}")  # fmt: skip
 
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
+        sos = dataclasses.replace(self, fallback=False)
+        return sos if sos.accepts(system, V) else None
+
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        if getattr(V, "terms", None) is None or system.equilibrium is None:
+        if not V.is_polynomial or system.equilibrium is None:
             return False
         if system.time_varying:
             return False
@@ -401,7 +510,7 @@ class SosValidator:
 
 
 @dataclass(frozen=True)
-class AutoValidator:
+class AutoValidator(ValidatorBase):
     """The route that certifies, chosen from the problem's form.
 
     Where the branch and bound's dimension allows it (states plus uncertain parameters at most
@@ -424,6 +533,15 @@ class AutoValidator:
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return system.equilibrium is not None and not system.time_varying
+
+    def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
+        if self.bounding_box is not None or V.n + len(system.uncertain) <= self.max_bnb_dim:
+            return None
+        sos = SosValidator(fallback=False)
+        return sos if sos.accepts(system, V) else None
+
+    def without_witness_search(self) -> Validator:
+        return dataclasses.replace(self, witness_search=False)
 
     def check(self, system: System, V: Lyapunov, level: float) -> Validation:
         itv = IntervalValidator(self.options, self.bounding_box)
@@ -489,6 +607,56 @@ class LevelProposer(Protocol):
     def propose(self, system: System, V: Lyapunov) -> Proposal: ...
 
 
+class ProposerBase:
+    """What the pipeline asks of a level proposer beyond :class:`LevelProposer`, with defaults:
+
+    * ``given``: the caller's level, validated as it is (no linearisation refusal, no retry, no
+      back-off);
+    * ``fallback``: a search that takes over when an earlier proposer declines V (the
+      certificate's message then says why the earlier one did not apply);
+    * :meth:`over_box`: the proposer for a system with a parameter box (default: run at the
+      box's sample points, the lowest level wins, :class:`WorstCase`);
+    * ``label``: its name in the trace."""
+
+    given: bool = False
+    fallback: bool = False
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        raise NotImplementedError
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        raise NotImplementedError
+
+    def over_box(self) -> ProposerBase:
+        return WorstCase(self)
+
+    @property
+    def label(self) -> str:
+        return type(self).__name__
+
+
+@dataclass(frozen=True)
+class ForeignProposer(ProposerBase):
+    """A :class:`LevelProposer` object that is no :class:`ProposerBase`, with its defaults."""
+
+    inner: Any
+
+    @property
+    def label(self) -> str:
+        return type(self.inner).__name__
+
+    def accepts(self, system: System, V: Lyapunov) -> bool:
+        return bool(self.inner.accepts(system, V))
+
+    def propose(self, system: System, V: Lyapunov) -> Proposal:
+        return cast(Proposal, self.inner.propose(system, V))
+
+
+def as_proposer(obj: Any) -> ProposerBase:
+    """``obj`` (a :class:`LevelProposer`) with the capabilities of :class:`ProposerBase`."""
+    return obj if isinstance(obj, ProposerBase) else ForeignProposer(obj)
+
+
 def _positive(value: Any, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not np.isfinite(value):
         raise RoaInputError(f"{what} must be a finite number > 0, got {value!r}")
@@ -498,10 +666,14 @@ def _positive(value: Any, what: str) -> float:
 
 
 @dataclass(frozen=True)
-class GivenLevel:
+class GivenLevel(ProposerBase):
     """The caller's level, validated as it is (no safety factor, no retry below it)."""
 
     level: float
+    given = True
+
+    def over_box(self) -> ProposerBase:
+        return self
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "level", _positive(self.level, "level"))
@@ -514,12 +686,15 @@ class GivenLevel:
 
 
 @dataclass(frozen=True)
-class CandidateLevel:
+class CandidateLevel(ProposerBase):
     """A largest level found elsewhere (a number, or a :class:`roa.LevelSearchResult`),
     validated at ``safety`` x it."""
 
     candidate: LevelSearchResult | float
     safety: float = 0.999
+
+    def over_box(self) -> ProposerBase:
+        return self
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return True
@@ -536,7 +711,7 @@ class CandidateLevel:
 
 
 @dataclass(frozen=True)
-class SosLevel:
+class SosLevel(ProposerBase):
     """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
     for a polynomial system whose V and V' split over independent blocks of variables, the least
     of the blocks' levels found by bisection (:mod:`roa.search.sos_bisection`); validated at
@@ -547,12 +722,12 @@ class SosLevel:
     only: bool = False
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        return V.as_quadratic() is not None and system.time == "continuous"
+        return V.is_quadratic and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
         from roa.search.sos import sos_level
 
-        quad = V.as_quadratic()
+        quad = V.quadratic_view()
         assert quad is not None
         o = self.options
         res = _block_sos_level(system, V, o)
@@ -622,12 +797,13 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
 
 
 @dataclass(frozen=True)
-class SampledLevel:
+class SampledLevel(ProposerBase):
     """The sampled level search's optimum (:func:`roa.level_search`, any V), validated at
     ``safety`` x it."""
 
     options: SampledOptions | None = None
     safety: float = 0.999
+    fallback = True
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return True
@@ -643,7 +819,7 @@ class SampledLevel:
 
 
 @dataclass(frozen=True)
-class WorstCase:
+class WorstCase(ProposerBase):
     """A proposer run at each sample point of an uncertain system's parameter box
     (:func:`roa.model.parameters.sample_points`: nominal value, vertices and ``per_axis`` points along
     each axis); the lowest level wins.
@@ -651,6 +827,9 @@ class WorstCase:
 
     inner: LevelProposer
     per_axis: int = 3  # interior points along each parameter's axis, beside the vertices
+
+    def over_box(self) -> ProposerBase:
+        return self
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         return self.inner.accepts(system.nominal(), V)
@@ -675,6 +854,41 @@ class WorstCase:
 
 
 # -- sources of V ------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Candidate:
+    """A candidate V of a source with the proposer of its level (proves nothing).
+
+    ``choose(opt)``: the level validated for an optimum ``opt`` (default: the proposal's factor x
+    ``opt``); ``fresh``: V was just found by a search whose witness may refute the level above;
+    ``search``: the candidate's level search (kept in the certificate); ``level_source``: the
+    certificate's level source unless a witness chose the level; ``label``: the progress step of
+    its validation."""
+
+    V: Lyapunov
+    proposer: LevelProposer
+    choose: Callable[[float], float] | None = None
+    fresh: bool = False
+    search: LevelSearchResult | None = None
+    level_source: str | None = None
+    label: str | None = None
+
+
+@dataclass(frozen=True)
+class Candidates:
+    """What a source of V found: ``pairs`` in the order they are tried (at most ``validate`` of
+    them validated), the search's own ``result`` (``Certificate.vs``); when there is none, why
+    (``message``), the certificate's ``method``, and its ``V`` and ``search`` when the search
+    got that far."""
+
+    pairs: tuple[Candidate, ...]
+    result: Any
+    validate: int
+    message: str = ""
+    method: str = "sos"
+    V: Lyapunov | None = None
+    search: LevelSearchResult | None = None
+
+
 @runtime_checkable
 class VSource(Protocol):
     """Proposes candidates V from a quadratic seed (never proves them)."""
@@ -685,10 +899,20 @@ class VSource(Protocol):
     @property
     def degree(self) -> int: ...
 
-    def search(self, system: System, seed: Any) -> Any: ...
+    def search(self, system: System, seed: Any, proposer: LevelProposer) -> Candidates:
+        """The candidates found from ``seed``; ``proposer`` proposes the level of a candidate
+        that brings no proposer of its own."""
+        ...
 
 
 DEGREES = (2, 4, 6, 8)
+
+
+def positive_level(value: Any) -> float:
+    """``value`` as a level: a finite number > 0, else a :class:`RoaInputError`."""
+    if not (isinstance(value, int | float) and np.isfinite(value) and value > 0):
+        raise RoaInputError(f"level must be a finite number > 0, got {value!r}")
+    return float(value)
 
 
 @dataclass(frozen=True)
@@ -704,17 +928,23 @@ class VsIteration:
         if self.degree not in DEGREES:
             raise RoaInputError(f"degree must be one of {DEGREES}, got {self.degree!r}")
 
-    def search(self, system: System, seed: Any) -> Any:
+    def search(self, system: System, seed: Any, proposer: LevelProposer) -> Candidates:
         from roa.search.vs_iteration import vs_search
 
         vs = self.options
         with step(f"SOS V-s iteration, degree {self.degree}", own_budget=True):
-            return vs_search(system, seed, degree=self.degree,
-                             shape=None if vs.shape is None else np.asarray(vs.shape),
-                             rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
-                             symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
-                             tol=vs.tol, solver_options=vs.solver_options(),
-                             solver=vs.solver, budget=vs.budget)  # fmt: skip
+            res = vs_search(system, seed, degree=self.degree,
+                            shape=None if vs.shape is None else np.asarray(vs.shape),
+                            rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
+                            symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
+                            tol=vs.tol, solver_options=vs.solver_options(),
+                            solver=vs.solver, budget=vs.budget)  # fmt: skip
+        if not res.candidates:
+            return Candidates((), res, vs.validate,
+                              f"V-s iteration found no candidate: {res.message}", "sos")  # fmt: skip
+        order = [res.candidates[int(i)] for i in np.argsort(res.betas)[::-1]]  # best level first
+        return Candidates(tuple(Candidate(V, proposer, label=f"validation of {V.name}")
+                                for V in order), res, vs.validate)  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -733,9 +963,31 @@ class CuttingPlanes:
     def degree(self) -> int:
         return int(self.options.degree)
 
-    def search(self, system: System, seed: Any) -> Any:
+    def search(self, system: System, seed: Any, proposer: LevelProposer) -> Candidates:
+        """The candidate with its own proposer (its sampled level, validated at the chosen
+        level); ``proposer`` is not used."""
         from roa.search.cutting_planes import sample_search
 
         with step(f"sampled search of V, degree {self.options.degree}"):
-            return sample_search(system, seed, hard=self.hard, soft=self.soft,
-                                 options=self.options)  # fmt: skip
+            res = sample_search(system, seed, hard=self.hard, soft=self.soft,
+                                options=self.options)  # fmt: skip
+        if res.V is None:
+            return Candidates((), res, 1, f"the sampled search found no candidate: {res.message}",
+                              "sampled search")  # fmt: skip
+        V = res.V
+        with step("sampled level search of the candidate"):
+            lv = level_search(system, V, shape="level", method="sampled")
+        if lv.level is None:
+            return Candidates((), res, 1, f"no sampled level for the candidate: {lv.message}",
+                              "level search", V=V, search=lv)  # fmt: skip
+        safety, chosen, found = self.options.level_safety, self.level, float(lv.level)
+        if chosen is None:
+            choose = lambda opt: min(1.0, safety * opt)  # noqa: E731 - 1: the search's target
+        elif callable(chosen):
+            choose = lambda opt: positive_level(chosen(V, opt))  # noqa: E731
+        else:
+            fixed = positive_level(chosen)
+            choose = lambda opt: fixed if opt == found else safety * opt  # noqa: E731
+        cand = Candidate(V, CandidateLevel(lv, safety), choose=choose, fresh=True, search=lv,
+                         level_source="given" if chosen is not None else "sampled")  # fmt: skip
+        return Candidates((cand,), res, 1)

@@ -36,6 +36,7 @@ from roa.errors import RoaInputError
 from roa.integration.terminal_poly import PolyArrays, member_numpy, poly_arrays
 from roa.model.system import System
 from roa.proof.component import component_box
+from roa.search.rays import component_candidates
 
 if TYPE_CHECKING:
     from roa.lyapunov import PolynomialLyapunov
@@ -144,7 +145,7 @@ class TerminalSet:
         must lie in the bounding box of the component of ``{V <= level}`` holding the centre
         (default: found and proved by :func:`roa.proof.component.component_box`)."""
 
-        if V.terms is None:
+        if not V.is_polynomial:
             raise RoaInputError(
                 f"TerminalSet.polynomial: V must be a PolynomialLyapunov, got {type(V).__name__}"
             )
@@ -156,7 +157,7 @@ class TerminalSet:
         if M.shape != (n, n) or not np.isfinite(M).all() or abs(np.linalg.det(M)) == 0:
             raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix")
         if box is None:
-            box = component_box(V, float(level), M)
+            box = component_box(V, float(level), M, component_candidates(V, float(level), M))
         lo, hi = (np.array(b, dtype=float).reshape(-1) for b in box)
         if (
             lo.shape != (n,)
@@ -207,7 +208,9 @@ class TerminalSet:
                 f"level={self.level!r}, coords={self.coords!r})"
             )
         assert self.V is not None and self.frame is not None and self.box is not None
-        terms = [[list(a), c] for a, c in self.V.terms.items()]
+        poly = self.V.polynomial_view()
+        assert poly is not None  # checked by TerminalSet.polynomial
+        terms = [[list(a), c] for a, c in poly.items()]
         return (
             f"TerminalSet(V={terms!r}, center={self.center.tolist()!r}, level={self.level!r}, "
             f"coords={self.coords!r}, frame={self.frame.tolist()!r}, "

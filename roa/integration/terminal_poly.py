@@ -38,6 +38,8 @@ from typing import Any, NamedTuple
 import numba
 import numpy as np
 
+from roa.errors import RoaInputError
+
 #: Unit roundoff of IEEE double.
 UNIT_ROUNDOFF = 2.0**-53
 
@@ -55,8 +57,11 @@ class PolyArrays(NamedTuple):
 
 def poly_arrays(V: Any, frame: np.ndarray, box: tuple[np.ndarray, np.ndarray]) -> PolyArrays:
     """The arrays of ``{V <= .}`` in ``box`` (frame ``z = frame^-1 (y - V.center)``)."""
-    E = np.array(list(V.terms), dtype=np.int64).reshape(len(V.terms), V.n)
-    A = np.array(list(V.terms.values()), dtype=float)
+    terms = V.polynomial_view()
+    if terms is None:
+        raise RoaInputError(f"V {V.name!r} is not polynomial: no polynomial terminal set")
+    E = np.array(list(terms), dtype=np.int64).reshape(len(terms), V.n)
+    A = np.array(list(terms.values()), dtype=float)
     n, K, D = V.n, E.shape[0], int(E.max())
     g = 2.0 * (K + int(E.sum(axis=1).max()) + n + 1) * UNIT_ROUNDOFF
     Mi = np.ascontiguousarray(np.linalg.inv(np.asarray(frame, dtype=float)))

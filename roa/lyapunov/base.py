@@ -4,8 +4,11 @@
 namespace ``xp`` (numpy, CasADi, sympy, the interval namespace and interval jets of
 :mod:`roa.proof.interval`, mpmath), ``gradient_expr(x, xp)`` its gradient, and ``value`` /
 ``derivative`` evaluate them with numpy on rows of states. What a candidate can offer beyond that
-is told by attributes, never by its class: ``P`` (the matrix of a quadratic form, else None),
-``terms`` and ``degree`` (the exponents and coefficients of a polynomial, else None).
+is told by its methods, never by its class nor by testing its attributes:
+:meth:`Lyapunov.quadratic_view` (V as a quadratic form ``d' P d``, else None),
+:meth:`Lyapunov.polynomial_view` (the exponents and coefficients of a polynomial, else None),
+:meth:`Lyapunov.gram_view` (a Gram matrix over a monomial basis, else None) and the predicates
+built on them; code outside :mod:`roa.lyapunov` asks these, never ``P``, ``terms`` or ``gram``.
 """
 
 from __future__ import annotations
@@ -89,13 +92,60 @@ class Lyapunov:
     terms: dict[tuple[int, ...], float] | None = None
     #: The degree of a polynomial V, else None.
     degree: int | None = None
-    #: Whether V is already written in a whitened frame (``roa.proof.whiten``).
-    whitened: bool = False
+    #: ``(basis, Q)`` with ``V = m(d)' Q m(d)`` over the monomials ``basis``, else None.
+    gram: tuple[list[tuple[int, ...]], np.ndarray] | None = None
 
-    def as_quadratic(self) -> QuadraticLyapunov | None:
-        """This V as a :class:`~roa.lyapunov.QuadraticLyapunov` (its closed-form paths) when it is
-        one, else None."""
+    # -- capabilities: what this V offers beyond its expressions -----------------------------------
+    def quadratic_view(self) -> QuadraticLyapunov | None:
+        """This V as a :class:`~roa.lyapunov.QuadraticLyapunov` (its matrix ``P`` and closed-form
+        paths) when it is one, else None."""
         return None
+
+    @property
+    def is_quadratic(self) -> bool:
+        """Whether :meth:`quadratic_view` gives V as a quadratic form ``d' P d``."""
+        return self.quadratic_view() is not None
+
+    def quadratic_matrix(self) -> np.ndarray | None:
+        """``P`` of ``V = (x - c)' P (x - c)`` when V is that quadratic form, else None."""
+        q = self.quadratic_view()
+        return None if q is None else q.P
+
+    def ellipsoid_matrix(self) -> np.ndarray | None:
+        """``P`` when V is ``x' P x`` (a quadratic form centred at the origin), else None."""
+        q = self.quadratic_view()
+        return None if q is None or np.asarray(q.center).any() else q.P
+
+    def polynomial_view(self) -> dict[tuple[int, ...], Any] | None:
+        """``{exponents: coefficient}`` of V as a polynomial in ``d = x - center`` (floats, or
+        exact rationals of a whitened V), else None."""
+        return self.terms
+
+    @property
+    def is_polynomial(self) -> bool:
+        """Whether :meth:`polynomial_view` gives V's terms."""
+        return self.polynomial_view() is not None
+
+    def gram_view(self) -> tuple[list[tuple[int, ...]], np.ndarray] | None:
+        """``(basis, Q)`` with ``V = m(d)' Q m(d)`` over the monomial ``basis``, else None."""
+        return self.gram
+
+    def with_gram(self, gram: tuple[list[tuple[int, ...]], np.ndarray] | None) -> None:
+        """Attach (or with None remove) a Gram matrix ``(basis, Q)`` of this polynomial V; the
+        caller proves it (:func:`roa.proof.cover.gram_cover`) before relying on it."""
+        if self.polynomial_view() is None:
+            raise RoaInputError(f"V {self.name!r} is not polynomial: no Gram matrix to attach")
+        self.gram = gram
+
+    def unwhitened(self) -> tuple[Lyapunov, System, np.ndarray] | None:
+        """``(V, system, M)`` when this candidate is ``W(y) = V(c + M y)`` written in a whitened
+        frame of ``system`` (:class:`roa.proof.whiten.Whitened`), else None."""
+        return None
+
+    def has_exact_description(self) -> bool:
+        """Whether :meth:`describe` determines V exactly (a quadratic or polynomial V; not a
+        function V, whose code it does not hold)."""
+        return self.is_quadratic or self.is_polynomial
 
     @property
     def n(self) -> int:

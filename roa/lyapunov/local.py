@@ -19,11 +19,12 @@ def locally_negative(system: System, V: Lyapunov) -> tuple[bool, float]:
     then sampled on small spheres (an estimate, not a proof).
     """
     A = jacobian(system)
-    P = V.P if V.P is not None else 0.5 * V.hessian_at_center()
+    Pq = V.quadratic_matrix()
+    P = Pq if Pq is not None else 0.5 * V.hessian_at_center()
     Q = decrease_matrix(system, A, P)  # A'P + PA, or A'PA - P for a map
     lam = float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[-1])
     scale = max(1.0, float(np.abs(Q).max()), float(np.abs(P).max()))
-    definite = V.P is not None or bool(np.linalg.eigvalsh(P)[0] > 1e-10 * scale)
+    definite = Pq is not None or bool(np.linalg.eigvalsh(P)[0] > 1e-10 * scale)
     if abs(lam) > 1e-10 * scale and definite:
         return lam < 0, lam
     rng = np.random.default_rng(0)

@@ -100,7 +100,7 @@ class PolynomialLyapunov(Lyapunov):
         if self.degree % 2:
             raise RoaInputError(f"monomials: the largest degree must be even, got {self.degree}")
         self.terms = terms
-        self.gram: tuple[list[tuple[int, ...]], np.ndarray] | None = None
+        self.gram = None
 
     @classmethod
     def from_gram(
@@ -226,7 +226,7 @@ class QuadraticLyapunov(PolynomialLyapunov):
 
     P: np.ndarray
 
-    def as_quadratic(self) -> QuadraticLyapunov:
+    def quadratic_view(self) -> QuadraticLyapunov:
         return self
 
     def __init__(self, P: Any, center: Any, name: str = "V") -> None:

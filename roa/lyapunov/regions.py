@@ -95,13 +95,14 @@ class Region:
                 f"region {self.name!r}: V must be a roa.lyapunov.Lyapunov, got {type(V).__name__}"
             )
         elif P is not None:  # dataclasses.replace of a matrix region passes both: P wins
-            if not (V.P is not None and not V.center.any()):
+            E = V.ellipsoid_matrix()
+            if E is None:
                 raise RoaInputError(f"region {self.name!r}: give P or V, not both")
             P = check_positive_definite(P, what=f"region {self.name!r} P")
-            if not np.array_equal(P, V.P):
+            if not np.array_equal(P, E):
                 V = QuadraticLyapunov(P, np.zeros(P.shape[0]), V.name)
-        elif V.P is not None and not V.center.any():
-            P = V.P
+        else:
+            P = V.ellipsoid_matrix()
         object.__setattr__(self, "P", P)
         object.__setattr__(self, "V", V)
         if not (np.isfinite(self.level) and self.level > 0):
@@ -145,9 +146,10 @@ class Region:
         y = x if self.coords is None else np.asarray(self.coords(x), dtype=float)
         ok = np.isfinite(y).all(axis=-1)
         V = self.lyapunov
+        E = V.ellipsoid_matrix()
         with np.errstate(all="ignore"):
-            if V.P is not None and not V.center.any():
-                v = np.einsum("...i,ij,...j->...", y, V.P, y)  # exactly as for a matrix P
+            if E is not None:
+                v = np.einsum("...i,ij,...j->...", y, E, y)  # exactly as for a matrix P
             else:
                 v = V.value(np.where(ok[..., None], y, V.center))
         return np.where(ok, v, np.inf)
@@ -159,8 +161,9 @@ class Region:
         """V as JSON: ``P`` (quadratic) or its kind, degree, monomials and coefficients, and its
         centre when not 0."""
         V = self.lyapunov
-        if V.P is not None:
-            out: dict[str, Any] = {"P": V.P.tolist()}
+        P = V.quadratic_matrix()
+        if P is not None:
+            out: dict[str, Any] = {"P": P.tolist()}
         else:
             out = {k: v for k, v in V.describe().items() if k != "lyapunov"}
         if np.asarray(V.center).any():
@@ -171,7 +174,7 @@ class Region:
         """``name``, ``P`` (quadratic V) or ``V`` (its kind, degree, monomials and coefficients),
         ``level``, ``status`` and the meta data; :meth:`from_json` reads it back."""
         v = self.describe_v()
-        body = v if self.P is not None else {"V": v}
+        body = v if self.lyapunov.ellipsoid_matrix() is not None else {"V": v}
         return {"name": self.name, **body, "level": float(self.level), "status": self.status,
                 **self.meta}  # fmt: skip
 

@@ -77,12 +77,12 @@ def terminal_of(
 ) -> TerminalSet:
     """The terminal set ``{V <= level}`` of a *proved* certificate: an ellipsoid for a quadratic
     (or degree-2 polynomial) V, else the component box in the validation's ``frame``."""
-    P = V.P
+    P = V.quadratic_matrix()
     if P is None and V.degree == 2:  # an ellipsoid: the quadratic fast path (exactly H / 2)
         P = 0.5 * V.hessian_at_center()
     if P is not None:
         return TerminalSet(P, center, level, coords, name)
-    if V.terms is None:
+    if not V.is_polynomial:
         raise RoaInputError(f"terminal set: V is a {type(V).__name__}, not a polynomial")
     if frame is None:
         raise RoaInputError(

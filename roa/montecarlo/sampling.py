@@ -255,11 +255,10 @@ def region_sample(
             f"region {region.name!r} lives in other coordinates than the system: pass inverse= "
             "(the map from its analysis coordinates back to the system's)"
         )
-    if region.P is None:
+    P = region.lyapunov.ellipsoid_matrix()
+    if P is None:
         raise RoaInputError(
             f"region {region.name!r}: samples of a level set of a non-quadratic V are not "
             "implemented (ellipsoids only)"
         )
-    return RegionSample(
-        region.P, float(region.level), _as_count(n), int(seed), mode, inverse, region.name
-    )
+    return RegionSample(P, float(region.level), _as_count(n), int(seed), mode, inverse, region.name)

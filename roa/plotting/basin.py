@@ -111,7 +111,7 @@ def kind_text(region: Region) -> str:
     """What V a region is a level set of, in words: ``quadratic``, ``degree-4 polynomial``, or
     the candidate's class for any other V."""
     degree = region.degree
-    if region.lyapunov.P is not None:
+    if region.lyapunov.is_quadratic:
         return "quadratic"
     if degree is not None:
         return f"degree-{degree} polynomial"
@@ -123,7 +123,7 @@ def region_label(region: Region) -> str:
     kind of a non-quadratic V when the label does not say it, and the status when the line style
     alone does not say it (refuted, inconclusive)."""
     label = str(region.meta.get("label") or region.name)
-    quadratic = region.lyapunov.P is not None
+    quadratic = region.lyapunov.is_quadratic
     if not quadratic and "degree" not in label and "polynomial" not in label:
         label += f" ({kind_text(region)} V)"
     if region.status in ("refuted", "inconclusive") and region.status not in label:

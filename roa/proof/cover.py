@@ -13,8 +13,8 @@ A box ``B`` *covers* ``{V <= level}`` in one of two ways:
   ``{V <= level}`` lies in the cube ``|d_i| <= sqrt(level / lambda)``;
 * **by its boundary** (:func:`prove_boundary`): ``V > level`` on every face of ``B`` (interval
   branch and bound with the mean-value form), so the connected component of ``{V <= level}``
-  holding the equilibrium lies inside ``B``. The box is either given or found along rays
-  (:func:`ray_box`).
+  holding the equilibrium lies inside ``B``. The box is either given or proposed by the caller
+  (found along rays by :func:`roa.search.rays.ray_box`).
 
 :func:`prove_cover` tries them in that order (the validation's and the containment's cover);
 :func:`connected_to_center` proves a point to lie in the equilibrium's component of the set.
@@ -23,6 +23,7 @@ A box ``B`` *covers* ``{V <= level}`` in one of two ways:
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from fractions import Fraction
 from typing import Any
 
@@ -36,7 +37,7 @@ from roa.proof.interval import INTERVAL, Interval, round_up
 
 def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]] | None:
     """Half-widths of a cube around the centre that holds all of ``{V <= level}``, or None."""
-    gram = getattr(lyap, "gram", None)
+    gram = lyap.gram_view()
     if gram is None:
         return None
     basis, Q = gram
@@ -53,7 +54,7 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
     for i, j in itertools.product(range(m), range(m)):
         key = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
         pairs.setdefault(key, []).append((i, j))
-    terms = getattr(lyap, "terms", {})
+    terms = lyap.polynomial_view() or {}
     if set(terms) - set(pairs):
         return None
     for key, idx in pairs.items():  # make m' Qx m equal the polynomial exactly
@@ -148,47 +149,19 @@ def prove_boundary(
     return True, boxes
 
 
-def ray_box(
-    lyap: Lyapunov, level: float, *, n_dirs: int = 4000, seed: int = 0
-) -> np.ndarray | None:
-    """Half-widths of the box around the centre reached by ``{V <= level}`` along rays (an
-    estimate, proved afterwards by :func:`prove_boundary`); None if V stays below the level."""
-    n, c = lyap.n, lyap.center
-    rng = np.random.default_rng(seed)
-    U = rng.standard_normal((n_dirs, n)) @ lyap.whitening().T
-    U /= np.linalg.norm(U, axis=1, keepdims=True)
-    U = np.concatenate([U, np.eye(n), -np.eye(n)])
-    _, hi, found = ray_exits(lyap.value, c, U, level)
-    if not found.all():
-        return None
-    return np.max(np.abs(hi[:, None] * U), axis=0)
-
-
-def ray_exits(
-    value: Any, c: np.ndarray, U: np.ndarray, level: float
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Along the rays ``c + t u`` (rows ``u`` of ``U``): ``(lo, hi, found)``, a bracket of the
-    first ``t`` in [1e-6, 1e6] (a geometric grid, then 50 bisections) where ``value`` exceeds
-    ``level`` (NaN counts as above); ``found`` is False where it never does on the grid."""
-    t = np.geomspace(1e-6, 1e6, 241)
-    with np.errstate(all="ignore"):
-        above = ~(value(c + t[None, :, None] * U[:, None, :]) <= level)
-    k = np.argmax(above, axis=1)
-    hi = t[k]
-    lo = np.where(k > 0, t[np.maximum(k - 1, 0)], 0.0)
-    for _ in range(50):
-        mid = 0.5 * (lo + hi)
-        with np.errstate(all="ignore"):
-            b = ~(value(c + mid[:, None] * U) <= level)
-        hi, lo = np.where(b, mid, hi), np.where(b, lo, mid)
-    return lo, hi, above.any(axis=1)
-
-
 def prove_cover(
-    lyap: Lyapunov, level: float, bounding_box: Any, budget: int = 400_000
+    lyap: Lyapunov,
+    level: float,
+    bounding_box: Any,
+    budget: int = 400_000,
+    estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
 ) -> tuple[Any, dict[str, Any], str]:
     """(lo, hi) of a proved cover, its description, or (None, info, why not); ``budget``: boxes
-    of the face proofs (:func:`roa.proof.cover.prove_boundary`) over all the boxes tried."""
+    of the face proofs (:func:`roa.proof.cover.prove_boundary`) over all the boxes tried;
+    ``estimate(V, level)``: half-widths of a box reached by the level set (a proposal, e.g.
+    :func:`roa.search.rays.ray_box`; None when V stays below the level along some ray), grown
+    until ``V > level`` is proved on its faces, when there is neither a Gram cover nor a
+    ``bounding_box``."""
     c = lyap.center
     found = gram_cover(lyap, level)
     if found is not None:
@@ -208,7 +181,9 @@ def prove_cover(
         ok, nb = prove_boundary(lyap, lo, hi, level, budget=budget)
         info = {"cover": "given box, V > level on its faces (component of x_eq)", "cover_boxes": nb}
         return ((lo, hi), info, "") if ok else (None, info, "V > level not proved on its faces")
-    w = ray_box(lyap, level)
+    if estimate is None:
+        return None, {}, "no Gram cover, no bounding box and no estimate of one (rays) given"
+    w = estimate(lyap, level)
     if w is None:
         return None, {}, "V stays below the level along some ray: the sublevel set is unbounded"
     total = 0

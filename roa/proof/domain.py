@@ -16,10 +16,11 @@ lie inside ``{margin > 0}``. Three tools, each independent of any solver:
   (:func:`roa.proof.cover.prove_cover`): every box has ``V > c`` or ``margin > 0`` (outward
   rounding), within a budget of boxes and seconds. It proves the claim for the equilibrium's
   component of the set when the cover is only proved for it.
-* :func:`domain_witness`: a point with ``V <= c`` and ``margin <= 0``, found along rays from the
-  equilibrium and moved by SLSQP to a local minimum of V on ``{margin <= 0}`` (a proposal),
-  believed only once re-checked at 50 digits and proved to lie in the equilibrium's component
-  of ``{V <= V(x)}``. It refutes every level from ``V(x)`` up.
+* :func:`confirmed_outside`: a proposed point with ``V <= c`` and ``margin <= 0`` (found along
+  rays from the equilibrium and moved by SLSQP to a local minimum of V on ``{margin <= 0}``,
+  :func:`roa.search.outside.domain_witness`), believed only once re-checked at 50 digits and
+  proved to lie in the equilibrium's component of ``{V <= V(x)}``. It refutes every level from
+  ``V(x)`` up.
 """
 
 from __future__ import annotations
@@ -121,77 +122,27 @@ def check_domain_certificate(margin: QPoly, Vq: QPoly, n: int, level: Any, eps: 
 
 
 # -- witnesses ---------------------------------------------------------------------------------------
-def _boundary_points(system: System, V: Lyapunov, n_dirs: int, seed: int) -> np.ndarray:
-    """Points just outside the domain on rays from the centre (the first crossing of each ray
-    within ``|d| <= 2^40``, located by bisection)."""
-    n, c = V.n, np.asarray(V.center, dtype=float)
-    rng = np.random.default_rng(seed)
-    dirs = np.concatenate([np.eye(n), -np.eye(n), rng.standard_normal((n_dirs, n))])
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    t_hi = np.full(len(dirs), 2.0**-20)
-    out = np.zeros(len(dirs), dtype=bool)
-    with np.errstate(all="ignore"):
-        for _ in range(61):  # grow until the ray leaves the domain
-            grow = ~out & (t_hi < 2.0**40)
-            if not grow.any():
-                break
-            left = ~system.inside(c + t_hi[grow, None] * dirs[grow])
-            out[np.flatnonzero(grow)[left]] = True
-            t_hi[np.flatnonzero(grow)[~left]] *= 2.0
-        dirs, t_hi = dirs[out], t_hi[out]
-        t_lo = np.zeros(len(dirs))
-        for _ in range(60):
-            mid = 0.5 * (t_lo + t_hi)
-            inside = system.inside(c + mid[:, None] * dirs)
-            t_lo, t_hi = np.where(inside, mid, t_lo), np.where(inside, t_hi, mid)
-    return c + t_hi[:, None] * dirs
-
-
-def domain_witness(
-    system: System, V: Lyapunov, *, n_dirs: int = 400, seed: int = 0
-) -> tuple[float, np.ndarray, dict[str, Any]] | None:
-    """``(V(x), x, check)``: a point ``x`` outside the domain (``margin(x) <= 0``) whose value
-    bounds from above every level whose set stays inside the domain: ``V(x) <= V(x)`` and
-    ``margin(x) <= 0`` re-checked at 50 digits, ``x`` proved to lie in the equilibrium's component
-    of ``{V <= V(x) (1 + 1e-12)}``. None when no such point is found (the domain may hold every
-    level set)."""
-    from scipy.optimize import minimize
-
+def confirmed_outside(
+    system: System, V: Lyapunov, x: np.ndarray
+) -> tuple[float, dict[str, Any]] | None:
+    """``(V(x), check)`` when the proposed point ``x`` refutes every level from ``V(x)`` up:
+    ``V(x)`` finite and > 0, ``V(x) <= V(x) (1 + 1e-12)`` and ``margin(x) <= 0`` re-checked at
+    50 digits (``check``), ``x`` proved to lie in the equilibrium's component of
+    ``{V <= V(x) (1 + 1e-12)}``; else None. Where ``x`` comes from
+    (:func:`roa.search.outside.domain_witness`) does not matter."""
     from roa.proof.cover import connected_to_center
     from roa.proof.witness import WITNESS_SLACK, recheck_domain_witness
 
-    if system.margin is None:
-        return None
-    pts = _boundary_points(system, V, n_dirs, seed)
-    if not len(pts):
-        return None
+    x = np.asarray(x, dtype=float)
     with np.errstate(all="ignore"):
-        vals = V.value(pts)
-    order = np.argsort(np.where(np.isfinite(vals), vals, np.inf))[:3]
-
-    def margin(x: np.ndarray) -> float:
-        return float(np.asarray(system.margin(list(x), namespace("numpy"))))  # type: ignore[misc]
-
-    best: tuple[float, np.ndarray, dict[str, Any]] | None = None
-    for i in order:
-        starts = [pts[i]]
-        with np.errstate(all="ignore"):
-            res = minimize(lambda x: float(V.value(x[None])[0]), pts[i], method="SLSQP",
-                           constraints=[{"type": "ineq", "fun": lambda x: -margin(x)}],
-                           options={"maxiter": 200, "ftol": 1e-15})  # fmt: skip
-        if np.all(np.isfinite(res.x)):
-            starts.insert(0, np.asarray(res.x, dtype=float))
-        for x in starts:
-            with np.errstate(all="ignore"):
-                v = float(V.value(x[None])[0])
-            if not (np.isfinite(v) and v > 0) or (best is not None and v >= best[0]):
-                continue
-            top = v * WITNESS_SLACK
-            check = recheck_domain_witness(system, V, x, top)
-            if check["confirmed"] and connected_to_center(V, x, top):
-                best = (v, x, check)
-                break
-    return best
+        v = float(V.value(x[None])[0])
+    if not (np.isfinite(v) and v > 0):
+        return None
+    top = v * WITNESS_SLACK
+    check = recheck_domain_witness(system, V, x, top)
+    if check["confirmed"] and connected_to_center(V, x, top):
+        return v, check
+    return None
 
 
 # -- interval containment ----------------------------------------------------------------------------
@@ -212,14 +163,16 @@ def interval_containment(
     *,
     max_boxes: int = 200_000,
     time_limit: float = 60.0,
+    cover_estimate: Any = None,
 ) -> Containment:
     """Prove ``{V <= level}`` inside ``{margin > 0}`` by interval branch and bound (module
-    docstring); ``inconclusive`` with the reason when the budget is spent first."""
+    docstring); ``inconclusive`` with the reason when the budget is spent first.
+    ``cover_estimate``: see :func:`roa.proof.cover.prove_cover`."""
     from roa.proof.cover import bisect_widest, interval_value, prove_cover
 
     t0 = time.perf_counter()
     assert system.margin is not None
-    box, info, why = prove_cover(V, level, None, budget=max_boxes)
+    box, info, why = prove_cover(V, level, None, budget=max_boxes, estimate=cover_estimate)
     if box is None:
         return Containment("inconclusive", f"no proved cover of the level set: {why}", 0, info)
     scope = "the equilibrium's component of " if "component" in str(info.get("cover", "")) else ""

@@ -109,7 +109,7 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
     from roa.lyapunov import exact_rationals
     from roa.model.backend import namespace
 
-    if lyap.terms is not None:
+    if lyap.is_polynomial:
         ok = True  # every term has degree >= 2 in d = x - x_eq
     else:
         x = [sp.Rational(float(c)) for c in lyap.center]
@@ -143,8 +143,9 @@ def hessian_preconditions(system: System, lyap: Lyapunov) -> bool:
     ``F(x_eq) = x_eq`` for a map). For a whitened candidate the residual is checked on the
     system in ``x``: ``x(0) = x_eq`` exactly, so the whitened field (``M^-1 f``, or
     ``M^-1 (F - x_eq)``) vanishes at ``y = 0`` exactly when it does at ``x_eq``."""
-    if getattr(lyap, "whitened", False):
-        base_sys, center = lyap.system, lyap.base.center  # type: ignore[attr-defined]
+    frame = lyap.unwhitened()
+    if frame is not None:
+        base_sys, center = frame[1], frame[0].center
     else:
         base_sys, center = system, lyap.center
     return gradient_vanishes(lyap) and exact_equilibrium(base_sys, center)
@@ -203,7 +204,7 @@ def _ivals(e: Any) -> tuple[Fraction, Fraction] | None:
 
 def _quadratic_matrix(lyap: Lyapunov) -> list[list[Fraction]] | None:
     """``P`` of ``V = d' P d`` as exact rationals (from the float terms), or None."""
-    terms = lyap.terms
+    terms = lyap.polynomial_view()
     if terms is None or not terms or any(sum(a) != 2 for a in terms):
         return None
     n = lyap.n
@@ -251,9 +252,10 @@ def contraction_box(
     base_sys, base = system, lyap
     n = lyap.n
     M = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]
-    if getattr(lyap, "whitened", False):
-        base_sys, base = lyap.system, lyap.base  # type: ignore[attr-defined]
-        M = [[Fraction(float(v)) for v in row] for row in np.asarray(lyap.M)]  # type: ignore[attr-defined]
+    frame = lyap.unwhitened()
+    if frame is not None:
+        base, base_sys = frame[0], frame[1]
+        M = [[Fraction(float(v)) for v in row] for row in np.asarray(frame[2])]
     P = _quadratic_matrix(base)
     if P is None:
         return None
@@ -374,9 +376,10 @@ def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
     c = [sp.Rational(float(v)) for v in lyap.center]
     x = [c[i] + d[i] for i in range(n)]
     try:
-        if lyap.P is not None and system.time == "continuous":
+        Pq = lyap.quadratic_matrix()
+        if Pq is not None and system.time == "continuous":
             f = system.field(0.0, x, namespace("sympy"))
-            P = [[sp.Rational(float(lyap.P[i, j])) for j in range(n)] for i in range(n)]
+            P = [[sp.Rational(float(Pq[i, j])) for j in range(n)] for i in range(n)]
             vd = 2 * sum(d[i] * P[i][j] * f[j] for i in range(n) for j in range(n))
         else:
             from roa.lyapunov import exact_rationals

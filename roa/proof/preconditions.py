@@ -50,7 +50,7 @@ import numpy as np
 
 from roa.lyapunov import Lyapunov
 from roa.model.system import System
-from roa.proof.validation import Validation
+from roa.proof.validation import Reason, Validation
 from roa.status import Verdict
 
 #: Every precondition of a certificate, by name (module docstring).
@@ -90,8 +90,10 @@ class Preconditions:
 
 def _refuse(level: float, t0: float, status: Verdict, precondition: str, message: str,
             route: Route, **meta: Any) -> Preconditions:  # fmt: skip
+    why = Reason.DOMAIN if precondition == "domain" else Reason.PRECONDITION
     v = Validation(status, float(level), 0, time.perf_counter() - t0, message=message,
-                   meta={"method": route.name, "precondition": precondition, **meta})  # fmt: skip
+                   meta={"method": route.name, "precondition": precondition, **meta},
+                   reason=why)  # fmt: skip
     return Preconditions(v)
 
 
@@ -104,6 +106,8 @@ def check_preconditions(
     stored_domain: Any = None,
     propose: Callable[..., Any] | None = None,
     recheck: bool = False,
+    find_outside: Callable[[System, Lyapunov], Any] | None = None,
+    cover_estimate: Callable[[Lyapunov, float], Any] | None = None,
 ) -> Preconditions:
     """Check every precondition of :data:`PRECONDITIONS` for ``{V <= level}`` on ``route``.
 
@@ -111,7 +115,13 @@ def check_preconditions(
     re-checked exactly as stored); ``recheck``: a stored certificate is being re-checked (no
     solver: without a stored domain certificate the containment is proved by intervals);
     ``propose(margin, Vq, n, level)``: the search of a Putinar candidate
-    (:func:`roa.search.sos_domain.propose_domain_certificate`) for a fresh certificate."""
+    (:func:`roa.search.sos_domain.propose_domain_certificate`) for a fresh certificate;
+    ``find_outside(system, V) -> (value, x, check) | None``: the search of a point of the set
+    outside the domain (:func:`roa.search.outside.domain_witness`), whose ``x`` refutes the
+    levels from ``V(x)`` up once proved here (:func:`roa.proof.domain.confirmed_outside`);
+    without it no level is refuted for leaving the domain (its containment is proved or not);
+    ``cover_estimate``: the proposal of a box holding the set for the interval containment
+    (:func:`roa.proof.cover.prove_cover`)."""
     from roa.proof.cover import gram_cover
 
     t0 = time.perf_counter()
@@ -147,16 +157,18 @@ def check_preconditions(
                       "over the linear monomials): {V <= level} may be unbounded")  # fmt: skip
     if system.margin is None:
         return Preconditions(None)
-    return _domain(system, V, lvl, route, stored_domain, propose, recheck, refuse)
+    return _domain(system, V, lvl, route, stored_domain, propose, recheck, refuse, find_outside,
+                   cover_estimate)  # fmt: skip
 
 
 def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any,
-            propose: Any, recheck: bool, refuse: Callable[..., Preconditions]
+            propose: Any, recheck: bool, refuse: Callable[..., Preconditions],
+            find_outside: Any = None, cover_estimate: Any = None
             ) -> Preconditions:  # fmt: skip
     """The ``domain`` precondition (module docstring)."""
     from roa.proof.domain import (
         check_domain_certificate,
-        domain_witness,
+        confirmed_outside,
         interval_containment,
         margin_poly,
     )
@@ -175,7 +187,10 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             return refuse("domain", f"the equilibrium is not inside the domain ({where})")
     except (ValueError, TypeError, ArithmeticError) as exc:
         return refuse("domain", f"the margin cannot be evaluated ({exc})")
-    found = domain_witness(system, V)
+    found = None if find_outside is None else find_outside(system, V)
+    if found is not None:  # the search's point, proved here
+        proved = confirmed_outside(system, V, found[1])
+        found = None if proved is None else (proved[0], found[1], proved[1])
     if found is not None and found[0] * (1 + 1e-12) <= level:
         value, x, check = found
         return refuse("domain", f"the level set leaves the domain ({where}): V = {value:.10g} "
@@ -206,7 +221,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
     if route.domain_by_boxes:
         return Preconditions(None, None, {"domain": "proved box by box by the route"})
     why = ""
-    if propose is not None and not recheck and getattr(V, "terms", None) is not None:
+    if propose is not None and not recheck and V.is_polynomial:
         try:
             mq = margin_poly(system, V)
             cand = propose(mq, exact_terms(V), V.n, level)
@@ -221,7 +236,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
                 why = res.reason
         except NotPolynomial as exc:
             why = str(exc)
-    box = interval_containment(system, V, level)
+    box = interval_containment(system, V, level, cover_estimate=cover_estimate)
     if box.status == "proved":
         return Preconditions(None, {"method": "interval", "boxes": box.boxes},
                              {"domain": box.message})  # fmt: skip

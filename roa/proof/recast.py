@@ -329,7 +329,7 @@ def level_scale(V: Any, level: float) -> tuple[Fraction, ...]:
 
     n = int(V.n)
     P = np.zeros((n, n))
-    for m, c in V.terms.items():
+    for m, c in (V.polynomial_view() or {}).items():
         if sum(m) == 2:
             idx = [i for i in range(n) for _ in range(m[i])]
             P[idx[0], idx[1]] += float(c) / (1 if idx[0] == idx[1] else 2)
@@ -355,7 +355,8 @@ def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
     from roa.proof.exact import exact_positive_definite
 
     n, c = int(V.n), Fraction(level)
-    terms = {tuple(int(k) for k in m): exact_fraction(v) for m, v in V.terms.items() if v != 0}
+    poly = V.polynomial_view() or {}
+    terms = {tuple(int(k) for k in m): exact_fraction(v) for m, v in poly.items() if v != 0}
     if all(sum(m) == 2 for m in terms):
         P = [[Fraction(0)] * n for _ in range(n)]
         for m, v in terms.items():
@@ -390,7 +391,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     from roa.lyapunov.symbolic import exact_rationals
     from roa.model.backend import namespace
 
-    terms = getattr(V, "terms", None)
+    terms = V.polynomial_view()
     if terms is None:
         raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
     if getattr(system, "time_varying", False) or system.equilibrium is None:

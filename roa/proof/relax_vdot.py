@@ -62,7 +62,7 @@ def _convex_quadratic(lyap: Lyapunov) -> bool:
         return bool(cached)
     from roa.proof.exact import exact_positive_definite
 
-    terms = getattr(lyap, "terms", None)
+    terms = lyap.polynomial_view()
     ok = False
     if terms and all(sum(a) == 2 for a in terms):
         n = lyap.n

@@ -75,7 +75,7 @@ def content_key(system: System, V: Lyapunov, level: float) -> str | None:
     pinned down exactly: a system without an exact identity (:func:`system_identity`) or a V whose
     description does not determine it (a function V)."""
     identity = system_identity(system)
-    if identity is None or (V.P is None and V.terms is None):
+    if identity is None or not V.has_exact_description():
         return None
     data = {
         "system": identity,
@@ -136,8 +136,11 @@ def reverify(
     *,
     interval: IntervalOptions | None = None,
     use_cache: bool = True,
+    cover_estimate: Any = None,
 ) -> Reverified:
-    """Prove (or fail to prove) ``{V <= level}`` for ``system`` by interval validation.
+    """Prove (or fail to prove) ``{V <= level}`` for ``system`` by interval validation
+    (``cover_estimate``: the proposal of a box for a V without a Gram matrix, see
+    :func:`roa.proof.validate.validate_level`).
 
     Never raises for a bad certificate: a level the validation cannot take (not finite, so large
     that the arithmetic overflows) is ``inconclusive`` with the reason.
@@ -156,9 +159,11 @@ def reverify(
         if system.parameters:  # every parameter of the box, as the certificate claims
             from roa.proof.robust import validate_robust
 
-            v = validate_robust(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch)
+            v = validate_robust(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch,
+                                cover_estimate=cover_estimate)  # fmt: skip
         else:
-            v = validate_level(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch)
+            v = validate_level(system, V, lvl, max_boxes=opts.max_boxes, batch=opts.batch,
+                               cover_estimate=cover_estimate)  # fmt: skip
     except (OverflowError, FloatingPointError, ZeroDivisionError) as exc:
         return Reverified(Verdict.INCONCLUSIVE, lvl,
                           f"the validation cannot take level {lvl!r} ({type(exc).__name__})",

@@ -23,7 +23,6 @@ with ``p`` taken exactly, in the equilibrium's component.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -46,14 +45,16 @@ def validate_robust(
     batch: int = 100_000,
     bounding_box: Any = None,
     time_limit: float | None = None,
-    witness_search: Callable[..., Any] | None = None,
+    proposal: tuple[Any, dict[str, float]] | None = None,
+    cover_estimate: Any = None,
 ) -> Validation:
     """Decide ``V'_p < 0`` on ``{V <= level} \\ {x_eq}`` for every ``p`` of the system's box (module
-    doc). ``max_boxes`` is the budget of boxes (states and parameters). ``witness_search(system,
-    V, level) -> (x, p, check)``: a search of a refutation at the box's sample points
-    (:func:`roa.search.robust_witness.sampled_witness`), whose point ``p`` also hosts the branch
-    and bound's float searches; without one they run at the nominal value. A search proposes
-    only: its witness counts once re-checked at 50 digits."""
+    doc). ``max_boxes`` is the budget of boxes (states and parameters). ``proposal`` ``(x, p)``:
+    a proposed refutation ``x`` (or None) at the sample point ``p`` of the box found by a search
+    (:func:`roa.search.robust_witness.sampled_witness`); ``p`` also hosts the branch and bound's
+    float searches (default: the nominal value, no point). A proposal proves nothing: its point
+    counts once re-checked here at 50 digits, in the equilibrium's component.
+    ``cover_estimate``: see :func:`roa.proof.validate.validate_level`."""
     t0 = time.perf_counter()
     level = float(level)
     if not (np.isfinite(level) and level > 0):
@@ -66,8 +67,7 @@ def validate_robust(
         return Validation(status, level, boxes, time.perf_counter() - t0, message=message,
                           meta=meta, **kw)  # fmt: skip
 
-    w, worst, _ = (None, sample_points(system)[0], None) if witness_search is None else (
-        witness_search(system, lyap, level))  # fmt: skip
+    w, worst = (None, sample_points(system)[0]) if proposal is None else proposal
     check = None
     if w is not None:  # the search's point, proved here
         from roa.proof.cover import connected_to_center
@@ -87,15 +87,16 @@ def validate_robust(
     # sample point
     res = validate_level(over(system, full, point=worst), lyap, level, max_boxes=max_boxes,
                          batch=batch, bounding_box=bounding_box, time_limit=time_limit,
-                         parameters=(np.asarray(full.lo), np.asarray(full.hi)))  # fmt: skip
+                         parameters=(np.asarray(full.lo), np.asarray(full.hi)),
+                         cover_estimate=cover_estimate)  # fmt: skip
     meta = {**res.meta, "witness_search_parameters": worst}
     if res.status is Verdict.REFUTED:
         return out(Verdict.REFUTED, res.boxes, f"{res.message} for {describe_point(worst)}",
                    witness=res.witness, witness_check=res.witness_check,
-                   witness_parameters=dict(worst), meta=meta)  # fmt: skip
+                   witness_parameters=dict(worst), meta=meta, reason=res.reason)  # fmt: skip
     if res.status is Verdict.CERTIFIED:
         return out(Verdict.CERTIFIED, res.boxes,
                    f"V' < 0 proved for every parameter of the box ({full.describe()}): "
                    f"{res.message}", meta=meta)  # fmt: skip
     return out(res.status, res.boxes, f"not decided for {full.describe()}: {res.message}",
-               meta=meta)  # fmt: skip
+               meta=meta, reason=res.reason)  # fmt: skip

@@ -1,6 +1,6 @@
 """Exact data of the SOS check of a polynomial field, and the exact arithmetic it is written in.
 
-:func:`exact_data` expands, for a polynomial field ``f`` and a polynomial ``V`` (``V.terms`` in
+:func:`exact_data` expands, for a polynomial field ``f`` and a polynomial ``V`` (:meth:`~roa.lyapunov.Lyapunov.polynomial_view` in
 ``d = x - x_eq``, ``x_eq = V.center``), ``V`` and ``V' = grad V . f`` exactly over the rationals
 (every float taken as the exact rational of its double; ``f(x_eq) = 0`` checked exactly), and
 :func:`preconditions` adds what every level needs: V centred at the equilibrium, ``{V <= c}``
@@ -71,7 +71,7 @@ def exact_fraction(x: Any) -> Fraction:
 
 def exact_terms(V: Any) -> QPoly:
     """V's terms as exact rationals (the floats taken as the rationals of the doubles)."""
-    terms = getattr(V, "terms", None) or {}
+    terms = V.polynomial_view() or {}
     return {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
 
 
@@ -86,7 +86,7 @@ def exact_data(system: Any, V: Any) -> ExactData:
     from roa.model.backend import namespace
     from roa.proof.fast_poly import field_polys
 
-    terms = getattr(V, "terms", None)
+    terms = V.polynomial_view()
     if terms is None:
         raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
     if getattr(system, "time_varying", False) or system.equilibrium is None:

@@ -142,17 +142,22 @@ def _eps(part: dict[str, Any], top: Any) -> Fraction:
     return eps
 
 
-def recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validation:
+def recheck(system: Any, V: Any, level: float, meta: dict[str, Any], *,
+            find_outside: Any = None, cover_estimate: Any = None) -> Validation:  # fmt: skip
     """Re-check a stored exact SOS certificate (``meta``: ``certificate`` and ``eps``) of
     ``{V <= level}`` for ``system`` without any solver: ``certified`` only if every
     precondition holds (:func:`roa.proof.preconditions.check_preconditions`, the domain by the
     stored ``domain`` part or by intervals) and every part passes
     :func:`roa.proof.putinar.check_level` exactly as stored (parts over several blocks must
-    partition the variables, no monomial of ``V`` or ``V'`` coupling two of them)."""
+    partition the variables, no monomial of ``V`` or ``V'`` coupling two of them).
+    ``find_outside``: the search of a point of the set outside the domain
+    (:func:`roa.search.outside.domain_witness`) and ``cover_estimate`` the proposal of a box
+    (:func:`roa.search.rays.ray_box`): see :func:`~roa.proof.preconditions.check_preconditions`."""
     cert = meta.get("certificate")
     pre = check_preconditions(system, V, level, Route("sos-exact", parameters=True),
                               stored_domain=cert.get("domain") if isinstance(cert, dict) else None,
-                              recheck=True)  # fmt: skip
+                              recheck=True, find_outside=find_outside,
+                              cover_estimate=cover_estimate)  # fmt: skip
     if pre.refusal is not None:
         return pre.refusal
     v = _recheck(system, V, level, meta)

@@ -25,10 +25,18 @@ from roa.proof.whiten import Whitened, whitening_for
 
 
 def sublevel_contains(
-    inner: Lyapunov, a: float, outer: Lyapunov, b: float, *, max_boxes: int = 2_000_000
+    inner: Lyapunov,
+    a: float,
+    outer: Lyapunov,
+    b: float,
+    *,
+    max_boxes: int = 2_000_000,
+    cover_estimate: Any = None,
 ) -> dict[str, Any]:
     """Decide ``{inner <= a} subset {outer <= b}`` (module docstring); a dict with ``status``
-    (``proved`` / ``refuted`` / ``inconclusive``), ``boxes``, ``seconds``, ``witness``."""
+    (``proved`` / ``refuted`` / ``inconclusive``), ``boxes``, ``seconds``, ``witness``.
+    ``cover_estimate``: the proposal of a box for an inner V without a Gram matrix
+    (:func:`roa.proof.cover.prove_cover`)."""
     import mpmath as mp
 
     t0 = time.perf_counter()
@@ -44,7 +52,7 @@ def sublevel_contains(
         return {"status": status, "boxes": boxes, "seconds": round(time.perf_counter() - t0, 3),
                 "coordinates": "whitened" if M is not None else "x", **kw}  # fmt: skip
 
-    box, info, why = prove_cover(inner, a, None, budget=max_boxes)
+    box, info, why = prove_cover(inner, a, None, budget=max_boxes, estimate=cover_estimate)
     if box is None:
         return out("inconclusive", info.get("cover_boxes", 0), message=f"no cover: {why}")
     lo, hi = box[0][None, :], box[1][None, :]

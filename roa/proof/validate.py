@@ -80,6 +80,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
@@ -94,7 +95,7 @@ from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
 from roa.proof.local import local_box
 from roa.proof.relax_vdot import relaxation_bounds
-from roa.proof.validation import Validation
+from roa.proof.validation import Reason, Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
 from roa.proof.witness import recheck_domain_witness, recheck_witness
 from roa.status import Verdict
@@ -163,7 +164,7 @@ class QuadraticForm:
         self.n = lyap.n
         self.center = np.asarray(lyap.center, dtype=float)
         self.coef: dict[tuple[int, int], Any] = {}
-        for a, q in (lyap.terms or {}).items():
+        for a, q in (lyap.polynomial_view() or {}).items():
             idx = [i for i, k in enumerate(a) for _ in range(k)]
             f = float(q)
             exact = Fraction(f) == (q if isinstance(q, Fraction) else Fraction(f))
@@ -172,7 +173,7 @@ class QuadraticForm:
     @classmethod
     def of(cls, lyap: Lyapunov) -> QuadraticForm | None:
         """The closed form of ``lyap``, or None when its exact terms are not all of degree 2."""
-        terms = getattr(lyap, "terms", None)
+        terms = lyap.polynomial_view()
         if not terms or any(sum(a) != 2 for a in terms):
             return None
         return cls(lyap)
@@ -378,6 +379,7 @@ def validate_level(
     bounding_box: Any = None,
     parameters: tuple[Any, Any] | None = None,
     time_limit: float | None = None,
+    cover_estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -397,8 +399,12 @@ def validate_level(
     bounding_box : array, optional
         ``n`` half-widths around the equilibrium, or a ``(lo, hi)`` pair, of a box holding the
         level set (``V > level`` is proved on its faces; the run is then in ``x``). Default: a
-        global bound from V's Gram matrix when there is one (every quadratic V), else a box found
-        along rays and proved.
+        global bound from V's Gram matrix when there is one (every quadratic V), else a box
+        grown from ``cover_estimate`` and proved.
+    cover_estimate : callable, optional
+        ``cover_estimate(V, level)``: half-widths of a box reached by the level set, a proposal
+        (:func:`roa.search.rays.ray_box`); without it, a V with no Gram matrix and no
+        ``bounding_box`` has no cover (``inconclusive``).
     parameters : (lo, hi), optional
         For a system over a parameter box (:func:`roa.model.parameters.over`): the box's bounds. The
         branch and bound then runs over states and parameters (boxes of ``n + k`` columns, the
@@ -416,7 +422,8 @@ def validate_level(
         res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
                                 bounding_box=bounding_box, parameters=parameters,
                                 deadline=None if time_limit is None
-                                else time.perf_counter() + float(time_limit))  # fmt: skip
+                                else time.perf_counter() + float(time_limit),
+                                estimate=cover_estimate)  # fmt: skip
     if "M" not in res.meta:  # boxes in x: the frame (of the component box argument) is I
         meta = {**res.meta, "coordinates": "x", "M": np.eye(lyap.n).tolist()}
         res = dataclasses.replace(res, meta=meta)
@@ -434,27 +441,29 @@ def _branch_and_bound(
     whiten: bool = True,
     parameters: tuple[Any, Any] | None = None,
     deadline: float | None = None,
+    estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
 ) -> Validation:
     """The loop of the module doc. ``whiten``: run it on boxes in ``y`` with ``x = x_eq + M y``
     and ``M`` from the Hessian of V at the equilibrium (:mod:`roa.proof.whiten`; skipped when
     that Hessian is diagonal or not definite, or a ``bounding_box`` is given)."""
     t0 = time.perf_counter()
-    if whiten and bounding_box is None and not lyap.whitened:
+    if whiten and bounding_box is None and lyap.unwhitened() is None:
         M = whitening_for(lyap)
         if M is not None:
             W = Whitened(lyap, system, M)
             res = _branch_and_bound(whitened_system(system, W), W, level, max_boxes=max_boxes,
                                     batch=batch, whiten=False, parameters=parameters,
-                                    deadline=deadline)  # fmt: skip
+                                    deadline=deadline, estimate=estimate)  # fmt: skip
             return _in_x(res, system, lyap, W)
 
     def out(status: Verdict, boxes: int, message: str, **kw: Any) -> Validation:
         return Validation(status, level, boxes, time.perf_counter() - t0, message=message, **kw)
 
-    box, info, why = prove_cover(lyap, level, bounding_box, budget=max_boxes)
+    box, info, why = prove_cover(lyap, level, bounding_box, budget=max_boxes, estimate=estimate)
     if box is None:
         return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
-                   f"no proved box cover of the level set: {why}", meta=info)  # fmt: skip
+                   f"no proved box cover of the level set: {why}", meta=info,
+                   reason=Reason.NO_COVER)  # fmt: skip
     lo0, hi0 = box
     c = lyap.center
     n = lyap.n
@@ -464,7 +473,8 @@ def _branch_and_bound(
                    "precondition 'invariant' not met: the cover holds only the equilibrium's "
                    "component of {V <= level}, and a map may jump out of it (prove the whole "
                    "sublevel set: a V with a positive definite Gram matrix, no bounding_box)",
-                   meta={**info, "precondition": "invariant"})  # fmt: skip
+                   meta={**info, "precondition": "invariant"},
+                   reason=Reason.PRECONDITION)  # fmt: skip
     plo = phi = np.zeros(0)
     if parameters is not None:
         plo, phi = (np.asarray(a, dtype=float).ravel() for a in parameters)
@@ -510,7 +520,8 @@ def _branch_and_bound(
                                "the domain (float and 50 digits); no certificate for this level",
                                meta={**info, **local, "domain_witness": [float(v) for v in w],
                                      "domain_check": check, "precondition": "domain",
-                                     "domain_level": float(lyap.value(w[None])[0])})  # fmt: skip
+                                     "domain_level": float(lyap.value(w[None])[0])},
+                               reason=Reason.DOMAIN)  # fmt: skip
         if len(lo):
             w = _witness(system, lyap, 0.5 * (lo[:, :n] + hi[:, :n]), level)
             if w is not None:

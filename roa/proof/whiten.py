@@ -59,7 +59,7 @@ class Polynomial:
 
     def __init__(self, n: int, terms: dict[tuple[int, ...], Coef] | None = None) -> None:
         self.n = n
-        self.terms = {a: q for a, q in (terms or {}).items() if not _is_zero(q)}
+        self.coefs = {a: q for a, q in (terms or {}).items() if not _is_zero(q)}
         self._ready: dict[bool, list[tuple[tuple[int, ...], Any]]] = {}
 
     @classmethod
@@ -71,25 +71,25 @@ class Polynomial:
         return cls(n, terms)
 
     def __add__(self, other: Polynomial) -> Polynomial:
-        out = dict(self.terms)
-        for a, q in other.terms.items():
+        out = dict(self.coefs)
+        for a, q in other.coefs.items():
             out[a] = _add(out[a], q) if a in out else q
         return Polynomial(self.n, out)
 
     def __mul__(self, other: Polynomial) -> Polynomial:
         out: dict[tuple[int, ...], Coef] = {}
-        for (a, p), (b, q) in itertools.product(self.terms.items(), other.terms.items()):
+        for (a, p), (b, q) in itertools.product(self.coefs.items(), other.coefs.items()):
             key = tuple(i + j for i, j in zip(a, b, strict=True))
             pq = _mul(p, q)
             out[key] = _add(out[key], pq) if key in out else pq
         return Polynomial(self.n, out)
 
     def scaled(self, q: Coef) -> Polynomial:
-        return Polynomial(self.n, {a: _mul(p, q) for a, p in self.terms.items()})
+        return Polynomial(self.n, {a: _mul(p, q) for a, p in self.coefs.items()})
 
     def diff(self, j: int) -> Polynomial:
         out: dict[tuple[int, ...], Coef] = {}
-        for a, q in self.terms.items():
+        for a, q in self.coefs.items():
             if a[j]:
                 b = tuple(k - (i == j) for i, k in enumerate(a))
                 out[b] = _mul(q, Fraction(a[j]))
@@ -100,7 +100,7 @@ class Polynomial:
         enclosure (``exact``, intervals and jets) or the nearest double (numpy)."""
         if exact not in self._ready:
             out = []
-            for a, q in self.terms.items():
+            for a, q in self.coefs.items():
                 if isinstance(q, Interval):
                     lo, hi = float(q.lo), float(q.hi)
                     c: Any = lo if lo == hi else (q if exact else 0.5 * (lo + hi))
@@ -165,11 +165,11 @@ class Expanded:
                 out = out + t
             return out
 
-        terms = {a: Fraction(float(q)) for a, q in base.terms.items()}
+        terms = {a: Fraction(float(q)) for a, q in (base.polynomial_view() or {}).items()}
         self.compose = compose
         self.W = compose(terms)
         self.dW = [self.W.diff(j) for j in range(n)]
-        self.P: Polynomial | None = None
+        self.affine: Polynomial | None = None
         self.rest: list[tuple[int, Polynomial]] = []
         if system is None:
             return
@@ -191,7 +191,7 @@ class Expanded:
                 P = P + G[i] * Polynomial.linear(coefs, const)
             else:
                 self.rest.append((i, G[i]))
-        self.P = P
+        self.affine = P
 
 
 def _sum_products(a: list[Any], m: list[Fraction]) -> Coef:
@@ -252,8 +252,6 @@ def _scalar(g: Any) -> Any:
 class Whitened(Lyapunov):
     """``W(y) = V(c + M y)`` with ``W' = grad V . f`` evaluated at ``x = c + M y``."""
 
-    whitened = True
-
     def __init__(self, base: Lyapunov, system: System, M: np.ndarray) -> None:
 
         self.base, self.system = base, system
@@ -264,7 +262,7 @@ class Whitened(Lyapunov):
         #: the exact polynomials in ``y`` (module doc), or None (the composition through ``x``)
         # the affine-field expansion of W' is for a flow; a map's W(F) - W goes through x
         flow = system if system is not None and system.time == "continuous" else None
-        self.expanded = Expanded(base, flow, self.M) if base.terms is not None else None
+        self.expanded = Expanded(base, flow, self.M) if base.is_polynomial else None
         #: ``(basis, T' Q T)`` and the exact coefficients of ``W`` for a global cover
         #: (:func:`roa.proof.cover.gram_cover`), when V has a Gram matrix ``Q`` over a basis
         #: ``m`` with ``m(M y) = T m(y)`` (each degree's monomials all in it, e.g. quadratic V)
@@ -274,8 +272,11 @@ class Whitened(Lyapunov):
         self.gram = (
             _gram_in_y(base, self.expanded) if quadratic and self.expanded is not None else None
         )
-        exact = None if self.gram is None or self.expanded is None else self.expanded.W.terms
+        exact = None if self.gram is None or self.expanded is None else self.expanded.W.coefs
         self.terms = None if exact is None else cast(dict[tuple[int, ...], float], dict(exact))
+
+    def unwhitened(self) -> tuple[Lyapunov, System, np.ndarray]:
+        return self.base, self.system, self.M
 
     def x_of(self, y: Any) -> list[Any]:
         """``x = c + M y`` in the namespace of ``y`` (exact products where ``M`` has zeros)."""
@@ -320,10 +321,10 @@ class Whitened(Lyapunov):
 
     def vdot_expr(self, system: System, y: Any, xp: Any) -> Any:  # noqa: ARG002 - see class doc
         e = self._fast(xp)
-        if e is None or e.P is None:
+        if e is None or e.affine is None:
             return self.base.vdot_expr(self.system, self.x_of(y), xp)
         memo: dict[Any, Any] = {}
-        out = e.P(y, xp, memo)
+        out = e.affine(y, xp, memo)
         if e.rest:
             f = self.system.field(0.0, self.x_of(y), xp)
             for i, G in e.rest:
@@ -344,14 +345,14 @@ def _gram_in_y(base: Any, e: Expanded) -> tuple[list[tuple[int, ...]], np.ndarra
     """``(basis, T' Q T)`` with ``m(M y) = T m(y)`` (exact expansions; None if ``m(M y)`` leaves
     the span of the basis or V has no Gram matrix). Floats suffice: :func:`gram_cover` adjusts the
     matrix to reproduce ``W``'s exact coefficients and proves it positive definite exactly."""
-    gram = getattr(base, "gram", None)
+    gram = base.gram_view()
     if gram is None:
         return None
     basis, Q = gram
     where = {b: k for k, b in enumerate(basis)}
     T = np.zeros((len(basis), len(basis)))
     for k, b in enumerate(basis):
-        for a, q in e.compose({b: Fraction(1)}).terms.items():
+        for a, q in e.compose({b: Fraction(1)}).coefs.items():
             if a not in where:
                 return None
             T[k, where[a]] = float(cast(Fraction, q))

@@ -4,11 +4,13 @@ A float point found by a search is believed only once :func:`recheck_witness` (`
 ``{V <= level}`` and the domain) or :func:`recheck_domain_witness` (``V <= level`` outside the
 domain) confirms it with mpmath at 50 digits, the float coordinates taken exactly.
 
-A refuted validation returns a point ``w`` with ``V'(w) >= 0`` inside ``{V <= level}``. The lowest
-such point of its neighbourhood (a local minimum of V on ``{V' >= 0}``, by SLSQP: a proposal) is
-then *proved* to be a witness: ``V' >= 0`` re-checked at 50 digits and the point proved to lie in
-the equilibrium's connected component of ``{V <= V(x)}``. Such a point proves the largest
-certifiable level is at most ``V(x)``: every level from ``V(x)`` up is refuted by it.
+A refuted validation returns a point ``w`` with ``V'(w) >= 0`` inside ``{V <= level}``. A proposed
+point ``x`` (the lowest such point of its neighbourhood, found by
+:func:`roa.search.witness.lowest_confirmed_witness`) is *proved* to be a witness by
+:func:`confirmed_bound`: ``V' >= 0`` re-checked at 50 digits and the point proved to lie in the
+equilibrium's connected component of ``{V <= V(x)}``. Such a point proves the largest certifiable
+level is at most ``V(x)``: every level from ``V(x)`` up is refuted by it. Nothing here optimises
+or samples.
 """
 
 from __future__ import annotations
@@ -74,42 +76,27 @@ def recheck_domain_witness(
         }
 
 
-def lowest_confirmed_witness(
-    system: System, V: Any, w: np.ndarray
-) -> tuple[float, np.ndarray | None, dict[str, Any] | None]:
-    """``(value, x, check)``: a local minimum ``x`` of V on ``{V' >= delta}`` from ``w`` (SLSQP)
-    whose ``V' >= 0`` holds at 50 digits (``check``) and that is proved to lie in the
-    equilibrium's component of ``{V <= V(x)}``
-    (:func:`roa.proof.cover.connected_to_center`); ``(V(w), None, None)`` when none is
-    found at most ``V(w) (1 + 1e-6)`` (SLSQP may end a hair above a ``w`` that is already a
-    local minimum; a confirmed ``x`` is a valid bound whatever its value). A confirmed ``x``
-    bounds the true optimum of V by ``V(x)`` (the validation's witness sits on the level it
-    refuted, the level search's near the touching point; the minimum is where V' = 0 first
-    touches a level surface)."""
-    from scipy.optimize import minimize
-
+def confirmed_bound(
+    system: System, V: Lyapunov, x: np.ndarray
+) -> tuple[float, dict[str, Any]] | None:
+    """``(V(x), check)`` when the proposed point ``x`` proves the largest certifiable level is at
+    most ``V(x)``: ``V(x)`` finite and > 0, ``x`` inside the domain, ``V'(x) >= 0`` at 50 digits
+    in ``{V <= V(x) WITNESS_SLACK}`` (``check``, :func:`recheck_witness`) and ``x`` proved to lie
+    in the equilibrium's component of that set (:func:`roa.proof.cover.connected_to_center`);
+    else None. Where ``x`` comes from (a local minimum of V on ``{V' >= 0}``,
+    :func:`roa.search.witness.lowest_confirmed_witness`) does not matter."""
+    x = np.asarray(x, dtype=float)
     with np.errstate(all="ignore"):
-        best = float(V.value(w[None])[0])
-
-    def vdot(x: np.ndarray) -> float:
-        return float(V.derivative(system, x[None])[0])
-
-    for delta in (1e-12, 1e-10, 1e-8):
-        with np.errstate(all="ignore"):
-            res = minimize(lambda x: float(V.value(x[None])[0]), w, method="SLSQP",
-                           constraints=[{"type": "ineq", "fun": lambda x, dl=delta: vdot(x) - dl}],
-                           options={"maxiter": 300, "ftol": 1e-15})  # fmt: skip
-            x = np.asarray(res.x, dtype=float)
-            v = float(V.value(x[None])[0])
-        if not (np.isfinite(v) and 0 < v < best * (1 + 1e-6)):
-            continue
-        if system.margin is not None and not system.inside(x[None])[0]:
-            continue
-        top = v * WITNESS_SLACK
-        check = recheck_witness(system, V, x, top)
-        if check["confirmed"] and connected_to_center(V, x, top):
-            return v, x, check
-    return best, None, None
+        v = float(V.value(x[None])[0])
+    if not (np.isfinite(v) and v > 0):
+        return None
+    if system.margin is not None and not system.inside(x[None])[0]:
+        return None
+    top = v * WITNESS_SLACK
+    check = recheck_witness(system, V, x, top)
+    if check["confirmed"] and connected_to_center(V, x, top):
+        return v, check
+    return None
 
 
 def refuted_by(

@@ -384,7 +384,7 @@ def sample_search(
     o = SampleSearchOptions() if options is None else options
     if system.equilibrium is None or system.time_varying:
         raise RoaInputError(f"system {system.name!r} must be autonomous with an equilibrium")
-    if V0.P is None:
+    if not V0.is_quadratic:
         raise RoaInputError(f"V0 must be a QuadraticLyapunov seed, got {type(V0).__name__}")
     t0 = time.perf_counter()
     rng = np.random.default_rng(o.seed)

@@ -120,8 +120,9 @@ class LevelSearchResult:
             out["per_method"] = {k: v.to_dict() for k, v in self.per_method.items()}
         if self.system is not None:
             out["system"] = self.system.name
-        if self.V is not None and self.V.P is not None:
-            out["P"] = self.V.P.tolist()
+        P = None if self.V is None else self.V.quadratic_matrix()
+        if P is not None:
+            out["P"] = P.tolist()
         elif self.V is not None:
             out["lyapunov"] = self.V.describe()
         return out
@@ -141,7 +142,7 @@ class LevelSearchResult:
         X = c + t[:, None] * (self.witness - c)
         with np.errstate(all="ignore"):
             vd = self.V.derivative(self.system, X)
-        if self.V.P is not None or self.S is not None:
+        if self.V.is_quadratic or self.S is not None:
             sv = self.level * t**2
         else:
             sv = self.V.value(X)

@@ -23,9 +23,10 @@ def attach_gram(V: Any, solver_options: dict[str, Any] | None = None) -> bool:
     """Attach a positive definite Gram matrix to the polynomial ``V`` (``V.gram``) when the
     program finds one that the exact cover (:func:`roa.proof.cover.gram_cover`) proves positive
     definite; whether it did."""
-    terms = {tuple(int(k) for k in m): float(c) for m, c in V.terms.items() if c}
-    if not terms or getattr(V, "gram", None) is not None:
-        return getattr(V, "gram", None) is not None
+    poly = V.polynomial_view() or {}
+    terms = {tuple(int(k) for k in m): float(c) for m, c in poly.items() if c}
+    if not terms or V.gram_view() is not None:
+        return V.gram_view() is not None
     n = int(V.n)
     deg = max(sum(m) for m in terms)
     if deg % 2 or min(sum(m) for m in terms) < 2:
@@ -40,8 +41,8 @@ def attach_gram(V: Any, solver_options: dict[str, Any] | None = None) -> bool:
         return False
     from roa.proof.cover import gram_cover
 
-    V.gram = (basis, 0.5 * (np.asarray(Q.value) + np.asarray(Q.value).T))
+    V.with_gram((basis, 0.5 * (np.asarray(Q.value) + np.asarray(Q.value).T)))
     if gram_cover(V, 1.0) is None:  # not proved positive definite exactly: none attached
-        V.gram = None
+        V.with_gram(None)
         return False
     return True

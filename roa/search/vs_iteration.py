@@ -536,9 +536,10 @@ def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov,
     if worst_linearisation(system, V0) is None:
         return V0, False
     res = box_lyapunov(system)
-    if not res.feasible or res.P is None:
+    P = res.P  # the LMIs' matrix (a result's field, not a V's representation)
+    if not res.feasible or P is None:
         return V0, False
-    return QuadraticLyapunov.for_system(system, res.P, name="P of the box's common Lyapunov "
+    return QuadraticLyapunov.for_system(system, P, name="P of the box's common Lyapunov "
                                         "LMIs"), True  # fmt: skip
 
 

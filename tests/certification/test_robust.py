@@ -19,6 +19,7 @@ from roa.model.system import System
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.robust import validate_robust
 from roa.search.candidate import as_lyapunov
+from roa.search.rays import ray_box
 from roa.search.robust_witness import sampled_witness
 from roa.status import Verdict
 
@@ -149,10 +150,14 @@ def test_wide_box_certified_below_and_refuted_above_the_worst_case():
     s = vdp_box(0.7, 1.5)
     V = as_lyapunov(s, P)
     lo = min(slsqp_optimum(0.7), slsqp_optimum(1.5))
-    res = validate_robust(s, V, 0.99 * lo, witness_search=sampled_witness)
+    res = validate_robust(
+        s, V, 0.99 * lo, proposal=sampled_witness(s, V, 0.99 * lo)[:2], cover_estimate=ray_box
+    )
     assert res.status is Verdict.CERTIFIED
     assert res.meta["local_parameter_pieces"] >= 1
-    above = validate_robust(s, V, 1.01 * lo, witness_search=sampled_witness)
+    above = validate_robust(
+        s, V, 1.01 * lo, proposal=sampled_witness(s, V, 1.01 * lo)[:2], cover_estimate=ray_box
+    )
     assert above.status is Verdict.REFUTED and above.witness_parameters["mu"] == 0.7
 
 
@@ -161,7 +166,13 @@ def test_box_where_v_is_not_a_lyapunov_function_is_refuted():
     to the equilibrium, so no level holds for a box reaching mu = 0.5 (the whole box's branch and
     bound would only wear its budget down: the witness is found next to the equilibrium)."""
     s = vdp_box(0.5, 1.5)
-    res = validate_robust(s, as_lyapunov(s, P), 0.05, witness_search=sampled_witness)
+    res = validate_robust(
+        s,
+        as_lyapunov(s, P),
+        0.05,
+        proposal=sampled_witness(s, as_lyapunov(s, P), 0.05)[:2],
+        cover_estimate=ray_box,
+    )
     assert res.status is Verdict.REFUTED
     assert res.witness_parameters == {"mu": 0.5}
     x, mu = np.asarray(res.witness), 0.5

@@ -20,6 +20,7 @@ from roa.cli import main
 from roa.errors import RoaInputError
 from roa.lyapunov import FunctionLyapunov, Lyapunov, PolynomialLyapunov
 from roa.proof.validate import validate_level
+from roa.search.rays import ray_box
 from roa.status import Verdict
 from roa.systems import load_system
 from roa.systems.vanderpol import vanderpol
@@ -80,14 +81,14 @@ def test_one_state_quartic_closed_form():
     assert res.status.value == "agree"
     assert res.level == pytest.approx(2.0, rel=1e-8)
     assert abs(abs(res.witness[0]) - 1.0) < 1e-8
-    assert validate_level(system, V, 0.999 * 2).status is Verdict.CERTIFIED
-    ref = validate_level(system, V, 1.001 * 2)
+    assert validate_level(system, V, 0.999 * 2, cover_estimate=ray_box).status is Verdict.CERTIFIED
+    ref = validate_level(system, V, 1.001 * 2, cover_estimate=ray_box)
     assert ref.status is Verdict.REFUTED and ref.witness_check["confirmed"]
     # the same V from a Gram matrix: a global cover proved from Q
     G = PolynomialLyapunov.from_gram([[1], [2]], np.eye(2), [0.0])
-    v = validate_level(system, G, 1.998)
+    v = validate_level(system, G, 1.998, cover_estimate=ray_box)
     assert v.status is Verdict.CERTIFIED and v.meta["cover"].startswith("global")
-    assert validate_level(system, G, 2.002).status is Verdict.REFUTED
+    assert validate_level(system, G, 2.002, cover_estimate=ray_box).status is Verdict.REFUTED
 
 
 SQUARE = System(
@@ -127,7 +128,7 @@ def test_quartic_certifies_more_than_best_quadratic():
     assert area > 1.08 * np.pi
     # the unit circle x'x <= 1 itself is certifiable (V = x'x: V' = -2|x|^2 + 2 sum x_i^4 < 0)
     circle = roa.QuadraticLyapunov(np.eye(2), np.zeros(2), "circle")
-    assert validate_level(SQUARE, circle, 0.999).status is Verdict.CERTIFIED
+    assert validate_level(SQUARE, circle, 0.999, cover_estimate=ray_box).status is Verdict.CERTIFIED
 
 
 def test_function_lyapunov_log_on_vanderpol():
@@ -148,8 +149,8 @@ def test_function_lyapunov_log_on_vanderpol():
     assert ref == pytest.approx(np.log(1 + 2.3045), rel=1e-4)  # log(1 + the quadratic level)
     res = roa.level_search(vp, F, method="both")
     assert res.ok and res.level == pytest.approx(ref, rel=1e-5)
-    assert validate_level(vp, F, 0.999 * ref).status is Verdict.CERTIFIED
-    bad = validate_level(vp, F, 1.001 * ref)
+    assert validate_level(vp, F, 0.999 * ref, cover_estimate=ray_box).status is Verdict.CERTIFIED
+    bad = validate_level(vp, F, 1.001 * ref, cover_estimate=ray_box)
     assert bad.status is Verdict.REFUTED and bad.witness_check["confirmed"]
 
 

@@ -19,6 +19,7 @@ import pytest
 
 import roa
 from roa.errors import RoaInputError
+from roa.search.rays import ray_box
 from roa.status import Verdict
 from roa.systems.cubic_map import cubic_map, optimum
 
@@ -159,7 +160,7 @@ def test_a_cover_of_the_component_alone_is_refused_for_a_map():
     V = roa.FunctionLyapunov(lambda x, xp: (x[0] ** 2 + x[1] ** 2) * (4.0 / 3.0), [0.0, 0.0])
     v = roa.IntervalValidator().check(s, V, 0.5)
     assert v.status is Verdict.INCONCLUSIVE and v.meta["precondition"] == "invariant"
-    direct = validate_level(s, V, 0.5)
+    direct = validate_level(s, V, 0.5, cover_estimate=ray_box)
     assert direct.status is Verdict.INCONCLUSIVE
     assert direct.meta["precondition"] == "invariant", direct.message
     # the same level with the quadratic V (whole set, convex) is certified

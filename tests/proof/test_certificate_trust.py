@@ -21,6 +21,7 @@ from roa.errors import RoaInputError
 from roa.model.fingerprint import system_fingerprint
 from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.proof.reverify import content_key, reverify
+from roa.search.rays import ray_box
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 LEVEL = 2.30
@@ -76,9 +77,11 @@ def test_the_genuine_certificate_is_proved_again_and_remembered_by_content(certi
     moved = terminal_from_certificate({**certificate, "center": [5.0, 5.0]}, system)
     np.testing.assert_array_equal(moved.center, system.x_eq)  # the file cannot move the centre
     V = roa.default_lyapunov(system)
-    again = reverify(system, V, LEVEL)
+    again = reverify(system, V, LEVEL, cover_estimate=ray_box)
     assert again.certified and again.cached  # the first use proved it; the key is the content
-    assert not reverify(system, V, 2.31).certified  # refuted: never cached, never certified
+    assert not reverify(
+        system, V, 2.31, cover_estimate=ray_box
+    ).certified  # refuted: never cached, never certified
     assert content_key(system, V, LEVEL) != content_key(system, V, np.nextafter(LEVEL, 3.0))
     assert content_key(system, V, LEVEL) != content_key(vanderpol(mu=1.5), V, LEVEL)
 
@@ -180,8 +183,8 @@ def test_a_proof_is_never_served_for_another_parameter_value():
     B = A.with_params(k=10.0)
     V = roa.QuadraticLyapunov(np.eye(2), [0.0, 0.0])
     assert system_fingerprint(A) == system_fingerprint(B)  # the trace alone cannot tell them
-    assert reverify(A, V, 1.0).certified
-    assert reverify(B, V, 1.0).status is roa.Verdict.REFUTED
+    assert reverify(A, V, 1.0, cover_estimate=ray_box).certified
+    assert reverify(B, V, 1.0, cover_estimate=ray_box).status is roa.Verdict.REFUTED
     assert content_key(A, V, 1.0) is None  # a field outside an installed package: never cached
     stiff = vanderpol().with_params(mu=1.0 + 2**-40)  # built-ins are cached, per exact parameter
     assert None is not content_key(vanderpol(), V, 1.0) != content_key(stiff, V, 1.0)
@@ -257,19 +260,23 @@ def test_a_hand_written_cache_entry_does_not_override_a_refutation(certificate, 
 def test_a_genuine_entry_is_served_and_an_edited_or_foreign_one_is_not(certificate):
     system = vanderpol()
     V = roa.default_lyapunov(system)
-    assert reverify(system, V, LEVEL).certified  # proved (or served) once: the entry exists
-    assert reverify(system, V, LEVEL).cached
+    assert reverify(
+        system, V, LEVEL, cover_estimate=ray_box
+    ).certified  # proved (or served) once: the entry exists
+    assert reverify(system, V, LEVEL, cover_estimate=ray_box).cached
     path = _entry_path(content_key(system, V, LEVEL))
     entry = json.loads(path.read_text())
     assert set(entry) == {"key", "status", "validation", "tag"}
     edited = {**entry, "validation": {**entry["validation"], "M": [[2.0, 0.0], [0.0, 2.0]]}}
     path.write_text(json.dumps(edited))  # the record (its frame M) is covered by the tag
-    again = reverify(system, V, LEVEL)
+    again = reverify(system, V, LEVEL, cover_estimate=ray_box)
     assert again.certified and not again.cached and again.frame == entry["validation"]["M"]
     key_file = roa.io.cache_dir() / roa.io.SECRET_NAME
     key_file.write_bytes(bytes(roa.io.SECRET_BYTES))  # another key (still 0600, this user's)
-    assert not reverify(system, V, LEVEL).cached  # tagged under the old key: proved again
-    assert reverify(system, V, LEVEL).cached  # re-tagged under the new one
+    assert not reverify(
+        system, V, LEVEL, cover_estimate=ray_box
+    ).cached  # tagged under the old key: proved again
+    assert reverify(system, V, LEVEL, cover_estimate=ray_box).cached  # re-tagged under the new one
 
 
 @pytest.mark.parametrize("loosen", ["group-readable", "a link", "short"])
@@ -279,7 +286,10 @@ def test_a_key_file_that_cannot_be_trusted_disables_the_cache(loosen, tmp_path):
 
     system = vanderpol()
     V = roa.default_lyapunov(system)
-    assert reverify(system, V, LEVEL).certified and reverify(system, V, LEVEL).cached
+    assert (
+        reverify(system, V, LEVEL, cover_estimate=ray_box).certified
+        and reverify(system, V, LEVEL, cover_estimate=ray_box).cached
+    )
     key_file = roa.io.cache_dir() / roa.io.SECRET_NAME
     if loosen == "group-readable":
         os.chmod(key_file, 0o640)
@@ -292,5 +302,5 @@ def test_a_key_file_that_cannot_be_trusted_disables_the_cache(loosen, tmp_path):
         key_file.write_bytes(key_file.read_bytes()[:16])
     assert roa.io.cache_secret() is None
     for _ in range(2):
-        proof = reverify(system, V, LEVEL)
+        proof = reverify(system, V, LEVEL, cover_estimate=ray_box)
         assert proof.certified and not proof.cached

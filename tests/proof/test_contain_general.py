@@ -11,6 +11,7 @@ import roa
 from roa.lyapunov import PolynomialLyapunov
 from roa.proof.containment import ellipsoid_contains
 from roa.proof.sublevel_containment import sublevel_contains
+from roa.search.rays import ray_box
 
 
 def _as_poly(P: np.ndarray) -> PolynomialLyapunov:
@@ -39,7 +40,9 @@ def test_matches_exact_ellipsoid_test(seed, side):
     thr = a * max(np.linalg.eigvals(np.linalg.solve(Q, P)).real)
     b = side * thr
     exact = ellipsoid_contains(P, b, Q, a)["status"] == "proved"
-    res = sublevel_contains(roa.QuadraticLyapunov(Q, np.zeros(n)), a, _as_poly(P), b)
+    res = sublevel_contains(
+        roa.QuadraticLyapunov(Q, np.zeros(n)), a, _as_poly(P), b, cover_estimate=ray_box
+    )
     assert exact == (side > 1)
     assert res["status"] == ("proved" if side > 1 else "refuted")
     if res["status"] == "refuted":  # the witness is in the inner set and outside the outer one
@@ -52,5 +55,11 @@ def test_quartic_inside_ball():
     V = PolynomialLyapunov([[4, 0], [0, 4]], [1.0, 1.0], np.zeros(2))
     ball = roa.QuadraticLyapunov(np.eye(2), np.zeros(2))
     # V has no positive-definite Hessian: x-coordinates boxes; its cover comes from rays
-    assert sublevel_contains(V, 1.0, ball, 1.01 * np.sqrt(2))["status"] == "proved"
-    assert sublevel_contains(V, 1.0, ball, 0.99 * np.sqrt(2))["status"] == "refuted"
+    assert (
+        sublevel_contains(V, 1.0, ball, 1.01 * np.sqrt(2), cover_estimate=ray_box)["status"]
+        == "proved"
+    )
+    assert (
+        sublevel_contains(V, 1.0, ball, 0.99 * np.sqrt(2), cover_estimate=ray_box)["status"]
+        == "refuted"
+    )

@@ -22,6 +22,8 @@ from roa.cli import main
 from roa.errors import RoaInputError
 from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.proof.preconditions import PRECONDITIONS, Route, check_preconditions
+from roa.search.outside import domain_witness
+from roa.search.rays import ray_box
 from roa.status import Verdict
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "systems" / "domain.py"
@@ -188,12 +190,15 @@ def test_each_precondition_is_refused_on_each_route(name, route):
         system = vanderpol().with_ranges(mu=(0.8, 1.2))
         V = roa.default_lyapunov(vanderpol())
         r = dataclasses.replace(r, parameters=False)
-    pre = check_preconditions(system, V, level, r, recheck=route == "sos-recheck")
+    pre = check_preconditions(system, V, level, r, recheck=route == "sos-recheck",
+                              find_outside=domain_witness, cover_estimate=ray_box)  # fmt: skip
     assert pre.refusal is not None
     assert pre.refusal.meta["precondition"] == name, pre.refusal.message
     expected = Verdict.REFUTED if name == "domain" else Verdict.INCONCLUSIVE
     assert pre.refusal.status is expected
-    assert check_preconditions(dom.VDP, roa.default_lyapunov(dom.VDP), 0.3, r).refusal is None
+    ok = check_preconditions(dom.VDP, roa.default_lyapunov(dom.VDP), 0.3, r,
+                             find_outside=domain_witness, cover_estimate=ray_box)  # fmt: skip
+    assert ok.refusal is None
 
 
 @pytest.mark.parametrize("validator", [roa.IntervalValidator(), roa.SosValidator(),

@@ -20,6 +20,7 @@ from roa.nn import MLP
 from roa.nn.mlp import Affine
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.relax import LINEAR, Lin, variables
+from roa.search.rays import ray_box
 
 NP = namespace("numpy")
 ROOT = Path(__file__).resolve().parents[2]
@@ -215,8 +216,8 @@ def test_the_hook_decides_boxes_the_interval_forms_leave_and_keeps_the_verdicts(
     try:
         for enabled in (False, True):
             rv.ENABLED = enabled
-            runs[enabled] = validate_level(system, V, 0.999 * 18.96209)
-            above = validate_level(system, V, 1.01 * 18.96209)
+            runs[enabled] = validate_level(system, V, 0.999 * 18.96209, cover_estimate=ray_box)
+            above = validate_level(system, V, 1.01 * 18.96209, cover_estimate=ray_box)
             assert above.status.value == "refuted", (enabled, above.message)
     finally:
         rv.ENABLED = True

@@ -17,6 +17,7 @@ import pytest
 from roa.nn import MLP
 from roa.nn.mlp import Affine
 from roa.proof.relax import LINEAR, Lin, variables
+from roa.search.rays import ray_box
 
 
 def _exact_affine(A: np.ndarray, c: float, d: list[Fraction]) -> Fraction | float:
@@ -418,10 +419,10 @@ def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
         return vd, F
 
     monkeypatch.setattr(validate, "relaxation_bounds", counting)
-    below = validate.validate_level(system, V, 0.97 * cw, time_limit=300)
+    below = validate.validate_level(system, V, 0.97 * cw, time_limit=300, cover_estimate=ray_box)
     assert below.status.value == "certified", below.message
     assert sum(decided) > 0  # the relaxation decided boxes the interval forms left
-    above = validate.validate_level(system, V, 1.001 * cw, time_limit=300)
+    above = validate.validate_level(system, V, 1.001 * cw, time_limit=300, cover_estimate=ray_box)
     assert above.status.value != "certified", above.message
 
 

@@ -20,6 +20,7 @@ import roa
 from roa.certification import Certificate
 from roa.proof.recast import angle_constraints, positive_everywhere, recast_exact
 from roa.proof.sos_check import NotPolynomial
+from roa.search.rays import ray_box
 
 
 def _pendulum():
@@ -252,7 +253,7 @@ def test_one_field_certificate_is_not_one_for_a_box():
     data = json.loads(roa.io.to_json(cert.to_dict()))
     with pytest.raises(roa.RoaInputError, match="another system"):
         Certificate.from_dict(data, family)
-    again = recheck_stored(family, cert.V, 2.30, cert.validation.meta)
+    again = recheck_stored(family, cert.V, 2.30, cert.validation.meta, cover_estimate=ray_box)
     assert again.status is roa.Verdict.INCONCLUSIVE and "uncertain parameters" in again.message
     v = roa.SosValidator(fallback=False).check(family, roa.default_lyapunov(vanderpol()), 2.30)
     assert v.status is roa.Verdict.INCONCLUSIVE and "SOS check failed" in v.message

@@ -21,6 +21,7 @@ from roa.certification import Certificate
 from roa.model.system import System
 from roa.proof.sos_stored import recheck as recheck_stored
 from roa.search.candidate import as_lyapunov
+from roa.search.rays import ray_box
 from roa.status import Verdict
 
 P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V
@@ -154,7 +155,7 @@ def test_certificate_of_a_narrower_box_refused_for_the_wider_one():
         Certificate.from_dict(data, wide)
     meta = json.loads(json.dumps(cert.validation.meta, default=str))
     meta["certificate"]["parameters"] = {"mu": [str(Fraction(0.8)), str(Fraction(1.2))]}
-    r = recheck_stored(wide, V, level, meta)
+    r = recheck_stored(wide, V, level, meta, cover_estimate=ray_box)
     assert r.status is Verdict.INCONCLUSIVE and "does not hold exactly" in r.message, r.message
 
 

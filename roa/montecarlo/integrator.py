@@ -47,7 +47,7 @@ from typing import Any
 import numba
 import numpy as np
 from numba.core.imputils import lower_constant
-from numba.extending import models, register_model, typeof_impl
+from numba.extending import models, overload, register_model, typeof_impl
 
 from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
@@ -262,10 +262,8 @@ def _public_kernel() -> Callable[..., None]:
                coords, code, t_end, x_end, steps):  # fmt: skip
         if stamp < 0:  # never: the stamp is here for the cache key
             return
-        for k in range(X0.shape[0]):  # the batch: one run per row
-            code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
-                                               margin_tol, t_final, rtol, atol, T, coords,
-                                               x_end[k], None)  # fmt: skip
+        run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
+                 T, coords, code, t_end, x_end, steps, None, X0.shape[1])  # fmt: skip
 
     return kernel
 
@@ -424,16 +422,24 @@ def _copy(src, dst):
         dst[i] = src[i]
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _dense(y, h, Q, s, out):
-    # y(t + s h) = y + h * sum_j Q[:, j] s^(j+1)
-    for i in range(y.shape[0]):
-        acc = 0.0
-        p = s
-        for j in range(4):
-            acc += Q[i, j] * p
-            p *= s
-        out[i] = y[i] + h * acc
+@overload(_base.select)
+def _select_scalar(c, a, b):
+    # dopri.select on scalars (the numba kernels): a select, no array
+    def impl(c, a, b):
+        return a if c else b
+
+    return impl
+
+
+# The Dormand-Prince step of roa.montecarlo.dopri, written once there, inlined here into _one
+# (numba IR inlining: with n a constant of the caller, LLVM unrolls the loops over the states).
+_INLINE = {"inline": "always", "error_model": "numpy"}
+_initial_step = numba.njit(**_INLINE)(_base.initial_step)
+_stages = numba.njit(**_INLINE)(_base.stages)
+_error = numba.njit(**_INLINE)(_base.error)
+_control = numba.njit(**_INLINE)(_base.control)
+_dense_coefficients = numba.njit(**_INLINE)(_base.dense_coefficients)
+_dense = numba.njit(**_INLINE)(_base.dense)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -464,13 +470,12 @@ def _inside(y, coords, params, T, w, d, pw):
     return _member(w, T, d, pw)
 
 
-@numba.njit(error_model="numpy")  # compiled into the entry points (which loop over the rows)
+@numba.njit(**_INLINE)  # inlined into the entry points (which loop over the rows)
 def _one(
     field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-    T, coords, x_out, field_coords,
+    T, coords, x_out, field_coords, n,
 ):  # fmt: skip
-    n = y0.shape[0]
-    A, B, C, E, P = TABLEAU_A, TABLEAU_B, TABLEAU_C, ERROR_E, DENSE_P
+    # one run from y0 (n = y0.shape[0], or the same as a compile-time constant)
     K = np.empty((7, n))
     y = np.empty(n)
     _copy(y0, y)
@@ -502,31 +507,8 @@ def _one(
         _copy(y, x_out)
         return ENTERED, 0.0, 0
     t = 0.0
-    f = K[0]
-    field(t, y, params, f)
-    # scipy's select_initial_step (order 4 error estimator)
-    for i in range(n):
-        tmp[i] = y[i] / (atol + abs(y[i]) * rtol)
-    d0 = _rms(tmp)
-    for i in range(n):
-        tmp[i] = f[i] / (atol + abs(y[i]) * rtol)
-    d1 = _rms(tmp)
-    if d0 < 1e-5 or d1 < 1e-5:
-        h0 = 1e-6
-    else:
-        h0 = 0.01 * d0 / d1
-    h0 = min(h0, t_final)
-    for i in range(n):
-        tmp[i] = y[i] + h0 * f[i]
-    field(t + h0, tmp, params, K[1])
-    for i in range(n):
-        err[i] = (K[1, i] - f[i]) / (atol + abs(y[i]) * rtol)
-    d2 = _rms(err) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
-    h_abs = min(100 * h0, h1, t_final)
+    field(t, y, params, K[0])
+    h_abs = _initial_step(field, params, t, y, K[0], K[1], tmp, n, rtol, atol, t_final, _rms)
     steps = 0
     tiny = 0
     tiny_step = TINY_STEP_FRACTION * t_final
@@ -551,41 +533,15 @@ def _one(
                 t_new = t_final
             h = t_new - t
             h_abs = abs(h)
-            for s in range(1, 6):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += A[s, j] * K[j, i]
-                    tmp[i] = y[i] + h * acc
-                field(t + C[s] * h, tmp, params, K[s])
-            for i in range(n):
-                acc = 0.0
-                for j in range(6):
-                    acc += B[j] * K[j, i]
-                y_new[i] = y[i] + h * acc
+            _stages(field, params, t, y, h, K, tmp, y_new, n)
             if field_coords is None:  # pruned at compile time
                 field(t + h, y_new, params, K[6])
             else:  # the field and coords(y_new) in one call (w: for the set test below)
                 field_coords(t + h, y_new, params, K[6], w)
-            for i in range(n):
-                acc = 0.0
-                for j in range(7):
-                    acc += E[j] * K[j, i]
-                err[i] = h * acc / (atol + max(abs(y[i]), abs(y_new[i])) * rtol)
-            en = _rms(err)
-            if en < 1.0:  # NaN compares False: rejected, as in scipy
-                if en == 0.0:
-                    factor = MAX_FACTOR
-                else:
-                    factor = min(MAX_FACTOR, SAFETY * en ** (-0.2))
-                if step_rejected:
-                    factor = min(1.0, factor)
-                h_abs *= factor
+            _error(h, K, y, y_new, err, n, rtol, atol)
+            accepted, h_abs = _control(_rms(err), h_abs, step_rejected)
+            if accepted:
                 break
-            fac = SAFETY * en ** (-0.2)
-            if not (fac > MIN_FACTOR):
-                fac = MIN_FACTOR
-            h_abs *= fac
             step_rejected = True
         steps += 1
         if h < tiny_step:  # the step just taken
@@ -597,16 +553,11 @@ def _one(
             if g_old[e] >= 0.0 and g_new[e] <= 0.0:
                 # root of event e on this step's dense output, by bisection
                 if first == -1:
-                    for i in range(n):
-                        for j in range(4):
-                            acc = 0.0
-                            for k in range(7):
-                                acc += K[k, i] * P[k, j]
-                            Q[i, j] = acc
+                    _dense_coefficients(K, Q, n)
                 lo, hi = 0.0, 1.0
                 for _ in range(64):
                     mid = 0.5 * (lo + hi)
-                    _dense(y, h, Q, mid, tmp)
+                    _dense(y, h, Q, mid, tmp, n)
                     if e == 0:
                         gm = _dist(tmp, x_eq) - tol
                     elif e == 1:
@@ -623,7 +574,7 @@ def _one(
                 if te < t_first:
                     t_first = te
                     first = e
-                    _dense(y, h, Q, hi, x_out)
+                    _dense(y, h, Q, hi, x_out, n)
         if first >= 0:
             return first, t_first, steps  # codes 0, 1, 2 match the event order
         if term:
@@ -642,6 +593,16 @@ def _one(
             K[0, i] = K[6, i]
         for e in range(3):
             g_old[e] = g_new[e]
+
+
+@numba.njit(**_INLINE)  # inlined into every entry point: the batch, one run per row
+def run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+             coords, code, t_end, x_end, steps, field_coords, n):  # fmt: skip
+    """Run :func:`_one` from every row of ``X0`` (``n`` its columns, a constant where known)."""
+    for k in range(X0.shape[0]):
+        code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
+                                           margin_tol, t_final, rtol, atol, T, coords, x_end[k],
+                                           field_coords, n)  # fmt: skip
 
 
 def _no_margin(x: np.ndarray, params: np.ndarray) -> float:
@@ -715,9 +676,8 @@ def compile_kernel(
             steps):  # fmt: skip
         if stamp < 0:  # never: the stamp is here for the cache key
             return
-        for k in range(X0.shape[0]):  # the batch: one run per row
-            code[k], t_end[k], steps[k] = _one(f, m, params, X0[k], x_eq, tol, bound, margin_tol,
-                                               t_final, rtol, atol, T, c, x_end[k], fc)  # fmt: skip
+        run_rows(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c,
+                 code, t_end, x_end, steps, fc, X0.shape[1])
 
     _COMPILED[key] = run
     return run

@@ -105,7 +105,7 @@ def main() -> None:
     best: dict[str, dict[str, dict]] = {k: {} for k in trees}
     first: dict[str, dict[str, float]] = {k: {} for k in trees}
     try:
-        for label, tree in trees.items():
+        for tree in trees.values():
             _clear_numba_cache(tree)
         for r in range(args.rounds):
             for label, tree in trees.items():

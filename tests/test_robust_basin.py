@@ -21,13 +21,9 @@ import roa
 from roa.cli import main
 from roa.errors import ResultsError
 from roa.montecarlo import integrator as I  # noqa: N812
+from roa.montecarlo.basin import robust_basin
 from roa.montecarlo.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE
-from roa.montecarlo.robust_basin import (
-    MAX_PARAM_SAMPLES,
-    RobustBasinResult,
-    parameter_samples,
-    robust_basin,
-)
+from roa.montecarlo.robust_basin import MAX_PARAM_SAMPLES, RobustBasinResult, parameter_samples
 from roa.status import BasinStatus
 from roa.system import System
 

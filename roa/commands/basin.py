@@ -456,8 +456,8 @@ def run(args: argparse.Namespace) -> int:
 def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: Any,
                 integrator: Any, run_opts: Any, terminal: Any, regs: list, plot: str | None
                 ) -> int:  # fmt: skip
-    """``roa basin`` on a system with uncertain parameters (:mod:`roa.montecarlo.robust_basin`)."""
-    from roa.montecarlo.robust_basin import robust_basin
+    """``roa basin`` on a system with uncertain parameters (:func:`roa.montecarlo.basin.robust_basin`)."""
+    from roa.montecarlo.basin import robust_basin
     from roa.parameters import ParameterBox, describe_point
 
     result = robust_basin(system, sampler, param_samples=args.param_samples, param_seed=args.seed,

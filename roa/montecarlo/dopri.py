@@ -86,6 +86,10 @@ TINY_STEP_FRACTION = 1e-9
 #: (a stiff field, a huge parameter) ends after these.
 MAX_TINY_STEPS = 1000
 EPS = np.finfo(float).eps
+#: Modules (of this package) whose numba code or constants the numba kernels compile in: their
+#: sources key the kernels' disk caches (:data:`roa.montecarlo.integrator.KERNEL_STAMP`,
+#: :func:`roa.montecarlo.kernel_cache.kernel_stamp`).
+KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
 
 
 @dataclass(frozen=True)

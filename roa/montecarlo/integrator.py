@@ -37,7 +37,6 @@ benchmarks/bench_montecarlo.py and benchmarks/bench_peers.py.
 from __future__ import annotations
 
 import functools
-import hashlib
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -53,6 +52,8 @@ from roa.equilibria import settled_elsewhere
 from roa.errors import RoaInputError
 from roa.montecarlo import budget
 from roa.montecarlo import dopri as _base
+from roa.montecarlo.code_identity import source_digest as _source_digest
+from roa.montecarlo.code_identity import sources_digest
 from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tableau)
     CODE_STATUS,
     CONVERGED,
@@ -61,6 +62,7 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     DIVERGED,
     EPS,
     ERROR_E,
+    KERNEL_DEPS,
     LEFT_DOMAIN,
     MAX_FACTOR,
     MAX_STEPS,
@@ -78,7 +80,7 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
 )
 from roa.montecarlo.integrator_numpy import integrate_numpy
 from roa.montecarlo.lazy_cfunc import LazyCfuncs
-from roa.montecarlo.terminal import ENTERED, REASON, TerminalSet
+from roa.montecarlo.terminal import ENTERED, REASON, TerminalSet, kernel_terminal  # noqa: F401
 from roa.montecarlo.terminal_poly import member_numba
 from roa.status import StopRules
 from roa.system import System
@@ -184,21 +186,6 @@ def integrate_batch(
     res = BatchResult(res.code, res.t_end, res.x_end, res.steps, entered)
     res = _elsewhere(system, res, rules.converge_tol)
     return _grown(system, x0, res, rules, rtol, atol)
-
-
-def kernel_terminal(terminal: TerminalSet | None, n: int) -> tuple[Any, ...]:
-    """The terminal set as the numba kernels take it: ``(kind, P, center, threshold, Mi, E, A,
-    B, g, D)``, kind 0 (none), 1 (quadratic: ``P``) or 2 (polynomial: the arrays of
-    :class:`roa.montecarlo.terminal_poly.PolyArrays`; unused entries are empty)."""
-    z2, e = np.zeros((n, n)), np.zeros((0, n), np.int64)
-    if terminal is None:
-        return (0, z2, np.zeros(n), -np.inf, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
-    c, thr = np.array(terminal.center), float(terminal.threshold)
-    if terminal.quadratic:
-        return (1, np.array(terminal.P), c, thr, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
-    assert terminal.poly is not None
-    Mi, E, A, B, g, D = terminal.poly
-    return (2, z2, c, thr, Mi, E, A, B, g, D)
 
 
 def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callable[..., None], Any]:
@@ -341,11 +328,6 @@ class Inlined:
         return (_inlined_by_name, self.key)
 
 
-@functools.cache
-def _source_digest(filename: str) -> str:
-    return hashlib.sha256(Path(filename).read_bytes()).hexdigest()
-
-
 #: Modules whose numba code or constants the kernels compile in. numba keys a cached function by
 #: the source of the file defining it only (changes in other files are not seen: its documented
 #: caching limitation), so the kernels' entry points (:func:`compile_kernel`, ``_public_kernel``)
@@ -354,14 +336,9 @@ def _source_digest(filename: str) -> str:
 #: these modules (``_member``, ``_inside``, ``_one``), or take an inlined function
 #: of the fast path (``_events``: its cache key would name the function by its address only),
 #: are not cached on their own.
-KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
+#: (:data:`roa.montecarlo.dopri.KERNEL_DEPS`: dopri.py, terminal.py, terminal_poly.py)
 #: The SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits of the digests' digest).
-KERNEL_STAMP = int(
-    hashlib.sha256(
-        "".join(_source_digest(str(Path(__file__).parent / f)) for f in KERNEL_DEPS).encode()
-    ).hexdigest()[:15],
-    16,
-)
+KERNEL_STAMP = int(sources_digest(Path(__file__).parent, KERNEL_DEPS)[:15], 16)
 
 
 def _inlined_by_name(module: str, qualname: str, digest: str) -> Inlined:
@@ -677,7 +654,7 @@ def compile_kernel(
         if stamp < 0:  # never: the stamp is here for the cache key
             return
         run_rows(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c,
-                 code, t_end, x_end, steps, fc, X0.shape[1])
+                 code, t_end, x_end, steps, fc, X0.shape[1])  # fmt: skip
 
     _COMPILED[key] = run
     return run

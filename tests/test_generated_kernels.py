@@ -296,9 +296,11 @@ def test_generated_kernel_is_the_integrators_kernel_bit_for_bit(tmp_path, monkey
 
 def _poison(text: str) -> str:
     """The kernel with ``run`` marking every run converged (the adversarial edit)."""
-    line = "                                             x_end[k], None)\n"
+    line = "             code, t_end, x_end, steps, None, STATES)\n"
     assert line in text
-    return text.replace(line, f"{line}        code[k] = {CONVERGED}\n")
+    return text.replace(
+        line, f"{line}    for k in range(X0.shape[0]):\n        code[k] = {CONVERGED}\n"
+    )
 
 
 def _forget() -> None:
@@ -366,3 +368,63 @@ def test_a_damaged_kernel_file_is_rebuilt(tmp_path, monkeypatch, damage):
 def test_a_kernel_text_that_does_not_hash_to_its_digest_is_never_loaded():
     with pytest.raises(ValueError, match="does not hash to"):
         kc.load_module("X = 1\n", "0" * 64)
+
+
+# --- one Dormand-Prince step (roa/montecarlo/dopri.py), no copied integrator source ----------
+
+
+def test_the_generated_module_holds_no_copy_of_the_integrator(tmp_path, monkeypatch):
+    """The generated text is the field, the margin and a call of the integrator's own batch
+    kernel (``run_rows``) with n = STATES: no step, controller or tableau of its own."""
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    text = kc.generate(vanderpol()).text
+    assert "run_rows(_F, _M, params" in text and "STATES)" in text
+    for copied in ("def _one", "TABLEAU", "ERROR_E", "DENSE_P", "SAFETY", "nextafter"):
+        assert copied not in text
+
+
+def test_the_kernel_stamp_follows_the_step_and_the_text_follows_the_field(monkeypatch):
+    """The generated text (whose SHA-256 names the kernel file and numba's cache of it) changes
+    when the step's source (dopri.py) or the integrator's changes, and when the field changes."""
+    from roa.montecarlo import code_identity
+    from roa.montecarlo.codegen import kernel_source
+    from roa.montecarlo.trace import trace_system
+
+    real = code_identity.source_digest
+    stamp = kc.kernel_stamp()
+    for name in ("dopri.py", "integrator.py", "terminal_poly.py"):
+        monkeypatch.setattr(code_identity, "source_digest",
+                            lambda f, name=name: "edited" if f.endswith(name) else real(f))  # fmt: skip
+        assert kc.kernel_stamp() != stamp, name
+    monkeypatch.setattr(code_identity, "source_digest", real)
+    assert kc.kernel_stamp() == stamp
+    a = kernel_source(trace_system(_pendulum(0.5)), system_name="p", stamp=stamp)
+    b = kernel_source(trace_system(_pendulum(0.7)), system_name="p", stamp=stamp)
+    c = kernel_source(trace_system(_pendulum(0.5)), system_name="p", stamp="other")
+    assert len({a, b, c}) == 3
+
+
+def test_numpy_and_the_numba_kernel_take_the_same_steps_bit_for_bit(tmp_path, monkeypatch):
+    """On a field whose generated and numpy evaluations agree bit for bit (x' = y, y' = -x: no
+    rounding at all), the numpy batch and the generated numba kernel perform the same step,
+    control and initial step (dopri.py, written once): runs still going at t_final (circles
+    around the centre) end at identical states after identical step counts. Before the step was
+    shared, the numpy stages summed with tensordot (BLAS order), not the kernel's order."""
+    monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
+    from roa.status import StopRules
+
+    centre = roa.System(name="centre", field=lambda t, x, xp: (x[1], -x[0]),
+                        equilibrium=(0.0, 0.0), state_names=("a", "b"))  # fmt: skip
+    X = np.random.default_rng(5).uniform(-2, 2, (200, 2))
+    rules = StopRules(t_final=15.0)
+    gen = integrate_batch(centre, X, backend="numba", rules=rules)
+    ref = integrate_batch(centre, X, backend="numpy", rules=rules)
+    from roa.montecarlo.dopri import UNDECIDED
+
+    going = ref.code == UNDECIDED
+    assert going.sum() > 150 and np.array_equal(gen.code, ref.code)
+    assert np.array_equal(gen.steps, ref.steps) and np.array_equal(gen.t_end, ref.t_end)
+    assert np.array_equal(gen.x_end[going], ref.x_end[going])
+    # and they are a Dormand-Prince solution: the circle's radius kept to the tolerances
+    r0, r1 = np.linalg.norm(X[going], axis=1), np.linalg.norm(ref.x_end[going], axis=1)
+    assert np.all(np.abs(r1 - r0) <= 1e-4 * r0)

@@ -26,12 +26,18 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
 ``system.f``. A system with neither gets a fast path generated from its field
-(:mod:`roa.montecarlo.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
-disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
+(:mod:`roa.montecarlo.kernel_cache`: traced with sympy, compiled with :func:`run_rows`, cached
+on disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
 ``system.numba_fast``: the same functions as ``numba.njit`` functions, compiled into a kernel of
 their own (:func:`compile_kernel`: no call through a pointer, the field fused with the map to a
 terminal set's coordinates), bit for bit the same trajectories. Throughputs:
-benchmarks/bench_montecarlo.py and benchmarks/bench_peers.py.
+benchmarks/bench_montecarlo.py and benchmarks/bench_peers.py; against another checkout:
+benchmarks/bench_dopri_kernels.py.
+
+The Dormand-Prince step, initial step, step-size control and dense output are
+:mod:`roa.montecarlo.dopri`'s, written once for both back ends; every numba entry point (the
+public kernel, :func:`compile_kernel`, the generated modules) runs :func:`run_rows`, into which
+numba inlines them.
 """
 
 from __future__ import annotations
@@ -328,16 +334,15 @@ class Inlined:
         return (_inlined_by_name, self.key)
 
 
-#: Modules whose numba code or constants the kernels compile in. numba keys a cached function by
-#: the source of the file defining it only (changes in other files are not seen: its documented
-#: caching limitation), so the kernels' entry points (:func:`compile_kernel`, ``_public_kernel``)
-#: are closures over :data:`KERNEL_STAMP`,
-#: whose value numba hashes into their cache key, and the functions they call that reach into
-#: these modules (``_member``, ``_inside``, ``_one``), or take an inlined function
-#: of the fast path (``_events``: its cache key would name the function by its address only),
-#: are not cached on their own.
-#: (:data:`roa.montecarlo.dopri.KERNEL_DEPS`: dopri.py, terminal.py, terminal_poly.py)
-#: The SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits of the digests' digest).
+#: The SHA-256 of the sources of :data:`roa.montecarlo.dopri.KERNEL_DEPS` (dopri.py, terminal.py,
+#: terminal_poly.py: the modules whose numba code or constants the kernels compile in; first 60
+#: bits of the digests' digest). numba keys a cached function by the source of the file defining
+#: it only (changes in other files are not seen: its documented caching limitation), so the
+#: kernels' entry points (:func:`compile_kernel`, ``_public_kernel``) are closures over
+#: KERNEL_STAMP, whose value numba hashes into their cache key, and the functions they call that
+#: reach into these modules (``_member``, ``_inside``, ``_one``, ``run_rows`` and the step of
+#: dopri.py), or take an inlined function of the fast path (``_events``: its cache key would name
+#: the function by its address only), are not cached on their own.
 KERNEL_STAMP = int(sources_digest(Path(__file__).parent, KERNEL_DEPS)[:15], 16)
 
 

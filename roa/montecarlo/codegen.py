@@ -8,10 +8,8 @@
 * ``run(params, X0, x_eq, ...)``: the integrator's batch Dormand-Prince kernel
   (:func:`roa.montecarlo.integrator.run_rows`, the step of :mod:`roa.montecarlo.dopri`) compiled
   for them (the fast path's :class:`~roa.montecarlo.integrator.Inlined` functions: LLVM inlines
-  the field, no call through a pointer), the number of states passed as the module's constant
-  ``STATES`` (numba inlines ``run_rows`` into ``run``: LLVM unrolls the loops over the states).
-  No integrator source is copied: the same code, so the same trajectories bit for bit as the
-  integrator's own kernels on the same field.
+  the field, no call through a pointer). No integrator source is copied: the same code, so the
+  same trajectories bit for bit as the integrator's own kernels on the same field.
 
 Every function is ``cache=True``: numba caches the compiled code next to the module's file, keyed
 by that file, whose name holds the SHA-256 of the text (:mod:`roa.montecarlo.kernel_cache`). The
@@ -219,9 +217,9 @@ def kernel_source(trace: Trace, *, system_name: str, stamp: str) -> str:
         '@numba.njit(cache=True, error_model="numpy")',
         "def run(params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, code, t_end,",
         "        x_end, steps):",
-        "    # the integrator's batch kernel, n = STATES a compile-time constant",
+        "    # the integrator's batch kernel (roa.montecarlo.integrator.run_rows) for this field",
         "    run_rows(_F, _M, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, _C,",
-        "             code, t_end, x_end, steps, None, STATES)",
+        "             code, t_end, x_end, steps, None)",
         "",
     ]
     text = "\n".join(header)

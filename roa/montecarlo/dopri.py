@@ -6,9 +6,9 @@ step-size control (:func:`control`) and the dense output (:func:`dense_coefficie
 written once, in one order, and works on whatever an element is.
 
 * The numba kernels (:mod:`roa.montecarlo.integrator`) compile them with
-  ``numba.njit(inline="always")``: an element is a state (a float), ``n`` the state dimension
-  (a compile-time constant in the generated kernels, so LLVM unrolls the loops), and
-  :func:`select` a scalar select (its numba implementation is registered there).
+  ``numba.njit(inline="always")`` into their one-run loop: an element is a state (a float),
+  ``n`` the state dimension, and :func:`select` a scalar select (its numba implementation is
+  registered there).
 * The numpy batch (:mod:`roa.montecarlo.integrator_numpy`) calls them as they are with one
   element, ``y[0]`` the ``(m, n)`` block of the active rows, per-row quantities (``t``, ``h``, the
   error norm) ``(m, 1)`` columns and :func:`select` ``numpy.where``.

@@ -256,7 +256,7 @@ def _public_kernel() -> Callable[..., None]:
         if stamp < 0:  # never: the stamp is here for the cache key
             return
         run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-                 T, coords, code, t_end, x_end, steps, None, X0.shape[1])  # fmt: skip
+                 T, coords, code, t_end, x_end, steps, None)  # fmt: skip
 
     return kernel
 
@@ -414,7 +414,7 @@ def _select_scalar(c, a, b):
 
 
 # The Dormand-Prince step of roa.montecarlo.dopri, written once there, inlined here into _one
-# (numba IR inlining: with n a constant of the caller, LLVM unrolls the loops over the states).
+# (numba IR inlining: the same code as if written in _one).
 _INLINE = {"inline": "always", "error_model": "numpy"}
 _initial_step = numba.njit(**_INLINE)(_base.initial_step)
 _stages = numba.njit(**_INLINE)(_base.stages)
@@ -452,12 +452,12 @@ def _inside(y, coords, params, T, w, d, pw):
     return _member(w, T, d, pw)
 
 
-@numba.njit(**_INLINE)  # inlined into the entry points (which loop over the rows)
+@numba.njit(error_model="numpy")  # compiled into the entry points (which loop over the rows)
 def _one(
     field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-    T, coords, x_out, field_coords, n,
+    T, coords, x_out, field_coords,
 ):  # fmt: skip
-    # one run from y0 (n = y0.shape[0], or the same as a compile-time constant)
+    n = y0.shape[0]
     K = np.empty((7, n))
     y = np.empty(n)
     _copy(y0, y)
@@ -579,12 +579,13 @@ def _one(
 
 @numba.njit(**_INLINE)  # inlined into every entry point: the batch, one run per row
 def run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
-             coords, code, t_end, x_end, steps, field_coords, n):  # fmt: skip
-    """Run :func:`_one` from every row of ``X0`` (``n`` its columns, a constant where known)."""
+             coords, code, t_end, x_end, steps, field_coords):  # fmt: skip
+    """Run :func:`_one` from every row of ``X0``: the batch kernel of every entry point (the
+    public one, :func:`compile_kernel`, the generated modules of :mod:`roa.montecarlo.codegen`)."""
     for k in range(X0.shape[0]):
         code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
                                            margin_tol, t_final, rtol, atol, T, coords, x_end[k],
-                                           field_coords, n)  # fmt: skip
+                                           field_coords)  # fmt: skip
 
 
 def _no_margin(x: np.ndarray, params: np.ndarray) -> float:
@@ -659,7 +660,7 @@ def compile_kernel(
         if stamp < 0:  # never: the stamp is here for the cache key
             return
         run_rows(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c,
-                 code, t_end, x_end, steps, fc, X0.shape[1])  # fmt: skip
+                 code, t_end, x_end, steps, fc)  # fmt: skip
 
     _COMPILED[key] = run
     return run

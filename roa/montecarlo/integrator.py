@@ -415,13 +415,13 @@ def _select_scalar(c, a, b):
 
 # The Dormand-Prince step of roa.montecarlo.dopri, written once there, inlined here into _one
 # (numba IR inlining: the same code as if written in _one).
-_INLINE = {"inline": "always", "error_model": "numpy"}
-_initial_step = numba.njit(**_INLINE)(_base.initial_step)
-_stages = numba.njit(**_INLINE)(_base.stages)
-_error = numba.njit(**_INLINE)(_base.error)
-_control = numba.njit(**_INLINE)(_base.control)
-_dense_coefficients = numba.njit(**_INLINE)(_base.dense_coefficients)
-_dense = numba.njit(**_INLINE)(_base.dense)
+_inline = numba.njit(inline="always", error_model="numpy")
+_initial_step = _inline(_base.initial_step)
+_stages = _inline(_base.stages)
+_error = _inline(_base.error)
+_control = _inline(_base.control)
+_dense_coefficients = _inline(_base.dense_coefficients)
+_dense = _inline(_base.dense)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -577,7 +577,7 @@ def _one(
             g_old[e] = g_new[e]
 
 
-@numba.njit(**_INLINE)  # inlined into every entry point: the batch, one run per row
+@_inline  # inlined into every entry point: the batch, one run per row
 def run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
              coords, code, t_end, x_end, steps, field_coords):  # fmt: skip
     """Run :func:`_one` from every row of ``X0``: the batch kernel of every entry point (the

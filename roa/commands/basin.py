@@ -456,9 +456,9 @@ def run(args: argparse.Namespace) -> int:
 def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: Any,
                 integrator: Any, run_opts: Any, terminal: Any, regs: list, plot: str | None
                 ) -> int:  # fmt: skip
-    """``roa basin`` on a system with uncertain parameters (:mod:`roa.montecarlo.robust_basin`)."""
+    """``roa basin`` on a system with uncertain parameters (:func:`roa.montecarlo.basin.robust_basin`)."""
     from roa.model.parameters import ParameterBox, describe_point
-    from roa.montecarlo.robust_basin import robust_basin
+    from roa.montecarlo.basin import robust_basin
 
     result = robust_basin(system, sampler, param_samples=args.param_samples, param_seed=args.seed,
                           rules=rules, integrator=integrator, run=run_opts, terminal=terminal,

@@ -12,9 +12,12 @@ with the numpy field on sample states before use (:mod:`roa.integration.kernel_c
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import pickle
 import types
+from collections.abc import Iterable
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -99,3 +102,16 @@ def code_key(*objs: Any) -> str | None:
     except (_Opaque, RecursionError):
         return None
     return hashlib.sha256(blob.encode()).hexdigest()
+
+
+@functools.cache
+def source_digest(filename: str) -> str:
+    """SHA-256 of the bytes of the file ``filename`` (read once per process)."""
+    return hashlib.sha256(Path(filename).read_bytes()).hexdigest()
+
+
+def sources_digest(folder: Path, names: Iterable[str]) -> str:
+    """SHA-256 of the :func:`source_digest` of the files ``names`` of ``folder``, in order."""
+    return hashlib.sha256(
+        "".join(source_digest(str(folder / f)) for f in names).encode()
+    ).hexdigest()

@@ -1,12 +1,29 @@
-"""Shared base of the batch integrators: status codes, the Dormand-Prince 5(4) tableau, results.
+"""Dormand-Prince 5(4) written once: status codes, the tableau, the step, its control, results.
 
-:mod:`roa.integration.integrator` (numba kernel and dispatch) and
-:mod:`roa.integration.integrator_numpy` (vectorised numpy) both build on this module.
+The step (:func:`stages`, :func:`error`), scipy's initial step (:func:`initial_step`), the
+step-size control (:func:`control`) and the dense output (:func:`dense_coefficients`,
+:func:`dense`) are plain Python functions over "elements" ``y[0], ..., y[n-1]``: each operation is
+written once, in one order, and works on whatever an element is.
+
+* The numba kernels (:mod:`roa.integration.integrator`) compile them with
+  ``numba.njit(inline="always")`` into their one-run loop: an element is a state (a float),
+  ``n`` the state dimension, and :func:`select` a scalar select (its numba implementation is
+  registered there).
+* The numpy batch (:mod:`roa.integration.integrator_numpy`) calls them as they are with one
+  element, ``y[0]`` the ``(m, n)`` block of the active rows, per-row quantities (``t``, ``h``, the
+  error norm) ``(m, 1)`` columns and :func:`select` ``numpy.where``.
+
+Both perform on every state of every run the same floating-point operations in the same order
+(sums accumulated from 0.0 in stage order; ``min``/``max`` as Python's, the first argument
+unless the second compares smaller/larger), so given the same field values they give the same
+steps bit for bit. The norm is the caller's (``rms``): a state dimension in numba, the last axis
+of the block in numpy. Sources: scipy.integrate.RK45 (tableau, control, initial step).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -69,6 +86,10 @@ TINY_STEP_FRACTION = 1e-9
 #: (a stiff field, a huge parameter) ends after these.
 MAX_TINY_STEPS = 1000
 EPS = np.finfo(float).eps
+#: Modules (of this package) whose numba code or constants the numba kernels compile in: their
+#: sources key the kernels' disk caches (:data:`roa.integration.integrator.KERNEL_STAMP`,
+#: :func:`roa.integration.kernel_cache.kernel_stamp`).
+KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
 
 
 @dataclass(frozen=True)
@@ -93,3 +114,107 @@ def check_tolerances(rtol: float, atol: float, margin_tol: float) -> None:
         raise RoaInputError(f"atol must be a finite number > 0, got {atol!r}")
     if not (0 <= margin_tol < np.inf):
         raise RoaInputError(f"margin_tol must be a finite number >= 0, got {margin_tol!r}")
+
+
+# ----------------------------------------------------------------------------- the step, once
+
+
+def select(c: Any, a: Any, b: Any) -> Any:
+    """``a`` where ``c`` holds, else ``b`` (``numpy.where``; a scalar select in numba code)."""
+    return np.where(c, a, b)
+
+
+def initial_step(field: Any, fargs: Any, t: Any, y: Any, f: Any, f1: Any, tmp: Any, n: int,
+                 rtol: float, atol: float, t_final: float, rms: Any) -> Any:  # fmt: skip
+    """scipy's ``select_initial_step`` for the 4th-order error estimator: the first step size
+    from ``(t, y)`` with ``f = field(t, y)``; ``f1`` and ``tmp`` are work space (``f1`` holds
+    ``field`` at the trial point after the call)."""
+    for i in range(n):
+        tmp[i] = y[i] / (atol + abs(y[i]) * rtol)
+    d0 = rms(tmp)
+    for i in range(n):
+        tmp[i] = f[i] / (atol + abs(y[i]) * rtol)
+    d1 = rms(tmp)
+    h0 = select((d0 < 1e-5) | (d1 < 1e-5), 1e-6, 0.01 * d0 / d1)
+    h0 = select(t_final < h0, t_final, h0)  # min(h0, t_final)
+    for i in range(n):
+        tmp[i] = y[i] + h0 * f[i]
+    field(t + h0, tmp, fargs, f1)
+    for i in range(n):
+        tmp[i] = (f1[i] - f[i]) / (atol + abs(y[i]) * rtol)
+    d2 = rms(tmp) / h0
+    small = h0 * 1e-3
+    d12 = select(d2 > d1, d2, d1)  # max(d1, d2)
+    h1 = select((d1 <= 1e-15) & (d2 <= 1e-15), select(small > 1e-6, small, 1e-6),
+                (0.01 / d12) ** (1.0 / 5.0))  # fmt: skip
+    h = 100 * h0
+    h = select(h1 < h, h1, h)  # min(100 h0, h1, t_final)
+    return select(t_final < h, t_final, h)
+
+
+def stages(field: Any, fargs: Any, t: Any, y: Any, h: Any, K: Any, tmp: Any, y_new: Any,
+           n: int) -> None:  # fmt: skip
+    """Stages 2 to 6 of the step of size ``h`` from ``(t, y)`` into ``K[1:6]`` (``K[0]`` holds
+    ``field(t, y)``) and the 5th-order solution ``y_new``; ``tmp`` is work space. The 7th stage,
+    ``field(t + h, y_new)``, is the caller's (it may fuse it with a coordinate map)."""
+    A, B, C = TABLEAU_A, TABLEAU_B, TABLEAU_C
+    for s in range(1, 6):
+        for i in range(n):
+            acc = 0.0
+            for j in range(s):
+                acc += A[s, j] * K[j, i]
+            tmp[i] = y[i] + h * acc
+        field(t + C[s] * h, tmp, fargs, K[s])
+    for i in range(n):
+        acc = 0.0
+        for j in range(6):
+            acc += B[j] * K[j, i]
+        y_new[i] = y[i] + h * acc
+
+
+def error(h: Any, K: Any, y: Any, y_new: Any, err: Any, n: int, rtol: float,
+          atol: float) -> None:  # fmt: skip
+    """The scaled error estimate of the step into ``err`` (its norm, scipy's RMS, is the
+    caller's): ``h sum_j E_j K_j / (atol + max(|y|, |y_new|) rtol)``."""
+    E = ERROR_E
+    for i in range(n):
+        acc = 0.0
+        for j in range(7):
+            acc += E[j] * K[j, i]
+        a, b = abs(y[i]), abs(y_new[i])
+        err[i] = h * acc / (atol + select(b > a, b, a) * rtol)
+
+
+def control(en: Any, h_abs: Any, rejected: Any) -> tuple[Any, Any]:
+    """``(accepted, h_abs)`` after a step of error norm ``en``: accepted when ``en < 1`` (NaN is
+    rejected), the next size grown by ``min(MAX_FACTOR, SAFETY en^-1/5)`` (``MAX_FACTOR`` at
+    ``en = 0``; at most 1 right after a rejection), a rejected one shrunk by
+    ``max(MIN_FACTOR, SAFETY en^-1/5)``, as scipy's RK45."""
+    fac = SAFETY * en ** (-0.2)
+    grow = select(en == 0.0, MAX_FACTOR, select(fac < MAX_FACTOR, fac, MAX_FACTOR))
+    grow = select(rejected, select(grow < 1.0, grow, 1.0), grow)
+    shrink = select(fac > MIN_FACTOR, fac, MIN_FACTOR)
+    accepted = en < 1.0
+    return accepted, h_abs * select(accepted, grow, shrink)
+
+
+def dense_coefficients(K: Any, Q: Any, n: int) -> None:
+    """The step's dense-output coefficients ``Q[i, j] = sum_k K[k, i] P[k, j]``."""
+    P = DENSE_P
+    for i in range(n):
+        for j in range(4):
+            acc = 0.0
+            for k in range(7):
+                acc += K[k, i] * P[k, j]
+            Q[i, j] = acc
+
+
+def dense(y: Any, h: Any, Q: Any, s: Any, out: Any, n: int) -> None:
+    """The dense output ``y(t + s h) = y + h sum_j Q[:, j] s^(j+1)`` into ``out``."""
+    for i in range(n):
+        acc = 0.0
+        p = s
+        for j in range(4):
+            acc += Q[i, j] * p
+            p = p * s
+        out[i] = y[i] + h * acc

@@ -26,18 +26,23 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
 ``system.f``. A system with neither gets a fast path generated from its field
-(:mod:`roa.integration.kernel_cache`: traced with sympy, compiled with :func:`_one`, cached on
-disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
+(:mod:`roa.integration.kernel_cache`: traced with sympy, compiled with :func:`run_rows`, cached
+on disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
 ``system.numba_fast``: the same functions as ``numba.njit`` functions, compiled into a kernel of
 their own (:func:`compile_kernel`: no call through a pointer, the field fused with the map to a
 terminal set's coordinates), bit for bit the same trajectories. Throughputs:
-benchmarks/bench_montecarlo.py and benchmarks/bench_peers.py.
+benchmarks/bench_montecarlo.py and benchmarks/bench_peers.py; against another checkout:
+benchmarks/bench_dopri_kernels.py.
+
+The Dormand-Prince step, initial step, step-size control and dense output are
+:mod:`roa.integration.dopri`'s, written once for both back ends; every numba entry point (the
+public kernel, :func:`compile_kernel`, the generated modules) runs :func:`run_rows`, into which
+numba inlines them.
 """
 
 from __future__ import annotations
 
 import functools
-import hashlib
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -47,11 +52,13 @@ from typing import Any
 import numba
 import numpy as np
 from numba.core.imputils import lower_constant
-from numba.extending import models, register_model, typeof_impl
+from numba.extending import models, overload, register_model, typeof_impl
 
 from roa.errors import RoaInputError
 from roa.integration import budget
 from roa.integration import dopri as _base
+from roa.integration.code_identity import source_digest as _source_digest
+from roa.integration.code_identity import sources_digest
 from roa.integration.dopri import (  # noqa: F401  (re-exported: codes and tableau)
     CODE_STATUS,
     CONVERGED,
@@ -60,6 +67,7 @@ from roa.integration.dopri import (  # noqa: F401  (re-exported: codes and table
     DIVERGED,
     EPS,
     ERROR_E,
+    KERNEL_DEPS,
     LEFT_DOMAIN,
     MAX_FACTOR,
     MAX_STEPS,
@@ -78,7 +86,7 @@ from roa.integration.dopri import (  # noqa: F401  (re-exported: codes and table
 from roa.integration.equilibria import settled_elsewhere
 from roa.integration.integrator_numpy import integrate_numpy
 from roa.integration.lazy_cfunc import LazyCfuncs
-from roa.integration.terminal import ENTERED, REASON, TerminalSet
+from roa.integration.terminal import ENTERED, REASON, TerminalSet, kernel_terminal  # noqa: F401
 from roa.integration.terminal_poly import member_numba
 from roa.model.system import System
 from roa.status import StopRules
@@ -186,21 +194,6 @@ def integrate_batch(
     return _grown(system, x0, res, rules, rtol, atol)
 
 
-def kernel_terminal(terminal: TerminalSet | None, n: int) -> tuple[Any, ...]:
-    """The terminal set as the numba kernels take it: ``(kind, P, center, threshold, Mi, E, A,
-    B, g, D)``, kind 0 (none), 1 (quadratic: ``P``) or 2 (polynomial: the arrays of
-    :class:`roa.integration.terminal_poly.PolyArrays`; unused entries are empty)."""
-    z2, e = np.zeros((n, n)), np.zeros((0, n), np.int64)
-    if terminal is None:
-        return (0, z2, np.zeros(n), -np.inf, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
-    c, thr = np.array(terminal.center), float(terminal.threshold)
-    if terminal.quadratic:
-        return (1, np.array(terminal.P), c, thr, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
-    assert terminal.poly is not None
-    Mi, E, A, B, g, D = terminal.poly
-    return (2, z2, c, thr, Mi, E, A, B, g, D)
-
-
 def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callable[..., None], Any]:
     """The numba kernel for ``system`` (and ``terminal``) and the parameters it takes.
 
@@ -210,7 +203,7 @@ def _numba_kernel(system: System, terminal: TerminalSet | None) -> tuple[Callabl
     :func:`compile_kernel`) is used when the system provides it, with a terminal set in other
     coordinates when it has a map to them; else the public ``system.numba`` (cfuncs of
     ``FIELD_SIGNATURE``, ...) with the shared kernel. Both give the same trajectories bit for bit
-    (ipc_paper/tests/test_terminal_fastpath.py).
+    (tests/test_terminal_fastpath.py).
     """
     fast = system.numba_fast
     name = None if terminal is None else terminal.coords
@@ -262,10 +255,8 @@ def _public_kernel() -> Callable[..., None]:
                coords, code, t_end, x_end, steps):  # fmt: skip
         if stamp < 0:  # never: the stamp is here for the cache key
             return
-        for k in range(X0.shape[0]):  # the batch: one run per row
-            code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
-                                               margin_tol, t_final, rtol, atol, T, coords,
-                                               x_end[k], None)  # fmt: skip
+        run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
+                 T, coords, code, t_end, x_end, steps, None)  # fmt: skip
 
     return kernel
 
@@ -343,27 +334,16 @@ class Inlined:
         return (_inlined_by_name, self.key)
 
 
-@functools.cache
-def _source_digest(filename: str) -> str:
-    return hashlib.sha256(Path(filename).read_bytes()).hexdigest()
-
-
-#: Modules whose numba code or constants the kernels compile in. numba keys a cached function by
-#: the source of the file defining it only (changes in other files are not seen: its documented
-#: caching limitation), so the kernels' entry points (:func:`compile_kernel`, ``_public_kernel``)
-#: are closures over :data:`KERNEL_STAMP`,
-#: whose value numba hashes into their cache key, and the functions they call that reach into
-#: these modules (``_member``, ``_inside``, ``_one``), or take an inlined function
-#: of the fast path (``_events``: its cache key would name the function by its address only),
-#: are not cached on their own.
-KERNEL_DEPS = ("dopri.py", "terminal.py", "terminal_poly.py")
-#: The SHA-256 of the sources of :data:`KERNEL_DEPS` (first 60 bits of the digests' digest).
-KERNEL_STAMP = int(
-    hashlib.sha256(
-        "".join(_source_digest(str(Path(__file__).parent / f)) for f in KERNEL_DEPS).encode()
-    ).hexdigest()[:15],
-    16,
-)
+#: The SHA-256 of the sources of :data:`roa.integration.dopri.KERNEL_DEPS` (dopri.py, terminal.py,
+#: terminal_poly.py: the modules whose numba code or constants the kernels compile in; first 60
+#: bits of the digests' digest). numba keys a cached function by the source of the file defining
+#: it only (changes in other files are not seen: its documented caching limitation), so the
+#: kernels' entry points (:func:`compile_kernel`, ``_public_kernel``) are closures over
+#: KERNEL_STAMP, whose value numba hashes into their cache key, and the functions they call that
+#: reach into these modules (``_member``, ``_inside``, ``_one``, ``run_rows`` and the step of
+#: dopri.py), or take an inlined function of the fast path (``_events``: its cache key would name
+#: the function by its address only), are not cached on their own.
+KERNEL_STAMP = int(sources_digest(Path(__file__).parent, KERNEL_DEPS)[:15], 16)
 
 
 def _inlined_by_name(module: str, qualname: str, digest: str) -> Inlined:
@@ -424,16 +404,24 @@ def _copy(src, dst):
         dst[i] = src[i]
 
 
-@numba.njit(cache=True, error_model="numpy")
-def _dense(y, h, Q, s, out):
-    # y(t + s h) = y + h * sum_j Q[:, j] s^(j+1)
-    for i in range(y.shape[0]):
-        acc = 0.0
-        p = s
-        for j in range(4):
-            acc += Q[i, j] * p
-            p *= s
-        out[i] = y[i] + h * acc
+@overload(_base.select)
+def _select_scalar(c, a, b):
+    # dopri.select on scalars (the numba kernels): a select, no array
+    def impl(c, a, b):
+        return a if c else b
+
+    return impl
+
+
+# The Dormand-Prince step of roa.integration.dopri, written once there, inlined here into _one
+# (numba IR inlining: the same code as if written in _one).
+_inline = numba.njit(inline="always", error_model="numpy")
+_initial_step = _inline(_base.initial_step)
+_stages = _inline(_base.stages)
+_error = _inline(_base.error)
+_control = _inline(_base.control)
+_dense_coefficients = _inline(_base.dense_coefficients)
+_dense = _inline(_base.dense)
 
 
 @numba.njit(cache=True, error_model="numpy")
@@ -470,7 +458,6 @@ def _one(
     T, coords, x_out, field_coords,
 ):  # fmt: skip
     n = y0.shape[0]
-    A, B, C, E, P = TABLEAU_A, TABLEAU_B, TABLEAU_C, ERROR_E, DENSE_P
     K = np.empty((7, n))
     y = np.empty(n)
     _copy(y0, y)
@@ -502,31 +489,8 @@ def _one(
         _copy(y, x_out)
         return ENTERED, 0.0, 0
     t = 0.0
-    f = K[0]
-    field(t, y, params, f)
-    # scipy's select_initial_step (order 4 error estimator)
-    for i in range(n):
-        tmp[i] = y[i] / (atol + abs(y[i]) * rtol)
-    d0 = _rms(tmp)
-    for i in range(n):
-        tmp[i] = f[i] / (atol + abs(y[i]) * rtol)
-    d1 = _rms(tmp)
-    if d0 < 1e-5 or d1 < 1e-5:
-        h0 = 1e-6
-    else:
-        h0 = 0.01 * d0 / d1
-    h0 = min(h0, t_final)
-    for i in range(n):
-        tmp[i] = y[i] + h0 * f[i]
-    field(t + h0, tmp, params, K[1])
-    for i in range(n):
-        err[i] = (K[1, i] - f[i]) / (atol + abs(y[i]) * rtol)
-    d2 = _rms(err) / h0
-    if d1 <= 1e-15 and d2 <= 1e-15:
-        h1 = max(1e-6, h0 * 1e-3)
-    else:
-        h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
-    h_abs = min(100 * h0, h1, t_final)
+    field(t, y, params, K[0])
+    h_abs = _initial_step(field, params, t, y, K[0], K[1], tmp, n, rtol, atol, t_final, _rms)
     steps = 0
     tiny = 0
     tiny_step = TINY_STEP_FRACTION * t_final
@@ -551,41 +515,15 @@ def _one(
                 t_new = t_final
             h = t_new - t
             h_abs = abs(h)
-            for s in range(1, 6):
-                for i in range(n):
-                    acc = 0.0
-                    for j in range(s):
-                        acc += A[s, j] * K[j, i]
-                    tmp[i] = y[i] + h * acc
-                field(t + C[s] * h, tmp, params, K[s])
-            for i in range(n):
-                acc = 0.0
-                for j in range(6):
-                    acc += B[j] * K[j, i]
-                y_new[i] = y[i] + h * acc
+            _stages(field, params, t, y, h, K, tmp, y_new, n)
             if field_coords is None:  # pruned at compile time
                 field(t + h, y_new, params, K[6])
             else:  # the field and coords(y_new) in one call (w: for the set test below)
                 field_coords(t + h, y_new, params, K[6], w)
-            for i in range(n):
-                acc = 0.0
-                for j in range(7):
-                    acc += E[j] * K[j, i]
-                err[i] = h * acc / (atol + max(abs(y[i]), abs(y_new[i])) * rtol)
-            en = _rms(err)
-            if en < 1.0:  # NaN compares False: rejected, as in scipy
-                if en == 0.0:
-                    factor = MAX_FACTOR
-                else:
-                    factor = min(MAX_FACTOR, SAFETY * en ** (-0.2))
-                if step_rejected:
-                    factor = min(1.0, factor)
-                h_abs *= factor
+            _error(h, K, y, y_new, err, n, rtol, atol)
+            accepted, h_abs = _control(_rms(err), h_abs, step_rejected)
+            if accepted:
                 break
-            fac = SAFETY * en ** (-0.2)
-            if not (fac > MIN_FACTOR):
-                fac = MIN_FACTOR
-            h_abs *= fac
             step_rejected = True
         steps += 1
         if h < tiny_step:  # the step just taken
@@ -597,16 +535,11 @@ def _one(
             if g_old[e] >= 0.0 and g_new[e] <= 0.0:
                 # root of event e on this step's dense output, by bisection
                 if first == -1:
-                    for i in range(n):
-                        for j in range(4):
-                            acc = 0.0
-                            for k in range(7):
-                                acc += K[k, i] * P[k, j]
-                            Q[i, j] = acc
+                    _dense_coefficients(K, Q, n)
                 lo, hi = 0.0, 1.0
                 for _ in range(64):
                     mid = 0.5 * (lo + hi)
-                    _dense(y, h, Q, mid, tmp)
+                    _dense(y, h, Q, mid, tmp, n)
                     if e == 0:
                         gm = _dist(tmp, x_eq) - tol
                     elif e == 1:
@@ -623,7 +556,7 @@ def _one(
                 if te < t_first:
                     t_first = te
                     first = e
-                    _dense(y, h, Q, hi, x_out)
+                    _dense(y, h, Q, hi, x_out, n)
         if first >= 0:
             return first, t_first, steps  # codes 0, 1, 2 match the event order
         if term:
@@ -642,6 +575,17 @@ def _one(
             K[0, i] = K[6, i]
         for e in range(3):
             g_old[e] = g_new[e]
+
+
+@_inline  # inlined into every entry point: the batch, one run per row
+def run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+             coords, code, t_end, x_end, steps, field_coords):  # fmt: skip
+    """Run :func:`_one` from every row of ``X0``: the batch kernel of every entry point (the
+    public one, :func:`compile_kernel`, the generated modules of :mod:`roa.integration.codegen`)."""
+    for k in range(X0.shape[0]):
+        code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
+                                           margin_tol, t_final, rtol, atol, T, coords, x_end[k],
+                                           field_coords)  # fmt: skip
 
 
 def _no_margin(x: np.ndarray, params: np.ndarray) -> float:
@@ -715,9 +659,8 @@ def compile_kernel(
             steps):  # fmt: skip
         if stamp < 0:  # never: the stamp is here for the cache key
             return
-        for k in range(X0.shape[0]):  # the batch: one run per row
-            code[k], t_end[k], steps[k] = _one(f, m, params, X0[k], x_eq, tol, bound, margin_tol,
-                                               t_final, rtol, atol, T, c, x_end[k], fc)  # fmt: skip
+        run_rows(f, m, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, c,
+                 code, t_end, x_end, steps, fc)  # fmt: skip
 
     _COMPILED[key] = run
     return run

@@ -2,7 +2,10 @@
 
 Same semantics as the numba kernel of :mod:`roa.integration.integrator`: per-row step sizes,
 scipy's RK45 step control, events located by bisection on the dense output. Rows are dropped from
-the active set as soon as they stop.
+the active set as soon as they stop. The step, the initial step, the control and the dense output
+are those of :mod:`roa.integration.dopri` (written once; here with one element, the ``(m, n)``
+block of the active rows, per-row quantities ``(m, 1)`` columns): each row takes the operations of
+the numba kernel in its order.
 """
 
 from __future__ import annotations
@@ -16,8 +19,9 @@ from roa.model.system import System
 from roa.status import StopRules
 
 
-def _rms(v: np.ndarray) -> np.ndarray:
-    return np.sqrt(np.mean(v * v, axis=-1))
+def _rms_block(v: np.ndarray) -> np.ndarray:
+    # dopri's norm on one element: per row of the (1, m, n) block, an (m, 1) column
+    return np.sqrt(np.mean(v[0] * v[0], axis=-1, keepdims=True))
 
 
 def _events(system: System, x: np.ndarray, rules: StopRules, margin_tol: float) -> np.ndarray:
@@ -77,24 +81,18 @@ def integrate_numpy(
         with np.errstate(all="ignore"):
             return system.f(y, t)
 
+    def field(tc: np.ndarray, x: np.ndarray, _: None, out: np.ndarray) -> None:
+        # dopri's field protocol on one element: t a column, x and out (1, m, n) blocks
+        out[0] = f(tc[:, 0], x[0])
+
     y = x0[idx].copy()
     t = np.zeros(idx.size)
     g_old = g0[idx]
     K0 = f(t, y)
-    # scipy's select_initial_step, row by row
-    scale = atol + np.abs(y) * rtol
-    d0, d1 = _rms(y / scale), _rms(K0 / scale)
-    h0 = np.where((d0 < 1e-5) | (d1 < 1e-5), 1e-6, 0.01 * d0 / np.where(d1 > 0, d1, 1.0))
-    h0 = np.minimum(h0, rules.t_final)
-    f1 = f(t + h0, y + h0[:, None] * K0)
-    d2 = _rms((f1 - K0) / scale) / h0
-    with np.errstate(divide="ignore"):
-        h1 = np.where(
-            (d1 <= 1e-15) & (d2 <= 1e-15),
-            np.maximum(1e-6, h0 * 1e-3),
-            (0.01 / np.maximum(d1, d2)) ** 0.2,
-        )
-    h_abs = np.minimum(np.minimum(100 * h0, h1), rules.t_final)
+    with np.errstate(all="ignore"):
+        h_abs = I.initial_step(field, None, t[:, None], y[None], K0[None], np.empty((1,) + y.shape),
+                               np.empty((1,) + y.shape), 1, rtol, atol, rules.t_final,
+                               _rms_block)[:, 0]  # fmt: skip
     fresh = np.ones(idx.size, bool)
     rejected = np.zeros(idx.size, bool)
     nsteps = np.zeros(idx.size, np.int64)
@@ -115,23 +113,20 @@ def integrate_numpy(
         t_new = np.minimum(t + h_abs, rules.t_final)
         h = t_new - t
         h_abs = np.abs(h)
-        K = np.empty((7,) + y.shape)
-        K[0] = K0
-        for s in range(1, 6):
-            dy = np.tensordot(I.TABLEAU_A[s, :s], K[:s], axes=(0, 0))
-            K[s] = f(t + I.TABLEAU_C[s] * h, y + h[:, None] * dy)
-        y_new = y + h[:, None] * np.tensordot(I.TABLEAU_B, K[:6], axes=(0, 0))
-        K[6] = f(t + h, y_new)
+        K = np.empty((7, 1) + y.shape)
+        K[0, 0] = K0
+        y_new, work, err = (np.empty((1,) + y.shape) for _ in range(3))
+        hc = h[:, None]
+        I.stages(field, None, t[:, None], y[None], hc, K, work, y_new, 1)
+        K[6, 0] = f(t + h, y_new[0])
         with np.errstate(all="ignore"):
-            err = h[:, None] * np.tensordot(I.ERROR_E, K, axes=(0, 0))
-            en = _rms(err / (atol + np.maximum(np.abs(y), np.abs(y_new)) * rtol))
-            acc = (en < 1) & ~fail
-            grow = np.where(en == 0, I.MAX_FACTOR, np.minimum(I.MAX_FACTOR, I.SAFETY * en**-0.2))
-            grow = np.where(rejected, np.minimum(1.0, grow), grow)
-            shrink = np.where(I.SAFETY * en**-0.2 > I.MIN_FACTOR, I.SAFETY * en**-0.2, I.MIN_FACTOR)
-        h_abs = np.where(acc, h_abs * grow, h_abs * shrink)
-        rejected = np.where(acc, False, True)
+            I.error(hc, K, y[None], y_new, err, 1, rtol, atol)
+            accepted, h_next = I.control(_rms_block(err)[:, 0], h_abs, rejected)
+        acc = accepted & ~fail
+        h_abs = h_next
+        rejected = ~acc
         fresh = acc.copy()
+        y_new = y_new[0]
         nsteps += acc
         ntiny += acc & (h < tiny_step)
         g_new = _events(system, y_new, rules, margin_tol)
@@ -139,7 +134,8 @@ def integrate_numpy(
         ev_rows = np.flatnonzero(trig.any(axis=1))
         done = fail.copy()
         if ev_rows.size:
-            Q = np.einsum("kri,kj->rij", K[:, ev_rows], I.DENSE_P)  # (r, n, 4)
+            Q = np.empty((1, 4, ev_rows.size, n))
+            I.dense_coefficients(K[:, :, ev_rows], Q, 1)
             yy, hh = y[ev_rows], h[ev_rows]
             best_t = np.full(ev_rows.size, np.inf)
             best_e = np.full(ev_rows.size, -1)
@@ -149,20 +145,18 @@ def integrate_numpy(
                 if not sel.any():
                     continue
                 lo, hi = np.zeros(sel.sum()), np.ones(sel.sum())
-                ys, hs, Qs = yy[sel], hh[sel], Q[sel]
-
-                def dense(s: np.ndarray, ys=ys, hs=hs, Qs=Qs) -> np.ndarray:
-                    pw = s[:, None] ** np.arange(1, 5)
-                    return ys + hs[:, None] * np.einsum("rij,rj->ri", Qs, pw)
-
+                ys, hs, Qs = yy[sel][None], hh[sel][:, None], Q[:, :, sel]
+                at = np.empty_like(ys)
                 for _ in range(64):
                     mid = 0.5 * (lo + hi)
-                    gm = _events(system, dense(mid), rules, margin_tol)[:, e]
+                    I.dense(ys, hs, Qs, mid[:, None], at, 1)
+                    gm = _events(system, at[0], rules, margin_tol)[:, e]
                     lo, hi = np.where(gm > 0, mid, lo), np.where(gm > 0, hi, mid)
-                te = t[ev_rows][sel] + hi * hs
+                te = t[ev_rows][sel] + hi * hs[:, 0]
                 better = te < best_t[sel]
                 pos = np.flatnonzero(sel)[better]
-                best_t[pos], best_e[pos], best_x[pos] = te[better], e, dense(hi)[better]
+                I.dense(ys, hs, Qs, hi[:, None], at, 1)
+                best_t[pos], best_e[pos], best_x[pos] = te[better], e, at[0][better]
             mask = np.zeros(idx.size, bool)
             mask[ev_rows] = True
             rows = idx[ev_rows]
@@ -172,7 +166,7 @@ def integrate_numpy(
         adv = acc & ~done
         t = np.where(adv, t_new, t)
         y = np.where(adv[:, None], y_new, y)
-        K0 = np.where(adv[:, None], K[6], K0)
+        K0 = np.where(adv[:, None], K[6, 0], K0)
         g_old = np.where(adv[:, None], g_new, g_old)
         if terminal is not None:
             cand = np.flatnonzero(adv)

@@ -45,6 +45,8 @@ from typing import Any
 
 import numpy as np
 
+from roa.integration.code_identity import sources_digest
+from roa.integration.dopri import KERNEL_DEPS
 from roa.integration.trace import Untraceable, trace_system
 from roa.io import atomic_write_json, atomic_write_text, cache_dir, cache_tag, tag_matches, to_json
 from roa.model.system import System
@@ -199,7 +201,7 @@ def _warm_up(mod: Any, name: str, n_params: int) -> None:
     """Compile (or load) ``mod.run`` for the argument types of an integration without a terminal
     set, with a progress line on stderr when it compiles (numba's cache has no index for it, or
     when that cannot be told, after :data:`PROGRESS_AFTER` seconds)."""
-    from roa.integration.integrator import kernel_terminal
+    from roa.integration.terminal import kernel_terminal
 
     n = int(mod.STATES)
     t0 = time.perf_counter()
@@ -258,18 +260,17 @@ def check_against_numpy(system: System, factory: GeneratedKernels, *, seed: int 
         )
 
 
-def kernel_stamp() -> str:
-    """SHA-256 (first 16 hex digits) of the sources the generated kernels come from: the
-    integrator's, :data:`roa.integration.integrator.KERNEL_STAMP` (dopri.py, terminal.py,
-    terminal_poly.py), the tracer's and the code generator's. Part of the generated text, so a
-    change there gives a new kernel file."""
-    from roa.integration import integrator
+#: The sources a generated kernel comes from besides :data:`roa.integration.dopri.KERNEL_DEPS`:
+#: the integrator's (its kernel, ``run_rows``), the tracer's and the code generator's.
+GENERATOR_SOURCES = ("integrator.py", "trace.py", "codegen.py")
 
-    here = Path(__file__).parent
-    mine = [integrator._source_digest(str(here / f))
-            for f in ("integrator.py", "trace.py", "codegen.py")]  # fmt: skip
-    blob = ":".join([str(integrator.KERNEL_STAMP), *mine])
-    return hashlib.sha256(blob.encode()).hexdigest()[:16]
+
+def kernel_stamp() -> str:
+    """SHA-256 (first 16 hex digits) of the sources the generated kernels come from
+    (:data:`roa.integration.dopri.KERNEL_DEPS` and :data:`GENERATOR_SOURCES`). Part of the
+    generated text, so a change there (the step of dopri.py, the kernel of integrator.py) gives
+    another text, another kernel file and a new compilation."""
+    return sources_digest(Path(__file__).parent, KERNEL_DEPS + GENERATOR_SOURCES)[:16]
 
 
 def _index_path(system: System) -> Path | None:

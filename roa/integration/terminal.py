@@ -295,3 +295,18 @@ class BoundTerminal:
         with np.errstate(all="ignore"):
             y = self.cmap(x)
         return self.terminal.contains(y)  # NaN compares False
+
+
+def kernel_terminal(terminal: TerminalSet | None, n: int) -> tuple[Any, ...]:
+    """The terminal set as the numba kernels take it: ``(kind, P, center, threshold, Mi, E, A,
+    B, g, D)``, kind 0 (none), 1 (quadratic: ``P``) or 2 (polynomial: the arrays of
+    :class:`roa.integration.terminal_poly.PolyArrays`; unused entries are empty)."""
+    z2, e = np.zeros((n, n)), np.zeros((0, n), np.int64)
+    if terminal is None:
+        return (0, z2, np.zeros(n), -np.inf, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
+    c, thr = np.array(terminal.center), float(terminal.threshold)
+    if terminal.quadratic:
+        return (1, np.array(terminal.P), c, thr, z2, e, np.zeros(0), np.zeros((2, n)), 0.0, 0)
+    assert terminal.poly is not None
+    Mi, E, A, B, g, D = terminal.poly
+    return (2, z2, c, thr, Mi, E, A, B, g, D)

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -22,6 +22,7 @@ from roa.model.checks import check_system
 from roa.model.system import System
 from roa.montecarlo.certified_share import certified_shares
 from roa.montecarlo.engine import converged_interval, run_basin
+from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
 from roa.montecarlo.sampling import GridSlice
 from roa.options import DEFAULT_PARAM_SAMPLES, IntegratorOptions, RunOptions
 from roa.status import BasinStatus, StopRules
@@ -177,7 +178,7 @@ def basin(
     """Integrate every initial condition of ``sampler`` and count the statuses.
 
     For a system with uncertain parameters (``system.parameters``) this is
-    :func:`roa.montecarlo.robust_basin.robust_basin`: one run per parameter sample (nominal,
+    :func:`robust_basin`: one run per parameter sample (nominal,
     vertices and ``param_samples`` seeded uniform samples drawn with ``param_seed``), returning a
     :class:`~roa.montecarlo.robust_basin.RobustBasinResult` (statuses per sample, never merged;
     the converged-share and worst-case maps derived from them). Otherwise a
@@ -216,11 +217,86 @@ def basin(
     (<BasinStatus.PARTLY_CONVERGED: 'partly_converged'>, True)
     """
     if system.parameters:
-        from roa.montecarlo.robust_basin import robust_basin
+        return _over_box(system, sampler, param_samples, param_seed, rules, integrator, run,
+                         terminal, regions)  # fmt: skip
+    return _at_fixed_parameters(system, sampler, rules, integrator, run, terminal, regions)
 
-        return robust_basin(system, sampler, param_samples=param_samples, param_seed=param_seed,
-                            rules=rules, integrator=integrator, run=run, terminal=terminal,
-                            regions=regions)  # fmt: skip
+
+def robust_basin(
+    system: System,
+    sampler: Any,
+    *,
+    param_samples: int = DEFAULT_PARAM_SAMPLES,
+    param_seed: int = 0,
+    rules: StopRules | None = None,
+    integrator: IntegratorOptions | None = None,
+    run: RunOptions | None = None,
+    terminal: TerminalSet | str | Path | dict | None = None,
+    regions: Sequence[Any] = (),
+) -> RobustBasinResult:
+    """:func:`basin` of a system with uncertain parameters (a :class:`roa.RoaInputError` for
+    one without): the basin at every parameter sample (:func:`parameter_samples` with
+    ``param_samples`` random ones and ``param_seed``); see :mod:`roa.montecarlo.robust_basin` for
+    what the derived maps claim. ``terminal`` (a certificate file or its dict) is re-verified for
+    the whole box once, then finishes runs at every sample. With ``run.out_dir``, sample ``i``
+    runs (and resumes) in ``out_dir/param_{i:03d}``, and ``out_dir/parameter_samples.json`` lists
+    the samples."""
+    if not system.parameters:
+        raise RoaInputError(
+            f"system {system.name!r} declares no uncertain parameters: use roa.basin (or "
+            "--param NAME=LOW..HIGH for a box)"
+        )
+    return _over_box(system, sampler, param_samples, param_seed, rules, integrator, run,
+                     terminal, regions)  # fmt: skip
+
+
+def _over_box(system: System, sampler: Any, param_samples: int, param_seed: int,
+              rules: StopRules | None, integrator: IntegratorOptions | None,
+              run: RunOptions | None, terminal: TerminalSet | str | Path | dict | None,
+              regions: Sequence[Any]) -> RobustBasinResult:  # fmt: skip
+    """The basin at every parameter sample of ``system``'s box (see :func:`robust_basin`)."""
+    t0 = time.perf_counter()
+    samples = parameter_samples(system, param_samples, param_seed)
+    run = RunOptions() if run is None else run
+    if terminal is not None and not isinstance(terminal, TerminalSet):
+        from roa.montecarlo.certified_set import terminal_from_certificate
+
+        terminal = terminal_from_certificate(terminal, system)  # proved for the whole box
+    if run.out_dir is not None:
+        from roa.io import atomic_write_json
+
+        Path(run.out_dir).mkdir(parents=True, exist_ok=True)
+        atomic_write_json(Path(run.out_dir) / "parameter_samples.json",
+                          {"seed": int(param_seed), "random": int(param_samples),
+                           "samples": [s.to_dict() for s in samples]})  # fmt: skip
+    # one traced and compiled kernel for every sample (parameters are its arguments)
+    from roa.integration.kernel_cache import compiled_system
+
+    backend = "auto" if integrator is None else integrator.backend
+    system, _, _ = compiled_system(
+        system, backend, terminal, int(getattr(sampler, "n", 0)) * len(samples)
+    )
+    runs = []
+    for s in samples:
+        sub = run if run.out_dir is None else replace(
+            run, out_dir=str(Path(run.out_dir) / f"param_{s.index:03d}"))  # fmt: skip
+        runs.append(_at_fixed_parameters(system.at(**s.values), sampler, rules, integrator, sub,
+                                         terminal, regions))  # fmt: skip
+    worst = np.all(np.stack([r.code for r in runs]) == I.CONVERGED, axis=0)
+    k = int(np.count_nonzero(worst))
+    n = worst.size
+    status = (BasinStatus.ALL_CONVERGED if k == n
+              else BasinStatus.NONE_CONVERGED if k == 0 else BasinStatus.PARTLY_CONVERGED)  # fmt: skip
+    return RobustBasinResult(status, tuple(samples), tuple(runs), time.perf_counter() - t0,
+                             system, sampler, int(param_seed), int(param_samples),
+                             terminal, tuple(regions))  # fmt: skip
+
+
+def _at_fixed_parameters(system: System, sampler: Any, rules: StopRules | None,
+                         integrator: IntegratorOptions | None, run: RunOptions | None,
+                         terminal: TerminalSet | str | Path | dict | None,
+                         regions: Sequence[Any]) -> BasinResult:  # fmt: skip
+    """The basin of ``system`` at its parameter values (see :func:`basin`)."""
     t0 = time.perf_counter()
     rules = StopRules() if rules is None else rules
     integrator = IntegratorOptions() if integrator is None else integrator

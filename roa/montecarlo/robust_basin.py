@@ -1,7 +1,8 @@
 """Robust basins: the basin of a system with uncertain parameters, sampled over its parameter box.
 
 A system with uncertain parameters (``System(parameters={"mu": (low, nominal, high)})``) stands for
-a family of fields. :func:`robust_basin` integrates every initial condition of a sampler once per
+a family of fields. :func:`roa.montecarlo.basin.robust_basin` (what :func:`roa.montecarlo.basin.basin`
+runs for such a system: one call) integrates every initial condition of a sampler once per
 *parameter sample* (:func:`parameter_samples`: the nominal values, the box's vertices and seeded
 uniform samples of the box), each run at fixed parameter values (``system.at(...)``), and keeps
 every run's status: nothing is merged across parameters. Derived from them, per initial
@@ -33,9 +34,7 @@ sample; a field that cannot be compiled runs on the numpy backend.
 
 from __future__ import annotations
 
-import time
-from collections.abc import Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -54,7 +53,7 @@ from roa.options import (  # noqa: F401  (the sample counts are re-exported)
     IntegratorOptions,
     RunOptions,
 )
-from roa.status import BasinStatus, StopRules
+from roa.status import BasinStatus
 
 #: Second word of the seed of the parameter samples (kept apart from the state samplers' streams).
 _STREAM = 0x70617261
@@ -274,65 +273,3 @@ class RobustBasinResult:
         if path is not None:
             save_figure(fig, path)
         return fig
-
-
-def robust_basin(
-    system: System,
-    sampler: Any,
-    *,
-    param_samples: int = DEFAULT_PARAM_SAMPLES,
-    param_seed: int = 0,
-    rules: StopRules | None = None,
-    integrator: IntegratorOptions | None = None,
-    run: RunOptions | None = None,
-    terminal: TerminalSet | str | Path | dict | None = None,
-    regions: Sequence[Any] = (),
-) -> RobustBasinResult:
-    """The basin of ``system`` (with uncertain parameters) at every parameter sample
-    (:func:`parameter_samples` with ``param_samples`` random ones and ``param_seed``); see the
-    module doc for what the derived maps claim. ``terminal`` (a certificate file or its dict) is
-    re-verified for the whole box once, then finishes runs at every sample. With
-    ``run.out_dir``, sample ``i`` runs (and resumes) in ``out_dir/param_{i:03d}``, and
-    ``out_dir/parameter_samples.json`` lists the samples."""
-    from roa.montecarlo.basin import basin
-
-    t0 = time.perf_counter()
-    if not system.parameters:
-        raise RoaInputError(
-            f"system {system.name!r} declares no uncertain parameters: use roa.basin (or "
-            "--param NAME=LOW..HIGH for a box)"
-        )
-    samples = parameter_samples(system, param_samples, param_seed)
-    run = RunOptions() if run is None else run
-    if terminal is not None and not isinstance(terminal, TerminalSet):
-        from roa.montecarlo.certified_set import terminal_from_certificate
-
-        terminal = terminal_from_certificate(terminal, system)  # proved for the whole box
-    if run.out_dir is not None:
-        from roa.io import atomic_write_json
-
-        Path(run.out_dir).mkdir(parents=True, exist_ok=True)
-        atomic_write_json(Path(run.out_dir) / "parameter_samples.json",
-                          {"seed": int(param_seed), "random": int(param_samples),
-                           "samples": [s.to_dict() for s in samples]})  # fmt: skip
-    # one traced and compiled kernel for every sample (parameters are its arguments)
-    from roa.integration.kernel_cache import compiled_system
-
-    backend = "auto" if integrator is None else integrator.backend
-    system, _, _ = compiled_system(
-        system, backend, terminal, int(getattr(sampler, "n", 0)) * len(samples)
-    )
-    runs = []
-    for s in samples:
-        sub = run if run.out_dir is None else replace(
-            run, out_dir=str(Path(run.out_dir) / f"param_{s.index:03d}"))  # fmt: skip
-        runs.append(basin(system.at(**s.values), sampler, rules=rules, integrator=integrator,
-                          run=sub, terminal=terminal, regions=regions))  # fmt: skip
-    worst = np.all(np.stack([r.code for r in runs]) == I.CONVERGED, axis=0)
-    k = int(np.count_nonzero(worst))
-    n = worst.size
-    status = (BasinStatus.ALL_CONVERGED if k == n
-              else BasinStatus.NONE_CONVERGED if k == 0 else BasinStatus.PARTLY_CONVERGED)  # fmt: skip
-    return RobustBasinResult(status, tuple(samples), tuple(runs), time.perf_counter() - t0,
-                             system, sampler, int(param_seed), int(param_samples),
-                             terminal, tuple(regions))  # fmt: skip

@@ -72,3 +72,58 @@ def test_a_change_in_terminal_poly_reaches_the_cached_kernels(tmp_path):
     after.pop("file")
     # the runs converge by the ball now, none by the terminal set
     assert after == {"fast": [0, "converged"], "public": [0, "converged"]}
+
+
+STEP_SCRIPT = """
+import dataclasses, json
+import numpy as np
+import roa
+from roa.integration.integrator import integrate_batch
+from roa.status import StopRules
+from ipc_paper import system as ipc
+
+system = ipc.closed_loop()
+centre = roa.System(name="centre", field=lambda t, x, xp: (x[1], -x[0]), equilibrium=(0.0, 0.0),
+                    state_names=("a", "b"))
+X = np.array([[0.0, 0.0, a, 0.0] for a in (0.2, -0.3)])
+out = {}
+for name, s, x, backend in (("fast", system, X, "auto"),
+                            ("public", dataclasses.replace(system, numba_fast=None), X, "auto"),
+                            ("generated", centre, np.array([[1.0, 0.0]]), "numba")):
+    out[name] = integrate_batch(s, x, rules=StopRules(t_final=5.0), backend=backend).steps.tolist()
+out["file"] = roa.__file__
+print(json.dumps(out))
+"""
+
+
+@pytest.mark.slow
+def test_a_change_of_the_step_reaches_every_cached_kernel(tmp_path):
+    """The Dormand-Prince step is written once (dopri.py) and compiled into the IPC's fast path,
+    the public cfunc kernel and the generated kernels, all cached on disk. Editing the step (the
+    error estimate made 0: every step accepted and grown tenfold) must reach all three in a new
+    process with the same caches: fewer steps, none loaded stale from a cache."""
+    import json
+
+    for pkg in ("roa", "ipc_paper"):
+        shutil.copytree(ROOT / pkg, tmp_path / pkg, ignore=shutil.ignore_patterns("__pycache__"))
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(tmp_path),
+           "ROA_KERNEL_CACHE": str(tmp_path / "kernels")}  # fmt: skip
+
+    def run() -> dict:
+        out = subprocess.run([sys.executable, "-c", STEP_SCRIPT], cwd=tmp_path, env=env,
+                             capture_output=True, text=True, timeout=900)  # fmt: skip
+        assert out.returncode == 0, out.stderr[-3000:]
+        res = json.loads(out.stdout.strip().splitlines()[-1])
+        assert res.pop("file").startswith(str(tmp_path))
+        return res
+
+    before = run()
+    assert run() == before  # loaded from the caches: the same steps
+    dopri = tmp_path / "roa" / "montecarlo" / "dopri.py"
+    src = dopri.read_text()
+    marker = "        err[i] = h * acc / ("
+    assert src.count(marker) == 1
+    dopri.write_text(src.replace(marker, "        err[i] = 0.0 * h * acc / ("))
+    after = run()
+    for name, steps in before.items():
+        assert all(a < b for a, b in zip(after[name], steps, strict=True)), (name, steps, after)

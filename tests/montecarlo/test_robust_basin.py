@@ -23,11 +23,11 @@ from roa.errors import ResultsError
 from roa.integration import integrator as I  # noqa: N812
 from roa.integration.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE
 from roa.model.system import System
+from roa.montecarlo.basin import robust_basin
 from roa.montecarlo.robust_basin import (
     MAX_PARAM_SAMPLES,
     RobustBasinResult,
     parameter_samples,
-    robust_basin,
 )
 from roa.status import BasinStatus
 

@@ -38,9 +38,8 @@ from roa.options import (
 from roa.progress import step
 from roa.proof.preconditions import Preconditions, Route, check_preconditions
 from roa.proof.putinar import check_level
-from roa.proof.recast import level_scale, recast_preconditions
-from roa.proof.recast_box import box_json
-from roa.proof.reductions import IndependentBlocks, Rescale
+from roa.proof.recast import level_scale
+from roa.proof.reductions import IndependentBlocks, Recast, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
@@ -148,7 +147,8 @@ class SosValidator:
 
     A system with uncertain parameters is proved for every parameter of its box: the parameters
     are indeterminates of the certificate, constrained to the box by Putinar multipliers
-    (:mod:`roa.proof.recast_box`, through the recast route even for a polynomial field).
+    (:class:`roa.proof.reductions.ParameterBox`, through the recast route even for a polynomial
+    field).
 
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof.recast`) and proved by a constrained certificate
@@ -374,11 +374,14 @@ class SosValidator:
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
         """The recast field's (or parameter box's) constrained certificate
         (:func:`roa.proof.putinar.check_level` with the recast's constraints)."""
+        from roa.proof.sos_check import NotPolynomial
+
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
-            scale = level_scale(V, level)
-            data, why = recast_preconditions(system, V, level, self.taylor, scale)
-            if data is None:
-                return out(Verdict.INCONCLUSIVE, why)
+            recast = Recast(self.taylor)
+            try:
+                (data,), inverse = recast.apply(system, V, level)
+            except NotPolynomial as exc:
+                return out(Verdict.INCONCLUSIVE, str(exc))
             eps = default_eps(data, self.eps)
             cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
             figures = {"solver_status": cand.solver_status, "margin": cand.margin,
@@ -391,10 +394,7 @@ class SosValidator:
             figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
             if not res.ok or res.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            cert = {"parts": [part_json(list(range(V.n)), res.certificate)],
-                    "taylor": data.taylor, "scale": [str(r) for r in data.scale]}  # fmt: skip
-            if data.parameters:  # the box it holds for (a re-check takes the system's)
-                cert["parameters"] = box_json(data.parameters)
+            cert = recast.invert([part_json(list(range(V.n)), res.certificate)], inverse)
             return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
                        f"checked exactly: {res.reason}", certificate=cert,
                        M=np.eye(V.n).tolist(), **figures)  # fmt: skip

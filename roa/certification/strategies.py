@@ -43,9 +43,9 @@ from roa.proof.reductions import IndependentBlocks, Recast, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
-from roa.search.sos_certificate import default_eps, propose_certificate
+from roa.search.sos_certificate import default_eps
 from roa.search.sos_putinar import propose_putinar
-from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
+from roa.search.sos_sparse import ROUTES, route_for
 from roa.status import LevelStatus, SosStatus, Verdict
 from roa.system import System
 
@@ -297,7 +297,7 @@ class SosValidator:
     def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
         """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables): one
         part per independent block of variables (:func:`roa.proof.sos_blocks.blocks`), each
-        proposed by the dense or the sparse program (:func:`roa.search.sos_sparse.choose_route`)
+        proposed by the program chosen once for it (:func:`roa.search.sos_sparse.route_for`)
         and proved by :func:`roa.proof.putinar.check_level`."""
         import resource
 
@@ -314,21 +314,17 @@ class SosValidator:
         plan: Any = None
         for block, sub in zip(parts, subs, strict=True):
             where = "" if whole else f" (block {list(block)})"
-            route, plan, why = choose_route(sub, self.multiplier_degree, self.route,
-                                            self.solver_options)  # fmt: skip
+            chosen = route_for(sub, self.multiplier_degree, self.route, self.solver_options)
+            route, plan, why = chosen.kind, chosen.plan, chosen.why
             if route == "too_large":
                 return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built{where}: {why}",
                            route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
+            cand = chosen.propose(level, eps)
             if plan is not None:  # the clique or the SDSOS pattern
-                cand = propose_sparse(sub, level, plan, eps=eps,
-                                      solver_options=self.solver_options)  # fmt: skip
                 figures.update(route=route, why_sparse=why, blocks=plan.sizes, **cand.sizes)
                 sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
             else:
-                cand = propose_certificate(sub, level, eps=eps,
-                                           multiplier_degree=self.multiplier_degree,
-                                           solver_options=self.solver_options)  # fmt: skip
                 sizes.append(max(cand.sizes["gram_sizes"]))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
@@ -537,9 +533,9 @@ class CandidateLevel:
 
 @dataclass(frozen=True)
 class SosLevel:
-    """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
-    for a polynomial system whose V and V' split over independent blocks of variables, the least
-    of the blocks' levels found by bisection (:mod:`roa.search.sos_bisection`); validated at
+    """The SOS level search's largest level (:func:`roa.search.sos_bisection.level_search`: the
+    max-level program, quadratic V; bisection for independent blocks of variables or a patterned
+    program, each block's route chosen once); validated at
     ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
     (never certified: no independent check)."""
 
@@ -550,18 +546,15 @@ class SosLevel:
         return V.as_quadratic() is not None and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
-        from roa.search.sos import sos_level
+        from roa.search.sos_bisection import level_search
 
         quad = V.as_quadratic()
         assert quad is not None
         o = self.options
-        res = _block_sos_level(system, V, o)
-        if res is None:
-            with step("SOS program (cvxpy + Clarabel)"):
-                res = sos_level(system, quad, recast_mode=o.recast,
-                                multiplier_degree=o.multiplier_degree,
-                                solver_options=o.solver_options(), symmetry=o.symmetry,
-                                aux_degree=o.aux_degree)  # fmt: skip
+        res = level_search(system, V if getattr(V, "terms", None) is not None else quad,
+                           recast_mode=o.recast, multiplier_degree=o.multiplier_degree,
+                           solver_options=o.solver_options(), symmetry=o.symmetry,
+                           aux_degree=o.aux_degree)  # fmt: skip
         ok = res.status is SosStatus.SOLVED and res.level is not None
         if self.only:
             msg = (
@@ -574,51 +567,6 @@ class SosLevel:
         if not ok:
             return Proposal("sos", None, None, res.message, sos=res)
         return Proposal("sos", res.level, o.safety_factor, sos=res)
-
-
-def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
-    """The SOS level of a polynomial system whose V and V' split over independent blocks of
-    variables (:func:`roa.search.sos_bisection.block_levels`: bisection per distinct block, the
-    least level), or of a coupled one whose dense program does not fit the memory budget but
-    whose sparse program does (:func:`roa.search.sos_sparse.choose_route`: bisection with the
-    chordal clique program), as an ``SOSResult``; None when the data are not polynomial or
-    neither applies (then the one program of :func:`roa.search.sos.sos_level` is used)."""
-    from roa.proof.sos_check import NotPolynomial, exact_data
-    from roa.search.sos import SOSResult
-    from roa.search.sos_bisection import block_levels
-
-    if system.equilibrium is None or system.time_varying or getattr(system, "parameters", None):
-        return None
-    try:
-        data = exact_data(system, V)
-    except NotPolynomial:
-        return None
-    parts = IndependentBlocks().blocks(data)
-    sparse, plan = False, None
-    if len(parts) < 2:
-        route, plan, _ = choose_route(data, solver_options=o.solver_options())
-        if route not in ("sparse", "sdsos"):
-            return None
-        sparse = True
-    what = ("the sparse (chordal clique) program" if sparse and route == "sparse"
-            else "the SDSOS program (sign blocks, scaled diagonally dominant)" if sparse
-            else f"{len(parts)} independent blocks of variables")  # fmt: skip
-    with step(f"SOS level by bisection with {what}"):
-        bl = block_levels(data, solver_options=o.solver_options())
-    sizes = {**bl.sizes, "programs": bl.programs}
-    if sparse:
-        assert plan is not None
-        sizes["sparse"] = plan.sizes
-        res = SOSResult(SosStatus.SOLVED if bl.level is not None else SosStatus.FAILED, bl.level,
-                        "bisection", bl.seconds, "none (polynomial)", sizes,
-                        f"SOS bisection with {what}: {bl.message}" if bl.level is None
-                        else f"largest level of {what} (bisection)")  # fmt: skip
-        return res
-    if bl.level is None:
-        return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds, "none (polynomial)",
-                         sizes, f"SOS bisection over independent blocks: {bl.message}")  # fmt: skip
-    return SOSResult(SosStatus.SOLVED, bl.level, "bisection", bl.seconds, "none (polynomial)",
-                     sizes, f"least of {len(parts)} block levels (bisection)")  # fmt: skip
 
 
 @dataclass(frozen=True)

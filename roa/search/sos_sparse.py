@@ -37,7 +37,9 @@ the program's size only, solves it.
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the
 memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else the clique one when it applies (diagonal
 quadratic V, a clique smaller than ``n``) and fits, else the SDSOS one when it fits, else none
-(``too_large``).
+(``too_large``). :func:`route_for` is that choice made once for exact data, as an object that
+proposes a certificate at any level (:class:`SosRoute`): the exact validator and the level search
+both use it.
 """
 
 from __future__ import annotations
@@ -45,7 +47,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
@@ -62,7 +64,13 @@ from roa.search.sdp import (
     sdp_bytes,
     solve,
 )
-from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
+from roa.search.sos_certificate import (
+    Candidate,
+    default_eps,
+    degrees,
+    level_target,
+    propose_certificate,
+)
 from roa.search.sos_symmetry import sign_symmetries, split
 
 
@@ -308,3 +316,46 @@ def propose_sparse(data: ExactData, level: float, plan: SparsePlan, *, eps: Frac
     prog = SparseProgram(data, plan, eps=eps, solver_options=solver_options)
     cand = prog.solve(level)
     return dataclasses.replace(cand, seconds=cand.seconds + prog.build_seconds)
+
+
+@dataclass
+class SosRoute:
+    """The program chosen once for exact data (:func:`route_for`): ``kind`` ``"dense"``,
+    ``"sparse"``, ``"sdsos"`` or ``"too_large"``, its plan (None: dense) and why the dense one
+    was not taken. :meth:`propose` solves it at a level (a patterned program compiled once per
+    ``eps``, the level a parameter)."""
+
+    data: ExactData
+    kind: str
+    plan: SparsePlan | None
+    why: str
+    multiplier_degree: int | None = None
+    solver_options: dict[str, Any] | None = None
+    compiled: dict[Fraction, SparseProgram] = field(default_factory=dict)
+
+    def propose(self, level: float, eps: Fraction | None = None) -> Candidate:
+        """A candidate certificate of ``level`` (only :func:`roa.proof.putinar.check_level`
+        decides)."""
+        eps = default_eps(self.data) if eps is None else Fraction(eps)
+        if self.kind == "too_large":
+            return Candidate(None, eps, None, f"too large: {self.why}", 0.0)
+        if self.plan is None:
+            return propose_certificate(self.data, level, eps=eps,
+                                       multiplier_degree=self.multiplier_degree,
+                                       solver_options=self.solver_options)  # fmt: skip
+        prog = self.compiled.get(eps)
+        build = 0.0
+        if prog is None:
+            prog = self.compiled[eps] = SparseProgram(self.data, self.plan, eps=eps,
+                                                      solver_options=self.solver_options)  # fmt: skip
+            build = prog.build_seconds
+        cand = prog.solve(level)
+        return dataclasses.replace(cand, seconds=cand.seconds + build)
+
+
+def route_for(data: ExactData, multiplier_degree: int | None = None, route: str = "auto",
+              solver_options: dict[str, Any] | None = None) -> SosRoute:  # fmt: skip
+    """The route of ``data`` (:func:`choose_route`), chosen once."""
+    kind, p, why = choose_route(data, multiplier_degree, route, solver_options)
+    return SosRoute(data, kind, p if kind in ("sparse", "sdsos") else None, why,
+                    multiplier_degree, solver_options)  # fmt: skip

@@ -78,10 +78,21 @@ def test_the_ring_structure_is_found():
                        "sigma_cross_blocks": 4 * 3, "lambda_blocks": [3, 3, 3, 3]}  # fmt: skip
     assert choose_route(data)[0] == "dense"  # 27 monomials fit the budget
     assert choose_route(data, route="sparse")[0] == "sparse"
-    # a non-diagonal V couples through V: the route refuses, naming why
+    # a non-diagonal V (one group: every variable): every monomial of lambda_j V is a product
+    # of two monomials of one cross block of clique j (lambda_j V is a Gram form over it)
     P = np.eye(N) + 0.1 * (np.eye(N, k=1) + np.eye(N, k=-1))
     dense_V = exact_data(system, roa.QuadraticLyapunov(P, np.zeros(N)))
-    assert plan(dense_V)[0] is None and "diagonal" in plan(dense_V)[1]
+    p2, why2 = plan(dense_V)
+    assert p2 is not None and why2 == ""
+    K = len(p2.cliques)
+    cross = p2.sigma[K:]
+    assert len(cross) == K  # one group, outside every clique
+    for lam, block in zip(p2.lam, cross, strict=True):
+        products = {tuple(a + b for a, b in zip(u, w, strict=True)) for u in block for w in block}
+        for m1 in lam:
+            for m2 in lam:
+                for v in dense_V.V:
+                    assert tuple(a + b + c for a, b, c in zip(m1, m2, v, strict=True)) in products
     with pytest.raises(roa.RoaInputError, match="route"):
         roa.SosValidator(route="chordal")
 

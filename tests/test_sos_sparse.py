@@ -22,7 +22,7 @@ from roa.proof.putinar import Certificate as PutinarCertificate
 from roa.proof.putinar import check_level
 from roa.proof.sos_check import exact_data
 from roa.search.sos_certificate import default_eps
-from roa.search.sos_sparse import choose_route, cliques, interaction_graph, plan, propose_sparse
+from roa.search.sos_sparse import SosRoute, choose_route, cliques, interaction_graph, plan
 
 N, A = 6, 0.5
 
@@ -173,7 +173,7 @@ def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch)
 def _sparse_certificate(data, level):
     p, _ = plan(data)
     eps = default_eps(data)
-    cand = propose_sparse(data, level, p, eps=eps)
+    cand = SosRoute(data, "sparse", p, "").propose(level, eps)
     res = check_level(data, level, eps, cand.certificate)
     assert res.ok, res.reason
     return p, eps, res
@@ -249,7 +249,7 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
         raise AssertionError("the re-check must not solve anything")
 
     monkeypatch.setattr(dense, "propose_certificate", no_solver)
-    monkeypatch.setattr(sparse, "propose_sparse", no_solver)
+    monkeypatch.setattr(sparse.SosRoute, "propose", no_solver)
     monkeypatch.setattr(sparse.SparseProgram, "solve", no_solver)
     again = Certificate.from_dict(data, system).reverify()
     assert again.certified and "sparse SOS certificate re-checked exactly" in again.message

@@ -39,7 +39,7 @@ import sympy as sp
 from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
-from roa.search.polysdp import poly_of
+from roa.search.polysdp import is_even, poly_of
 from roa.search.sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 from roa.status import SosStatus
 from roa.system import System
@@ -232,11 +232,6 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
                   rf.positive)  # fmt: skip
 
 
-def _is_even(polys: list[dict[tuple, float]], nd: int) -> bool:
-    """Every monomial of every polynomial has even total degree in the first ``nd`` variables."""
-    return all(sum(m[:nd]) % 2 == 0 for p in polys for m in p)
-
-
 def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
     return SOSResult(SosStatus.TOO_LARGE, None, "not built", time.perf_counter() - t0, "",
                      sizes={"gram_block": block, "variables": nvars},
@@ -318,7 +313,7 @@ def sos_level(
     nn_polys = [poly_of(g, gens) for g in rc.nonnegative]
     if symmetry not in SYMMETRY:
         raise RoaInputError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
-    even = _is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
+    even = is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
     if symmetry is True and not even:
         raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)

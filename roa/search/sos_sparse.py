@@ -327,14 +327,6 @@ class SparseProgram:
                          time.perf_counter() - t0, figures)  # fmt: skip
 
 
-def propose_sparse(data: ExactData, level: float, plan: SparsePlan, *, eps: Fraction | None = None,
-                   solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
-    """Solve the sparse program of ``plan`` at ``level`` once (module docstring)."""
-    prog = SparseProgram(data, plan, eps=eps, solver_options=solver_options)
-    cand = prog.solve(level)
-    return dataclasses.replace(cand, seconds=cand.seconds + prog.build_seconds)
-
-
 @dataclass
 class SosRoute:
     """The program chosen once for exact data (:func:`route_for`): ``kind`` ``"dense"``,

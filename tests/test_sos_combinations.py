@@ -6,6 +6,7 @@ certify there."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import mpmath
@@ -14,6 +15,7 @@ import pytest
 from scipy import optimize
 
 import roa
+from roa.certification import Certificate
 from roa.lyapunov import PolynomialLyapunov
 from roa.proof.sos_check import exact_data
 from roa.search.sos_sparse import choose_route, plan
@@ -98,6 +100,13 @@ def test_non_separable_V_on_the_sparse_route():
     assert cert.certified, cert.message
     assert cert.validation.meta["route"] == "sparse"
     assert cert.level <= opt
+    # the stored certificate is re-checked without a solver; a cross block negated is refused
+    stored = json.loads(roa.io.to_json(cert.to_dict()))
+    assert Certificate.from_dict(stored, system).reverify().certified
+    grams = stored["certificate"]["parts"][0]["grams"]
+    cross = [g for g in grams if g["multiplies"] == 0][-1]  # (a piece of) the last cross block
+    cross["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in cross["Q"]]
+    assert not Certificate.from_dict(stored, system).reverify().certified
     ok, at = refuted_above(f, g, ring_field, point, opt)
     assert ok and at == pytest.approx(1.001 * opt, rel=1e-9)
     above = roa.certify(system, V, level=1.001 * opt, validator=roa.SosValidator(route="sparse"))

@@ -3,7 +3,8 @@
 Run: ``python benchmarks/bench_scale.py [--quick] [--only NAME ...]``. Each system runs in its own
 process (its peak memory is that process's ``ru_maxrss``) and gets one row:
 
-* ``n``; the SOS level (roa's SOS proposal, ``roa.search.sos.sos_level``, or why there is none);
+* ``n``; the SOS level (roa's SOS proposal, ``roa.search.sos_bisection.level_search``, or why
+  there is none);
 * the certified level and its route: ``roa.certify(system, validator=roa.SosValidator())`` (the
   proposer: the SOS level, else the sampled level search; the exact SOS check, block by block
   when V and V' split over independent blocks of variables);

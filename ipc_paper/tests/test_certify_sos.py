@@ -47,9 +47,11 @@ def test_ipc_exact_recast_reproduces_vdot():
     rng = np.random.default_rng(0)
     for y in rng.normal(size=(5, 4)):
         x = M @ y
-        s = 1 / np.sqrt(1 + x[2] ** 2)
-        sub = dict(zip(rc.d + rc.aux, [*y, s], strict=True))
-        assert abs(float(rc.Vdot.subs(sub)) - V.derivative(system, x)) < 1e-9
+        u = np.sqrt(1 + x[2] ** 2) - 1  # the one recast: u = sqrt(b) - sqrt(b(0)), u >= 0
+        sub = dict(zip(rc.d + rc.aux, [*y, u], strict=True))
+        positive = float(rc.positive.subs(sub))  # Vdot = positive x V', positive > 0
+        assert positive >= 1.0 and abs(positive - (1 + u) ** 3) < 1e-9 * positive
+        assert abs(float(rc.Vdot.subs(sub)) - positive * V.derivative(system, x)) < 1e-9 * positive
         assert abs(float(rc.equalities[0].subs(sub))) < 1e-12
         assert abs(float(rc.V.subs(sub)) - V.value(x)) < 1e-9
     assert all(isinstance(g, sp.Expr) for g in rc.nonnegative)
@@ -89,7 +91,7 @@ def test_symmetry_true_on_a_non_odd_field_is_rejected():
 
 @pytest.mark.slow
 def test_ipc_exact_sos_solves_with_symmetry_and_matches_sampled_optimum():
-    """The exact recast (s = (1 + w^2)^(-1/2)) with even/odd blocks solves; its rho is (up to the
+    """The exact recast (u = (1 + w^2)^(1/2) - 1) with even/odd blocks solves; its rho is (up to the
     solver tolerance) a lower bound of the true level, compared with the independent IPOPT
     optimum (an upper bound attained at a witness)."""
     from ipc_paper.system.lyapunov import paper_lyapunov

@@ -44,17 +44,16 @@ from roa.options import (
 from roa.progress import step
 from roa.proof.preconditions import Preconditions, Route, check_preconditions
 from roa.proof.putinar import check_level
-from roa.proof.recast import level_scale, recast_preconditions
-from roa.proof.recast_box import box_json
-from roa.proof.reductions import IndependentBlocks, Rescale
+from roa.proof.recast import level_scale
+from roa.proof.reductions import IndependentBlocks, Recast, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
 from roa.search.levelset import LevelSearchResult, level_search
 from roa.search.rays import ray_box
-from roa.search.sos_certificate import default_eps, propose_certificate
+from roa.search.sos_certificate import default_eps
 from roa.search.sos_putinar import propose_putinar
-from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
+from roa.search.sos_sparse import ROUTES, route_for
 from roa.status import LevelStatus, SosStatus, Verdict
 
 
@@ -252,7 +251,8 @@ class SosValidator(ValidatorBase):
 
     A system with uncertain parameters is proved for every parameter of its box: the parameters
     are indeterminates of the certificate, constrained to the box by Putinar multipliers
-    (:mod:`roa.proof.recast_box`, through the recast route even for a polynomial field).
+    (:class:`roa.proof.reductions.ParameterBox`, through the recast route even for a polynomial
+    field).
 
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof.recast`) and proved by a constrained certificate
@@ -406,7 +406,7 @@ class SosValidator(ValidatorBase):
     def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
         """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables): one
         part per independent block of variables (:func:`roa.proof.sos_blocks.blocks`), each
-        proposed by the dense or the sparse program (:func:`roa.search.sos_sparse.choose_route`)
+        proposed by the program chosen once for it (:func:`roa.search.sos_sparse.route_for`)
         and proved by :func:`roa.proof.putinar.check_level`."""
         import resource
 
@@ -423,21 +423,17 @@ class SosValidator(ValidatorBase):
         plan: Any = None
         for block, sub in zip(parts, subs, strict=True):
             where = "" if whole else f" (block {list(block)})"
-            route, plan, why = choose_route(sub, self.multiplier_degree, self.route,
-                                            self.solver_options)  # fmt: skip
+            chosen = route_for(sub, self.multiplier_degree, self.route, self.solver_options)
+            route, plan, why = chosen.kind, chosen.plan, chosen.why
             if route == "too_large":
                 return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built{where}: {why}",
                            route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
+            cand = chosen.propose(level, eps)
             if plan is not None:  # the clique or the SDSOS pattern
-                cand = propose_sparse(sub, level, plan, eps=eps,
-                                      solver_options=self.solver_options)  # fmt: skip
                 figures.update(route=route, why_sparse=why, blocks=plan.sizes, **cand.sizes)
                 sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
             else:
-                cand = propose_certificate(sub, level, eps=eps,
-                                           multiplier_degree=self.multiplier_degree,
-                                           solver_options=self.solver_options)  # fmt: skip
                 sizes.append(max(cand.sizes["gram_sizes"]))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
@@ -483,11 +479,14 @@ class SosValidator(ValidatorBase):
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
         """The recast field's (or parameter box's) constrained certificate
         (:func:`roa.proof.putinar.check_level` with the recast's constraints)."""
+        from roa.proof.sos_check import NotPolynomial
+
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
-            scale = level_scale(V, level)
-            data, why = recast_preconditions(system, V, level, self.taylor, scale)
-            if data is None:
-                return out(Verdict.INCONCLUSIVE, why)
+            recast = Recast(self.taylor)
+            try:
+                (data,), inverse = recast.apply(system, V, level)
+            except NotPolynomial as exc:
+                return out(Verdict.INCONCLUSIVE, str(exc))
             eps = default_eps(data, self.eps)
             cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
             figures = {"solver_status": cand.solver_status, "margin": cand.margin,
@@ -500,10 +499,7 @@ class SosValidator(ValidatorBase):
             figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
             if not res.ok or res.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            cert = {"parts": [part_json(list(range(V.n)), res.certificate)],
-                    "taylor": data.taylor, "scale": [str(r) for r in data.scale]}  # fmt: skip
-            if data.parameters:  # the box it holds for (a re-check takes the system's)
-                cert["parameters"] = box_json(data.parameters)
+            cert = recast.invert([part_json(list(range(V.n)), res.certificate)], inverse)
             return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
                        f"checked exactly: {res.reason}", certificate=cert,
                        M=np.eye(V.n).tolist(), **figures)  # fmt: skip
@@ -712,9 +708,9 @@ class CandidateLevel(ProposerBase):
 
 @dataclass(frozen=True)
 class SosLevel(ProposerBase):
-    """The SOS program's largest level (:func:`roa.search.sos.sos_level`), quadratic V only;
-    for a polynomial system whose V and V' split over independent blocks of variables, the least
-    of the blocks' levels found by bisection (:mod:`roa.search.sos_bisection`); validated at
+    """The SOS level search's largest level (:func:`roa.search.sos_bisection.level_search`: the
+    max-level program, quadratic V; bisection for independent blocks of variables or a patterned
+    program, each block's route chosen once); validated at
     ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
     (never certified: no independent check)."""
 
@@ -725,18 +721,15 @@ class SosLevel(ProposerBase):
         return V.is_quadratic and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
-        from roa.search.sos import sos_level
+        from roa.search.sos_bisection import level_search
 
         quad = V.quadratic_view()
         assert quad is not None
         o = self.options
-        res = _block_sos_level(system, V, o)
-        if res is None:
-            with step("SOS program (cvxpy + Clarabel)"):
-                res = sos_level(system, quad, recast_mode=o.recast,
-                                multiplier_degree=o.multiplier_degree,
-                                solver_options=o.solver_options(), symmetry=o.symmetry,
-                                aux_degree=o.aux_degree)  # fmt: skip
+        res = level_search(system, V if getattr(V, "terms", None) is not None else quad,
+                           recast_mode=o.recast, multiplier_degree=o.multiplier_degree,
+                           solver_options=o.solver_options(), symmetry=o.symmetry,
+                           aux_degree=o.aux_degree)  # fmt: skip
         ok = res.status is SosStatus.SOLVED and res.level is not None
         if self.only:
             msg = (
@@ -749,51 +742,6 @@ class SosLevel(ProposerBase):
         if not ok:
             return Proposal("sos", None, None, res.message, sos=res)
         return Proposal("sos", res.level, o.safety_factor, sos=res)
-
-
-def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
-    """The SOS level of a polynomial system whose V and V' split over independent blocks of
-    variables (:func:`roa.search.sos_bisection.block_levels`: bisection per distinct block, the
-    least level), or of a coupled one whose dense program does not fit the memory budget but
-    whose sparse program does (:func:`roa.search.sos_sparse.choose_route`: bisection with the
-    chordal clique program), as an ``SOSResult``; None when the data are not polynomial or
-    neither applies (then the one program of :func:`roa.search.sos.sos_level` is used)."""
-    from roa.proof.sos_check import NotPolynomial, exact_data
-    from roa.search.sos import SOSResult
-    from roa.search.sos_bisection import block_levels
-
-    if system.equilibrium is None or system.time_varying or getattr(system, "parameters", None):
-        return None
-    try:
-        data = exact_data(system, V)
-    except NotPolynomial:
-        return None
-    parts = IndependentBlocks().blocks(data)
-    sparse, plan = False, None
-    if len(parts) < 2:
-        route, plan, _ = choose_route(data, solver_options=o.solver_options())
-        if route not in ("sparse", "sdsos"):
-            return None
-        sparse = True
-    what = ("the sparse (chordal clique) program" if sparse and route == "sparse"
-            else "the SDSOS program (sign blocks, scaled diagonally dominant)" if sparse
-            else f"{len(parts)} independent blocks of variables")  # fmt: skip
-    with step(f"SOS level by bisection with {what}"):
-        bl = block_levels(data, solver_options=o.solver_options())
-    sizes = {**bl.sizes, "programs": bl.programs}
-    if sparse:
-        assert plan is not None
-        sizes["sparse"] = plan.sizes
-        res = SOSResult(SosStatus.SOLVED if bl.level is not None else SosStatus.FAILED, bl.level,
-                        "bisection", bl.seconds, "none (polynomial)", sizes,
-                        f"SOS bisection with {what}: {bl.message}" if bl.level is None
-                        else f"largest level of {what} (bisection)")  # fmt: skip
-        return res
-    if bl.level is None:
-        return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds, "none (polynomial)",
-                         sizes, f"SOS bisection over independent blocks: {bl.message}")  # fmt: skip
-    return SOSResult(SosStatus.SOLVED, bl.level, "bisection", bl.seconds, "none (polynomial)",
-                     sizes, f"least of {len(parts)} block levels (bisection)")  # fmt: skip
 
 
 @dataclass(frozen=True)

@@ -15,9 +15,19 @@ So a Putinar identity ``-N - eps |d|^2k = sigma0 + lambda (c - V) + sum sigma_j 
 there for the ORIGINAL field. Soundness needs only that the constraints hold at ``z(x)``, never
 that they pin ``z`` down (loose constraints cost level, not truth).
 
-**Uncertain parameters** (:mod:`roa.proof.recast_box`): a system with a parameter box gets one
-more variable per parameter, last in ``z``, its normalised value ``w_j`` in ``[-1, 1]``, and the
-inequality ``1 - w_j^2 >= 0``; every polynomial above is then one in ``(z, w)`` and the claims
+**Half-integer powers.** ``b^(k/2)`` of a polynomial ``b`` with ``b >= b(0) = t0^2 > 0`` (``t0``
+rational, :func:`positive_everywhere`) becomes ``(t0 + u)^k`` with one variable per base,
+``u = sqrt(b) - t0``: ``(t0 + u)^2 = b`` and ``u >= 0`` hold at ``z(x)``, ``u = 0`` at ``x_eq``; a
+negative ``k`` leaves the denominator ``(t0 + u)^|k| > 0``.
+
+**One recast.** :func:`polynomial_field` is the recast of the field (``F = Den f``, ``Den > 0``
+at ``z(x)``); the exact check (:func:`recast_exact`, the reduction
+:class:`roa.proof.reductions.Recast`) and the programs that propose a level or a V
+(:func:`roa.search.sos.recast_field`) all use it.
+
+**Uncertain parameters** (:class:`roa.proof.reductions.ParameterBox`): a system with a parameter
+box gets one more variable per parameter, last in ``z``, its normalised value ``w_j`` in
+``[-1, 1]``, and the inequality ``1 - w_j^2 >= 0``; every polynomial above is then one in ``(z, w)`` and the claims
 hold at ``(z(x), w(p))`` for every state ``x`` and every parameter ``p`` of the box. ``low`` is
 the lowest degree of ``N`` in the state variables (the parameters not counted).
 
@@ -68,7 +78,6 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
-from roa.proof.recast_box import box_constraints, box_variables, describe
 from roa.proof.sos_check import (
     Mono,
     NotPolynomial,
@@ -108,7 +117,8 @@ class RecastData:
     Den: QPoly  # V' = N / Den at z(x), Den > 0 there (in y and the aux)
     roots: tuple[tuple[int, Fraction, QPoly], ...]  # (index of u, t0, b in y): u = sqrt(b) - t0
     #: uncertain parameters ``(name, low, high)``, exact: the LAST variables of ``z`` are their
-    #: normalised values ``w = (p - mid) / half`` in ``[-1, 1]`` (:mod:`roa.proof.recast_box`)
+    #: normalised values ``w = (p - mid) / half`` in ``[-1, 1]``
+    #: (:class:`roa.proof.reductions.ParameterBox`)
     parameters: tuple[tuple[str, Fraction, Fraction], ...] = ()
 
     @property
@@ -378,29 +388,55 @@ def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
     return None if cover is None else Fraction(float(cover[0][i]))
 
 
-def recast_exact(system: Any, V: Any, taylor: int | None = None,
-                 scale: tuple[Fraction, ...] | None = None, level: Any = None
-                 ) -> RecastData:  # fmt: skip
-    """The exact recast of ``V'`` (module docstring) in scaled variables ``y`` (``d_i = scale_i
-    y_i``, any positive rationals, default 1: the identity in ``y`` is the identity in ``d``
-    after the substitution, so the argument is unchanged, with ``eps |y|^2k > 0`` for ``d != 0``);
-    raises :class:`NotPolynomial` naming the term that cannot be recast. ``taylor``: the order of
-    the sin bounds (default from the angles' scale, :func:`taylor_order`)."""
+@dataclass(frozen=True)
+class PolynomialField:
+    """The field made polynomial (:func:`polynomial_field`): ``F_i = L f_i`` over the rationals
+    in ``gens`` (``d``, then per angle ``s``, ``q``, then per square root ``u``, then the box's
+    ``w``), with ``L`` (``Lpos``, sign included) ``> 0`` at ``z(x)`` for every state ``x``."""
+
+    n: int
+    gens: list[Any]
+    nz: int  # states and auxiliaries (the parameters not counted)
+    F: list[Any]  # sympy Polys over QQ: L f_i
+    Lpos: Any  # sympy Poly over QQ: L > 0 at z(x)
+    angles: list[int]
+    roots: list[tuple[Any, Fraction, QPoly, dict[Any, Any]]]  # (u, t0, b, replacements)
+    parameters: tuple[tuple[str, Fraction, Fraction], ...]
+    denominator: str
+
+    def root_constraints(self) -> tuple[list[tuple[str, QPoly]], list[tuple[str, QPoly]]]:
+        """``(t0 + u)^2 = b`` and ``u >= 0`` per square root (exact, in ``gens``)."""
+        nv = len(self.gens)
+        eqs, ineqs = [], []
+        for k, (u, t0, b, _) in enumerate(self.roots):
+            ui = self.gens.index(u)
+            unit = tuple(int(j == ui) for j in range(nv))
+            h = poly_lin((Fraction(1), {tuple(2 * e for e in unit): Fraction(1)}),
+                         (2 * t0, {unit: Fraction(1)}), (t0 * t0, {tuple([0] * nv): Fraction(1)}),
+                         (Fraction(-1), b))  # fmt: skip
+            h = {m: c for m, c in h.items() if c}
+            eqs.append((f"(sqrt(b{k}(0)) + {u})^2 = b{k}, b{k} = {_pretty(b, self.gens)}", h))
+            ineqs.append((f"{u} >= 0 (b{k} >= b{k}(0))", {unit: Fraction(1)}))
+        return eqs, ineqs
+
+
+def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = None
+                     ) -> PolynomialField:  # fmt: skip
+    """The one recast (module docstring) of ``system``'s field around ``center``: sin/cos of
+    states, tan, half-integer powers ``b^(k/2)`` (``u = sqrt(b) - t0``), rational terms (times
+    their positive denominator), over the parameter box ``box``
+    (:class:`roa.proof.reductions.ParameterBox`, its values the last variables). Raises
+    :class:`NotPolynomial` naming what cannot be recast."""
     import sympy as sp
 
     from roa.lyapunov.symbolic import exact_rationals
     from roa.model.backend import namespace
 
-    terms = V.polynomial_view()
-    if terms is None:
-        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
     if getattr(system, "time_varying", False) or system.equilibrium is None:
         raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
-    n = int(V.n)
-    center = tuple(Fraction(float(c)) for c in V.center)
+    n = len(center)
     xs = list(sp.symbols(f"x0:{n}", real=True))
     d = list(sp.symbols(f"d0:{n}", real=True))
-    box = box_variables(system)  # uncertain parameters: the last variables (roa.proof.recast_box)
     try:
         with sp.evaluate(False):
             f = (system if box is None else box.system).field(0.0, xs, namespace("sympy"))
@@ -457,20 +493,49 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     if any(sum(m[:nz]) == 0 for p in nums for m, c in p.terms() if c != 0):
         raise NotPolynomial("f(x_eq) != 0 exactly (for some parameter of the box): V's centre "
                             "is not an equilibrium")  # fmt: skip
-    Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): exact_fraction(c)
-                 for a, c in terms.items() if c != 0}  # fmt: skip
-    Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
-                           *gens, domain="QQ")  # fmt: skip
-    Np = sp.Poly(0, *gens, domain="QQ")
-    for i in range(n):
-        Np = Np + Vp.diff(gens[i]) * nums[i] * sp.div(L, dens[i])[0]
     sign = denominator_sign(L, gens, [gens.index(u) for u, _, _, _ in roots])
     if sign is None:
         raise NotPolynomial(
             f"cannot prove the denominator {L.as_expr()} positive (needs factors that are a "
             "positive constant plus even terms with positive coefficients, or sqrt(b) >= 0)"
         )
-    Nq: QPoly = {tuple(m): sign * exact_fraction(c) for m, c in Np.terms() if c != 0}
+    F = [sign * nums[i] * sp.div(L, dens[i])[0] for i in range(n)]
+    den = "1" if L.is_one else str(L.as_expr())
+    params = () if box is None else box.parameters
+    return PolynomialField(n, gens, nz, F, sign * L, angles, roots, params, den)
+
+
+def recast_exact(system: Any, V: Any, taylor: int | None = None,
+                 scale: tuple[Fraction, ...] | None = None, level: Any = None, *,
+                 box: Any = None) -> RecastData:  # fmt: skip
+    """The exact recast of ``V'`` (module docstring) in scaled variables ``y`` (``d_i = scale_i
+    y_i``, any positive rationals, default 1: the identity in ``y`` is the identity in ``d``
+    after the substitution, so the argument is unchanged, with ``eps |y|^2k > 0`` for ``d != 0``);
+    raises :class:`NotPolynomial` naming the term that cannot be recast. ``taylor``: the order of
+    the sin bounds (default from the angles' scale, :func:`taylor_order`). ``box``: the
+    system's parameter box (:class:`roa.proof.reductions.ParameterBox`; default: the system's
+    own, when it declares uncertain parameters)."""
+    import sympy as sp
+
+    from roa.proof.reductions import ParameterBox, box_constraints, describe
+
+    terms = getattr(V, "terms", None)
+    if terms is None:
+        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
+    n = int(V.n)
+    center = tuple(Fraction(float(c)) for c in V.center)
+    if box is None and getattr(system, "parameters", None):
+        box = ParameterBox().apply(system)
+    pf = polynomial_field(system, center, box=box)
+    gens, nv, nz, angles = pf.gens, len(pf.gens), pf.nz, pf.angles
+    Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): exact_fraction(c)
+                 for a, c in terms.items() if c != 0}  # fmt: skip
+    Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
+                           *gens, domain="QQ")  # fmt: skip
+    Np = sp.Poly(0, *gens, domain="QQ")
+    for i in range(n):
+        Np = Np + Vp.diff(gens[i]) * pf.F[i]
+    Nq: QPoly = {tuple(m): exact_fraction(c) for m, c in Np.terms() if c != 0}
     if any(sum(m[:nz]) == 0 for m in Nq):
         raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
     low = min((sum(m[:nz]) for m in Nq), default=2)  # lowest degree in the state variables
@@ -493,27 +558,21 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         e, g = angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order, r)
         eqs += e
         ineqs += g
-    for k, (u, t0, b, _) in enumerate(roots):  # (t0 + u)^2 = b and u >= 0
-        ui = gens.index(u)
-        unit = tuple(int(j == ui) for j in range(nv))
-        h = poly_lin((Fraction(1), {tuple(2 * e for e in unit): Fraction(1)}),
-                     (2 * t0, {unit: Fraction(1)}), (t0 * t0, {tuple([0] * nv): Fraction(1)}),
-                     (Fraction(-1), b))  # fmt: skip
-        h = {m: c for m, c in h.items() if c}
-        eqs.append((f"(sqrt(b{k}(0)) + {u})^2 = b{k}, b{k} = {_pretty(b, gens)}", h))
-        ineqs.append((f"{u} >= 0 (b{k} >= b{k}(0))", {unit: Fraction(1)}))
-    params = () if box is None else box.parameters
+    e, g = pf.root_constraints()
+    eqs += e
+    ineqs += g
+    params = pf.parameters
     ineqs += box_constraints(nv, params)
     pad = sc + (Fraction(1),) * (nv - n)
     Vq, Nq = scaled(Vq, pad), scaled(Nq, pad)
     eqs = [(w, scaled(h, pad)) for w, h in eqs]
     ineqs = [(w, scaled(g, pad)) for w, g in ineqs]
-    Lq = scaled({tuple(m): sign * exact_fraction(c) for m, c in L.terms() if c != 0}, pad)
-    root_data = tuple((gens.index(u), t0, scaled(b, pad)) for u, t0, b, _ in roots)
-    den = "1" if L.is_one else str(L.as_expr())
+    Lq = scaled({tuple(m): exact_fraction(c) for m, c in pf.Lpos.terms() if c != 0}, pad)
+    root_data = tuple((gens.index(u), t0, scaled(b, pad)) for u, t0, b, _ in pf.roots)
+    den = pf.denominator
     desc = ", ".join(
         [f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]
-        + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in roots]
+        + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in pf.roots]
     ) or ("polynomial (no recast)" if params else "")
     desc = "; ".join(
         x

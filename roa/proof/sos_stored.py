@@ -35,12 +35,11 @@ import numpy as np
 
 from roa.proof.preconditions import Route, check_preconditions
 from roa.proof.putinar import Certificate, check_level
-from roa.proof.recast import recast_preconditions
-from roa.proof.recast_box import box_json
-from roa.proof.reductions import IndependentBlocks, Rescale
+from roa.proof.reductions import IndependentBlocks, Recast, Rescale, box_json
 from roa.proof.sos_blocks import check_partition
 from roa.proof.sos_check import (
     MAX_BASIS,
+    NotPolynomial,
     parse_eps,
     parse_rational,
     preconditions,
@@ -191,9 +190,10 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
             if len(parts) != 1 or parts[0].get("variables") != list(range(n)):
                 raise ValueError("a recast certificate has one part over every state")
             eps = _eps(parts[0], meta.get("eps"))
-            rdata, why = recast_preconditions(system, V, level, taylor, scale)
-            if rdata is None:
-                return out(Verdict.INCONCLUSIVE, why)
+            try:
+                (rdata,), _ = Recast(taylor, scale).apply(system, V, level)
+            except NotPolynomial as exc:
+                return out(Verdict.INCONCLUSIVE, str(exc))
             stored_box = form.get("parameters")
             if (stored_box or None) != (box_json(rdata.parameters) or None):
                 return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: the "

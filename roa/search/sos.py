@@ -3,18 +3,20 @@
 For a quadratic ``V(x) = d' P d`` (``d = x - x_eq``) and a field whose ``V'`` is polynomial after
 *recasting*, one semidefinite program (cvxpy, solver Clarabel), no bisection::
 
-    maximise rho  s.t.  (d'd)^k (V - rho) + lambda(y) V'(y) + sum_j mu_j(y) h_j(y) - sigma_1(y) s
+    maximise rho  s.t.  (d'd)^k (V - rho) + lambda(y) V'(y) + sum_j mu_j(y) h_j(y) - sigma_1(y) u
                         is a sum of squares,  sigma_1 SOS,  lambda, mu_j free polynomials,
 
-in the variables ``y = (d, s)`` (``d`` whitened: ``x = x_eq + M d`` with ``M'PM ~ I``). If ``V'(y) = 0`` at some ``d != 0`` of the recast variety
-``{h_j = 0, s >= 0}`` then ``(d'd)^k (V - rho) >= 0``, i.e. ``V >= rho``; since ``V' < 0`` near the
+in the variables ``y = (d, u)`` (``d`` whitened: ``x = x_eq + M d`` with ``M'PM ~ I``). If
+``V'(y) = 0`` at some ``d != 0`` of the recast variety ``{h_j = 0, u >= 0}`` then ``(d'd)^k (V - rho) >= 0``, i.e. ``V >= rho``; since ``V' < 0`` near the
 equilibrium (negative-definite linear part, checked), ``V' < 0`` on ``{V < rho} \\ {x_eq}``.
 
-**Recasting** (exact, no enclosure): every factor ``b(x)^(k/2)`` with ``k`` odd and ``b`` a
-polynomial gets an auxiliary variable ``s = b^(-1/2)`` with ``s^2 b - 1 = 0`` and ``s >= 0``; then
-``b^(k/2) = s^(-k)`` for ``k < 0`` and ``b^((k+1)/2) s`` for ``k > 0``. For the IPC,
-``phi0(w) = w (1 + w^2)^(-3/2) = w s^3`` exactly, so the recast costs nothing in rho; only the
-degree of the relaxation does (reported by the gap to the sampled optimum).
+**Recasting** (:func:`recast_field`, the one recast of :func:`roa.proof.recast.polynomial_field`):
+every factor ``b(x)^(k/2)`` with ``k`` odd, ``b`` a polynomial with ``b >= b(0) = t0^2 > 0``,
+gets an auxiliary variable ``u = sqrt(b) - t0`` with ``(t0 + u)^2 - b = 0`` and ``u >= 0``; then
+``b^(k/2) = (t0 + u)^k``, and the field is multiplied by its denominator (positive where the
+constraints hold: ``V'`` keeps its sign). For the IPC, ``phi0(w) = w (1 + w^2)^(-3/2)`` is
+``w / (1 + u)^3`` exactly, so the recast costs nothing in rho; only the degree of the relaxation
+does (reported by the gap to the sampled optimum).
 
 **Symmetry**: for odd fields (Van der Pol, the IPC's flat loop) every polynomial of the program is
 even in ``d``; the program is then solved with even multipliers and Gram matrices split into even and
@@ -38,7 +40,7 @@ from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
 from roa.model.backend import namespace
 from roa.model.system import System
-from roa.search.polysdp import poly_of
+from roa.search.polysdp import is_even, poly_of
 from roa.search.sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 from roa.status import SosStatus
 
@@ -82,6 +84,7 @@ class Recast:
     equalities: list[sp.Expr]
     nonnegative: list[sp.Expr]
     description: str
+    positive: sp.Expr = sp.Integer(1)  # Vdot is this (> 0 on the recast variety) x V'
 
 
 RECASTS = ("exact", "enclosure")
@@ -106,33 +109,46 @@ def _at_least_one(base: sp.Expr) -> bool:
 
 @dataclass
 class RecastField:
-    """The field in variables ``y`` (``x = c + M y``) made polynomial in ``(y, aux)``."""
+    """The field in variables ``y`` (``x = c + M y``) made polynomial in ``(y, aux)``: ``f`` is
+    ``positive`` x the field, ``positive > 0`` wherever the constraints hold (so ``grad V . f``
+    has the sign of ``V'``)."""
 
     d: list[sp.Symbol]
     aux: list[sp.Symbol]
     dx: list[sp.Expr]  # x - c as linear forms in y
-    f: list[sp.Expr]  # the field f(x(y)) (x coordinates), polynomial in (y, aux)
+    f: list[sp.Expr]  # positive x the field f(x(y)) (x coordinates), polynomial in (y, aux)
     equalities: list[sp.Expr]
     nonnegative: list[sp.Expr]
     description: str
+    positive: sp.Expr = sp.Integer(1)
 
 
 NONSMOOTH = (sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside)
+NO_TRIG = ("the SOS level proposer takes fields without sin/cos (the level program has no Taylor "
+           "bounds): no SOS candidate here, the sampled search proposes the level (the exact SOS "
+           "validator recasts sin and cos itself)")  # fmt: skip
+
+
+def _whitened(n: int, M: np.ndarray, center: np.ndarray) -> tuple[list[sp.Symbol], list[sp.Expr]]:
+    d = list(sp.symbols(f"y0:{n}", real=True))
+    dx = [sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0)
+          for i in range(n)]  # fmt: skip
+    return d, dx
 
 
 def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str = "exact"
                  ) -> RecastField:  # fmt: skip
-    """``f(c + M y)`` made polynomial: ``exact`` with ``s = b^(-1/2)``, ``s^2 b = 1``, ``s >= 0``;
-    ``enclosure`` with ``t = b^(k/2) in [0, 1]`` for ``k < 0`` and ``b >= 1`` (loses the relation
-    between t and b). Raises :class:`RoaInputError` for what cannot be made polynomial (saturation
-    ``min``/``max``/``clip``/``abs``, trigonometric functions, ...)."""
+    """``f(c + M y)`` made polynomial: ``exact`` by the one recast of
+    :func:`roa.proof.recast.polynomial_field` (``b^(k/2) -> (t0 + u)^k``, ``u = sqrt(b) - t0``,
+    ``(t0 + u)^2 = b``, ``u >= 0``; rational terms times their positive denominator; no sin/cos:
+    the level program has no Taylor bounds), then ``d = M y``; ``enclosure`` with ``t = b^(k/2)
+    in [0, 1]`` for ``k < 0`` and ``b >= 1`` (a relaxation: it loses the relation between t and
+    b). Raises :class:`RoaInputError` for what cannot be made polynomial (saturation
+    ``min``/``max``/``clip``/``abs``, sin/cos, other functions, ...)."""
     if mode not in RECASTS:
         raise RoaInputError(f"recast mode {mode!r}: allowed {', '.join(RECASTS)}")
     n = len(center)
-    d = list(sp.symbols(f"y0:{n}", real=True))
-    dx = [
-        sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0) for i in range(n)
-    ]
+    d, dx = _whitened(n, M, center)
     x = [dx[i] + sp.Float(float(center[i]), 17) if center[i] != 0 else dx[i] for i in range(n)]
     f = system.field(0.0, x, namespace("sympy"))
     f = [sp.powsimp(sp.sympify(fi)) for fi in f]
@@ -141,8 +157,9 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
             "the field uses min/max/clip/abs (saturation): SOS needs a polynomial field; use "
             "method='interval' (sampled search + interval validation)"
         )
+    if mode == "exact":
+        return _exact_field(system, d, dx, center)
     aux: list[sp.Symbol] = []
-    eqs: list[sp.Expr] = []
     boxes: list[sp.Expr] = []
     subs: dict[sp.Expr, sp.Expr] = {}
     notes = []
@@ -151,46 +168,59 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
         e = p.exp
         if not (isinstance(e, sp.Rational) and e.q == 2):
             continue
-        base = p.base
-        if not base.is_polynomial(*d):
-            raise RoaInputError(f"cannot recast {p}: base is not polynomial")
-        k = int(e.p)
-        if mode == "enclosure":
-            if k > 0 or not _at_least_one(base):
-                raise RoaInputError(f"enclosure needs b^(k/2) with k < 0 and b >= 1, got {p}")
-            t = sp.Symbol(f"t{len(aux)}", real=True)
-            aux.append(t)
-            boxes.append(t)
-            boxes.append(1 - t)
-            subs[p] = t
-            notes.append(f"{t} = ({base})^({k}/2) enclosed in [0, 1]")
-            continue
-        s = next(
-            (
-                a
-                for a, b in zip(aux, eqs, strict=True)
-                if sp.expand(b - (a**2 * sp.expand(base) - 1)) == 0
-            ),
-            None,
-        )
-        if s is None:
-            s = sp.Symbol(f"s{len(aux)}", real=True)
-            aux.append(s)
-            eqs.append(sp.expand(s**2 * sp.expand(base) - 1))
-            boxes.append(s)
-            notes.append(f"{s} = ({base})^(-1/2), {s}^2 ({base}) = 1, {s} >= 0")
-        subs[p] = s ** (-k) if k < 0 else base ** ((k + 1) // 2) * s
+        base, k = p.base, int(e.p)
+        if not base.is_polynomial(*d) or k > 0 or not _at_least_one(base):
+            raise RoaInputError(f"enclosure needs b^(k/2) with k < 0 and b >= 1 polynomial, "
+                                f"got {p}")  # fmt: skip
+        t = sp.Symbol(f"t{len(aux)}", real=True)
+        aux.append(t)
+        boxes += [t, 1 - t]
+        subs[p] = t
+        notes.append(f"{t} = ({base})^({k}/2) enclosed in [0, 1]")
     f = [sp.expand(fi.xreplace(subs)) for fi in f]
     if not all(fi.is_polynomial(*d, *aux) for fi in f):
-        raise RoaInputError(
-            "the SOS level proposer takes polynomial fields (half-integer powers recast) only; the field has other terms (sin, cos, a rational function, ...): no SOS candidate here, the sampled search proposes the level (the exact SOS validator recasts sin, cos and rational terms itself)"
-        )
-    return RecastField(d, aux, dx, f, eqs, boxes, "; ".join(notes) or "polynomial (no recast)")
+        raise RoaInputError("the enclosure takes polynomial fields with b^(k/2) terms only; use "
+                            "the exact recast")  # fmt: skip
+    return RecastField(d, aux, dx, f, [], boxes, "; ".join(notes) or "polynomial (no recast)")
+
+
+def _exact_field(system: System, d: list[sp.Symbol], dx: list[sp.Expr], center: np.ndarray
+                 ) -> RecastField:  # fmt: skip
+    """The one recast (:func:`roa.proof.recast.polynomial_field`) in ``d = x - c``, then
+    ``d = M y`` (floats: the programs only propose)."""
+    from fractions import Fraction
+
+    from roa.proof.recast import polynomial_field
+    from roa.proof.sos_check import NotPolynomial
+
+    try:
+        pf = polynomial_field(system, tuple(Fraction(float(c)) for c in center))
+    except NotPolynomial as exc:
+        raise RoaInputError(f"no SOS candidate here (the sampled search proposes the level): "
+                            f"{exc}") from None  # fmt: skip
+    if pf.angles:
+        raise RoaInputError(NO_TRIG)
+    n = len(d)
+    aux = list(pf.gens[n:])
+    to_y = dict(zip(pf.gens[:n], dx, strict=True))
+
+    def fl(p: Any) -> sp.Expr:
+        return sp.expand(p.as_expr().xreplace(to_y))
+
+    eqs, ineqs = pf.root_constraints()
+    exact = [{m: c for m, c in h.items()} for _, h in eqs + ineqs]
+    polys = [fl(sp.Poly.from_dict({m: sp.Rational(c.numerator, c.denominator)
+                                   for m, c in h.items()}, *pf.gens)) for h in exact]  # fmt: skip
+    notes = [w for w, _ in eqs]
+    if pf.denominator != "1":
+        notes.append(f"the field multiplied by {pf.denominator} > 0")
+    return RecastField(d, aux, dx, [fl(F) for F in pf.F], polys[: len(eqs)], polys[len(eqs):],
+                       "; ".join(notes) or "polynomial (no recast)", fl(pf.Lpos))  # fmt: skip
 
 
 def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> Recast:
     """Symbolic ``V'`` in whitened variables ``y`` (``x = x_eq + M y``, ``V = y' (M'PM) y ~ |y|^2``),
-    made polynomial by :func:`recast_field`."""
+    made polynomial by :func:`recast_field` (times its positive factor: the sign of ``V'``)."""
     n = lyap.n
     M = np.linalg.inv(np.linalg.cholesky(lyap.P).T)
     rf = recast_field(system, M, lyap.center, mode=mode)
@@ -198,16 +228,8 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     P = [[sp.Float(float(lyap.P[i, j]), 17) for j in range(n)] for i in range(n)]
     V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
-    if not Vdot.is_polynomial(*rf.d, *rf.aux):
-        raise RoaInputError(
-            "the SOS level proposer takes polynomial fields (half-integer powers recast) only; V' has other terms (sin, cos, a rational function, ...): no SOS candidate here, the sampled search proposes the level (the exact SOS validator recasts sin, cos and rational terms itself)"
-        )
-    return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description)
-
-
-def _is_even(polys: list[dict[tuple, float]], nd: int) -> bool:
-    """Every monomial of every polynomial has even total degree in the first ``nd`` variables."""
-    return all(sum(m[:nd]) % 2 == 0 for p in polys for m in p)
+    return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description,
+                  rf.positive)  # fmt: skip
 
 
 def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
@@ -291,7 +313,7 @@ def sos_level(
     nn_polys = [poly_of(g, gens) for g in rc.nonnegative]
     if symmetry not in SYMMETRY:
         raise RoaInputError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
-    even = _is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
+    even = is_even([Vd, A, B, *eq_polys, *nn_polys], nd)
     if symmetry is True and not even:
         raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)

@@ -1,4 +1,14 @@
-"""Largest level with a numerical SOS certificate, block by block, by bisection on the level.
+"""The one SOS level search: the largest level with a numerical SOS certificate.
+
+:func:`level_search` is the entry of every route: for a polynomial field whose V and V' split over
+independent blocks of variables, or whose one block's program is patterned (cliques, SDSOS:
+:func:`roa.search.sos_sparse.route_for`, chosen once per block), bisection on the level (below);
+otherwise the max-level program of :func:`roa.search.sos.sos_level` (quadratic V, the one recast).
+It proposes only: the pipeline validates ``(1 - 1e-4)`` x the level with the exact check and,
+when that check fails, backs off on the exact route (:mod:`roa.certification.backoff`, each try
+reported) before any branch and bound.
+
+**Bisection, block by block.**
 
 For exact data that split over independent blocks of variables (:mod:`roa.proof.sos_blocks`), the
 largest level of the whole is the least of the blocks' largest levels (each block's ``V_j' < 0``
@@ -22,10 +32,11 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
+from roa.errors import RoaInputError
 from roa.proof.reductions import IndependentBlocks
 from roa.proof.sos_blocks import Block
 from roa.proof.sos_check import ExactData
-from roa.search.sos_certificate import default_eps, propose_certificate
+from roa.search.sos_sparse import SosRoute, route_for
 
 #: Doublings (and halvings) of the bracket from c = 1 before a block counts as unlimited.
 MAX_DOUBLINGS = 40
@@ -44,43 +55,31 @@ class BlockLevels:
     sizes: dict[str, Any] = field(default_factory=dict)
 
 
-def _feasible(data: ExactData, c: float, solver_options: dict[str, Any] | None) -> bool:
-    return propose_certificate(
-        data, c, eps=default_eps(data), solver_options=solver_options
-    ).feasible
-
-
 #: Relative tolerance of the bisection with the sparse program (each step a re-solve).
 SPARSE_REL_TOL = 1e-5
 
 
 def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
-                 solver_options: dict[str, Any] | None = None) -> tuple[float | None, int]:  # fmt: skip
+                 solver_options: dict[str, Any] | None = None,
+                 route: SosRoute | None = None) -> tuple[float | None, int]:  # fmt: skip
     """Largest numerically feasible level of one block (``inf``: unlimited; None: not even at
-    ``2^-MAX_DOUBLINGS``), and the number of programs solved. A block whose dense program does
-    not fit the memory budget is bisected with the clique or the SDSOS program
-    (:func:`roa.search.sos_sparse.choose_route`; compiled once, ``rel_tol`` at least
-    :data:`SPARSE_REL_TOL`, and each step at the zero of the margins' secant when both ends'
-    margins are known, a halving after two moves of one end)."""
-    from roa.search.sos_sparse import SparseProgram, choose_route
-
+    ``2^-MAX_DOUBLINGS``), and the number of programs solved, with the program of ``route``
+    (default: :func:`roa.search.sos_sparse.route_for`). A patterned program (cliques, SDSOS) is
+    compiled once, ``rel_tol`` at least :data:`SPARSE_REL_TOL`, and each step at the zero of the
+    margins' secant when both ends' margins are known, a halving after two moves of one end."""
     count = 0
-    route, plan, _ = choose_route(data, solver_options=solver_options)
-    program = None
-    if route in ("sparse", "sdsos") and plan is not None:
-        program = SparseProgram(data, plan, eps=default_eps(data), solver_options=solver_options)
+    route = route_for(data, solver_options=solver_options) if route is None else route
+    if route.plan is not None:
         rel_tol = max(rel_tol, SPARSE_REL_TOL)
     margins: dict[float, float] = {}
 
     def ok(c: float) -> bool:
         nonlocal count
         count += 1
-        if program is not None:
-            cand = program.solve(c)
-            if cand.margin is not None:
-                margins[c] = cand.margin
-            return cand.feasible
-        return _feasible(data, c, solver_options)
+        cand = route.propose(c)
+        if route.plan is not None and cand.margin is not None:
+            margins[c] = cand.margin
+        return cand.feasible
 
     lo, hi = 1.0, 1.0
     if ok(1.0):
@@ -118,21 +117,26 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
 
 
 def block_levels(data: ExactData, *, rel_tol: float = 1e-7,
-                 solver_options: dict[str, Any] | None = None) -> BlockLevels:  # fmt: skip
-    """The least of the blocks' largest numerically feasible levels (module docstring)."""
+                 solver_options: dict[str, Any] | None = None,
+                 routes: list[SosRoute] | None = None) -> BlockLevels:  # fmt: skip
+    """The least of the blocks' largest numerically feasible levels (module docstring); each
+    distinct block's route chosen once (``routes``: already chosen, one per block)."""
     t0 = time.perf_counter()
     subs, parts = IndependentBlocks().apply(data)
     seen: dict[tuple, float | None] = {}
     per: list[tuple[Block, float | None]] = []
     programs = 0
-    for block, sub in zip(parts, subs, strict=True):
+    kinds: list[str] = []
+    for j, (block, sub) in enumerate(zip(parts, subs, strict=True)):
         key = (sub.n, tuple(sorted(sub.V.items())), tuple(sorted(sub.Vdot.items())))
         if key not in seen:
-            seen[key], k = bisect_level(sub, rel_tol=rel_tol, solver_options=solver_options)
+            route = routes[j] if routes else route_for(sub, solver_options=solver_options)
+            kinds.append(route.kind)
+            seen[key], k = bisect_level(sub, rel_tol=rel_tol, route=route)
             programs += k
         per.append((block, seen[key]))
     levels = [lv for _, lv in per]
-    sizes = {"blocks": [len(b) for b in parts], "distinct_blocks": len(seen)}
+    sizes = {"blocks": [len(b) for b in parts], "distinct_blocks": len(seen), "routes": kinds}
     if any(lv is None for lv in levels):
         bad = [list(b) for b, lv in per if lv is None]
         return BlockLevels(None, per, programs, time.perf_counter() - t0,
@@ -142,3 +146,53 @@ def block_levels(data: ExactData, *, rel_tol: float = 1e-7,
         return BlockLevels(None, per, programs, time.perf_counter() - t0,
                            "no block limits the level (feasible up to 2^40 in each)", sizes)  # fmt: skip
     return BlockLevels(float(least), per, programs, time.perf_counter() - t0, "", sizes)
+
+
+def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
+                 multiplier_degree: int | None = None,
+                 solver_options: dict[str, Any] | None = None, symmetry: str | bool = "auto",
+                 aux_degree: int | None = None) -> Any:  # fmt: skip
+    """The largest SOS level of ``V`` (module docstring) as a :class:`roa.search.sos.SOSResult`:
+    bisection when the exact data split over independent blocks or the one block's route is
+    patterned (each block's route chosen once, :func:`roa.search.sos_sparse.route_for`), else
+    the max-level program (:func:`roa.search.sos.sos_level`; quadratic V only)."""
+    from roa.progress import step
+    from roa.proof.sos_check import NotPolynomial, exact_data
+    from roa.search.sos import SOSResult, sos_level
+    from roa.status import SosStatus
+
+    data = None
+    if not (system.equilibrium is None or system.time_varying
+            or getattr(system, "parameters", None)):  # fmt: skip
+        try:
+            data = exact_data(system, V)
+        except NotPolynomial:
+            data = None
+    if data is not None:
+        subs, parts = IndependentBlocks().apply(data)
+        routes = [route_for(sub, solver_options=solver_options) for sub in subs] if len(
+            parts) == 1 else None  # fmt: skip
+        if routes is None or routes[0].kind in ("sparse", "sdsos"):
+            what = (f"{len(parts)} independent blocks of variables" if routes is None
+                    else "the sparse (chordal clique) program" if routes[0].kind == "sparse"
+                    else "the SDSOS program (sign blocks, scaled diagonally dominant)")  # fmt: skip
+            with step(f"SOS level by bisection with {what}"):
+                bl = block_levels(data, solver_options=solver_options, routes=routes)
+            sizes: dict[str, Any] = {**bl.sizes, "programs": bl.programs}
+            if routes is not None and routes[0].plan is not None:
+                sizes["sparse"] = routes[0].plan.sizes
+            if bl.level is None:
+                return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds,
+                                 "none (polynomial)", sizes,
+                                 f"SOS bisection with {what}: {bl.message}")  # fmt: skip
+            how = (f"least of {len(parts)} block levels (bisection)" if routes is None
+                   else f"largest level of {what} (bisection)")  # fmt: skip
+            return SOSResult(SosStatus.SOLVED, bl.level, "bisection", bl.seconds,
+                             "none (polynomial)", sizes, how)  # fmt: skip
+    quad = V.as_quadratic() if hasattr(V, "as_quadratic") else V
+    if quad is None:
+        raise RoaInputError("the max-level SOS program takes a quadratic V")
+    with step("SOS program (cvxpy + Clarabel)"):
+        return sos_level(system, quad, recast_mode=recast_mode,
+                         multiplier_degree=multiplier_degree, solver_options=solver_options,
+                         symmetry=symmetry, aux_degree=aux_degree)  # fmt: skip

@@ -11,11 +11,13 @@ Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials inste
   cliques ``C_1 .. C_K`` (:func:`networkx.chordal_graph_cliques`) give the blocks;
 * ``sigma`` gets one Gram block per clique over the monomials of degree ``k..D`` in its variables,
   and ``lambda = sum_j lambda_j`` one block per clique over the monomials of degree ``1..L``;
-* ``lambda_j V`` has monomials across cliques: for ``V = sum_q p_q d_q^2`` (diagonal, the only V
-  this route takes) they are ``m m' d_q^2`` with ``m, m'`` in ``lambda_j``'s basis, and ``sigma``
-  gets one more block per clique ``j`` and variable ``q`` outside it over ``{m d_q}`` (``p_q``
-  times ``lambda_j``'s Gram matrix is a feasible value: ``lambda_j p_q d_q^2`` is exactly such a
-  Gram form).
+* ``lambda_j V`` has monomials across cliques: ``V`` splits over the connected components ``G``
+  of its own interaction graph, ``V = sum_G V_G`` with ``V_G = z_G' P_G z_G`` a Gram form over
+  the monomials ``z_G`` of ``G``'s variables (:func:`V_groups`), so ``lambda_j V_G = (m
+  (x) z_G)' (Q_j (x) P_G) (m (x) z_G)`` for ``lambda_j = m' Q_j m``: ``sigma`` gets one more block
+  per clique ``j`` and group ``G`` not inside it, over the products ``{m w : m in lambda_j's
+  basis, w in z_G}`` (a diagonal quadratic V: one block per clique and variable outside it, over
+  ``{m d_q}``; a coupled V: larger blocks, any V of any degree).
 
 Every block is an ordinary Gram form, so :func:`roa.proof.putinar.check_level` proves the result
 exactly whatever the structure. The program is a restriction of the dense one (a sum of these
@@ -35,9 +37,11 @@ those blocks by scaled diagonal dominance (:func:`roa.proof.putinar.check_identi
 the program's size only, solves it.
 
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the
-memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else the clique one when it applies (diagonal
-quadratic V, a clique smaller than ``n``) and fits, else the SDSOS one when it fits, else none
-(``too_large``).
+memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else the clique one when it applies (a clique
+smaller than ``n``) and fits, else the SDSOS one when it fits, else none
+(``too_large``). :func:`route_for` is that choice made once for exact data, as an object that
+proposes a certificate at any level (:class:`SosRoute`): the exact validator and the level search
+both use it.
 """
 
 from __future__ import annotations
@@ -45,14 +49,14 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from roa.proof.putinar import Certificate
-from roa.proof.sos_check import ExactData, Mono
+from roa.proof.sos_check import ExactData, Mono, mono_add
 from roa.search.sdp import (
     MAX_SDP_BYTES,
     Program,
@@ -62,7 +66,13 @@ from roa.search.sdp import (
     sdp_bytes,
     solve,
 )
-from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
+from roa.search.sos_certificate import (
+    Candidate,
+    default_eps,
+    degrees,
+    level_target,
+    propose_certificate,
+)
 from roa.search.sos_symmetry import sign_symmetries, split
 
 
@@ -88,11 +98,25 @@ def cliques(data: ExactData) -> list[tuple[int, ...]]:
     return sorted(tuple(sorted(int(i) for i in c)) for c in nx.chordal_graph_cliques(H))
 
 
-def diagonal_V(data: ExactData) -> bool:
-    """``V = sum_q p_q d_q^2`` with every ``p_q > 0`` (the cross blocks' form)."""
+def V_groups(data: ExactData) -> list[tuple[tuple[int, ...], list[Mono]]]:
+    """V's variables split into the connected components of its own interaction graph (an
+    edge for two variables of one monomial of ``V``), each with the monomials ``z_G`` in its
+    variables of degree ``ceil(low / 2) .. ceil(deg / 2)`` (``low``, ``deg``: V's least and
+    largest degrees), over which its part ``V_G`` is a Gram form."""
+    import networkx as nx
+
     n = data.n
-    squares = {tuple(2 * (j == q) for j in range(n)) for q in range(n)}
-    return set(data.V) == squares and all(c > 0 for c in data.V.values())
+    G = nx.Graph()
+    G.add_nodes_from(range(n))
+    for m in data.V:
+        G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
+    low = min(sum(m) for m in data.V)
+    top = max(sum(m) for m in data.V)
+    out = []
+    for comp in sorted(tuple(sorted(int(i) for i in c)) for c in nx.connected_components(G)):
+        local = monomials(len(comp), (top + 1) // 2, (low + 1) // 2)
+        out.append((comp, _embed(local, comp, n)))
+    return out
 
 
 def _embed(local: list[Mono], clique: tuple[int, ...], n: int) -> list[Mono]:
@@ -145,10 +169,8 @@ class SparsePlan:
 
 
 def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparsePlan | None, str]:
-    """The sparse bases, or None and why the route does not apply (V not diagonal quadratic,
-    one clique holding every variable)."""
-    if not diagonal_V(data):
-        return None, "the sparse route needs V = sum p_q d_q^2 (diagonal quadratic, p_q > 0)"
+    """The sparse bases, or None and why the route does not apply (one clique holding every
+    variable)."""
     n = data.n
     cl = cliques(data)
     if max(len(c) for c in cl) >= n:
@@ -156,10 +178,13 @@ def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparseP
     k, D, L = degrees(data, multiplier_degree)
     sigma = [_embed(monomials(len(c), D, k), c, n) for c in cl]
     lam = [_embed(monomials(len(c), L, 1), c, n) for c in cl] if L >= 1 else []
+    groups = V_groups(data)
     for c, basis in zip(cl, lam, strict=False):
-        for q in range(n):
-            if q not in c:
-                sigma.append([tuple(e + (i == q) for i, e in enumerate(m)) for m in basis])
+        for group, z in groups:
+            if set(group) <= set(c):
+                continue
+            block = {mono_add(m, w): None for m in basis for w in z}  # lambda_c V_G's Gram basis
+            sigma.append(list(block))
     return SparsePlan(cl, sigma, lam), ""
 
 
@@ -302,9 +327,53 @@ class SparseProgram:
                          time.perf_counter() - t0, figures)  # fmt: skip
 
 
-def propose_sparse(data: ExactData, level: float, plan: SparsePlan, *, eps: Fraction | None = None,
-                   solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
-    """Solve the sparse program of ``plan`` at ``level`` once (module docstring)."""
-    prog = SparseProgram(data, plan, eps=eps, solver_options=solver_options)
-    cand = prog.solve(level)
-    return dataclasses.replace(cand, seconds=cand.seconds + prog.build_seconds)
+@dataclass
+class SosRoute:
+    """The program chosen once for exact data (:func:`route_for`): ``kind`` ``"dense"``,
+    ``"sparse"``, ``"sdsos"`` or ``"too_large"``, its plan (None: dense) and why the dense one
+    was not taken. :meth:`propose` solves it at a level (a patterned program compiled once per
+    ``eps``, the level a parameter)."""
+
+    data: ExactData
+    kind: str
+    plan: SparsePlan | None
+    why: str
+    multiplier_degree: int | None = None
+    solver_options: dict[str, Any] | None = None
+    compiled: dict[Fraction, SparseProgram] = field(default_factory=dict)
+
+    def propose(self, level: float, eps: Fraction | None = None) -> Candidate:
+        """A candidate certificate of ``level`` (only :func:`roa.proof.putinar.check_level`
+        decides)."""
+        eps = default_eps(self.data) if eps is None else Fraction(eps)
+        if self.kind == "too_large":
+            return Candidate(None, eps, None, f"too large: {self.why}", 0.0)
+        if self.plan is None:
+            return propose_certificate(self.data, level, eps=eps,
+                                       multiplier_degree=self.multiplier_degree,
+                                       solver_options=self.solver_options)  # fmt: skip
+        prog = self.compiled.get(eps)
+        build = 0.0
+        if prog is None:
+            prog = self.compiled[eps] = SparseProgram(self.data, self.plan, eps=eps,
+                                                      solver_options=self.solver_options)  # fmt: skip
+            build = prog.build_seconds
+        cand = prog.solve(level)
+        return dataclasses.replace(cand, seconds=cand.seconds + build)
+
+
+def route_for(data: ExactData, multiplier_degree: int | None = None, route: str = "auto",
+              solver_options: dict[str, Any] | None = None) -> SosRoute:  # fmt: skip
+    """The route of ``data`` (:func:`choose_route`), chosen once. For a V of degree above 2 and
+    no ``multiplier_degree`` given, the multiplier gets V's degree when that program fits (the
+    least degree balancing ``lambda V`` against ``V'`` leaves ``lambda`` quadratic, too weak for
+    a quartic V's sublevel sets: ``tests/proof/test_sos_combinations.py``), else the least."""
+    deg_v = max(sum(m) for m in data.V)
+    if multiplier_degree is None and deg_v > 2:
+        kind, p, why = choose_route(data, deg_v, route, solver_options)
+        if kind == "dense" if route == "auto" else kind != "too_large":
+            return SosRoute(data, kind, p if kind in ("sparse", "sdsos") else None, why, deg_v,
+                            solver_options)  # fmt: skip
+    kind, p, why = choose_route(data, multiplier_degree, route, solver_options)
+    return SosRoute(data, kind, p if kind in ("sparse", "sdsos") else None, why,
+                    multiplier_degree, solver_options)  # fmt: skip

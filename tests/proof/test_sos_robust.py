@@ -1,4 +1,4 @@
-"""Exact SOS certificates for a parameter box (:mod:`roa.proof.recast_box`).
+"""Exact SOS certificates for a parameter box (:class:`roa.proof.reductions.ParameterBox`).
 
 Optima are independent of roa: Van der Pol's from multistart SLSQP of min V s.t. V' = 0 at both
 ends of the box (V' is affine in mu, so for each state the largest V' over the box is at an end:

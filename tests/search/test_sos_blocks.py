@@ -118,7 +118,7 @@ def test_the_sos_level_of_independent_blocks_is_the_least_block_level():
     system = roa.System("poly3d-x2-plus", field, (0.0,) * 7, tuple(f"x{i}" for i in range(7)))
     V = roa.QuadraticLyapunov(np.eye(7), np.zeros(7))
     res = block_levels(exact_data(system, V))
-    assert res.sizes == {"blocks": [3, 3, 1], "distinct_blocks": 2}
+    assert res.sizes == {"blocks": [3, 3, 1], "distinct_blocks": 2, "routes": ["dense", "dense"]}
     assert res.level == pytest.approx(3.0, rel=1e-4) and res.level <= 3.0 * (1 + 1e-9)
     assert [b for b, _ in res.per_block] == [(0, 1, 2), (3, 4, 5), (6,)]
     assert res.per_block[2][1] > 1e6  # unlimited, up to the solver's scaling at huge levels

@@ -22,7 +22,7 @@ from roa.proof.putinar import Certificate as PutinarCertificate
 from roa.proof.putinar import check_level
 from roa.proof.sos_check import exact_data
 from roa.search.sos_certificate import default_eps
-from roa.search.sos_sparse import choose_route, cliques, interaction_graph, plan, propose_sparse
+from roa.search.sos_sparse import SosRoute, choose_route, cliques, interaction_graph, plan
 
 N, A = 6, 0.5
 
@@ -78,10 +78,21 @@ def test_the_ring_structure_is_found():
                        "sigma_cross_blocks": 4 * 3, "lambda_blocks": [3, 3, 3, 3]}  # fmt: skip
     assert choose_route(data)[0] == "dense"  # 27 monomials fit the budget
     assert choose_route(data, route="sparse")[0] == "sparse"
-    # a non-diagonal V couples through V: the route refuses, naming why
+    # a non-diagonal V (one group: every variable): every monomial of lambda_j V is a product
+    # of two monomials of one cross block of clique j (lambda_j V is a Gram form over it)
     P = np.eye(N) + 0.1 * (np.eye(N, k=1) + np.eye(N, k=-1))
     dense_V = exact_data(system, roa.QuadraticLyapunov(P, np.zeros(N)))
-    assert plan(dense_V)[0] is None and "diagonal" in plan(dense_V)[1]
+    p2, why2 = plan(dense_V)
+    assert p2 is not None and why2 == ""
+    K = len(p2.cliques)
+    cross = p2.sigma[K:]
+    assert len(cross) == K  # one group, outside every clique
+    for lam, block in zip(p2.lam, cross, strict=True):
+        products = {tuple(a + b for a, b in zip(u, w, strict=True)) for u in block for w in block}
+        for m1 in lam:
+            for m2 in lam:
+                for v in dense_V.V:
+                    assert tuple(a + b + c for a, b, c in zip(m1, m2, v, strict=True)) in products
     with pytest.raises(roa.RoaInputError, match="route"):
         roa.SosValidator(route="chordal")
 
@@ -162,7 +173,7 @@ def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch)
 def _sparse_certificate(data, level):
     p, _ = plan(data)
     eps = default_eps(data)
-    cand = propose_sparse(data, level, p, eps=eps)
+    cand = SosRoute(data, "sparse", p, "").propose(level, eps)
     res = check_level(data, level, eps, cand.certificate)
     assert res.ok, res.reason
     return p, eps, res
@@ -238,7 +249,7 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
         raise AssertionError("the re-check must not solve anything")
 
     monkeypatch.setattr(dense, "propose_certificate", no_solver)
-    monkeypatch.setattr(sparse, "propose_sparse", no_solver)
+    monkeypatch.setattr(sparse.SosRoute, "propose", no_solver)
     monkeypatch.setattr(sparse.SparseProgram, "solve", no_solver)
     again = Certificate.from_dict(data, system).reverify()
     assert again.certified and "sparse SOS certificate re-checked exactly" in again.message

@@ -1,0 +1,149 @@
+"""Combinations of the SOS engine's reductions and patterns (issue 34 item 2), each on a small
+system against an independent optimum (scipy SLSQP multistart of ``min V s.t. V' = 0``, or a
+closed form): the certified level is at most the optimum, and just above it a point with
+``V' > 0`` (checked at 50 digits with mpmath) refutes any certificate; the exact route does not
+certify there."""
+
+from __future__ import annotations
+
+import json
+import math
+
+import mpmath
+import numpy as np
+import pytest
+from scipy import optimize
+
+import roa
+from roa.certification import Certificate
+from roa.lyapunov import PolynomialLyapunov
+from roa.proof.sos_check import exact_data
+from roa.search.sos_sparse import choose_route, plan
+
+N, A = 6, 0.5
+
+
+def ring_field(x, a=A):
+    return [-x[i] + a * x[(i + 1) % N] + x[i] ** 3 for i in range(N)]
+
+
+def ring(a=A):
+    return roa.System("ring-6", lambda t, x, xp: tuple(ring_field(x, a)), (0.0,) * N,
+                      tuple(f"x{i}" for i in range(N)))  # fmt: skip
+
+
+def optimum(V, grad, field, n, *, starts=24, seed=0):
+    """``min V(x) s.t. V'(x) = grad V(x) . f(x) = 0, |x| > 0`` by SLSQP from ``starts`` random
+    first crossings of ``V' >= 0`` along rays (the constraint divided by ``|x|^2``, so that the
+    equilibrium is not a solution): the least value and its point."""
+    rng = np.random.default_rng(seed)
+
+    def vdot(x):
+        return float(np.dot(grad(x), field(list(x))))
+
+    best = (math.inf, None)
+    for _ in range(starts):
+        u = rng.normal(size=n)
+        u /= np.linalg.norm(u)
+        ts = np.linspace(1e-3, 5, 2000)
+        hit = next((t for t in ts if vdot(t * u) >= 0), None)
+        if hit is None:
+            continue
+        res = optimize.minimize(V, hit * u, method="SLSQP",
+                                constraints=[{"type": "eq",
+                                              "fun": lambda x: vdot(x) / float(x @ x)}],
+                                options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
+        if res.success and abs(vdot(res.x)) < 1e-9 and res.fun < best[0]:
+            best = (float(res.fun), res.x)
+    assert best[1] is not None
+    return best
+
+
+def refuted_above(V, grad, field, point, opt, factor=1.001):
+    """The point of the optimum moved out along its ray to ``V = factor x opt`` (bisection on
+    the ray), where ``V' > 0`` at 50 digits: no level at or above ``factor x opt`` holds."""
+    lo, hi = 1.0, 2.0
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if V(mid * point) < factor * opt else (lo, mid)
+    x = [mpmath.mpf(float(v)) for v in hi * point]
+    with mpmath.workdps(50):
+        g = grad(x)
+        f = field(x)
+        vd = sum(gi * fi for gi, fi in zip(g, f, strict=True))
+    return bool(vd > 0), float(V(hi * point))
+
+
+def quad(P):
+    P = np.asarray(P, float)
+    return (
+        lambda x: float(np.asarray(x, float) @ P @ np.asarray(x, float)),
+        lambda x: [2 * sum(P[i, j] * x[j] for j in range(len(x))) for i in range(len(x))],
+    )
+
+
+def test_non_separable_V_on_the_sparse_route():
+    """A coupled V (``P = I + 0.3 C``, ``C`` the 6-cycle's adjacency) on the ring: the clique
+    program's cross blocks follow V's groups (here one: every variable), so the sparse route
+    takes it; certified at 0.99 x the SLSQP optimum, and a point just above it refutes."""
+    C = np.roll(np.eye(N), 1, axis=1)
+    P = np.eye(N) + 0.3 * (C + C.T)
+    system = ring()
+    V = roa.QuadraticLyapunov(P, np.zeros(N))
+    data = exact_data(system, V)
+    p, why = plan(data)
+    assert p is not None, why
+    assert choose_route(data, route="sparse")[0] == "sparse"
+    f, g = quad(P)
+    opt, point = optimum(f, g, ring_field, N)
+    cert = roa.certify(system, V, level=0.99 * opt, validator=roa.SosValidator(route="sparse"))
+    assert cert.certified, cert.message
+    assert cert.validation.meta["route"] == "sparse"
+    assert cert.level <= opt
+    # the stored certificate is re-checked without a solver; a cross block negated is refused
+    stored = json.loads(roa.io.to_json(cert.to_dict()))
+    assert Certificate.from_dict(stored, system).reverify().certified
+    grams = stored["certificate"]["parts"][0]["grams"]
+    cross = [g for g in grams if g["multiplies"] == 0][-1]  # (a piece of) the last cross block
+    cross["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in cross["Q"]]
+    assert not Certificate.from_dict(stored, system).reverify().certified
+    ok, at = refuted_above(f, g, ring_field, point, opt)
+    assert ok and at == pytest.approx(1.001 * opt, rel=1e-9)
+    above = roa.certify(system, V, level=1.001 * opt, validator=roa.SosValidator(route="sparse"))
+    assert not above.certified
+
+
+def quartic(n, w):
+    """``V = |x|^2 + w sum x_i^4`` (value, gradient, and the roa V)."""
+    basis = [tuple(k * (j == i) for j in range(n)) for k in (1, 2) for i in range(n)]
+    V = PolynomialLyapunov.from_gram(basis, np.diag([1.0] * n + [w] * n), np.zeros(n))
+    return (
+        lambda x: float(sum(v * v + w * v**4 for v in np.asarray(x, float))),
+        lambda x: [2 * v + 4 * w * v**3 for v in x],
+        V,
+    )
+
+
+def small_ring_field(x, a=A):
+    n = len(x)
+    return [-x[i] + a * x[(i + 1) % n] + x[i] ** 3 for i in range(n)]
+
+
+@pytest.mark.parametrize("route", ["dense", "sparse", "sdsos"])
+def test_degree_4_V_on_every_polynomial_route(route):
+    """``V = |x|^2 + 0.5 sum x_i^4`` on a ring of 4 (two cliques of 3): each route certifies 0.99
+    x the SLSQP optimum (the multiplier of V's degree; the sparse route's cross blocks through
+    V's groups: one per variable, over ``{d_q, d_q^2}``); just above, a point refutes and the
+    route does not certify."""
+    n = 4
+    system = roa.System("ring-4", lambda t, x, xp: tuple(small_ring_field(x)), (0.0,) * n,
+                        tuple(f"x{i}" for i in range(n)))  # fmt: skip
+    f, g, V = quartic(n, 0.5)
+    opt, point = optimum(f, g, small_ring_field, n)
+    val = roa.SosValidator(route=route)
+    cert = roa.certify(system, V, level=0.99 * opt, validator=val)
+    assert cert.certified, cert.message
+    assert cert.validation.meta.get("route", "dense") == route
+    ok, at = refuted_above(f, g, small_ring_field, point, opt)
+    assert ok and at == pytest.approx(1.001 * opt, rel=1e-9)
+    assert not roa.certify(system, V, level=1.001 * opt, validator=val).certified

@@ -32,9 +32,9 @@ from typing import TYPE_CHECKING, Any
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.validation import Validation
 from roa.status import Verdict
-from roa.system import System
 
 if TYPE_CHECKING:
     from roa.certification.strategies import Validator

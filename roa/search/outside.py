@@ -10,8 +10,8 @@ import numpy as np
 
 from roa.backend import namespace
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.domain import confirmed_outside
-from roa.system import System
 
 
 def _boundary_points(system: System, V: Lyapunov, n_dirs: int, seed: int) -> np.ndarray:

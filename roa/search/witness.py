@@ -13,8 +13,8 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.witness import confirmed_bound
-from roa.system import System
 
 
 def lowest_confirmed_witness(

@@ -8,7 +8,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import namespace
+from roa.model.backend import namespace
 from roa.lyapunov import Lyapunov
 from roa.model.system import System
 from roa.proof.domain import confirmed_outside

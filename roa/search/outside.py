@@ -8,8 +8,8 @@ from typing import Any
 
 import numpy as np
 
-from roa.model.backend import namespace
 from roa.lyapunov import Lyapunov
+from roa.model.backend import namespace
 from roa.model.system import System
 from roa.proof.domain import confirmed_outside
 

@@ -101,7 +101,7 @@ from roa.integration.simulation import simulate
 from roa.integration.terminal import TerminalSet
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample
-from roa.search.rays import ray_box
+from roa.search.rays import component_candidates, ray_box
 from roa.status import StopRules
 
 BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
@@ -185,7 +185,8 @@ def degree4_set(coords: str = "flat") -> TerminalSet:
     )  # its frame; cached after the first run
     if not proof.certified:
         raise SystemExit(f"{DEGREES}: the {coords} degree-4 V did not re-verify: {proof.message}")
-    return TerminalSet.polynomial(V, row["level"], coords=coords, name=name, frame=proof.frame)
+    return TerminalSet.polynomial(V, row["level"], coords=coords, name=name, frame=proof.frame,
+                                  propose=component_candidates)  # fmt: skip
 
 
 def terminal_set(which: str) -> TerminalSet:

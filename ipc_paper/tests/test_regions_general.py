@@ -28,6 +28,7 @@ from roa.montecarlo.certified_set import terminal_from_certificate
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import grid_slice, region_sample
 from roa.plotting.basin import region_label
+from roa.search.rays import component_candidates
 from roa.status import StopRules
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
@@ -172,7 +173,8 @@ def test_polynomial_terminal_set_runs_in_the_numba_kernel_for_the_ipc():
             coef.append(P[i, j] * (1 if i == j else 2))
     V = PolynomialLyapunov([*mono, [4, 0, 0, 0]], [*coef, 0.01], np.zeros(4), "paper V + z1^4")
     # V is convex, so {V <= 2} is one component: any frame (here the identity) bounds it
-    term = TerminalSet.polynomial(V, 2.0, coords="flat", name="quartic", frame=np.eye(4))
+    term = TerminalSet.polynomial(V, 2.0, coords="flat", name="quartic", frame=np.eye(4),
+                                  propose=component_candidates)  # fmt: skip
     system = ipc.closed_loop()
     grid = grid_slice(system, ("theta", "theta_dot"), [(-1.55, 1.55), (-10, 10)], (8, 6),
                       fixed={"q": 0.5, "q_dot": -0.5})  # fmt: skip

@@ -52,6 +52,8 @@ from roa.certification.strategies import (
     as_proposer,
     as_validator,
     positive_level,
+    searchable,
+    witness_by_search,
 )
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov, QuadraticLyapunov
@@ -62,7 +64,7 @@ from roa.options import IntervalOptions, SampledOptions, SosOptions, VsOptions
 from roa.progress import step
 from roa.proof.validation import Reason, Validation
 from roa.search.candidate import as_lyapunov
-from roa.search.levelset import LevelSearchResult, level_search
+from roa.search.levelset import LevelSearchResult
 from roa.status import Verdict
 
 METHODS = ("sos", "interval", "both")
@@ -201,12 +203,12 @@ class WitnessRefuter:
             from roa.search.rays import ray_box
 
             validator = validator.with_cover(lambda: ray_box(V, top))
-        searchable = _searchable(system)
+        search_ok = searchable(system)
         v = None
-        if not (searchable and V.n > validator.max_bnb_dim):
+        if not (search_ok and V.n > validator.max_bnb_dim):
             with step(f"refutation check of {V.name} at level {top:.6g}"):
                 v = _validate(system, V, validator, top, trace, "refute above")
-            if v.status is not Verdict.INCONCLUSIVE or not searchable:
+            if v.status is not Verdict.INCONCLUSIVE or not search_ok:
                 return v
         found, note = witness_by_search(system, V, top, trace)
         if found is not None:
@@ -666,52 +668,6 @@ def _validate(system: System, V: Lyapunov, validator: Validator, level: float,
     trace.append({"stage": stage, "by": validator.name, "level": level, "status": v.status.value,
                   "boxes": v.boxes, "seconds": round(v.seconds, 3)})  # fmt: skip
     return v
-
-
-def _searchable(system: System) -> bool:
-    """Whether a witness of the level search may refute a level of ``system``: not for a
-    parameter box, nor where the domain has a boundary (the witness's segment to the equilibrium
-    is not checked to stay in the domain, and the branch and bound calls such levels
-    inconclusive)."""
-    return not system.parameters and system.margin is None
-
-
-def witness_by_search(
-    system: System, V: Lyapunov, top: float, trace: list[dict[str, Any]]
-) -> tuple[Validation | None, str]:
-    """``top`` refuted by a witness the validator could not find (the branch and bound in more
-    dimensions than it covers, or an SOS check, which never refutes): Khalil's level search
-    (CasADi) gives a point of ``{V' >= 0}``, from which :func:`lowest_confirmed_witness
-    <roa.search.witness.lowest_confirmed_witness>` finds a local minimum of V whose ``V' >= 0``
-    holds at 50 digits, in the equilibrium's component of its sublevel set; it refutes ``top``
-    when ``V(x) <= top``. Else ``(None, note)``, the note naming a confirmed witness above
-    ``top`` (an upper bound of the largest level of V). ``(None, "")`` at once for a system
-    that is not :func:`_searchable`."""
-    from roa.proof.witness import WITNESS_SLACK, refuted_by
-    from roa.search.witness import lowest_confirmed_witness
-
-    if not _searchable(system):
-        return None, ""
-    try:
-        with step(f"witness search for level {top:.6g} (CasADi level search)"):
-            search = level_search(system, V, method="casadi")
-        if search.witness is None:
-            return None, ""
-        w = np.asarray(search.witness, dtype=float)
-        val, x, check = lowest_confirmed_witness(system, V, w)
-    except (RoaInputError, RuntimeError, ValueError, ArithmeticError) as exc:
-        trace.append({"stage": "refute above", "by": "level search", "error": str(exc)[:200]})
-        return None, ""
-    if x is None or check is None:
-        return None, ""
-    if not val * WITNESS_SLACK <= top:
-        trace.append({"stage": "refute above", "by": "level search", "witness_value": val})
-        return None, (f"a witness from the level search, V' >= 0 at 50 digits, lies at V = "
-                      f"{val:.10g} ({val / top:.6g} x this level): no level at or above it can "
-                      "be certified")  # fmt: skip
-    trace.append({"stage": "refute above", "by": "witness (level search)", "level": top})
-    how = f"local minimum of V on {{V' >= 0}} from the CasADi level search, V = {val:.10g}"
-    return refuted_by(x, check, top, how), ""
 
 
 def from_source(

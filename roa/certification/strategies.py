@@ -516,7 +516,7 @@ class AutoValidator(ValidatorBase):
     it does not certify. Either way only a validator's own proof certifies; the verdict's
     ``method`` names the one that decided. Above ``max_bnb_dim``, when the SOS route does not
     certify, the level search's witness (``witness_search``:
-    :func:`roa.certification.pipeline.witness_by_search`, a 50-digit point of ``{V' >= 0}`` with
+    :func:`roa.certification.strategies.witness_by_search`, a 50-digit point of ``{V' >= 0}`` with
     ``V <= level``) refutes before the branch and bound runs, within its time budget
     (``time_limit``, default :data:`roa.options.BNB_SECONDS_BACKUP`).
     """
@@ -561,8 +561,6 @@ class AutoValidator(ValidatorBase):
             return s
         note = ""
         if self.witness_search:
-            from roa.certification.pipeline import witness_by_search
-
             found, note = witness_by_search(system, V, level, [])
             if found is not None:
                 return dataclasses.replace(found, meta={**found.meta, "method": "witness search"})
@@ -570,6 +568,52 @@ class AutoValidator(ValidatorBase):
             time_limit=self.options.seconds(BNB_SECONDS_BACKUP)), self.bounding_box)  # fmt: skip
         return by_interval(backup.check(system, V, level), f"SOS route: {s.message}; "
                            + (f"{note}; " if note else "") + "branch and bound: ")  # fmt: skip
+
+
+def searchable(system: System) -> bool:
+    """Whether a witness of the level search may refute a level of ``system``: not for a
+    parameter box, nor where the domain has a boundary (the witness's segment to the equilibrium
+    is not checked to stay in the domain, and the branch and bound calls such levels
+    inconclusive)."""
+    return not system.parameters and system.margin is None
+
+
+def witness_by_search(
+    system: System, V: Lyapunov, top: float, trace: list[dict[str, Any]]
+) -> tuple[Validation | None, str]:
+    """``top`` refuted by a witness the validator could not find (the branch and bound in more
+    dimensions than it covers, or an SOS check, which never refutes): Khalil's level search
+    (CasADi) gives a point of ``{V' >= 0}``, from which :func:`lowest_confirmed_witness
+    <roa.search.witness.lowest_confirmed_witness>` finds a local minimum of V whose ``V' >= 0``
+    holds at 50 digits, in the equilibrium's component of its sublevel set; it refutes ``top``
+    when ``V(x) <= top``. Else ``(None, note)``, the note naming a confirmed witness above
+    ``top`` (an upper bound of the largest level of V). ``(None, "")`` at once for a system
+    that is not :func:`searchable`."""
+    from roa.proof.witness import WITNESS_SLACK, refuted_by
+    from roa.search.witness import lowest_confirmed_witness
+
+    if not searchable(system):
+        return None, ""
+    try:
+        with step(f"witness search for level {top:.6g} (CasADi level search)"):
+            search = level_search(system, V, method="casadi")
+        if search.witness is None:
+            return None, ""
+        w = np.asarray(search.witness, dtype=float)
+        val, x, check = lowest_confirmed_witness(system, V, w)
+    except (RoaInputError, RuntimeError, ValueError, ArithmeticError) as exc:
+        trace.append({"stage": "refute above", "by": "level search", "error": str(exc)[:200]})
+        return None, ""
+    if x is None or check is None:
+        return None, ""
+    if not val * WITNESS_SLACK <= top:
+        trace.append({"stage": "refute above", "by": "level search", "witness_value": val})
+        return None, (f"a witness from the level search, V' >= 0 at 50 digits, lies at V = "
+                      f"{val:.10g} ({val / top:.6g} x this level): no level at or above it can "
+                      "be certified")  # fmt: skip
+    trace.append({"stage": "refute above", "by": "witness (level search)", "level": top})
+    how = f"local minimum of V on {{V' >= 0}} from the CasADi level search, V = {val:.10g}"
+    return refuted_by(x, check, top, how), ""
 
 
 # -- level proposers --------------------------------------------------------------------------------

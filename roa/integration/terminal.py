@@ -36,7 +36,6 @@ from roa.errors import RoaInputError
 from roa.integration.terminal_poly import PolyArrays, member_numpy, poly_arrays
 from roa.model.system import System
 from roa.proof.component import component_box
-from roa.search.rays import component_candidates
 
 if TYPE_CHECKING:
     from roa.lyapunov import PolynomialLyapunov
@@ -136,14 +135,17 @@ class TerminalSet:
         *,
         frame: Any,
         box: Any = None,
+        propose: Callable[..., Any] | None = None,
     ) -> TerminalSet:
         """``{y : V(y) <= level(1 - REL_MARGIN), z in box}`` with ``z = frame^-1 (y - V.center)``.
 
         ``frame`` must be the frame ``M`` of the validation that proved the level (``x = x_eq +
         M y``; the ``"M"`` of its JSON, or :attr:`roa.proof.reverify.Reverified.frame`): the
         component box is sound in that frame only, so there is no default. ``box`` ``(lo, hi)``
-        must lie in the bounding box of the component of ``{V <= level}`` holding the centre
-        (default: found and proved by :func:`roa.proof.component.component_box`)."""
+        must lie in the bounding box of the component of ``{V <= level}`` holding the centre;
+        without it, ``propose(V, level, M)`` proposes points of the component's sides
+        (:func:`roa.search.rays.component_candidates`) and
+        :func:`roa.proof.component.component_box` proves the box from them."""
 
         if not V.is_polynomial:
             raise RoaInputError(
@@ -157,7 +159,12 @@ class TerminalSet:
         if M.shape != (n, n) or not np.isfinite(M).all() or abs(np.linalg.det(M)) == 0:
             raise RoaInputError(f"TerminalSet.frame must be an invertible {n}x{n} matrix")
         if box is None:
-            box = component_box(V, float(level), M, component_candidates(V, float(level), M))
+            if propose is None:
+                raise RoaInputError(
+                    "TerminalSet.polynomial: give the component box (box=) or its proposer "
+                    "(propose=roa.search.rays.component_candidates)"
+                )
+            box = component_box(V, float(level), M, propose(V, float(level), M))
         lo, hi = (np.array(b, dtype=float).reshape(-1) for b in box)
         if (
             lo.shape != (n,)

@@ -13,7 +13,7 @@ from roa.model.system import System
 def locally_negative(system: System, V: Lyapunov) -> tuple[bool, float]:
     """Whether V' < 0 near the equilibrium. Returns (ok, largest eigenvalue of A'P + PA).
 
-    ``P`` is ``V.P`` (half the Hessian of V at the equilibrium for a general V). A'P + PA < 0
+    ``P`` is V's quadratic matrix (half the Hessian of V at the equilibrium for a general V). A'P + PA < 0
     decides it. When its largest eigenvalue is zero to rounding (a degenerate linearisation, e.g.
     a zero Jacobian, or a V without a definite quadratic part), higher-order terms decide: V' is
     then sampled on small spheres (an estimate, not a proof).

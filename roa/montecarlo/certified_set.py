@@ -88,5 +88,7 @@ def terminal_of(
         raise RoaInputError(
             "terminal set: a polynomial V needs the frame of its validation (re-verify it)"
         )
+    from roa.search.rays import component_candidates
+
     return TerminalSet.polynomial(cast(PolynomialLyapunov, V), float(level), coords, name,
-                                  frame=frame)  # fmt: skip
+                                  frame=frame, propose=component_candidates)  # fmt: skip

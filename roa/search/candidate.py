@@ -70,10 +70,11 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
         from roa.search.box_lyapunov import box_lyapunov
 
         res = box_lyapunov(system)
-        if res.feasible and res.P is not None:
+        P = res.P  # the LMIs' matrix (a result's field, not a V's representation)
+        if res.feasible and P is not None:
             where = "vertices" if res.affine else f"{len(res.points)} points"
             return QuadraticLyapunov.for_system(
-                system, res.P, name=f"P from common Lyapunov LMIs at the box's {where}"
+                system, P, name=f"P from common Lyapunov LMIs at the box's {where}"
             )
     return V
 

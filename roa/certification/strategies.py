@@ -770,7 +770,7 @@ class SosLevel(ProposerBase):
         quad = V.quadratic_view()
         assert quad is not None
         o = self.options
-        res = level_search(system, V if getattr(V, "terms", None) is not None else quad,
+        res = level_search(system, V if V.is_polynomial else quad,
                            recast_mode=o.recast, multiplier_degree=o.multiplier_degree,
                            solver_options=o.solver_options(), symmetry=o.symmetry,
                            aux_degree=o.aux_degree)  # fmt: skip

@@ -519,7 +519,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
 
     from roa.proof.reductions import ParameterBox, box_constraints, describe
 
-    terms = getattr(V, "terms", None)
+    terms = V.polynomial_view()
     if terms is None:
         raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
     n = int(V.n)

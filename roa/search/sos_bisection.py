@@ -189,7 +189,7 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
                    else f"largest level of {what} (bisection)")  # fmt: skip
             return SOSResult(SosStatus.SOLVED, bl.level, "bisection", bl.seconds,
                              "none (polynomial)", sizes, how)  # fmt: skip
-    quad = V.as_quadratic() if hasattr(V, "as_quadratic") else V
+    quad = V.quadratic_view()
     if quad is None:
         raise RoaInputError("the max-level SOS program takes a quadratic V")
     with step("SOS program (cvxpy + Clarabel)"):

@@ -44,8 +44,8 @@ from roa.options import (
 from roa.progress import step
 from roa.proof.preconditions import Preconditions, Route, check_preconditions
 from roa.proof.putinar import check_level
-from roa.proof.recast import level_scale
-from roa.proof.reductions import IndependentBlocks, Recast, Rescale
+from roa.proof.recast import Recast, level_scale
+from roa.proof.reductions import IndependentBlocks, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation

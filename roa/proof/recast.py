@@ -22,7 +22,7 @@ negative ``k`` leaves the denominator ``(t0 + u)^|k| > 0``.
 
 **One recast.** :func:`polynomial_field` is the recast of the field (``F = Den f``, ``Den > 0``
 at ``z(x)``); the exact check (:func:`recast_exact`, the reduction
-:class:`roa.proof.reductions.Recast`) and the programs that propose a level or a V
+:class:`Recast`) and the programs that propose a level or a V
 (:func:`roa.search.sos.recast_field`) all use it.
 
 **Uncertain parameters** (:class:`roa.proof.reductions.ParameterBox`): a system with a parameter
@@ -78,6 +78,7 @@ from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
+from roa.proof.reductions import ParameterBox, box_constraints, describe
 from roa.proof.sos_check import (
     Mono,
     NotPolynomial,
@@ -517,8 +518,6 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     own, when it declares uncertain parameters)."""
     import sympy as sp
 
-    from roa.proof.reductions import ParameterBox, box_constraints, describe
-
     terms = V.polynomial_view()
     if terms is None:
         raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
@@ -604,3 +603,41 @@ def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
         return None, f"no exact recast: {exc}"
     why = bounded_and_even(V, level, data.low)
     return (None, why) if why else (data, "")
+
+
+@dataclass(frozen=True)
+class Recast:
+    """The field made polynomial at a level (:func:`roa.proof.recast.recast_preconditions`:
+    the one recast, with the parameter box when the system has one), in the variables ``d =
+    diag(scale) y``; ``taylor`` the order of the sin bounds (None: from the level)."""
+
+    taylor: int | None = None
+    scale: tuple[Fraction, ...] | None = None
+
+    def accepts(self, system: Any, V: Any) -> bool:
+        """Whether the problem needs it: a parameter box, or a field that is not polynomial."""
+        from roa.proof.sos_check import exact_data
+
+        if ParameterBox().accepts(system):
+            return True
+        try:
+            exact_data(system, V)
+            return False
+        except NotPolynomial:
+            return True
+
+    def apply(self, system: Any, V: Any, level: float) -> tuple[list[Any], Any]:
+        """``([data], data)``: the recast's exact data (:class:`roa.proof.recast.RecastData`);
+        raises :class:`NotPolynomial` with why it does not apply (a term that cannot be recast,
+        V not centred at the equilibrium, ``{V <= level}`` not proved bounded, V' starting at an
+        odd degree)."""
+        scale = level_scale(V, level) if self.scale is None else self.scale
+        data, why = recast_preconditions(system, V, level, self.taylor, scale)
+        if data is None:
+            raise NotPolynomial(why)
+        return [data], data
+
+    def invert(self, parts: list[dict[str, Any]], inverse: Any) -> dict[str, Any]:
+        cert = {"parts": parts, "taylor": inverse.taylor,
+                "scale": [str(r) for r in inverse.scale]}  # fmt: skip
+        return ParameterBox().invert(cert, inverse.parameters)

@@ -151,46 +151,6 @@ def box_json(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> dict[str
 
 
 @dataclass(frozen=True)
-class Recast:
-    """The field made polynomial at a level (:func:`roa.proof.recast.recast_preconditions`:
-    the one recast, with the parameter box when the system has one), in the variables ``d =
-    diag(scale) y``; ``taylor`` the order of the sin bounds (None: from the level)."""
-
-    taylor: int | None = None
-    scale: tuple[Fraction, ...] | None = None
-
-    def accepts(self, system: Any, V: Any) -> bool:
-        """Whether the problem needs it: a parameter box, or a field that is not polynomial."""
-        from roa.proof.sos_check import exact_data
-
-        if ParameterBox().accepts(system):
-            return True
-        try:
-            exact_data(system, V)
-            return False
-        except NotPolynomial:
-            return True
-
-    def apply(self, system: Any, V: Any, level: float) -> tuple[list[Any], Any]:
-        """``([data], data)``: the recast's exact data (:class:`roa.proof.recast.RecastData`);
-        raises :class:`NotPolynomial` with why it does not apply (a term that cannot be recast,
-        V not centred at the equilibrium, ``{V <= level}`` not proved bounded, V' starting at an
-        odd degree)."""
-        from roa.proof.recast import level_scale, recast_preconditions
-
-        scale = level_scale(V, level) if self.scale is None else self.scale
-        data, why = recast_preconditions(system, V, level, self.taylor, scale)
-        if data is None:
-            raise NotPolynomial(why)
-        return [data], data
-
-    def invert(self, parts: list[dict[str, Any]], inverse: Any) -> dict[str, Any]:
-        cert = {"parts": parts, "taylor": inverse.taylor,
-                "scale": [str(r) for r in inverse.scale]}  # fmt: skip
-        return ParameterBox().invert(cert, inverse.parameters)
-
-
-@dataclass(frozen=True)
 class IndependentBlocks:
     """One problem per block of variables (:func:`roa.proof.sos_blocks.blocks`), or the blocks
     ``given`` (a stored partition: :func:`roa.proof.sos_blocks.restrict` refuses one that a

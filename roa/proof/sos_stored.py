@@ -35,7 +35,8 @@ import numpy as np
 
 from roa.proof.preconditions import Route, check_preconditions
 from roa.proof.putinar import Certificate, check_level
-from roa.proof.reductions import IndependentBlocks, Recast, Rescale, box_json
+from roa.proof.recast import Recast
+from roa.proof.reductions import IndependentBlocks, Rescale, box_json
 from roa.proof.sos_blocks import check_partition
 from roa.proof.sos_check import (
     MAX_BASIS,

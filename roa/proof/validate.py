@@ -218,21 +218,29 @@ def _pad(e: Any, k: int) -> Enclosure:
 
 
 def evaluate_boxes(
-    system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, k: int = 0
-):
+    system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, k: int = 0,
+    *, skip_outside: bool = False,
+):  # fmt: skip
     """Enclosures on the boxes ``[lo, hi]`` (shape ``(m, n + k)``: the states, then ``k``
     uncertain parameters of a :func:`roa.parameters.over` system, which enter the jets as
     variables): ``V`` and ``V'`` (natural extension, centred and second-order Taylor forms
     intersected, over states and parameters), the upper bound of ``F = V' + lambda (level - V)``
     on the boxes that reach past the level surface (``inf`` elsewhere, step 3 of the module doc),
     the split scores (per column) and the domain margin (None without a domain). Returns
-    ``(V, V', F_hi, score, margin)``."""
+    ``(V, V', F_hi, score, margin)``. ``skip_outside``: on the boxes where ``V > level`` is
+    proved, ``V'`` is not evaluated (the whole line, ``F_hi = inf``, score 0): the branch and
+    bound discards them on ``V`` alone."""
     from roa.parameters import parameter_values
 
     n, m = lyap.n, len(lo)
     N, n_par = n + k, k
     mid = 0.5 * (lo + hi)
     delta = box_offsets(lo, hi, mid)
+    if skip_outside:
+        V, _, _ = _v_on_boxes(lyap, lo, hi, mid, delta, k)
+        need = np.flatnonzero(~(V.lo > level))
+        if len(need) < m:
+            return _evaluate_inside(system, lyap, lo, hi, level, k, V, need)
 
     def vdot(X: list[Jet]) -> Any:
         with parameter_values(X[n:] if k else None):
@@ -243,10 +251,7 @@ def evaluate_boxes(
     at = vdot(Jet.variables(mid, mid, order=1, centred=kinked))
     cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
     vdot_box = _meet(_full(vd.v, m), cen, tay)
-    Vb, Vm = _v_enclosures(lyap, lo[:, :n], hi[:, :n], mid[:, :n])
-    if k:
-        Vb, Vm = _pad(Vb, k), _pad(Vm, k)
-    V = _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m))
+    V, Vb, Vm = _v_on_boxes(lyap, lo, hi, mid, delta, k)
     score = np.zeros_like(lo)
     n = N  # every column from here: states and parameters
     for i in range(n):
@@ -287,6 +292,33 @@ def evaluate_boxes(
         X = [Interval(lo[:, i], hi[:, i]) for i in range(lyap.n)]
         margin = _full(system.margin(X, INTERVAL), m)
     return V, vdot_box, F_hi, score, margin
+
+
+def _v_on_boxes(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, delta: list,
+                k: int) -> tuple[Interval, Any, Any]:  # fmt: skip
+    """V on the boxes (three forms met), and its enclosures on the boxes and at the centres."""
+    n, m = lyap.n, len(lo)
+    Vb, Vm = _v_enclosures(lyap, lo[:, :n], hi[:, :n], mid[:, :n])
+    if k:
+        Vb, Vm = _pad(Vb, k), _pad(Vm, k)
+    return _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m)), Vb, Vm
+
+
+def _evaluate_inside(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray,
+                     level: float, k: int, V: Interval, need: np.ndarray):  # fmt: skip
+    """:func:`evaluate_boxes` on the boxes ``need`` only, the others given ``V`` alone."""
+    m = len(lo)
+    vd_lo, vd_hi = np.full(m, -np.inf), np.full(m, np.inf)
+    F_hi, score = np.full(m, np.inf), np.zeros_like(lo)
+    margin = None
+    if len(need):
+        _, vd, F, sc, _ = evaluate_boxes(system, lyap, lo[need], hi[need], level, k)
+        vd_lo[need], vd_hi[need] = vd.lo, vd.hi
+        F_hi[need], score[need] = F, sc
+    if system.margin is not None:
+        X = [Interval(lo[:, i], hi[:, i]) for i in range(lyap.n)]
+        margin = _full(system.margin(X, INTERVAL), m)
+    return V, Interval(vd_lo, vd_hi), F_hi, score, margin
 
 
 # -- witness search (floats; every candidate is re-checked) ---------------------------------------
@@ -473,7 +505,8 @@ def _branch_and_bound(
         queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level, n_par)
+        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level, n_par,
+                                                    skip_outside=True)  # fmt: skip
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
         in_local = np.all((lo[:, :n] >= loc_lo) & (hi[:, :n] <= loc_hi), axis=1)
         decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside

@@ -83,6 +83,7 @@ from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
 from roa.proof.local import local_box
+from roa.proof.parallel_boxes import box_workers, evaluate_batch
 from roa.proof.relax_vdot import relaxation_bounds
 from roa.proof.validation import Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
@@ -401,6 +402,7 @@ def validate_level(
     bounding_box: Any = None,
     parameters: tuple[Any, Any] | None = None,
     time_limit: float | None = None,
+    workers: int = 1,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -427,6 +429,11 @@ def validate_level(
         branch and bound then runs over states and parameters (boxes of ``n + k`` columns, the
         parameters variables of the jets, split where that decides more) and proves ``V' < 0``
         for every parameter of the box; witnesses are at the system's float point.
+    time_limit : float, optional
+        Seconds of wall time; past them the verdict is ``inconclusive``.
+    workers : int
+        Processes evaluating each batch of boxes (forked: :mod:`roa.proof.parallel_boxes`); the
+        verdict and the boxes are the same for every number.
     """
     level = float(level)
     if not (np.isfinite(level) and level > 0):
@@ -435,7 +442,10 @@ def validate_level(
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     if not np.allclose(system.x_eq, lyap.center):
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
-    with np.errstate(over="ignore"):  # an interval bound that overflows is +-inf: still sound
+    if not (isinstance(workers, int) and workers >= 1):
+        raise RoaInputError(f"workers must be an integer >= 1, got {workers!r}")
+    # workers: box evaluations in forked processes (roa.proof.parallel_boxes; same result)
+    with np.errstate(over="ignore"), box_workers(workers):  # an overflowing bound is +-inf: sound
         res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
                                 bounding_box=bounding_box, parameters=parameters,
                                 deadline=None if time_limit is None
@@ -505,8 +515,7 @@ def _branch_and_bound(
         queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level, n_par,
-                                                    skip_outside=True)  # fmt: skip
+        V, Vd, F_hi, score, margin = evaluate_batch(system, lyap, lo, hi, level, n_par)
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
         in_local = np.all((lo[:, :n] >= loc_lo) & (hi[:, :n] <= loc_hi), axis=1)
         decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside

@@ -1,7 +1,7 @@
 """Neural-network controllers certified by the interval branch and bound with CROWN bounds.
 
 Run: ``python benchmarks/bench_nn.py [--systems pendulum-tanh,quadrotor-relu] [--baseline]
-[--time-limit 600]``.
+[--time-limit 600] [--workers 2]``.
 
 Systems (``examples/systems/``): the pendulum under 2-16-1 tanh and ReLU controllers
 (``pendulum_nn.py``) and the planar quadrotor (6 states, sin/cos) under 6-16-16-2 tanh and ReLU
@@ -14,7 +14,8 @@ each in a fresh process:
   V >= 1e-6 c0`` and along 20000 random rays (the first point with ``V' >= 0``, bisected). Each
   such point has ``V' >= 0``, so ``c*`` is at most its ``V``;
 * ``certified``: :func:`roa.proof.validate.validate_level` at ``ratio x optimum`` (0.99 for the
-  pendulum, 0.95 for the quadrotor): verdict, boxes, seconds, peak resident memory of the process;
+  pendulum, 0.95 for the quadrotor) with ``--workers`` processes (default 2): verdict, boxes,
+  wall seconds, CPU seconds (the process and its workers), peak resident memory of the process;
   ``local`` names the proof near the equilibrium (``hessian``: no excluded region);
 * ``above``: the verdict at ``1.01 x optimum`` (a refutation carries a 50-digit witness);
 * ``baseline`` (``--baseline``): the same certification without the CROWN bounds
@@ -39,6 +40,7 @@ import multiprocessing as mp
 import resource
 import sys
 import time
+from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 from typing import Any
 
@@ -126,7 +128,13 @@ def basin_share(system: Any, P: np.ndarray, optimum: float, level: float, horizo
             int((inside & ~conv).sum())}  # fmt: skip
 
 
-def run(name: str, baseline: bool, time_limit: float) -> dict[str, Any]:
+def _cpu() -> float:
+    """CPU seconds of this process and its reaped children (the forked box workers)."""
+    a, b = resource.getrusage(resource.RUSAGE_SELF), resource.getrusage(resource.RUSAGE_CHILDREN)
+    return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
+
+
+def run(name: str, baseline: bool, time_limit: float, workers: int = 2) -> dict[str, Any]:
     import roa
     import roa.proof.relax_vdot as rv
     from roa.linearisation import lyapunov_matrix
@@ -140,17 +148,18 @@ def run(name: str, baseline: bool, time_limit: float) -> dict[str, Any]:
     opt = independent_optimum(system, P)
     out: dict[str, Any] = {"system": name, "n": system.n, "optimum": opt,
                            "optimum_s": round(time.perf_counter() - t0, 1), "ratio": ratio}  # fmt: skip
-    t0 = time.perf_counter()
-    cert = validate_level(system, V, ratio * opt, time_limit=time_limit)
+    t0, c0 = time.perf_counter(), _cpu()
+    cert = validate_level(system, V, ratio * opt, time_limit=time_limit, workers=workers)
     out.update(status=cert.status.value, level=ratio * opt, boxes=cert.boxes,
-               seconds=round(time.perf_counter() - t0, 1), local=cert.meta.get("local_proof"),
+               seconds=round(time.perf_counter() - t0, 1), cpu_s=round(_cpu() - c0, 1),
+               workers=workers, local=cert.meta.get("local_proof"),
                peak_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1))  # fmt: skip
-    above = validate_level(system, V, 1.01 * opt, time_limit=time_limit)
+    above = validate_level(system, V, 1.01 * opt, time_limit=time_limit, workers=workers)
     out["above"] = above.status.value
     if baseline:
         rv.ENABLED = False
         t0 = time.perf_counter()
-        base = validate_level(system, V, ratio * opt, time_limit=time_limit)
+        base = validate_level(system, V, ratio * opt, time_limit=time_limit, workers=workers)
         rv.ENABLED = True
         out.update(baseline_status=base.status.value, baseline_boxes=base.boxes,
                    baseline_seconds=round(time.perf_counter() - t0, 1),
@@ -164,16 +173,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--systems", default=",".join(SYSTEMS))
     ap.add_argument("--baseline", action="store_true")
     ap.add_argument("--time-limit", type=float, default=600.0)
+    ap.add_argument("--workers", type=int, default=2)
     args = ap.parse_args(argv)
     ok = True
     ctx = mp.get_context("spawn")
     for name in args.systems.split(","):
-        with ctx.Pool(1) as pool:  # a fresh process per system: its own peak memory
-            r = pool.apply(run, (name, args.baseline, args.time_limit))
+        # a fresh (non-daemonic) process per system: its own peak memory, and it may fork workers
+        with ProcessPoolExecutor(1, mp_context=ctx) as pool:
+            r = pool.submit(run, name, args.baseline, args.time_limit, args.workers).result()
         print(json.dumps(r), flush=True)
         s = r["share"]
         print(f"{name}: certified {r['level']:.6g} / optimum {r['optimum']:.6g} = {r['ratio']} "
-              f"[{r['status']}, local proof {r['local']}], {r['boxes']} boxes, {r['seconds']} s, "
+              f"[{r['status']}, local proof {r['local']}], {r['boxes']} boxes, {r['seconds']} s "
+              f"({r['cpu_s']} s CPU, {r['workers']} workers), "
               f"peak {r['peak_mb']} MB; 1.01 x optimum: {r['above']}; basin share of the sampled "
               f"box {s['in_basin']:.3f}, certified share of the basin "
               f"{s['certified_of_basin']:.3f} (95 % CI {s['ci95'][0]:.3f}-{s['ci95'][1]:.3f})"

@@ -7,7 +7,8 @@ system and the candidate are inherited by ``fork``, never pickled: fields may be
 concatenates the results in order. Every enclosure of a box depends on that box alone (the
 interval, jet and relaxation operations are elementwise over boxes), so the results, and the
 branch and bound's verdict and box count, are the same for every number of workers. Without
-``fork`` (not POSIX) or with ``workers <= 1`` the evaluation runs in the calling process.
+``fork`` (not POSIX), in a daemonic process or with ``workers <= 1`` the evaluation runs in the
+calling process.
 """
 
 from __future__ import annotations
@@ -89,8 +90,8 @@ _ACTIVE: contextvars.ContextVar[_Pool | None] = contextvars.ContextVar("box_pool
 def box_workers(workers: int) -> Iterator[None]:
     """Inside the block, :func:`evaluate_batch` spreads batches over ``workers`` forked processes
     (module doc); ``workers <= 1`` or no ``fork``: in the calling process."""
-    if workers <= 1 or "fork" not in mp.get_all_start_methods():
-        yield
+    if workers <= 1 or "fork" not in mp.get_all_start_methods() or mp.current_process().daemon:
+        yield  # a daemonic process (e.g. a multiprocessing.Pool worker) may not have children
         return
     pool = _Pool(workers)
     token = _ACTIVE.set(pool)

@@ -79,6 +79,7 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.proof.contract import contract
 from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
@@ -509,12 +510,18 @@ def _branch_and_bound(
     queue_hi = [np.concatenate([hi0, phi])[None, :]]
     boxes = proved = proved_F = outside = 0
     progress = _Progress(np.concatenate([lo0, plo]), np.concatenate([hi0, phi]))
+    quad = QuadraticForm.of(lyap)
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
         queue_lo = [lo[batch:]] if len(lo) > batch else []
         queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
+        if quad is not None:  # each box shrunk to the part that can meet {V <= level}
+            lo, hi, gone = contract(quad, lo, hi, level)
+            lo, hi = lo[~gone], hi[~gone]
+            if not len(lo):
+                continue
         V, Vd, F_hi, score, margin = evaluate_batch(system, lyap, lo, hi, level, n_par)
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
         in_local = np.all((lo[:, :n] >= loc_lo) & (hi[:, :n] <= loc_hi), axis=1)

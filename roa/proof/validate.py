@@ -20,7 +20,9 @@ to the field's zero ``x*`` next to it). Steps, all in interval arithmetic with o
    on the box outside a set ``K = {V <= equilibrium_level}`` of roundoff size, in which the field
    contracts to its unique zero ``x*``. Trajectories then converge to ``x*``, proved within
    ``equilibrium_radius`` of ``x_eq`` (the meta; ``x* = x_eq`` when ``f(x_eq) = 0``).
-3. **Branch and bound** over ``B``. A box ``X`` is discarded when
+3. **Branch and bound** over ``B``. For a quadratic V each box is first shrunk to a box holding
+   every point of it with ``V <= level`` (:mod:`roa.proof.contract`; an emptied box is
+   discarded). A box ``X`` is discarded when
 
    * the interval ``V > level`` (natural extension, centred form and second-order Taylor form
      ``V(m) + grad V(m) . d + d' [H_V](X) d / 2`` intersected, ``d = x - m``, ``m`` the centre;

@@ -14,8 +14,10 @@ process (its peak memory is that process's ``ru_maxrss``) and gets one row:
   and its decoupled copies: 2025/8, derived in ``tests/test_levelset_scale.py``);
 * certified / optimum, and a refutation just above: the optimum's point moved out along its ray to
   ``V = 1.0005 x`` the optimum, where ``V' >= 0`` is re-checked at 50 digits (mpmath);
-* the SOS proposal's (or level search's), the validation's and the whole certification's seconds,
-  and the process's peak memory (``ru_maxrss``) after the certification, before anything else;
+* the SOS proposal's (or level search's), the validation's and the whole certification's seconds
+  (and the certification's CPU seconds, the host being shared), the exact back-off's tries (level
+  and outcome, the proposal first), and the process's peak memory (``ru_maxrss``) after the
+  certification, before anything else;
 * for ``n <= 6``, the interval branch and bound on the same level (``roa.certify(level=...)``).
 
 Targets: certified >= 0.99 x the optimum (never above it), 10 states < 60 s, 30 states < 10 min,
@@ -32,6 +34,17 @@ Systems (all polynomial; ``V = (x - x_eq)' P (x - x_eq)``):
 * ``lyznet-10d`` (10): LyZNet HSCC'24 example 4 (``examples/systems/lyznet_10d.py``), P from
   A'P + PA = -I;
 * ``lyznet-10d-x2``, ``lyznet-10d-x3`` (20, 30): two and three decoupled copies of it;
+* ``quadrotor2d`` (6): the planar quadrotor under LyZNet's LQR gain (sin/cos of the pitch,
+  ``examples/systems/quadrotor2d.py``), P from A'P + PA = -I: the exact recast route (split by
+  sign symmetry), the sampled level search's proposal backed off on the exact route when its
+  check fails (``roa.certification.backoff``, every try in the row), no branch and bound;
+* ``quadrotor3d`` (9): the quadrotor in space under the LQR gain of its linearisation (sin/cos of
+  roll and pitch, ``examples/systems/quadrotor3d.py``), as ``quadrotor2d``;
+* ``dense-cubic-20`` (20): ``examples/systems/dense_cubic.py``, every state coupled linearly and
+  cubically, V = |x|^2, one dense Gram block of 230 monomials (16 GiB for the interior point):
+  sign-symmetry blocks (210 + 20) with the 210 block scaled diagonally dominant
+  (``roa.search.sos_sparse.sdsos_plan``; ``"cone": "sdd"`` blocks, proved by exact dominance);
+  closed form ``1 / lambda_max(B)``;
 * ``ring-20``, ``ring-30`` (20, 30): ``examples/systems/ring.py``, ``x_i' = -x_i + x_{i+1} / 2 +
   x_i^3`` on a ring, V = |x|^2: every variable coupled to its neighbours (no independent blocks),
   a dense program too large for the memory budget, certified by the sparse (chordal clique)
@@ -56,7 +69,8 @@ from scipy import optimize
 ROOT = Path(__file__).resolve().parents[1]
 QUICK = ("vanderpol", "poly3d", "poly3d-rot-2")
 LADDER = ("vanderpol", "poly3d", "poly3d-rot-2", "lyznet-10d", "poly3d-rot-4", "lyznet-10d-x2",
-          "lyznet-10d-x3", "ring-20", "ring-30")  # fmt: skip
+          "lyznet-10d-x3", "ring-20", "ring-30", "quadrotor2d", "quadrotor3d",
+          "dense-cubic-20")  # fmt: skip
 #: Known optima of V (closed forms or published), beside the SLSQP value.
 KNOWN = {"vanderpol": 2.3045, "poly3d": 3.0, "poly3d-rot-2": 3.0, "poly3d-rot-4": 3.0,
          "lyznet-10d": 2025 / 8, "lyznet-10d-x2": 2025 / 8, "lyznet-10d-x3": 2025 / 8}  # fmt: skip
@@ -81,6 +95,55 @@ def lyznet(x: Sequence[Any]) -> list[Any]:
 def ring(x: Sequence[Any]) -> list[Any]:
     n = len(x)
     return [-x[i] + 0.5 * x[(i + 1) % n] + x[i] ** 3 for i in range(n)]
+
+
+def _trig(v: Any, name: str) -> Any:
+    """sin or cos of a float, an array or an mpmath number."""
+    import mpmath as mp
+
+    if isinstance(v, mp.mpf):
+        return getattr(mp, name)(v)
+    return getattr(np, name)(v)
+
+
+def quadrotor2d(x: Sequence[Any]) -> list[Any]:
+    """examples/systems/quadrotor2d.py: LyZNet's gain, g = 9.81."""
+    u1 = -(1.0 * x[1] + 1.7321 * x[4])
+    u2 = -(1.0 * x[0] + 13.5165 * x[2] + 1.938 * x[3] + 5.2946 * x[5])
+    s, c = _trig(x[2], "sin"), _trig(x[2], "cos")
+    return [x[3], x[4], x[5], 9.81 * s + u1 * s, -9.81 + 9.81 * c + u1 * c, u2 + 0 * x[0]]
+
+
+def quadrotor3d(x: Sequence[Any]) -> list[Any]:
+    """examples/systems/quadrotor3d.py: the LQR gain of its linearisation, g = 9.81."""
+    u1 = -(x[2] + 1.7321 * x[5])
+    u2 = -(-x[1] - 1.4515 * x[4] + 5.4294 * x[6])
+    u3 = -(x[0] + 1.4515 * x[3] + 5.4294 * x[7])
+    u4 = -x[8]
+    sp_, cp_ = _trig(x[6], "sin"), _trig(x[6], "cos")
+    st, ct = _trig(x[7], "sin"), _trig(x[7], "cos")
+    T = 9.81 + u1
+    return [x[3], x[4], x[5], T * cp_ * st, -T * sp_, T * cp_ * ct - 9.81, u2, u3, u4]
+
+
+def dense_cubic(mats: tuple[np.ndarray, ...]) -> Callable:
+    """x' = (-I + S) x + (x'Bx) x + (x'Cx) T x (examples/systems/dense_cubic.py's matrices)."""
+    S, B, C, T = mats
+    n = len(S)
+
+    def field(x: Sequence[Any]) -> list[Any]:
+        if isinstance(x[0], np.ndarray | float):
+            X = np.stack(np.broadcast_arrays(*x), axis=-1)
+            b = np.einsum("...i,ij,...j->...", X, B, X)[..., None]
+            c = np.einsum("...i,ij,...j->...", X, C, X)[..., None]
+            F = -X + X @ S.T + b * X + c * (X @ T.T)
+            return list(np.moveaxis(F, -1, 0))
+        b = sum(float(B[i, j]) * x[i] * x[j] for i in range(n) for j in range(n))
+        c = sum(float(C[i, j]) * x[i] * x[j] for i in range(n) for j in range(n))
+        return [-x[i] + sum(float(S[i, j]) * x[j] for j in range(n)) + b * x[i]
+                + c * sum(float(T[i, j]) * x[j] for j in range(n)) for i in range(n)]  # fmt: skip
+
+    return field
 
 
 def copies(block: Callable, size: int, k: int) -> Callable:
@@ -127,6 +190,22 @@ def case(name: str) -> tuple[Any, Callable, np.ndarray]:
     if name in ("ring-20", "ring-30"):
         system = roa.load_system(f"{ROOT / 'examples/systems/ring.py'}:SYSTEM_{name[-2:]}")
         return system, ring, np.eye(len(system.x_eq))
+    if name in ("quadrotor2d", "quadrotor3d"):
+        system = roa.load_system(f"{ROOT / f'examples/systems/{name}.py'}:SYSTEM")
+        field = quadrotor2d if name == "quadrotor2d" else quadrotor3d
+        return system, field, np.asarray(roa.default_lyapunov(system).P)
+    if name.startswith("dense-cubic-"):
+        import importlib.util
+
+        spec = importlib.util.spec_from_file_location("dense_cubic",
+                                                      ROOT / "examples/systems/dense_cubic.py")  # fmt: skip
+        assert spec is not None and spec.loader is not None
+        mod = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(mod)
+        n = int(name.rsplit("-", 1)[1])
+        S, B, C, T = mod.matrices(n)
+        KNOWN[name] = float(1.0 / np.linalg.eigvalsh(B)[-1])  # closed form (module docstring)
+        return mod.dense_cubic(n), dense_cubic((S, B, C, T)), np.eye(n)
     raise SystemExit(f"unknown system {name!r}; known: {', '.join(LADDER)}")
 
 
@@ -208,9 +287,10 @@ def measure(name: str, *, bnb: bool = True) -> dict[str, Any]:
     assert np.allclose(ours, theirs, rtol=1e-12, atol=1e-12), f"{name}: the fields differ"
     assert np.allclose(P, roa.default_lyapunov(system).P, rtol=1e-10, atol=1e-12)
     row: dict[str, Any] = {"system": name, "n": n}
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     cert = roa.certify(system, validator=roa.SosValidator())  # SOS level, else the sampled one
     row["certify_seconds"] = time.perf_counter() - t0
+    row["certify_cpu_seconds"] = time.process_time() - c0  # this process (the host is shared)
     # the process's peak so far: loading, the fields' check and the certification
     row["peak_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     row["status"] = cert.status.value
@@ -227,6 +307,14 @@ def measure(name: str, *, bnb: bool = True) -> dict[str, Any]:
     checks = [s for s in cert.trace if str(s.get("stage", "")).startswith("validate")]
     row["check_seconds"] = sum(float(s.get("seconds", 0.0)) for s in checks)
     row["gram_sizes"] = meta.get("gram_sizes")
+    if meta.get("route") == "sdsos":
+        row["route"] += (
+            f", SDSOS: sign blocks {meta['blocks'].get('sign_blocks')}, "
+            f"SDD {meta['blocks'].get('sdd_blocks')}"
+        )
+    row["backoff"] = [(t["level"], t["status"], round(t["seconds"], 1))
+                      for t in meta.get("backoff", [])]  # fmt: skip
+    row["interval_in_trace"] = any(s.get("by") == "interval" for s in cert.trace)
     row["message"] = cert.message[:160]
     if bnb and n <= 6 and cert.level is not None:
         t0 = time.perf_counter()
@@ -261,20 +349,28 @@ def _fmt(x: Any, spec: str = ".4g") -> str:
     return "-" if x is None else format(x, spec)
 
 
+def _tries(tries: Any) -> str:
+    """The exact back-off's tries as ``level: outcome`` (the proposal first)."""
+    if not tries:
+        return "-"
+    return "; ".join(f"{lv:.6g} {'ok' if st == 'certified' else 'no'}" for lv, st, _ in tries)
+
+
 def table(rows: list[dict[str, Any]]) -> str:
     head = ("| system | n | SOS level | certified level (route) | certified / optimum | optimum "
             "(SLSQP; known) | refuted at V / optimum | propose s (SOS; search) | check s | "
-            "total s | peak MiB | Gram blocks (largest) | B&B same level |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
+            "total s (CPU s) | peak MiB | Gram blocks (largest) | exact back-off tries | "
+            "B&B same level |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")  # fmt: skip
     lines = [head]
     for r in rows:
         if "error" in r:
-            lines.append(f"| {r['system']} | {r.get('n', '-')} | {r['error']} |" + " |" * 11)
+            lines.append(f"| {r['system']} | {r.get('n', '-')} | {r['error']} |" + " |" * 12)
             continue
         ratio = None if r["level"] is None else r["level"] / r["optimum"]
         bnb = r.get("bnb")
         bnb_s = "-" if bnb is None else f"{bnb['status']}, {bnb['seconds']:.1f} s"
-        sos = _fmt(r["sos_level"], ".7g") if r["sos_level"] else "none (too large)"
+        sos = _fmt(r["sos_level"], ".7g") if r["sos_level"] else "none"
         g = r["gram_sizes"] or []
         grams = f"{len(g)} ({max(g)})" if g else "-"
         ref = r["refutation"]
@@ -284,9 +380,66 @@ def table(rows: list[dict[str, Any]]) -> str:
             f"{_fmt(ratio, '.5f')} | {r['optimum']:.7g}; {_fmt(r['known'], '.7g')} | {refuted} | "
             f"{_fmt(r['sos_seconds'], '.1f')}; {_fmt(r['search_seconds'], '.1f')} | "
             f"{r['check_seconds']:.1f} | "
-            f"{r['certify_seconds']:.1f} | {r['peak_mib']:.0f} | {grams} | {bnb_s} |"
+            f"{r['certify_seconds']:.1f} ({_fmt(r.get('certify_cpu_seconds'), '.1f')}) | "
+            f"{r['peak_mib']:.0f} | {grams} | {_tries(r.get('backoff'))} | {bnb_s} |"
         )
     return "\n".join(lines)
+
+
+# -- beyond quadratic V: the V-s iteration of degree 4 against the quadratic ---------------------
+def volume_shares(Vs: list[tuple[Any, float]], half: np.ndarray, *, samples: int = 200_000,
+                  seed: int = 0) -> list[tuple[float, float]]:  # fmt: skip
+    """Share of the box ``[-half, half]`` (around the origin) inside each ``{V <= level}``, with
+    its binomial standard error, from the same uniform samples."""
+    from roa.backend import namespace
+
+    X = np.random.default_rng(seed).uniform(-half, half, (samples, len(half)))
+    out = []
+    for V, level in Vs:
+        vals = np.asarray(V.expr(list(X.T), namespace("numpy")), float)
+        p = float(np.mean(vals <= level))
+        out.append((p, float(np.sqrt(max(p * (1 - p), 1e-300) / samples))))
+    return out
+
+
+def measure_vs(name: str, budget: float = 600.0) -> dict[str, Any]:
+    """The quadratic V's certified set against the degree-4 V-s iteration's (``roa.certify(system,
+    degree=4)``: the search within ``budget`` seconds, the level proved by the validator), with
+    their volume shares of a box twice the quadratic set's bounding box (a lower bound of the
+    volume ratio when the degree-4 set leaves the box)."""
+    import roa
+    from roa.options import VsOptions
+
+    system, _, P = case(name)
+    row: dict[str, Any] = {"system": name, "n": len(P)}
+    t0, c0 = time.perf_counter(), time.process_time()
+    quad = roa.certify(system)
+    row["quadratic"] = {"status": quad.status.value, "level": quad.level, "method": quad.method,
+                        "seconds": time.perf_counter() - t0}  # fmt: skip
+    t0, c0 = time.perf_counter(), time.process_time()
+    four = roa.certify(system, degree=4, vs=VsOptions(budget=budget))
+    row["quartic"] = {"status": four.status.value, "level": four.level, "method": four.method,
+                      "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
+                      "vs": None if four.vs is None else four.vs.to_dict(),
+                      "message": four.message[:300]}  # fmt: skip
+    row["peak_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    if quad.level is None or four.level is None or four.status.value != "certified":
+        return row
+    half = 2 * np.sqrt(quad.level * np.diag(np.linalg.inv(P)))
+    (pq, eq), (p4, e4) = volume_shares([(quad.V, quad.level), (four.V, four.level)], half)
+    row["box_half_widths"] = half.tolist()
+    row["shares"] = {"quadratic": [pq, eq], "quartic": [p4, e4]}
+    row["volume_ratio"] = p4 / pq if pq > 0 else None
+    V4 = four.V
+    row["quartic_pd_exact"] = _pd_exact(V4)
+    return row
+
+
+def _pd_exact(V: Any) -> bool:
+    """V >= mu |d|^2 proved by its Gram matrix (roa.proof.cover.gram_cover, exact LDL')."""
+    from roa.proof.cover import gram_cover
+
+    return gram_cover(V, 1.0) is not None
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -297,7 +450,17 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--no-bnb", action="store_true", help="skip the branch and bound column")
     ap.add_argument("--json", default=None, help="also write the rows to this JSON file")
     ap.add_argument("--from-json", default=None, help="print the table of rows written by --json")
+    ap.add_argument("--vs", default=None, help="the degree-4 V-s rung of this system instead")
+    ap.add_argument("--vs-budget", type=float, default=600.0, help="its search budget, seconds")
     args = ap.parse_args(argv)
+    if args.vs:
+        r = measure_vs(args.vs, args.vs_budget)
+        print(json.dumps(r, indent=1, default=float))
+        ok = r.get("volume_ratio") is not None and r["volume_ratio"] >= 2 and r["quartic_pd_exact"]
+        print(f"{args.vs}: quadratic {r['quadratic']['level']}, degree 4 {r['quartic']['level']} "
+              f"({r['quartic']['status']}, {r['quartic']['seconds']:.0f} s), volume ratio "
+              f"{r.get('volume_ratio')}: {'holds' if ok else 'FAILS'} (>= 2)")  # fmt: skip
+        return 0 if ok else 1
     if args.from_json:
         print(table(json.loads(Path(args.from_json).read_text())))
         return 0

@@ -10,6 +10,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
+sys.path.insert(0, str(Path(__file__).resolve().parent / "_ext"))
 os.environ.setdefault("MPLBACKEND", "Agg")
 
 import roa  # noqa: E402
@@ -26,6 +27,7 @@ extensions = [
     "sphinx.ext.mathjax",
     "sphinx.ext.viewcode",
     "sphinxarg.ext",
+    "roa_docs",  # _ext/roa_docs.py: the examples' numbers as tables
 ]
 autosummary_generate = True
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": False}
@@ -44,6 +46,10 @@ rst_prolog = """
 .. |u| replace:: \\|u\\|
 """
 exclude_patterns = ["_build"]
+# option names such as --t-final stay two hyphens (smart quotes would make them an en dash)
+smartquotes = False
+html_static_path = ["_static"]
+html_css_files = ["roa.css"]
 html_theme = "alabaster"
 html_title = f"roa {release}"
 html_theme_options = {"description": "region-of-attraction verification", "page_width": "1100px"}

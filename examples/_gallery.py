@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import time
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -54,6 +55,17 @@ def summary(search: Any, cert: Any, basin: Any) -> dict[str, Any]:
     return out
 
 
+def box_shares(system: Any, ranges: list[tuple[float, float]], drawn: list[Any], n: int,
+               seed: int = 0) -> list[dict[str, Any]]:  # fmt: skip
+    """The share of converged points inside each region over ``n`` seeded uniform samples of the
+    n-dimensional box ``ranges`` (a second basin run; ``certified_share`` entries, ``over`` box)."""
+    import roa
+
+    sampler = roa.box_sample(system, ranges, n, seed=seed)
+    res = roa.basin(system, sampler, run=roa.RunOptions(n_jobs=1), regions=drawn)
+    return [dict(e) for e in res.certified_shares]
+
+
 def regions(V: Any, search: Any, cert: Any) -> list[Any]:
     """The level-search estimate and the certified set as regions to draw."""
     from roa.regions import Region
@@ -69,8 +81,10 @@ def regions(V: Any, search: Any, cert: Any) -> list[Any]:
 
 
 def write(out: str | Path, name: str, system: Any, data: dict[str, Any], basin: Any,
-          drawn: list[Any], started: float) -> dict[str, Any]:  # fmt: skip
-    """Write ``out/name.json`` and ``out/name.png`` (atomically); return the JSON's content."""
+          drawn: list[Any], started: float,
+          extra_shares: Sequence[dict[str, Any]] = ()) -> dict[str, Any]:  # fmt: skip
+    """Write ``out/name.json`` and ``out/name.png`` (atomically); return the JSON's content.
+    ``extra_shares``: shares over a sampled box (:func:`box_shares`), after the slice's."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -82,7 +96,7 @@ def write(out: str | Path, name: str, system: Any, data: dict[str, Any], basin: 
     folder.mkdir(parents=True, exist_ok=True)
     from roa.montecarlo.certified_share import share_line
 
-    shares = [dict(e) for e in basin.certified_shares]
+    shares = [dict(e) for e in basin.certified_shares] + [dict(e) for e in extra_shares]
     doc = {"example": name, "system": system.name, "states": list(system.state_names), **data,
            "certified_share": shares,
            "seconds": round(time.perf_counter() - started, 2)}  # fmt: skip

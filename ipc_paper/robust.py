@@ -267,6 +267,6 @@ def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     ev = _cases(params, out.parent)
     ev["seconds"] = round(time.perf_counter() - t0, 1)
     atomic_write_json(out / "evidence.json", ev)
-    figure(ev, out / "robust.png")
+    figure(ev, out / "robust.png", quick=quick)
     return {"claims": claims(ev, quick=quick), "evidence": ev,
             "figures": ["results/robust/robust.png"]}  # fmt: skip

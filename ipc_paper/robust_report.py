@@ -88,10 +88,40 @@ def claims(ev: dict[str, Any], *, quick: bool) -> list[dict[str, Any]]:
     return out
 
 
-def figure(ev: dict[str, Any], path: Path) -> None:
-    """(a) Each V's sampled optimum against delta_plant, the robust certified level drawn;
-    (b) the certified sets on the (theta, theta') slice at q = q' = 0."""
+def figure(ev: dict[str, Any], path: Path, *, quick: bool = False) -> None:
+    """Write :func:`robust_figure` to ``path``."""
     import matplotlib.pyplot as plt
+
+    from roa.io import atomic_savefig
+
+    fig = robust_figure(ev, quick=quick)
+    atomic_savefig(fig, path)
+    plt.close(fig)
+
+
+#: Height (axes fraction) of the markers of a V without a level, in a band at the bottom of panel
+#: (a) (one row per V, 0.035 apart).
+NO_LEVEL_Y = 0.04
+
+
+def log_ticks(lo: float, hi: float) -> list[float]:
+    """Ticks of a log axis over ``[lo, hi]``: both ends, 1 when inside, and for a range wider than
+    a factor 2 the geometric midpoints between an end and 1 (the box ends, e.g. 1.25, are labelled
+    even when no power of ten lies inside)."""
+    ticks = {float(lo), float(hi)}
+    if lo < 1.0 < hi:
+        ticks.add(1.0)
+        if hi / lo > 2.0:
+            ticks |= {float(np.sqrt(lo)), float(np.sqrt(hi))}
+    return sorted(ticks)
+
+
+def robust_figure(ev: dict[str, Any], *, quick: bool = False) -> Any:
+    """(a) Each V's sampled optimum against delta_plant, the robust certified level drawn, a V
+    with no level marked on the bottom edge; (b) the certified sets on the (theta, theta') slice
+    at q = q' = 0, or a note saying why there is none."""
+    import matplotlib.pyplot as plt
+    from matplotlib.ticker import FixedLocator, FuncFormatter, NullLocator
 
     from ipc_paper.system import physical_to_flat_or_inf
     from ipc_paper.system.lyapunov import P_Q, T
@@ -102,15 +132,15 @@ def figure(ev: dict[str, Any], path: Path) -> None:
     d = np.asarray(c["delta_plant"])
     labels = {"paper": "paper's V (3.11)", "box_optimised": "box-optimised V (C5)",
               "robust_quadratic": "V designed for the box"}  # fmt: skip
-    found = [v for name in labels for v in c[name] if v is not None and v > 0]
-    floor = 0.5 * min(found) if found else 1e-3
+    edge = ax.get_xaxis_transform()  # x in data, y in axes fraction
     for k, name in enumerate(labels):
         lv = np.array([np.nan if v is None else v for v in c[name]], dtype=float)
         ax.plot(d, lv, "o-", color=f"C{k}", label=f"{labels[name]}: sampled optimum")
         none = np.isnan(lv)
         if none.any():
-            ax.plot(d[none], np.full(none.sum(), floor), "x", color=f"C{k}", ms=8,
-                    label=f"{labels[name]}: no level (V' >= 0 next to x_eq)")  # fmt: skip
+            ax.plot(d[none], np.full(none.sum(), NO_LEVEL_Y + 0.035 * k), "x", color=f"C{k}", ms=8,
+                    transform=edge, clip_on=False,
+                    label=f"{labels[name]}: no level (V' >= 0 next to x_eq), on the bottom edge")  # fmt: skip
     r = ev["robust_quadratic"]
     if r["status"] == "certified":
         ax.axhline(r["level"], color="C2", ls="--",
@@ -118,10 +148,22 @@ def figure(ev: dict[str, Any], path: Path) -> None:
     ax.axvline(1.0, color="k", lw=0.6, ls=":", label="design delta = 1")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    drawn = [v for name in labels for v in c[name] if v is not None and v > 0]
+    if r["status"] == "certified":
+        drawn.append(r["level"])
+    if drawn:  # an empty band at the bottom for the markers of a V without a level
+        ax.set_ylim(bottom=min(drawn) / 2.0)
+    plain = FuncFormatter(lambda v, _: f"{v:.3g}")
+    ax.xaxis.set_major_locator(FixedLocator(log_ticks(float(d.min()), float(d.max()))))
+    ax.xaxis.set_major_formatter(plain)
+    ax.xaxis.set_minor_locator(NullLocator())
+    ax.yaxis.set_major_formatter(plain)
+    ax.yaxis.set_minor_formatter(FuncFormatter(lambda v, _: f"{v:.3g}" if
+                                               f"{v:.1g}"[0] in "25" else ""))  # fmt: skip
     ax.set_xlabel("plant mass ratio delta_plant = M/m [-]")
     ax.set_ylabel("largest level with V' < 0 (sampled) [-]")
     ax.set_title("(a) each V's level against the plant's mass ratio")
-    ax.legend(fontsize=7, loc="upper right")
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(0.0, -0.13), frameon=False)
     ax = axes[1]
     th = np.linspace(-np.pi / 2 + 0.02, np.pi / 2 - 0.02, 301)
     thd = np.linspace(-3.0, 3.0, 241)
@@ -142,13 +184,21 @@ def figure(ev: dict[str, Any], path: Path) -> None:
         ax.plot([], [], color=color, label=f"{label}: V <= {level:.4g}")
     ax.axvline(60, color="k", ls=":", lw=0.8, label="paper's 60 deg sector")
     ax.axvline(-60, color="k", ls=":", lw=0.8)
+    ax.set_xlim(-90, 90)
+    ax.set_ylim(-3, 3)
+    if not sets:
+        lines = ["no certified set to draw"]
+        for key in ("paper", "robust_quadratic"):
+            st = ev[key]["status"]
+            if st == "not run":
+                st = "not run (quick mode: not among its cases)" if quick else ev[key]["message"]
+            lines.append(f"{labels[key]}: {st}")
+        ax.text(0.5, 0.5, "\n".join(lines), transform=ax.transAxes, ha="center", va="center",
+                fontsize=8.5, bbox={"facecolor": "white", "edgecolor": "0.6"})  # fmt: skip
     ax.set_xlabel("theta(0) [deg]")
     ax.set_ylabel("theta'(0) [rad/s]")
     ax.set_title("(b) certified sets at q = q' = 0, delta_plant in "
                  f"[{ev['box'][0]:g}, {ev['box'][1]:g}]")  # fmt: skip
-    ax.legend(fontsize=7.5, loc="lower center")
+    ax.legend(fontsize=7.5, loc="upper left", bbox_to_anchor=(0.0, -0.13), frameon=False)
     fig.tight_layout()
-    from roa.io import atomic_savefig
-
-    atomic_savefig(fig, path)
-    plt.close(fig)
+    return fig

@@ -38,9 +38,10 @@ class SystemCheck:
 
 
 def evaluate(system: System, x: np.ndarray) -> np.ndarray:
-    """The field at one state with a clear error when it is malformed (wrong size, not finite)."""
+    """The field at one state (``F(x) - x`` for a map: zero at a fixed point) with a clear
+    error when it is malformed (wrong size, not finite)."""
     try:
-        out = system.field(0.0, [float(v) for v in x], _np())
+        out = system.residual_expr([float(v) for v in x], _np())
         values = np.asarray([float(np.asarray(v)) for v in out], dtype=float)
     except (TypeError, ValueError, IndexError, OverflowError) as exc:
         raise SystemDefinitionError(
@@ -89,7 +90,7 @@ def _check_autonomous(system: System, X: np.ndarray, F0: np.ndarray) -> None:
     for t in PROBE_TIMES:
         with np.errstate(all="ignore"):
             try:
-                Ft = system.f(X, t)
+                Ft = system.evaluate(X, t)
             except Exception:  # noqa: BLE001 - a field that fails at t != 0 depends on t
                 Ft = np.full_like(F0, np.nan)
         same = np.isclose(Ft, F0, rtol=1e-12, atol=0.0, equal_nan=True)
@@ -161,15 +162,17 @@ def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
     U = rng.standard_normal((16, system.n))
     U /= np.linalg.norm(U, axis=1, keepdims=True)
     with np.errstate(all="ignore"):
-        near = system.f(x_eq + r * U)
+        near = system.residual(x_eq + r * U)
     scale = float(np.nanmax(np.linalg.norm(near, axis=1))) if np.isfinite(near).any() else 1.0
-    _check_autonomous(system, x_eq + r * U, near)
+    _check_autonomous(system, x_eq + r * U, system.evaluate(x_eq + r * U))
     residual = float(np.linalg.norm(f_eq))
     if residual > RESIDUAL_RTOL * max(scale, 1.0):
         raise RoaInputError(
             f"system {system.name!r}: equilibrium {x_eq.tolist()} is not an equilibrium: "
-            f"f(x_eq) = {np.array2string(f_eq, precision=6)} (|f| = {residual:.3g}, field scale "
-            f"near it {scale:.3g}); give the point where the field vanishes"
+            f"{'F(x_eq) - x_eq' if system.time == 'discrete' else 'f(x_eq)'} = "
+            f"{np.array2string(f_eq, precision=6)} (norm {residual:.3g}, scale near it "
+            f"{scale:.3g}); give the point where the "
+            f"{'map has a fixed point' if system.time == 'discrete' else 'field vanishes'}"
         )
     if system.margin is not None and not bool(system.inside(x_eq)):
         raise RoaInputError(
@@ -181,17 +184,21 @@ def check_system(system: System, *, analysis: bool = False) -> SystemCheck:
     if not analysis:
         return SystemCheck(residual, scale, None)
     lin = linearise(system)
+    discrete = system.time == "discrete"
     if lin.kind == "unstable":
-        k = int(np.argmax(lin.eigenvalues.real))
+        eig = lin.eigenvalues
+        k = int(np.argmax(np.abs(eig) if discrete else eig.real))
+        how = "of modulus > 1" if discrete else "with positive real part"
         raise RoaInputError(
             f"system {system.name!r}: the linearisation at {x_eq.tolist()} is unstable "
-            f"(eigenvalue {lin.eigenvalues[k]:.4g} with positive real part): the equilibrium is "
+            f"(eigenvalue {eig[k]:.4g} {how}): the equilibrium is "
             "not asymptotically stable, so it has no region of attraction to estimate"
         )
     notes: tuple[str, ...] = ()
     if lin.kind == "degenerate":
+        where = "on the unit circle" if discrete else "on the imaginary axis"
         notes = (
-            "the linearisation is degenerate (an eigenvalue on the imaginary axis): stability is "
+            f"the linearisation is degenerate (an eigenvalue {where}): stability is "
             "decided by higher-order terms; V' is checked near the equilibrium by sampling",
         )
     return SystemCheck(residual, scale, lin, notes)

@@ -6,7 +6,7 @@ import argparse
 import importlib
 import sys
 
-from roa.errors import RoaError, RoaInputError
+from roa.errors import RoaError, RoaInputError, TimeLimitReached
 
 #: Subcommand modules under roa.commands, in --help order (studies add their own after these).
 COMMANDS = (
@@ -41,25 +41,40 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the CLI: input errors exit 2, other roa errors exit 1 with their message, bugs raise."""
-    parser = build_parser()
-    args = parser.parse_args(argv)  # --help and usage errors exit here, before any heavy import
+    try:
+        parser = build_parser()
+        args = parser.parse_args(argv)  # --help and usage errors exit here, before heavy imports
+    except KeyboardInterrupt:
+        print("roa: interrupted; nothing was kept", file=sys.stderr)
+        return 130
     import matplotlib
 
     matplotlib.use("Agg")  # files only, never a window
     from roa import progress
 
     progress.enable(True)  # a line per long step on stderr (bars only on a terminal)
+    from roa import stage_limit
+
+    # --time-limit also bounds each long step without a budget of its own (roa.stage_limit)
+    stage_limit.limit(getattr(args, "time_limit", None))
     try:
         return int(args.func(args) or 0)
+    except TimeLimitReached as exc:
+        print(f"roa {args.command}: stopped: {exc}", file=sys.stderr)
+        return 1
     except RoaInputError as exc:
         print(f"roa {args.command}: error: {exc}", file=sys.stderr)
         return 2
     except RoaError as exc:
         print(f"roa {args.command}: failed: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f"roa {args.command}: interrupted; completed work was kept", file=sys.stderr)
+    except KeyboardInterrupt as exc:
+        # what was kept: the notes of the code interrupted (e.g. a basin's saved chunks)
+        kept = "; ".join(getattr(exc, "__notes__", [])) or "nothing was kept"
+        print(f"roa {args.command}: interrupted; {kept}", file=sys.stderr)
         return 130
+    finally:
+        stage_limit.limit(None)
 
 
 if __name__ == "__main__":

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.field_probe import MAX_OPS
 
 #: Largest relative difference |f_roa - updfcn| / (1 + |updfcn|) accepted at the sample points.
 AGREEMENT_RTOL = 1e-9
@@ -57,18 +58,16 @@ ControlField = Callable[..., Sequence[Any]]
 
 
 @dataclass(frozen=True)
-class ClosedLoopField:
-    """``field(t, x, xp) = plant(t, x, u, xp)`` with ``u = u_eq - K (x - x_eq)`` (picklable).
+class LinearFeedback:
+    """``u = u_eq - K (x - x_eq)`` as a function of the state components (picklable); the
+    ``feedback`` of a closed loop built here. Zero gains are skipped, so an input depends only
+    on the states its row of ``K`` names."""
 
-    Zero gains are skipped, so an input depends only on the states its row of ``K`` names.
-    """
-
-    plant: ControlField
     gain: tuple[tuple[float, ...], ...]
     x_eq: tuple[float, ...]
     u_eq: tuple[float, ...]
 
-    def inputs(self, x: Any) -> list[Any]:
+    def __call__(self, x: Any) -> list[Any]:
         us: list[Any] = []
         for row, u0 in zip(self.gain, self.u_eq, strict=True):
             u: Any = u0
@@ -78,6 +77,19 @@ class ClosedLoopField:
                     u = u - k * d
             us.append(u)
         return us
+
+
+@dataclass(frozen=True)
+class ClosedLoopField:
+    """``field(t, x, xp) = plant(t, x, u, xp)`` with ``u = u_eq - K (x - x_eq)`` (picklable)."""
+
+    plant: ControlField
+    gain: tuple[tuple[float, ...], ...]
+    x_eq: tuple[float, ...]
+    u_eq: tuple[float, ...]
+
+    def inputs(self, x: Any) -> list[Any]:
+        return LinearFeedback(self.gain, self.x_eq, self.u_eq)(x)
 
     def __call__(self, t: Any, x: Any, xp: Any) -> Sequence[Any]:
         return self.plant(t, x, self.inputs(x), xp)
@@ -156,13 +168,15 @@ def closed_loop(
     name : str
         As :class:`roa.System`.
     **kwargs
-        As :class:`roa.System` (``state_units``, ``margin``, ``lyapunov``, ...).
+        As :class:`roa.System` (``state_units``, ``input_names``, ``input_units``, ``margin``,
+        ``lyapunov``, ...). ``input_names`` defaults to ``u0, u1, ...``.
 
     Returns
     -------
     roa.System
         Its field evaluates ``field`` in every namespace; roa's checks (``f(x_eq) = 0``, the
-        linearisation ``A - B K`` Hurwitz) run when it is analysed.
+        linearisation ``A - B K`` Hurwitz) run when it is analysed. Its ``feedback`` is the
+        control law (:class:`LinearFeedback`), so a simulation reports ``u(t)``.
 
     Examples
     --------
@@ -187,6 +201,13 @@ def closed_loop(
     gain = _matrix(K, (m, n), "K")
     x_eq = _vector(equilibrium, n, "equilibrium")
     u0 = _vector(u_eq, m, "u_eq")
+    kwargs.setdefault("input_names", tuple(f"u{i}" for i in range(m)))
+    if len(kwargs["input_names"]) != m:
+        raise RoaInputError(
+            f"input_names must name the {m} input(s) of K, got {tuple(kwargs['input_names'])!r}"
+        )
+    if m:
+        kwargs.setdefault("feedback", LinearFeedback(gain, x_eq, u0))
     return System(
         name=name,
         field=ClosedLoopField(field, gain, x_eq, u0),
@@ -194,6 +215,23 @@ def closed_loop(
         state_names=names,
         **kwargs,
     )
+
+
+#: The name of a closed loop's V when it is the Riccati solution of its LQR design.
+RICCATI_NAME = "S of control.lqr (Riccati)"
+
+
+def lqr_parts(K: Any, n: int) -> tuple[Any, Any]:
+    """``(K, S)`` from what :func:`control.lqr` returns, ``(K, S, E)`` (``S`` the n x n
+    Riccati solution, ``E`` the n closed-loop eigenvalues), or ``(K, None)`` for a gain alone."""
+    if isinstance(K, tuple | list) and len(K) == 3:
+        try:
+            S_shape, E_ndim = np.shape(K[1]), np.ndim(K[2])
+        except ValueError:  # ragged: not an lqr result
+            return K, None
+        if S_shape == (n, n) and E_ndim == 1 and np.ndim(K[0]) == 2:
+            return K[0], K[1]
+    return K, None
 
 
 # --- python-control ------------------------------------------------------------------------
@@ -205,6 +243,19 @@ class Untraceable(RoaInputError):
 
 class TimeDependent(RoaInputError):
     """An ``updfcn`` compared, or converted to a number, a value that depends on ``t``."""
+
+
+class TraceTooLarge(RoaInputError):
+    """An ``updfcn`` did more operations on the symbolic states than a field may
+    (:data:`roa.field_probe.MAX_OPS`, the bound of a field written as ``field=``)."""
+
+
+#: Work bound of one trace: the sizes (arguments) of the expressions it builds, summed. sympy
+#: rebuilds a sum at each ``+`` (a sum of k terms written term by term costs ~k^2 / 2): 100,000
+#: is a sum of ~450 terms built that way, seconds.
+MAX_TRACE_WORK = 100_000
+#: Operations and work recorded by the current trace (reset by :func:`_trace`).
+_OPS = [0, 0]
 
 
 @functools.lru_cache(maxsize=1)
@@ -261,6 +312,15 @@ class Traced:
 
     def __init__(self, e: Any) -> None:
         self.e = e
+        _OPS[0] += 1
+        _OPS[1] += 1 + len(getattr(e, "args", ()))
+        if _OPS[0] > MAX_OPS or _OPS[1] > MAX_TRACE_WORK:
+            raise TraceTooLarge(
+                f"System.from_control: the updfcn does more than {MAX_OPS} operations on the "
+                f"states, or builds expressions of more than {MAX_TRACE_WORK} terms in all (a "
+                "sum of ~450 terms written term by term; allowed: at most these); simplify it "
+                "or split the system"
+            )
 
     def __add__(self, o: Any) -> Traced:
         return Traced(self.e + _expr(o))
@@ -330,11 +390,28 @@ class Traced:
     __hash__ = None  # type: ignore[assignment]
 
 
-def _labels(labels: Sequence[str]) -> tuple[str, ...]:
-    """python-control's labels as identifiers (``x[0]`` -> ``x0``), unique, else ``x0, x1, ...``."""
+def _labels(labels: Sequence[str], prefix: str = "x") -> tuple[str, ...]:
+    """python-control's labels as identifiers (``x[0]`` -> ``x0``), unique, else ``x0, x1, ...``
+    (``prefix`` instead of ``x``)."""
     names = tuple(re.sub(r"\W", "", str(s)) for s in labels)
     ok = all(s.isidentifier() for s in names) and len(set(names)) == len(names)
-    return names if ok else tuple(f"x{i}" for i in range(len(labels)))
+    return names if ok else tuple(f"{prefix}{i}" for i in range(len(labels)))
+
+
+def _design_lqr(sys: Any, lqr: Any, x_eq: Sequence[float], u_eq: Sequence[float],
+                params: Mapping[str, Any]) -> tuple[Any, Any, Any]:  # fmt: skip
+    """``control.lqr`` on ``sys`` linearised at ``(x_eq, u_eq)``: ``(K, S, E)``."""
+    import control
+
+    try:
+        Q, R = lqr
+    except (TypeError, ValueError):
+        raise RoaInputError(f"System.from_control: lqr must be (Q, R), got {lqr!r}") from None
+    linear = sys.linearize(list(x_eq), list(u_eq), params=dict(params))
+    try:
+        return control.lqr(linear, Q, R)  # type: ignore[no-any-return]
+    except Exception as exc:  # noqa: BLE001 - python-control's own message (shapes, not stabilisable)
+        raise RoaInputError(f"System.from_control: lqr=(Q, R): control.lqr failed: {exc}") from None
 
 
 def _trace(sys: Any, params: Mapping[str, Any], x_eq: Sequence[float], u_eq: Sequence[float],
@@ -343,13 +420,14 @@ def _trace(sys: Any, params: Mapping[str, Any], x_eq: Sequence[float], u_eq: Seq
     import sympy as sp
 
     syms = [sp.Symbol(s) for s in names]
+    _OPS[:] = [0, 0]
     x = np.array([Traced(s) for s in syms], dtype=object)
     loop = ClosedLoopField(_no_plant, tuple(map(tuple, gain)), tuple(x_eq), tuple(u_eq))
     u = np.array(loop.inputs(list(x)), dtype=object)
     u = np.array([v if isinstance(v, Traced) else Traced(_expr(v)) for v in u], dtype=object)
     try:
         out = sys.updfcn(0.0, x, u, dict(params))
-    except Untraceable:
+    except (Untraceable, TraceTooLarge):
         raise
     except Exception as exc:  # anything the updfcn raised on symbolic arguments
         raise Untraceable(f"it raised {type(exc).__name__}: {exc}") from exc
@@ -398,6 +476,7 @@ def _time_varying(sys: Any, params: Mapping[str, Any], X: np.ndarray,
     conversion of one, is a dependence; at a state where it raises anything else the numeric
     probes decide),
     then with each time of :data:`TIME_PROBES` (a value other than at ``t = 0``)."""
+    _OPS[:] = [0, 0]
     T = Traced(_time_symbol())
     for x in X:
         u = np.array(inputs(list(x)), dtype=float)
@@ -405,6 +484,8 @@ def _time_varying(sys: Any, params: Mapping[str, Any], X: np.ndarray,
             out = sys.updfcn(T, x.copy(), u.copy(), dict(params))
         except TimeDependent as exc:
             return f"at x = {x.tolist()}: {exc}"
+        except TraceTooLarge:
+            raise
         except Exception:  # noqa: BLE001 - e.g. a library call that rejects the symbol
             continue
         for i, v in enumerate(np.asarray(out, dtype=object).reshape(-1)):
@@ -436,6 +517,7 @@ def from_control(
     u_eq: Sequence[float] | None = None,
     params: Mapping[str, Any] | None = None,
     name: str | None = None,
+    lqr: tuple[Any, Any] | None = None,
     **kwargs: Any,
 ) -> Any:
     """The closed loop of a python-control model under ``u = u_eq - K (x - x_eq)``; see
@@ -458,14 +540,23 @@ def from_control(
         )
     n, m = sys.nstates, sys.ninputs
     names = _labels(sys.state_labels)
+    kwargs.setdefault("input_names", _labels(sys.input_labels, "u"))
     x_eq = _vector(equilibrium, n, "equilibrium")
     u0 = _vector(u_eq, m, "u_eq")
+    all_params = {**(sys.params or {}), **(params or {})}
+    if lqr is not None:
+        if K is not None:
+            raise RoaInputError("System.from_control: give K or lqr=(Q, R), not both")
+        K = _design_lqr(sys, lqr, x_eq, u0, all_params)
+    K, S = lqr_parts(K, n)
+    if S is not None and kwargs.get("lyapunov") is None:
+        kwargs["lyapunov"] = _matrix(S, (n, n), "S (control.lqr's Riccati solution)")
+        kwargs["meta"] = {"lyapunov_name": RICCATI_NAME, **(kwargs.get("meta") or {})}
     if K is None:
         K = np.zeros((m, n))
     gain = _matrix(K, (m, n), "K")
     label = name or sys.name
     loop = ClosedLoopField(_no_plant, gain, x_eq, u0)
-    all_params = {**(sys.params or {}), **(params or {})}
     if not isinstance(sys, control.StateSpace):
         X = _sample_states(x_eq, n)[:TIME_POINTS]
         how = _time_varying(sys, all_params, np.vstack([x_eq, X]), loop.inputs)
@@ -489,7 +580,11 @@ def from_control(
 
     try:
         exprs = _trace(sys, all_params, x_eq, u0, gain, names)
+        if m:
+            kwargs.setdefault("feedback", LinearFeedback(gain, x_eq, u0))
         system = System.from_sympy(exprs, names, equilibrium=x_eq, name=label, **kwargs)
+    except TraceTooLarge:
+        raise
     except RoaInputError as exc:  # Untraceable, or a function from_sympy cannot evaluate
         raise RoaInputError(
             f"System.from_control: {sys.name}'s updfcn cannot be traced into an expression roa "

@@ -12,7 +12,8 @@ def settled_elsewhere(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Which final states sit at another equilibrium, and which one.
 
-    A final state ``x`` (rows of ``x_end``) has settled elsewhere when ``|f(x)| < converge_tol``, a
+    A final state ``x`` (rows of ``x_end``) has settled elsewhere when ``|f(x)| < converge_tol``
+    (``|F(x) - x|`` for a map: :meth:`roa.System.residual`), a
     root ``x*`` of ``f`` found from ``x`` (scipy's hybrid method) lies within ``converge_tol`` of
     it, and ``x*`` is more than ``converge_tol`` away from the studied equilibrium. Returns
     ``(mask, points)`` with ``points[i]`` the equilibrium found (NaN where ``mask`` is false).
@@ -25,14 +26,14 @@ def settled_elsewhere(
     if system.equilibrium is None or system.time_varying or len(X) == 0:
         return mask, points
     with np.errstate(all="ignore"):
-        speed = np.linalg.norm(system.f(X), axis=1)
+        speed = np.linalg.norm(system.residual(X), axis=1)
     for i in np.flatnonzero(np.isfinite(speed) & (speed < converge_tol)):
         with np.errstate(all="ignore"):
-            sol = optimize.root(lambda x: system.f(x), X[i], method="hybr", tol=1e-12)
+            sol = optimize.root(lambda x: system.residual(x), X[i], method="hybr", tol=1e-12)
         if not np.all(np.isfinite(sol.x)):
             continue
         with np.errstate(all="ignore"):
-            residual = float(np.linalg.norm(system.f(sol.x)))
+            residual = float(np.linalg.norm(system.residual(sol.x)))
         # hybr may stop "without progress" at a root it cannot improve: the residual decides
         if not (sol.success or residual <= 1e-10 * (1.0 + float(np.linalg.norm(sol.x)))):
             continue

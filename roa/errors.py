@@ -35,6 +35,12 @@ class SolverError(RoaError, RuntimeError):
     """An external solver or cluster failed in a way no status can describe (e.g. it is absent)."""
 
 
+class TimeLimitReached(BaseException):
+    """A step ran past its wall-clock limit (:mod:`roa.stage_limit`). Like ``KeyboardInterrupt``
+    it derives from ``BaseException``: handlers of ordinary failures (``except Exception``) must
+    not take a stopped step for a failed one and go on."""
+
+
 def require(condition: bool, message: str) -> None:
     """Raise :class:`RoaInputError` with ``message`` unless ``condition`` holds."""
     if not condition:

@@ -246,7 +246,7 @@ def namespace() -> Any:
 
 
 def probe(system: Any, log: Log) -> None:
-    """Evaluate ``system``'s field once at its equilibrium on probe values recording into ``log``.
+    """Evaluate ``system``'s field (or map) once at its equilibrium on probe values recording into ``log``.
 
     Raises :class:`TooLarge` (and, with ``log.strict``, :class:`NumpyCall` at the first numpy
     function on a state), then with ``log.refused`` set, as the exception itself or as what the
@@ -254,4 +254,4 @@ def probe(system: Any, log: Log) -> None:
     line of a user's field); any other exception is the field's own."""
     x = [Probe(v, log) for v in np.asarray(system.x_eq, dtype=float)]
     with np.errstate(all="ignore"):
-        system.field(0.0, x, namespace())
+        system.dynamics(0.0, x, namespace())

@@ -46,7 +46,7 @@ def system_fingerprint(system: System) -> str:
     X = trace_points(system)
     with np.errstate(all="ignore"):
         try:
-            F = np.asarray(system.f(X), dtype=float)
+            F = np.asarray(system.evaluate(X), dtype=float)  # f, or the map F
         except Exception:  # noqa: BLE001 - a field that fails on the trace still has an identity
             F = np.full(X.shape, np.nan)
         margin: Any = None
@@ -66,6 +66,8 @@ def system_fingerprint(system: System) -> str:
         "field": _rounded(F),
         "margin": margin,
     }
+    if system.time == "discrete":  # a map's trace is of F (absent: a field's)
+        data["time"] = {"discrete": True, "sample_time": system.sample_time}
     if system.parameters:  # the box a robust certificate holds for (absent: one parameter value)
         data["parameters"] = {k: [float(v) for v in r] for k, r in system.parameters.items()}
     return hashlib.sha256(json.dumps(data, sort_keys=True).encode()).hexdigest()

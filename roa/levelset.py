@@ -126,11 +126,12 @@ class LevelSearchResult:
         return out
 
     def plot(self, ax: Any = None, *, n: int = 400) -> Any:
-        """V' along the witness's ray against the shape value s, with the level marked."""
+        """V' along the witness's ray against the shape value s, with the level marked (a new
+        figure laid out so that a plain ``savefig`` keeps the axis labels)."""
         import matplotlib.pyplot as plt
 
         if ax is None:
-            _, ax = plt.subplots(figsize=(6, 3.5))
+            _, ax = plt.subplots(figsize=(6, 3.5), layout="constrained")
         if self.witness is None or self.system is None or self.V is None or self.level is None:
             ax.set_title(f"no witness ({self.status.value})")
             return ax

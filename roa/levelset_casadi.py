@@ -118,6 +118,14 @@ def casadi_level(
             if cand.status == "found" and (best is None or cand.value < best.value):
                 best = cand
     info.update(n_run=len(starts), n_converged=n_ok)
+    if 0 < len(starts) < int(n_starts):  # n_run beside n_starts: say why fewer ran
+        info["starts_note"] = (
+            f"{len(starts)} of the {int(n_starts)} starts ran: "
+            + (f"only {len(hits)} of the {int(n_candidates)} rays violate"
+               if len(hits) < int(n_starts) else
+               f"{len(starts)} of the {len(hits)} violating rays point in well separated "
+               "directions (|cos| < 0.95 between two starts)")
+        )  # fmt: skip
     if len(starts) == 0:
         info["note"] = (
             f"IPOPT not run: none of {int(n_candidates)} rays violates up to "

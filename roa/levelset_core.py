@@ -22,7 +22,7 @@ import numpy as np
 from scipy import linalg, optimize
 
 from roa.errors import RoaInputError
-from roa.linearisation import jacobian
+from roa.linearisation import decrease_matrix, jacobian
 from roa.lyapunov import Lyapunov, check_positive_definite
 from roa.system import System
 
@@ -150,7 +150,7 @@ def locally_negative(system: System, V: Lyapunov) -> tuple[bool, float]:
     """
     A = jacobian(system)
     P = V.P if V.P is not None else 0.5 * V.hessian_at_center()
-    Q = A.T @ P + P @ A
+    Q = decrease_matrix(system, A, P)  # A'P + PA, or A'PA - P for a map
     lam = float(np.linalg.eigvalsh(0.5 * (Q + Q.T))[-1])
     scale = max(1.0, float(np.abs(Q).max()), float(np.abs(P).max()))
     definite = V.P is not None or bool(np.linalg.eigvalsh(P)[0] > 1e-10 * scale)

@@ -36,6 +36,7 @@ MAX_LEVEL = 1e150
 #: Integers with more bits than this do not fit a finite double.
 MAX_INT_BITS = 1024
 
+_INTEGER = re.compile(r"[+-]?[0-9]{1,18}")
 _NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?")
 
 
@@ -164,3 +165,24 @@ def arg(lo: float = -math.inf, hi: float = math.inf, *, low_open: bool = False) 
 
     number.__name__ = "number"
     return number
+
+
+def integer(lo: int = -(10**18), hi: int = 10**18) -> Any:
+    """An ``argparse`` type for an integer option: ASCII ``[+-]digits`` (at most 18 digits: no
+    spaces, underscores or non-ASCII digits), then ``lo <= n <= hi``; a refusal is argparse's usage
+    error (exit 2) naming the option."""
+    import argparse
+
+    def whole(text: str) -> int:
+        if not isinstance(text, str) or not _INTEGER.fullmatch(text):
+            raise argparse.ArgumentTypeError(
+                f"{shown(text)} is not an integer (ASCII digits with an optional sign, at most "
+                "18 digits; no spaces)"
+            )
+        n = int(text)
+        if not lo <= n <= hi:
+            raise argparse.ArgumentTypeError(f"{n} is outside [{lo}, {hi}]")
+        return n
+
+    whole.__name__ = "integer"
+    return whole

@@ -176,10 +176,11 @@ def over(system: System, box: ParameterBox | None = None, point: Mapping[str, fl
     ones. The result declares no parameters: every analysis reads it as one field."""
     box = ParameterBox.of(system) if box is None else box
     point = box.midpoint if point is None else dict(point)
-    func = getattr(system.field, "func", None)
+    func = getattr(system.dynamics, "func", None)
     if func is None:
         raise RoaInputError(f"system {system.name!r}: its field takes no parameters")
     fixed = Params({k: v for k, v in system.params.items() if k not in box.names})
     field = RangeField(func, fixed, box, Params(point))
-    return dataclasses.replace(system, field=field, params=None, parameters=None,
+    slot: dict[str, Any] = {"field" if system.time == "continuous" else "map": field}
+    return dataclasses.replace(system, **slot, params=None, parameters=None,  # a map: its box
                                numba=None, numba_fast=None)  # fmt: skip

@@ -34,11 +34,21 @@ def interactive(stream: TextIO | None = None) -> bool:
 
 
 @contextmanager
-def step(label: str, *, stream: TextIO | None = None, min_seconds: float = 0.0) -> Iterator[None]:
+def step(label: str, *, stream: TextIO | None = None, min_seconds: float = 0.0,
+         own_budget: bool = False) -> Iterator[None]:  # fmt: skip
     """Report ``label`` while it runs (terminal only) and its time when it ends.
 
-    Steps shorter than ``min_seconds`` print nothing at their end.
+    Steps shorter than ``min_seconds`` print nothing at their end. The step runs under the
+    wall-clock limit of :mod:`roa.stage_limit` unless it has ``own_budget`` (it stops itself).
     """
+    from roa.stage_limit import guard
+
+    with guard(label, own_budget=own_budget), _reported(label, stream, min_seconds):
+        yield
+
+
+@contextmanager
+def _reported(label: str, stream: TextIO | None, min_seconds: float) -> Iterator[None]:
     stream = sys.stderr if stream is None else stream
     if not _ENABLED:
         yield

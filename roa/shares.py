@@ -11,6 +11,12 @@ lie outside claims what was not found. :func:`share` prints as many decimals as 
     '0.9999 (23 of 200000 outside)'
     >>> share(1.0), share(0.0)
     ('1.000', '0.000')
+
+A confidence interval's bounds are rounded outward instead (:func:`interval`): its upper bound
+``0.9999999999999999`` (1 up to rounding) reads ``1.0000``::
+
+    >>> interval(0.99851, 0.9999999999999999, 4)
+    '0.9985-1.0000'
 """
 
 from __future__ import annotations
@@ -50,6 +56,26 @@ def share(
     if count is not None and of is not None:
         text += f" ({count} of {of}{' ' + what if what else ''})"
     return text
+
+
+def interval(lo: float, hi: float, decimals: int = 4, *, scale: float = 1.0,
+             unit: str = "") -> str:  # fmt: skip
+    """A confidence interval ``[lo, hi]`` (times ``scale``) with ``decimals`` decimals, rounded
+    outward (``lo`` down, ``hi`` up: the printed interval contains the computed one), as
+    ``lo-hi`` followed by ``unit``. Non-finite bounds print as they are."""
+    d = max(0, int(decimals))
+
+    def bound(v: float, up: bool) -> str:
+        v = float(v) * scale
+        if not math.isfinite(v):
+            return f"{v}"
+        k = v * 10**d
+        r = math.ceil(k) if up else math.floor(k)
+        if abs(k - round(k)) <= 1e-9 * max(1.0, abs(k)):  # already on the grid (float noise)
+            r = round(k)
+        return f"{r / 10**d:.{d}f}"
+
+    return f"{bound(lo, False)}-{bound(hi, True)}{unit}"
 
 
 def percent(x: float, decimals: int = 2) -> str:

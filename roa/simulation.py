@@ -47,6 +47,14 @@ class Trajectory:
     def t_end(self) -> float:
         return float(self.t[-1])
 
+    @property
+    def u(self) -> np.ndarray | None:
+        """The inputs the loop applied along the run, shape ``(m_points, m)``: the system's
+        ``feedback`` at each state (None for a system without one)."""
+        if self.problem is None or self.problem.feedback is None:
+            return None
+        return self.problem.inputs(self.x)
+
     def to_dict(self) -> dict[str, Any]:
         """What ``roa simulate --json`` prints."""
         out: dict[str, Any] = {
@@ -60,28 +68,61 @@ class Trajectory:
         }
         if self.problem is not None:
             out["state_names"] = list(self.problem.state_names)
+            if self.problem.state_units:
+                out["state_units"] = list(self.problem.state_units)
+            u = self.u
+            if u is not None:
+                out["input_names"] = list(self.problem.input_names)
+                if self.problem.input_units:
+                    out["input_units"] = list(self.problem.input_units)
+                out["final_input"] = [float(v) for v in u[-1]]
+                out["max_abs_input"] = [float(v) for v in np.max(np.abs(u), axis=0)]
         return out
 
     def plot(self, ax: Any = None) -> Any:
-        """Every state against time (one axis; pass ``ax`` to draw into it)."""
+        """Every state against time and, for a system with ``feedback``, every input ``u(t)``
+        in a panel below (sharing the time axis).
+
+        ``ax``: one axes (the states only), or two (states, inputs); by default a new figure with
+        the panels it needs. Returns the states' axes.
+        """
         import matplotlib.pyplot as plt
 
+        u = self.u
+        ax_u = None
         if ax is None:
-            _, ax = plt.subplots(figsize=(7, 3.5))
+            if u is None:
+                _, ax = plt.subplots(figsize=(7, 3.5))
+            else:
+                _, (ax, ax_u) = plt.subplots(2, 1, figsize=(7, 5.5), sharex=True,
+                                             height_ratios=(3, 2), layout="constrained")  # fmt: skip
+        elif isinstance(ax, list | tuple | np.ndarray):
+            ax, ax_u = (list(np.ravel(ax))[:2] + [None])[:2]
         names = (
             self.problem.state_names
             if self.problem
             else tuple(f"x{i}" for i in range(self.x.shape[1]))
         )
         units = (self.problem.state_units if self.problem else ()) or ("-",) * len(names)
+        dimless = ("1", "")  # written "-", as in the basin maps
         for i, (nm, un) in enumerate(zip(names, units, strict=True)):
-            ax.plot(self.t, self.x[:, i], label=f"{nm} [{un}]")
+            ax.plot(self.t, self.x[:, i], label=f"{nm} [{'-' if un in dimless else un}]")
         # a unit only where the system declares one (meta["time_unit"]): fields are often scaled
         unit = (self.problem.meta.get("time_unit") if self.problem else None) or None
-        ax.set_xlabel(f"time t [{unit}]" if unit else "time t")
+        xlabel = f"time t [{unit}]" if unit else "time t"
         ax.set_ylabel("state")
         ax.set_title(f"{self.system}: {self.status.value}")
         ax.legend(loc="best", fontsize=8)
+        if ax_u is not None and u is not None and self.problem is not None:
+            u_names = self.problem.input_names or tuple(f"u{i}" for i in range(u.shape[1]))
+            u_units = self.problem.input_units or ("-",) * len(u_names)
+            for i, (nm, un) in enumerate(zip(u_names, u_units, strict=True)):
+                ax_u.plot(self.t, u[:, i], label=f"{nm} [{'-' if un in dimless else un}]")
+            ax_u.set_ylabel("input u")
+            ax_u.set_xlabel(xlabel)
+            ax_u.legend(loc="best", fontsize=8)
+        else:
+            ax.set_xlabel(xlabel)
         return ax
 
 
@@ -114,6 +155,9 @@ def simulate(
     time_limit: float | None = None,
 ) -> Trajectory:
     """Integrate ``system`` from ``x0`` until an event or ``rules.t_final``.
+
+    A discrete-time system's map is iterated instead (``t_final`` in units of its
+    ``sample_time``; the solver options are unused).
 
     Events (terminal): entering the convergence ball (autonomous systems with an equilibrium),
     reaching the domain boundary, exceeding the divergence bound. Non-finite states end the run as
@@ -165,10 +209,42 @@ def simulate(
             f"{first}=VALUE)"
         )
     check_system(system)
+    if system.time == "discrete":
+        traj = _iterate(system, x0, rules, time_limit)
+        return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
     traj = _integrate(system, x0, rules, dict(rtol=rtol, atol=atol, method=method,
                                               t_eval=t_eval, max_step=max_step),
                       time_limit=time_limit)  # fmt: skip
     return dataclasses.replace(traj, seconds=time.perf_counter() - t_start, problem=system)
+
+
+def _iterate(system: System, x0: Any, rules: StopRules | None,
+             time_limit: float | None) -> Trajectory:  # fmt: skip
+    """The orbit of a discrete-time system (:func:`roa.montecarlo.iterate.orbit`)."""
+    from roa.montecarlo.dopri import CODE_STATUS
+    from roa.montecarlo.iterate import orbit
+
+    rules = StopRules() if rules is None else rules
+    x0 = system.check_state(x0, what="initial state")
+    if x0.ndim != 1:
+        raise RoaInputError(
+            f"initial state must be one state of {system.n} components, got shape {x0.shape}"
+        )
+    deadline = None if time_limit is None else time.perf_counter() + float(time_limit)
+    code, t, x, timed = orbit(system, x0, rules, deadline)
+    status = CODE_STATUS[code]
+    steps = len(t) - 1
+    why = "time_limit" if timed else status.value
+    message = (f"{why} after {steps} steps of the map (t = {t[-1]:g}, sample time "
+               f"{system.sample_time:g})")  # fmt: skip
+    if status is RunStatus.UNDECIDED:
+        mask, points = settled_elsewhere(system, x[-1], rules.converge_tol)
+        if mask[0]:
+            status = RunStatus.CONVERGED_ELSEWHERE
+            message = f"settled at the fixed point {points[0].tolist()} after {steps} steps"
+        elif not timed:
+            message += "; raise rules.t_final to iterate further"
+    return Trajectory(status, t, x, message, system.name, meta={"steps": steps})
 
 
 def _integrate(system: System, x0: Any, rules: StopRules | None, ivp: dict[str, Any],

@@ -89,7 +89,13 @@ class SosStatus(_Status):
     INACCURATE = "inaccurate", "the solver stopped with reduced accuracy: the level is unreliable"
     INFEASIBLE = "infeasible", "the SOS program is infeasible at this degree"
     FAILED = "failed", "the solver failed (iterations, time limit, numerical trouble)"
-    NOT_POLYNOMIAL = "not_polynomial", "V' is not polynomial after recasting: SOS does not apply"
+    NOT_POLYNOMIAL = (
+        "not_polynomial",
+        (
+            "V' is not polynomial with half-integer powers recast: the SOS proposer does not apply "
+            "(the exact SOS validator recasts sin, cos and rational terms itself)"
+        ),
+    )
     TOO_LARGE = "too_large", "the program's Gram blocks exceed the size solved here: not built"
     STOPPED = (
         "stopped",

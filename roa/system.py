@@ -1,4 +1,14 @@
-"""The system abstraction: a vector field written once for every array namespace.
+"""The system abstraction: a vector field (or a map) written once for every array namespace.
+
+A continuous-time system is ``x' = f(t, x)``; a discrete-time one is ``x+ = F(x)``
+(:meth:`System.discrete`, or :func:`roa.discrete.discretise` for the Euler / RK4 step of a
+continuous one). Every analysis reads a system through the same few members, whatever its time:
+:attr:`System.time`, :attr:`System.dynamics` (``f`` or ``F``), :meth:`System.residual_expr`
+(``f(x)`` or ``F(x) - x``: zero at an equilibrium) and :meth:`System.decrease_expr` (the
+function whose negativity a Lyapunov certificate proves: ``V' = grad V . f`` or
+``Delta V = V(F(x)) - V(x)``). The ``field`` of a discrete-time system is a
+:class:`NoVectorField` that refuses to be called, so an analysis written for vector fields fails
+with a clear error instead of reading the map as a derivative.
 
 A field is ``field(t, x, xp)``, or ``field(t, x, xp, p)`` for a system that declares parameters
 (``params``: name -> value; ``p`` is a read-only mapping with attribute access, ``p.mu`` or
@@ -135,15 +145,35 @@ class BoundField:
 
 
 @dataclass(frozen=True)
+class NoVectorField:
+    """The ``field`` of a discrete-time system: calling it is an error naming the system (an
+    analysis that needs a vector field does not apply to a map)."""
+
+    system: str
+
+    def __call__(self, *args: Any) -> Sequence[Any]:
+        raise RoaInputError(
+            f"system {self.system!r} is discrete-time (x+ = F(x)): it has no vector field, and "
+            "this analysis is for continuous-time systems only (the discrete-time analyses: "
+            "level_search, certify with the interval validator, basin, simulate)"
+        )
+
+
+#: The two kinds of time of a system (:attr:`System.time`).
+TIMES = ("continuous", "discrete")
+
+
+@dataclass(frozen=True)
 class System:
-    """A (possibly time-varying) ODE ``x' = f(t, x)`` with an equilibrium and a domain.
+    """A (possibly time-varying) ODE ``x' = f(t, x)``, or a map ``x+ = F(x)`` (:meth:`discrete`),
+    with an equilibrium (a fixed point of a map) and a domain.
 
     Parameters
     ----------
     name : str
         Short identifier.
     field : callable
-        ``field(t, x, xp) -> sequence of n components``. ``x`` is indexable by component (numpy
+        ``field(t, x, xp) -> sequence of n components`` (a :class:`NoVectorField` for a map). ``x`` is indexable by component (numpy
         arrays of any common shape, CasADi or sympy symbols); ``xp`` is a namespace from
         :mod:`roa.backend`. Use only ``xp`` functions and arithmetic.
     equilibrium : sequence of float
@@ -183,8 +213,25 @@ class System:
         Coordinates that certificates of this system may live in (terminal sets,
         :mod:`roa.montecarlo.terminal`): ``names``, ``systems`` (certified system name ->
         coordinates name), ``__call__(name)`` (the numpy map) and ``system(name)``.
+    input_names, input_units : tuple of str
+        Names and units of the inputs ``u`` of a closed loop (``from_control`` takes the names
+        from the model's input labels), for axis labels and JSON.
+    feedback : callable, optional
+        ``feedback(x) -> sequence of m values``: the inputs the loop applies at the state ``x``
+        (components, numpy), e.g. ``u = u_eq - K (x - x_eq)``; ``roa.simulate`` reports and plots
+        ``u(t)`` with it. It plays no part in any analysis (the field already holds it); not
+        compared.
+    map : callable, optional
+        For a discrete-time system ``x+ = F(x)``: ``map(t, x, xp) -> sequence of n components``
+        (``map(t, x, xp, p)`` with parameters), the next state, written like a field; ``t`` is
+        the time ``k * sample_time`` of step ``k``. ``field`` is then a :class:`NoVectorField`
+        (build one with :meth:`discrete`).
+    sample_time : float, optional
+        The time one step of the map stands for (a discretised plant's ``h``; default 1: time
+        counts steps). Monte Carlo runs count ``t_final`` in this unit.
     meta : dict
-        Anything else (notes for reports); not compared. Older systems' ``"numba"``,
+        Anything else (notes for reports); not compared. ``meta["lyapunov_name"]`` names the
+        candidate of ``lyapunov`` (e.g. the Riccati solution of an LQR design). Older systems' ``"numba"``,
         ``"numba_fast"`` and ``"analysis_coords"`` entries are taken as the typed fields.
     """
 
@@ -204,9 +251,16 @@ class System:
     numba_fast: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     analysis_coords: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
     meta: dict[str, Any] = dataclasses.field(default_factory=dict, compare=False, hash=False)
+    input_names: tuple[str, ...] = ()
+    input_units: tuple[str, ...] = ()
+    feedback: Any = dataclasses.field(default=None, compare=False, hash=False, repr=False)
+    map: Field | None = None
+    sample_time: float | None = None
 
     def __post_init__(self) -> None:
+        self._check_time()
         self._bind_params()
+        self._check_labels()
         if any(k in self.meta for k in _TYPED_META):
             for key in _TYPED_META:
                 if key in self.meta and getattr(self, key) is None:
@@ -225,6 +279,39 @@ class System:
                         f"{arr.shape}"
                     )
                 object.__setattr__(self, name, tuple(tuple(float(v) for v in row) for row in arr))
+
+    def _check_labels(self) -> None:
+        """Names and units as tuples of strings of the right lengths (units may be omitted)."""
+        for attr in ("state_names", "state_units", "input_names", "input_units"):
+            value = getattr(self, attr)
+            if isinstance(value, str) or not all(isinstance(v, str) for v in value):
+                raise RoaInputError(f"System.{attr} must be a sequence of strings, got {value!r}")
+            object.__setattr__(self, attr, tuple(value))
+        if self.state_units and len(self.state_units) != self.n:
+            raise RoaInputError(
+                f"System.state_units must give one unit per state ({self.n}: "
+                f"{', '.join(self.state_names)}), got {len(self.state_units)}"
+            )
+        m = len(self.input_names)
+        if self.input_units and len(self.input_units) != m:
+            raise RoaInputError(
+                f"System.input_units must give one unit per input ({m}: "
+                f"{', '.join(self.input_names) or 'no input_names'}), got {len(self.input_units)}"
+            )
+        if self.feedback is not None and not callable(self.feedback):
+            raise RoaInputError(
+                f"System.feedback must be callable feedback(x) -> inputs, got {self.feedback!r}"
+            )
+
+    def inputs(self, x: np.ndarray) -> np.ndarray:
+        """The inputs ``u`` that ``feedback`` applies at states ``x`` (shape ``(..., n)``), shape
+        ``(..., m)``; an error for a system without ``feedback``."""
+        if self.feedback is None:
+            raise RoaInputError(f"system {self.name!r} has no feedback (no inputs to report)")
+        x = np.asarray(x, dtype=float)
+        comps = [x[..., i] for i in range(self.n)]
+        out = [np.asarray(u, dtype=float) for u in self.feedback(comps)]
+        return np.stack(np.broadcast_arrays(*out, x[..., 0])[:-1], axis=-1)
 
     @classmethod
     def from_sympy(
@@ -287,6 +374,7 @@ class System:
         u_eq: Sequence[float] | None = None,
         params: Mapping[str, Any] | None = None,
         name: str | None = None,
+        lqr: tuple[Any, Any] | None = None,
         **kwargs: Any,
     ) -> System:
         """The closed loop of a python-control model under ``u = u_eq - K (x - x_eq)``.
@@ -296,9 +384,13 @@ class System:
         sys : control.NonlinearIOSystem or control.StateSpace
             The continuous-time plant ``x' = updfcn(t, x, u, params)``; its state labels become
             ``state_names`` (``x[0]`` -> ``x0``).
-        K : m x n matrix, optional
+        K : m x n matrix or the result of ``control.lqr``, optional
             The gain, e.g. ``control.lqr(sys.linearize(x_eq, u_eq), Q, R)[0]`` (default zero:
-            the open loop, for a model without inputs).
+            the open loop, for a model without inputs). Given the whole result ``(K, S, E)`` of
+            ``control.lqr``, the Riccati solution ``S`` becomes the system's Lyapunov candidate
+            ``(x - x_eq)' S (x - x_eq)`` (``lyapunov``; :func:`roa.default_lyapunov` then uses it
+            instead of ``A'P + PA = -I``): it is the LQR loop's own cost-to-go, and its level
+            sets follow the loop's slow directions.
         field : callable, optional
             ``field(t, x, u, xp)``: the same equations written with arithmetic and ``xp``
             functions. Without it, a ``NonlinearIOSystem``'s numpy ``updfcn`` is traced
@@ -310,8 +402,13 @@ class System:
             Values overriding ``sys.params`` (fixed when the system is built).
         name : str, optional
             Default: ``sys.name``.
+        lqr : (Q, R), optional
+            Instead of ``K``: the gain of ``control.lqr`` on ``sys`` linearised at
+            ``(x_eq, u_eq)`` with these weights, and its ``S`` as the candidate (as above).
         **kwargs
-            As :class:`System` (``state_units``, ``margin``, ``lyapunov``, ...).
+            As :class:`System` (``state_units``, ``input_units``, ``margin``, ``lyapunov``,
+            ...). ``input_names`` default to the model's input labels; ``feedback`` is the
+            control law, so ``roa.simulate`` reports and plots ``u(t)``.
 
         The analysed field (traced or ``field=``) is checked against ``updfcn`` on numpy at
         sample points around ``x_eq`` (:mod:`roa.control_system`); a difference is an error.
@@ -331,10 +428,87 @@ class System:
         from roa.control_system import from_control
 
         return from_control(sys, K, field=field, equilibrium=equilibrium, u_eq=u_eq,
-                            params=params, name=name, **kwargs)  # fmt: skip
+                            params=params, name=name, lqr=lqr, **kwargs)  # fmt: skip
+
+    @classmethod
+    def discrete(
+        cls,
+        map: Field,  # noqa: A002 - the mathematical name
+        *,
+        name: str,
+        equilibrium: Sequence[float] | None,
+        state_names: Sequence[str],
+        sample_time: float | None = None,
+        **kwargs: Any,
+    ) -> System:
+        """The discrete-time system ``x+ = F(x)`` with ``F = map(t, x, xp)`` (``map(t, x, xp, p)``
+        with ``params`` / ``parameters``), written against the array namespace ``xp`` like a
+        field.
+
+        ``equilibrium`` is a fixed point ``F(x_eq) = x_eq``; ``sample_time`` the time one step
+        stands for (default 1). ``**kwargs`` as :class:`System` (``margin``, ``lyapunov``,
+        ``norm``, ``params``, ``parameters``, ``state_units``, ...).
+
+        Examples
+        --------
+        >>> def F(t, x, xp):
+        ...     return [0.5 * x[0] + x[1] ** 2, 0.5 * x[1]]
+        >>> sys_ = System.discrete(F, name="toy", equilibrium=(0.0, 0.0), state_names=("a", "b"))
+        >>> sys_.time, sys_.step([[1.0, 2.0]]).tolist()
+        ('discrete', [[4.5, 1.0]])
+        """
+        eq = None if equilibrium is None else tuple(float(v) for v in equilibrium)
+        return cls(name=name, field=NoVectorField(name), equilibrium=eq,
+                   state_names=tuple(state_names), map=map, sample_time=sample_time,
+                   **kwargs)  # fmt: skip
+
+    def _check_time(self) -> None:
+        """A discrete-time system has a ``map`` and a :class:`NoVectorField` as its field."""
+        if self.map is None:
+            if self.sample_time is not None:
+                raise RoaInputError(
+                    f"System.sample_time is for discrete-time systems (a map); system "
+                    f"{self.name!r} has a vector field"
+                )
+            if self.field is None or isinstance(self.field, NoVectorField):
+                raise RoaInputError(
+                    f"system {self.name!r}: give a vector field (field=) or a map (map=, "
+                    "System.discrete)"
+                )
+            return
+        if not callable(self.map):
+            raise RoaInputError(f"System.map must be callable, got {self.map!r}")
+        if self.field is not None and not isinstance(self.field, NoVectorField):
+            raise RoaInputError(
+                f"system {self.name!r}: give either a vector field (field=) or a map (map=), "
+                "not both"
+            )
+        if self.time_varying:
+            raise RoaInputError(
+                f"system {self.name!r}: a discrete-time system must be autonomous "
+                "(time_varying=False)"
+            )
+        h = 1.0 if self.sample_time is None else self.sample_time
+        if (
+            isinstance(h, bool)
+            or not isinstance(h, int | float | np.floating)
+            or not (np.isfinite(h) and h > 0)
+        ):
+            raise RoaInputError(
+                f"System.sample_time must be a finite number > 0, got {self.sample_time!r}"
+            )
+        object.__setattr__(self, "sample_time", float(h))
+        object.__setattr__(self, "field", NoVectorField(self.name))
+
+    @property
+    def _slot(self) -> str:
+        """The attribute holding the dynamics: ``"map"`` or ``"field"``."""
+        return "field" if self.map is None else "map"
 
     def _bind_params(self) -> None:
-        func = self.field.func if isinstance(self.field, BoundField) else self.field
+        slot = self._slot
+        dyn = getattr(self, slot)
+        func = dyn.func if isinstance(dyn, BoundField) else dyn
         if self.parameters is not None:
             if not isinstance(self.parameters, Mapping) or not self.parameters:
                 raise RoaInputError(
@@ -367,8 +541,8 @@ class System:
             object.__setattr__(self, "parameters", Params(box))
             object.__setattr__(self, "params", fixed)
         if self.params is None:
-            if func is not self.field:
-                object.__setattr__(self, "field", func)
+            if func is not dyn:
+                object.__setattr__(self, slot, func)
             return
         if not isinstance(self.params, Mapping):
             raise RoaInputError(
@@ -386,7 +560,7 @@ class System:
             values[key] = float(value)
         bound = Params(values)
         object.__setattr__(self, "params", bound)
-        object.__setattr__(self, "field", BoundField(func, bound))
+        object.__setattr__(self, slot, BoundField(func, bound))
 
     @property
     def uncertain(self) -> tuple[str, ...]:
@@ -491,13 +665,71 @@ class System:
 
     def f(self, x: np.ndarray, t: float | np.ndarray = 0.0) -> np.ndarray:
         """Evaluate the field with numpy on states of shape ``(..., n)``; returns ``(..., n)``."""
+        return self._evaluate(self.field, x, t)
+
+    # -- the members every analysis reads, whatever the system's time ----------------------------
+    @property
+    def time(self) -> str:
+        """``"continuous"`` (``x' = f(t, x)``) or ``"discrete"`` (``x+ = F(x)``, :attr:`map`)."""
+        return "continuous" if self.map is None else "discrete"
+
+    @property
+    def dynamics(self) -> Field:
+        """The function defining the system: the field ``f`` or the map ``F`` (each
+        ``(t, x, xp) -> n components``)."""
+        return self.field if self.map is None else self.map
+
+    def residual_expr(self, x: Any, xp: Any, t: Any = 0.0) -> list[Any]:
+        """What vanishes at an equilibrium, in namespace ``xp``: ``f(x)``, or ``F(x) - x`` for a
+        map (its fixed points)."""
+        out = list(self.dynamics(t, x, xp))
+        if self.map is None:
+            return out
+        return [out[i] - x[i] for i in range(len(out))]
+
+    def decrease_expr(self, V: Any, x: Any, xp: Any) -> Any:
+        """The function a Lyapunov certificate proves negative, at the components ``x`` in
+        ``xp``: ``V' = grad V · f`` (continuous time), or ``Delta V = V(F(x)) - V(x)``
+        (discrete time). ``V`` is a :class:`roa.lyapunov.Lyapunov`."""
+        if self.map is None:
+            g = V.gradient_expr(x, xp)
+            f = self.field(0.0, x, xp)
+            out: Any = 0.0
+            for i in range(self.n):
+                out = g[i] * f[i] + out
+            return out
+        return V.expr(list(self.map(0.0, x, xp)), xp) - V.expr(x, xp)
+
+    def decrease(self, V: Any, x: np.ndarray) -> np.ndarray:
+        """:meth:`decrease_expr` with numpy on states of shape ``(..., n)``."""
+        x = np.asarray(x, dtype=float)
+        if self.map is None:
+            return np.einsum("...i,...i->...", V.gradient(x), self.f(x))
+        return V.value(self.step(x)) - V.value(x)
+
+    def step(self, x: np.ndarray, t: float | np.ndarray = 0.0) -> np.ndarray:
+        """One step ``F(x)`` of a discrete-time system on states of shape ``(..., n)``."""
+        if self.map is None:
+            raise RoaInputError(f"system {self.name!r} is continuous-time: it has no map to step")
+        return self._evaluate(self.map, x, t)
+
+    def evaluate(self, x: np.ndarray, t: float | np.ndarray = 0.0) -> np.ndarray:
+        """:attr:`dynamics` with numpy on states of shape ``(..., n)``: ``f(x)`` or ``F(x)``."""
+        return self._evaluate(self.dynamics, x, t)
+
+    def residual(self, x: np.ndarray) -> np.ndarray:
+        """:meth:`residual_expr` with numpy on states of shape ``(..., n)``."""
+        x = np.asarray(x, dtype=float)
+        return self.f(x) if self.map is None else self.step(x) - x
+
+    def _evaluate(self, func: Field, x: Any, t: Any) -> np.ndarray:
         x = np.asarray(x, dtype=float)
         if x.shape[-1] != self.n:
             raise RoaInputError(
                 f"state must have {self.n} components {self.state_names}, got shape {x.shape}"
             )
         comps = [x[..., i] for i in range(self.n)]
-        out = self.field(t, comps, NP)
+        out = func(t, comps, NP)
         return np.stack(np.broadcast_arrays(*out), axis=-1)
 
     def inside(self, x: np.ndarray) -> np.ndarray:

@@ -183,9 +183,10 @@ def test_library_does_not_special_case_the_ipc():
         assert '"ipc' not in path.read_text(), path
     from roa.systems import BUILTIN, builtin_names
 
-    assert set(BUILTIN) == {"vanderpol"}
+    assert set(BUILTIN) == {"vanderpol", "cubic-map"}
     assert builtin_names() == {
         "vanderpol": None,
+        "cubic-map": None,
         "ipc": "ipc",
         "ipc-flat": "ipc",
         "ipc-flat-uncertain": "ipc",

@@ -47,7 +47,7 @@ def test_validator_names_are_checked():
     [
         (["--validator", "magic"], "invalid choice: 'magic'"),
         (["--time-limit", "0"], "--time-limit must be a number of seconds in (0, 1e9]"),
-        (["--time-limit", "abc"], "--time-limit: invalid float value"),
+        (["--time-limit", "abc"], "--time-limit: 'abc' is not a number"),
     ],
 )
 def test_bad_route_options_exit_2_naming_them(args, words, capsys):

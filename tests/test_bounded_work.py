@@ -83,7 +83,7 @@ def test_an_sos_program_too_large_is_refused_before_it_is_built():
     import numpy as np
 
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.sos import MAX_GRAM_BLOCK
+    from roa.search.sdp import MAX_GRAM_BLOCK
 
     n = 30
 
@@ -144,13 +144,12 @@ def test_a_polynomial_v_search_too_large_is_refused_before_any_work():
 
 
 def test_a_gram_block_too_large_is_refused_where_it_is_built():
-    from roa.search.polysdp import Identity, ProgramTooLarge, monomials
-    from roa.search.sos import MAX_GRAM_BLOCK
+    from roa.search.sdp import MAX_GRAM_BLOCK, Program, ProgramTooLarge, monomials
 
     basis = monomials(12, 3, 0)
     assert len(basis) > MAX_GRAM_BLOCK
     with pytest.raises(ProgramTooLarge, match=f"{len(basis)} monomials"):
-        Identity(12).gram(basis, None)
+        Program(12).gram(basis, None)
 
 
 def test_a_validation_out_of_time_is_inconclusive_saying_so():

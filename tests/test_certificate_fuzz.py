@@ -18,6 +18,8 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from sos_systems import poly3d_block as _poly3d
+from sos_systems import ring as _ring
 
 import roa
 from roa.certification.result import Certificate
@@ -25,16 +27,6 @@ from roa.errors import RoaInputError
 from roa.proof.sos_check import parse_rational
 from roa.status import Verdict
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
-
-
-def _poly3d(x, o):
-    return (-x[o] + x[o + 1] * x[o + 2], -x[o + 1] + x[o] * x[o + 2], -x[o + 2] + x[o] * x[o + 1])
-
-
-def _ring(n):
-    return roa.System(f"ring-{n}", lambda t, x, xp: tuple(-x[i] + 0.5 * x[(i + 1) % n] + x[i] ** 3
-                                                          for i in range(n)),
-                      (0.0,) * n, tuple(f"x{i}" for i in range(n)))  # fmt: skip
 
 
 def _strip():

@@ -89,7 +89,7 @@ def test_help_describes_every_option_with_its_default(capsys):
     text = " ".join(capsys.readouterr().out.split())
     assert "Exit code 0 iff certified" in text
     for opt, default in (
-        ("--system", "the system (required): a built-in by name (vanderpol; study ipc:"),
+        ("--system", "the system (required): a built-in by name (vanderpol, cubic-map; study ipc:"),
         ("--lyapunov", "default: the system's own"),
         ("--level", "default: maximise"),
         ("--maximise", "(default: what happens without --level)"),

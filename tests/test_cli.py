@@ -111,14 +111,20 @@ def test_a_missing_system_exits_2_listing_the_built_ins(command, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err
     assert f"roa {command}: error:" in err and "--system" in err
-    assert "built-in systems: vanderpol; study ipc: ipc, ipc-flat, ipc-flat-uncertain;" in err
+    assert (
+        "built-in systems: vanderpol, cubic-map; study ipc: ipc, ipc-flat, ipc-flat-uncertain;"
+        in err
+    )
     assert "path/file.py:NAME" in err
 
 
 def test_an_unknown_system_lists_the_built_ins(capsys):
     assert main(["simulate", "--system", "nosuch", "--x0", "1,0"]) == 2
     err = capsys.readouterr().err
-    assert "nosuch" in err and "vanderpol; study ipc: ipc, ipc-flat, ipc-flat-uncertain" in err
+    assert (
+        "nosuch" in err
+        and "vanderpol, cubic-map; study ipc: ipc, ipc-flat, ipc-flat-uncertain" in err
+    )
 
 
 def test_the_console_script_runs():

@@ -136,7 +136,7 @@ def test_a_tampered_gram_entry_of_the_sos_certificate_is_refused():
     cert = roa.certify(dom.VDP, level=0.3, validator="sos")
     data = json.loads(roa.io.to_json(cert.to_dict()))
     bad = json.loads(json.dumps(data))
-    q = bad["certificate"]["Q0"]
+    q = bad["certificate"]["parts"][0]["grams"][0]["Q"]
     q[0][0] = str(Fraction(q[0][0]) * 2)
     r = Certificate.from_dict(bad, dom.VDP).reverify()
     assert r.status is Verdict.INCONCLUSIVE and "does not hold exactly as stored" in r.message
@@ -165,6 +165,11 @@ def _broken(name):
     if name == "bounded":
         indefinite = roa.PolynomialLyapunov([[2, 0], [0, 2]], [1.0, -1.0], [0.0, 0.0], "saddle")
         return base, indefinite, 0.3
+    if name == "invariant":  # a map, and a V with no Gram matrix: only a component cover
+        from roa.systems.cubic_map import cubic_map
+
+        V = roa.FunctionLyapunov(lambda x, xp: x[0] ** 2 + x[1] ** 2, [0.0, 0.0], "no Gram")
+        return cubic_map(), V, 0.3
     return base, V, 2.0  # domain
 
 

@@ -12,15 +12,13 @@ import json
 
 import numpy as np
 import pytest
+from sos_systems import poly3d_block as _poly3d
 
 import roa
 from roa.certification import Certificate
 from roa.proof.sos_blocks import blocks, check_partition, restrict
 from roa.proof.sos_check import exact_data
-
-
-def _poly3d(x, o):
-    return (-x[o] + x[o + 1] * x[o + 2], -x[o + 1] + x[o] * x[o + 2], -x[o + 2] + x[o] * x[o + 1])
+from roa.search.sdp import monomials
 
 
 def _copies(k: int) -> roa.System:
@@ -65,9 +63,14 @@ def split_certificate():
 def test_decoupled_copies_are_certified_block_by_block(split_certificate):
     system, cert = split_certificate
     assert cert.status is roa.Verdict.CERTIFIED, cert.message
-    stored = cert.validation.meta["certificate"]["blocks"]
+    stored = cert.validation.meta["certificate"]["parts"]
     assert [b["variables"] for b in stored] == [[0, 1, 2], [3, 4, 5]]
-    assert cert.validation.meta["gram_sizes"] == [9, 9]  # degree 1..2 in 3 variables
+    for part in stored:  # the SOS part: the 9 monomials of degree 1..2 in 3 variables, split
+        sos = [g["basis"] for g in part["grams"] if g["multiplies"] == 0]  # by sign symmetry
+        assert sorted(tuple(m) for b in sos for m in b) == sorted(
+            tuple(m) for m in monomials(3, 2, 1)
+        )
+    assert cert.validation.meta["gram_sizes"] == [max(len(b) for b in sos)] * 2
     assert "2 independent blocks" in cert.message
     # the level 3 is the optimum (a witness of one copy); nothing above it can be certified
     assert not roa.certify(system, np.eye(6), level=1.01 * 3,
@@ -91,14 +94,12 @@ def test_a_split_certificate_is_rechecked_and_tampering_is_refused(split_certifi
     assert again.certified and "2 independent blocks" in again.message
     raised = {**data, "level": 3.03}
     negated = json.loads(json.dumps(data))
-    q1 = negated["certificate"]["blocks"][1]["Q1"]
-    assert q1, "the block has a multiplier"
-    negated["certificate"]["blocks"][1]["Q1"] = [
-        [v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in q1
-    ]
+    lam = [g for g in negated["certificate"]["parts"][1]["grams"] if g["multiplies"] == 1]
+    assert lam, "the block has a multiplier"
+    lam[0]["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in lam[0]["Q"]]
     merged = json.loads(json.dumps(data))
-    merged["certificate"]["blocks"][0]["variables"] = [0, 1, 3]
-    merged["certificate"]["blocks"][1]["variables"] = [2, 4, 5]
+    merged["certificate"]["parts"][0]["variables"] = [0, 1, 3]
+    merged["certificate"]["parts"][1]["variables"] = [2, 4, 5]
     for forged in (raised, negated, merged):
         v = Certificate.from_dict(forged, system).reverify()
         assert v.status is roa.Verdict.INCONCLUSIVE, v.message

@@ -14,7 +14,8 @@ import pytest
 
 import roa
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.sos_check import check_certificate, exact_data
+from roa.proof.putinar import Certificate, check_level
+from roa.proof.sos_check import exact_data
 from roa.search.sos_certificate import propose_certificate
 from roa.systems.vanderpol import vanderpol
 
@@ -27,7 +28,7 @@ def test_vanderpol_certified_at_2_30_not_at_2_31():
     assert cert.status is roa.Verdict.CERTIFIED
     meta = cert.validation.meta
     assert meta["method"] == "sos-exact" and meta["min_pivot"] > 0
-    assert len(meta["digest"]) == 64 and meta["certificate"]["Q0"]
+    assert len(meta["digest"]) == 64 and meta["certificate"]["parts"][0]["grams"][0]["Q"]
     above = roa.certify(system, level=2.31, validator=roa.SosValidator())
     assert above.status is roa.Verdict.INCONCLUSIVE
     assert "not positive definite" in above.validation.message
@@ -79,53 +80,64 @@ def test_six_states_certified_at_095_of_the_optimum_in_seconds():
     )
 
 
+def _with(cert, i, Q):
+    """``cert`` with the matrix of its ``i``-th Gram block replaced by ``Q``."""
+    grams = list(cert.grams)
+    k, basis, _ = grams[i]
+    grams[i] = (k, basis, Q)
+    return Certificate(tuple(grams), cert.free)
+
+
 def _vdp_certificate(level: float = 2.3):
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, system.lyapunov)
     data = exact_data(system, V)
     cand = propose_certificate(data, level)
-    res = check_certificate(data, level, cand.eps, cand.basis0, cand.Q0, cand.basis1, cand.Q1)
+    res = check_level(data, level, cand.eps, cand.certificate)
     assert res.ok
     return data, cand, res
 
 
 def test_tampered_certificates_are_refused():
     data, cand, res = _vdp_certificate()
-    Q0, Q1 = res.Q0, res.Q1
-    again = check_certificate(data, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    exact, eps = res.certificate, cand.eps
+    again = check_level(data, 2.3, eps, exact, rounded=True)
     assert again.ok and again.residual == 0  # the exact certificate passes as it is
-    # an indefinite Q0 with the identity still exact: +a on the (d1^2, d2^2) pair and -2a on
-    # (d1 d2, d1 d2) leave every coefficient unchanged (the projection does not move it)
-    i11, i12, i22 = (cand.basis0.index(m) for m in ((2, 0), (1, 1), (0, 2)))
+    # an indefinite block of the SOS part with the identity still exact: +a on the (d1^2, d2^2)
+    # pair and -2a on (d1 d2, d1 d2) leave every coefficient unchanged (nothing is projected)
+    i = next(i for i, (k, b, _) in enumerate(exact.grams) if k == 0 and (1, 1) in b)
+    _, basis0, Q0 = exact.grams[i]
+    i11, i12, i22 = (basis0.index(m) for m in ((2, 0), (1, 1), (0, 2)))
     bad = [row[:] for row in Q0]
     a = abs(Q0[i12][i12]) + 1
     bad[i11][i22] += a
     bad[i22][i11] += a
     bad[i12][i12] -= 2 * a
-    r = check_certificate(data, 2.3, cand.eps, cand.basis0, bad, cand.basis1, Q1, rounded=True)
-    assert not r.ok and r.residual == 0 and "Q0 is not positive definite" in r.reason
+    r = check_level(data, 2.3, eps, _with(exact, i, bad), rounded=True)
+    assert not r.ok and r.residual == 0 and "projected Gram matrix" in r.reason
+    assert "not positive definite" in r.reason
     # an indefinite multiplier
-    bad1 = [row[:] for row in Q1]
-    bad1[1][1] = Fraction(-1, 10**6)
-    r = check_certificate(data, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, bad1, rounded=True)
-    assert not r.ok and "Q1 is not positive definite" in r.reason
+    j = next(j for j, (k, _, _) in enumerate(exact.grams) if k == 1)
+    bad1 = [row[:] for row in exact.grams[j][2]]
+    bad1[-1][-1] = Fraction(-1, 10**6)
+    r = check_level(data, 2.3, eps, _with(exact, j, bad1), rounded=True)
+    assert not r.ok and "level multiplier" in r.reason and "not positive definite" in r.reason
     # an identity off by one coefficient: V' with its d1^2 coefficient -1 made 0 (V' is then not
     # negative definite): a stored certificate is checked as stored, so the identity fails
     Vdot = dict(data.Vdot)
     Vdot[(2, 0)] += 1
     wrong = type(data)(data.n, data.center, data.V, Vdot, data.low)
-    r = check_certificate(wrong, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    r = check_level(wrong, 2.3, eps, exact, rounded=True)
     assert r.residual == 1 and not r.ok and "does not hold exactly as stored" in r.reason
     assert "(2, 0)" in r.reason  # the monomial whose coefficient differs is named
     # a coefficient outside the Gram basis cannot be matched at all
     Vdot = dict(data.Vdot)
     Vdot[(5, 1)] = Fraction(1)
     wrong = type(data)(data.n, data.center, data.V, Vdot, data.low)
-    r = check_certificate(wrong, 2.3, cand.eps, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
+    r = check_level(wrong, 2.3, eps, exact, rounded=True)
     assert not r.ok and "outside the Gram basis" in r.reason
     # eps = 0 proves nothing strict
-    r = check_certificate(data, 2.3, 0, cand.basis0, Q0, cand.basis1, Q1, rounded=True)
-    assert not r.ok
+    assert not check_level(data, 2.3, 0, exact, rounded=True).ok
 
 
 def test_fields_that_cannot_be_recast_are_refused_or_fall_back():
@@ -162,7 +174,8 @@ def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
     cert = roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator())
     assert cert.certified and cert.method == "sos-exact"
     data = json.loads(roa.io.to_json(cert.to_dict()))
-    assert data["method"] == "sos-exact" and data["certificate"]["Q0"]
+    grams = data["certificate"]["parts"][0]["grams"]
+    assert data["method"] == "sos-exact" and grams[0]["Q"]
 
     def no_solver(*a, **k):
         raise AssertionError("the re-check must not solve anything")
@@ -177,12 +190,15 @@ def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
     assert term.quadratic and term.level == 2.30
     raised = {**data, "level": 2.31}
     bad_q = json.loads(json.dumps(data))
-    bad_q["certificate"]["Q1"] = [[f"-{v}" if not v.startswith("-") else v[1:] for v in row]
-                                  for row in bad_q["certificate"]["Q1"]]  # fmt: skip
-    assert bad_q["certificate"]["Q1"], "the certificate has a multiplier"
+    lam = [g for g in bad_q["certificate"]["parts"][0]["grams"] if g["multiplies"] == 1]
+    assert lam, "the certificate has a multiplier"
+    lam[0]["Q"] = [
+        [f"-{v}" if not v.startswith("-") else v[1:] for v in row] for row in lam[0]["Q"]
+    ]
     repaired = json.loads(json.dumps(data))
-    repaired["certificate"]["Q0"][0][0] = "-1"  # one Gram entry edited: the file is what is
-    # proved, nothing is projected back onto the identity, so it is refused
+    # one Gram entry edited: the file is what is proved, nothing is projected back onto the
+    # identity, so it is refused
+    repaired["certificate"]["parts"][0]["grams"][0]["Q"][0][0] = "-1"
     for forged in (raised, bad_q, repaired):
         path = tmp_path / "forged.json"
         path.write_text(json.dumps(forged))
@@ -222,5 +238,5 @@ def test_review_findings_on_the_sos_route():
     for edit in ({"eps": "1e400"}, {"eps": "0"}):
         assert not Certificate.from_dict({**data, **edit}, vanderpol()).reverify().certified
     huge = json.loads(json.dumps(data))
-    huge["certificate"]["Q0"][0][0] = "1" + "0" * 3000
+    huge["certificate"]["parts"][0]["grams"][0]["Q"][0][0] = "1" + "0" * 3000
     assert "at most" in Certificate.from_dict(huge, vanderpol()).reverify().message

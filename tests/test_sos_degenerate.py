@@ -61,8 +61,8 @@ def test_the_multiplier_basis_starts_where_the_identity_allows():
     k, _, L = degrees(data)
     assert k == 2 and L >= k
     cand = propose_certificate(data, 0.4)
-    assert min(sum(m) for m in cand.basis1) == 2
-    assert min(sum(m) for m in cand.basis0) == 2
+    for factor in (0, 1):  # the SOS part and the level's multiplier, over all their blocks
+        assert min(sum(m) for b, _ in cand.certificate.blocks(factor) for m in b) == 2
 
 
 def test_a_rescaled_certificate_is_refused_with_another_scale_or_none():

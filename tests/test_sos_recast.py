@@ -113,18 +113,19 @@ def test_pendulum_certified_at_095_of_its_optimum_and_rechecked():
     assert raised.status is roa.Verdict.INCONCLUSIVE and "refused" in raised.message
     # an indefinite multiplier (the level multiplier's Gram matrix negated) is refused
     bad = json.loads(json.dumps(data))
-    lam = bad["certificate"]["putinar"]["grams"][1]["Q"]
-    bad["certificate"]["putinar"]["grams"][1]["Q"] = [
-        [v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in lam
-    ]
+    lam = next(g for g in bad["certificate"]["parts"][0]["grams"] if g["multiplies"] == 1)
+    lam["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in lam["Q"]]
     r = Certificate.from_dict(bad, system).reverify()
-    assert r.status is roa.Verdict.INCONCLUSIVE and "does not hold exactly as stored" in r.message
+    assert r.status is roa.Verdict.INCONCLUSIVE and "level multiplier" in r.message
+    assert "not positive definite" in r.message
     # Q0 made indefinite with the identity still exact: +a on the (y0^2, y1^2) pair and -2a on
     # (y0 y1, y0 y1) leave every coefficient unchanged (the projection does not move it)
     forged = json.loads(json.dumps(data))
-    g0 = forged["certificate"]["putinar"]["grams"][0]
+    mons = ((2, 0, 0, 0), (1, 1, 0, 0), (0, 2, 0, 0))
+    g0 = next(g for g in forged["certificate"]["parts"][0]["grams"]
+              if g["multiplies"] == 0 and set(mons) <= {tuple(b) for b in g["basis"]})  # fmt: skip
     basis = [tuple(b) for b in g0["basis"]]
-    i11, i12, i22 = (basis.index(m) for m in ((2, 0, 0, 0), (1, 1, 0, 0), (0, 2, 0, 0)))
+    i11, i12, i22 = (basis.index(m) for m in mons)
     Q0 = [[Fraction(v) for v in row] for row in g0["Q"]]
     a = abs(Q0[i12][i12]) + 1
     Q0[i11][i22] += a
@@ -132,7 +133,7 @@ def test_pendulum_certified_at_095_of_its_optimum_and_rechecked():
     Q0[i12][i12] -= 2 * a
     g0["Q"] = [[str(v) for v in row] for row in Q0]
     r = Certificate.from_dict(forged, system).reverify()
-    assert r.status is roa.Verdict.INCONCLUSIVE and "Q0 (after projection)" in r.message
+    assert r.status is roa.Verdict.INCONCLUSIVE and "projected Gram matrix" in r.message
     assert r.validation.meta["residual"] == 0
     # a Taylor order the file cannot justify (even) is refused
     odd = json.loads(json.dumps(data))
@@ -191,8 +192,9 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     it proved, a multiplier of a Taylor band made indefinite, and an identity off by one
     coefficient. (Changing an equality multiplier is no tampering: ``mu h`` vanishes at every
     ``z(x)``, so any ``mu`` whose projected ``Q0`` stays positive definite is a valid proof.)"""
-    from roa.proof.recast import level_scale
-    from roa.proof.sos_putinar import Blocks, check_putinar, recast_preconditions
+    from roa.proof.putinar import Certificate as Putinar
+    from roa.proof.putinar import check_level as check_putinar
+    from roa.proof.recast import level_scale, recast_preconditions
     from roa.search.sos_putinar import propose_putinar
 
     system = roa.load_system("examples/systems/quadrotor2d.py:SYSTEM")
@@ -210,18 +212,20 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     data, why = recast_preconditions(system, V, level, None, level_scale(V, level))
     assert data is not None, why
     cand = propose_putinar(data, level)
-    assert cand.blocks is not None
-    good = check_putinar(data, level, cand.eps, cand.blocks)
-    assert good.ok and good.blocks is not None
-    exact = good.blocks
+    assert cand.certificate is not None
+    good = check_putinar(data, level, cand.eps, cand.certificate)
+    assert good.ok and good.certificate is not None
+    exact = good.certificate
     assert check_putinar(data, level, cand.eps, exact, rounded=True).ok
     assert "only" in check_putinar(data, 1.01 * level, cand.eps, exact, rounded=True).reason
     band = next(j for j, (w, _) in enumerate(data.inequalities) if "squared" in w)
     grams = list(exact.grams)
-    basis, Q = grams[2 + band]
-    grams[2 + band] = (basis, [[-v for v in row] for row in Q])
-    bad = check_putinar(data, level, cand.eps, Blocks(grams, exact.free), rounded=True)
-    assert not bad.ok and "does not hold exactly as stored" in bad.reason  # checked as stored
+    i = next(i for i, (k, _, _) in enumerate(grams) if k == 2 + band)
+    k, basis, Q = grams[i]
+    grams[i] = (k, basis, [[-v for v in row] for row in Q])
+    bad = check_putinar(data, level, cand.eps, Putinar(tuple(grams), exact.free), rounded=True)
+    assert not bad.ok and "not positive definite" in bad.reason  # checked as stored
+    assert data.inequalities[band][0] in bad.reason  # the band's multiplier is named
     # V' off by one coefficient: its y0^2 term made positive (V' > 0 near x_eq along y0, so no
     # certificate can exist); the projection must move Q0 by the mismatch and fails
     y0 = (2,) + (0,) * (data.nv - 1)
@@ -239,7 +243,7 @@ def test_one_field_certificate_is_not_one_for_a_box():
     (tests/test_sos_robust.py) and cannot at 2.30 (below mu = 0.5's V' is indefinite at 0)."""
     import json
 
-    from roa.proof.sos_check import recheck_stored
+    from roa.proof.sos_stored import recheck as recheck_stored
     from roa.systems.vanderpol import vanderpol
 
     cert = roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator())

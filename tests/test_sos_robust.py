@@ -19,7 +19,7 @@ from scipy.optimize import minimize
 import roa
 from roa.certification import Certificate
 from roa.lyapunov.defaults import as_lyapunov
-from roa.proof.sos_check import recheck_stored
+from roa.proof.sos_stored import recheck as recheck_stored
 from roa.status import Verdict
 from roa.system import System
 
@@ -105,26 +105,29 @@ def test_stored_box_certificate_rechecked_and_tampering_refused(box_cert, worst)
         assert r.status is Verdict.INCONCLUSIVE and words in r.message, r.message
 
     refused({**data, "level": 1.01 * worst}, "refused")  # raised above the worst case
-    grams = data["certificate"]["putinar"]["grams"]
-    assert len(grams) == 3  # sigma0, lambda, the box multiplier (no other constraint)
+    grams = data["certificate"]["parts"][0]["grams"]
+    # sigma0, lambda, the box multiplier (no other constraint), split by sign symmetry
+    assert sorted({g["multiplies"] for g in grams}) == [0, 1, 2]
     # the multiplier of the box constraint negated
     bad = json.loads(json.dumps(data))
-    g = bad["certificate"]["putinar"]["grams"][2]
+    g = next(g for g in bad["certificate"]["parts"][0]["grams"] if g["multiplies"] == 2)
     g["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in g["Q"]]
-    refused(bad, "does not hold exactly as stored")  # checked as stored, nothing projected
+    refused(bad, "not positive definite")  # checked as stored, nothing projected
     # Q0 indefinite with every coefficient of the identity unchanged: +a on the (y0^2, y1^2)
     # pair, -2a on (y0 y1, y0 y1)
     forged = json.loads(json.dumps(data))
-    g0 = forged["certificate"]["putinar"]["grams"][0]
+    mons = ((2, 0, 0), (1, 1, 0), (0, 2, 0))
+    g0 = next(g for g in forged["certificate"]["parts"][0]["grams"]
+              if g["multiplies"] == 0 and set(mons) <= {tuple(b) for b in g["basis"]})  # fmt: skip
     basis = [tuple(b) for b in g0["basis"]]
-    i11, i12, i22 = (basis.index(m) for m in ((2, 0, 0), (1, 1, 0), (0, 2, 0)))
+    i11, i12, i22 = (basis.index(m) for m in mons)
     Q0 = [[Fraction(v) for v in row] for row in g0["Q"]]
     a = abs(Q0[i12][i12]) + 1
     Q0[i11][i22] += a
     Q0[i22][i11] += a
     Q0[i12][i12] -= 2 * a
     g0["Q"] = [[str(v) for v in row] for row in Q0]
-    refused(forged, "Q0 (after projection)")
+    refused(forged, "projected Gram matrix")
     # a narrower box written in the file: the system's box decides, the file's is refused
     narrow = json.loads(json.dumps(data))
     narrow["certificate"]["parameters"] = {"mu": ["9/10", "11/10"]}
@@ -197,8 +200,8 @@ def test_two_parameter_polynomial_box():
     ok = roa.certify(s, V, level=0.95 * closed, validator=roa.SosValidator(fallback=False))
     assert ok.status is Verdict.CERTIFIED and ok.method == "sos-exact", ok.message
     assert "a in [0.5, 1.5], b in [0.5, 1.0]" in ok.message
-    grams = ok.validation.meta["certificate"]["putinar"]["grams"]
-    assert len(grams) == 4  # sigma0, lambda, one multiplier per parameter
+    grams = ok.validation.meta["certificate"]["parts"][0]["grams"]
+    assert sorted({g["multiplies"] for g in grams}) == [0, 1, 2, 3]  # one multiplier per parameter
     data = json.loads(roa.io.to_json(ok.to_dict()))
     assert Certificate.from_dict(data, s).reverify().certified
     above = roa.SosValidator(fallback=False).check(s, V, 1.01 * closed)
@@ -263,7 +266,8 @@ def test_worst_case_inside_the_box_with_three_parameters():
     sos = roa.SosValidator(fallback=False)
     ok = sos.check(s, V, 0.99 * worst)
     assert ok.status is Verdict.CERTIFIED, ok.message
-    assert len(ok.meta["certificate"]["putinar"]["grams"]) == 5  # sigma0, lambda, 3 boxes
+    factors = {g["multiplies"] for g in ok.meta["certificate"]["parts"][0]["grams"]}
+    assert sorted(factors) == [0, 1, 2, 3, 4]  # sigma0, lambda, 3 boxes
     assert sos.check(s, V, 1.01 * worst).status is Verdict.INCONCLUSIVE
 
 

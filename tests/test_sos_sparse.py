@@ -18,8 +18,9 @@ import pytest
 
 import roa
 from roa.certification import Certificate
+from roa.proof.putinar import Certificate as PutinarCertificate
+from roa.proof.putinar import check_level
 from roa.proof.sos_check import exact_data
-from roa.proof.sos_sum import check_sum
 from roa.search.sos_certificate import default_eps
 from roa.search.sos_sparse import choose_route, cliques, interaction_graph, plan, propose_sparse
 
@@ -96,10 +97,13 @@ def test_sparse_and_dense_routes_both_certify_099_of_the_optimum(ring):
         assert cert.certified, (route, cert.message)
         meta = cert.validation.meta
         if route == "sparse":
-            assert meta["route"] == "sparse" and "sum" in meta["certificate"]
+            sigma = [g for g in meta["certificate"]["parts"][0]["grams"] if g["multiplies"] == 0]
+            assert meta["route"] == "sparse" and len(sigma) > 1
             assert meta["blocks"]["cliques"] == [3, 3, 3, 3] and meta["peak_mib"] > 0
         else:
-            assert "basis0" in meta["certificate"]
+            grams = meta["certificate"]["parts"][0]["grams"]
+            # dense: one part, the factors' blocks split by the sign symmetry x -> -x only
+            assert sorted({g["multiplies"] for g in grams}) == [0, 1] and len(grams) <= 4
         for level in (1.001 * opt, 1.0):
             assert not roa.certify(system, level=level, validator=val).certified
 
@@ -159,41 +163,47 @@ def _sparse_certificate(data, level):
     p, _ = plan(data)
     eps = default_eps(data)
     cand = propose_sparse(data, level, p, eps=eps)
-    res = check_sum(data, level, eps, list(zip(p.sigma, cand.sigma, strict=True)),
-                    list(zip(p.lam, cand.lam, strict=True)))  # fmt: skip
+    res = check_level(data, level, eps, cand.certificate)
     assert res.ok, res.reason
     return p, eps, res
+
+
+def check_sum(data, level, eps, S, L, rounded=False):
+    """The sparse certificate (``S`` sigma's blocks, ``L`` the level multiplier's) by the one
+    check."""
+    grams = tuple((0, b, Q) for b, Q in S) + tuple((1, b, Q) for b, Q in L)
+    return check_level(data, level, eps, PutinarCertificate(grams), rounded=rounded)
 
 
 def test_tampered_sparse_certificates_are_refused(ring):
     system, data, opt = ring
     level = 0.98 * opt
     p, eps, res = _sparse_certificate(data, level)
-    S = list(zip(p.sigma, res.sigma, strict=True))
-    L = list(zip(p.lam, res.lam, strict=True))
+    S, L = res.certificate.blocks(0), res.certificate.blocks(1)
     again = check_sum(data, level, eps, S, L, rounded=True)
     assert again.ok and again.residual == 0  # the exact certificate passes as it is
     # an indefinite clique block with every coefficient unchanged: +a on the (d_i^2, d_j^2)
     # pair and -2a on (d_i d_j, d_i d_j), which the projection does not move
-    basis, Q = S[0]
     i, j = p.cliques[0][:2]
     unit = [tuple(int(k == v) for k in range(N)) for v in (i, j)]
     two = [tuple(2 * e for e in u) for u in unit]
     mixed = tuple(a + b for a, b in zip(*unit, strict=True))
+    b0 = next(b for b, (basis, _) in enumerate(S) if {*two, mixed} <= set(basis))
+    basis, Q = S[b0]
     ii, jj, m = (basis.index(two[0]), basis.index(two[1]), basis.index(mixed))
     bad = [row[:] for row in Q]
     a = abs(Q[m][m]) + 1
     bad[ii][jj] += a
     bad[jj][ii] += a
     bad[m][m] -= 2 * a
-    r = check_sum(data, level, eps, [(basis, bad)] + S[1:], L, rounded=True)
-    assert not r.ok and r.residual == 0 and "block 0 of sigma is not positive definite" in r.reason
+    r = check_sum(data, level, eps, S[:b0] + [(basis, bad)] + S[b0 + 1 :], L, rounded=True)
+    assert not r.ok and r.residual == 0 and f"sigma block {b0} is not positive definite" in r.reason
     # an indefinite multiplier block
     lb, LQ = L[2]
     badL = [row[:] for row in LQ]
     badL[0][0] = Fraction(-1, 10**6)
     r = check_sum(data, level, eps, S, L[:2] + [(lb, badL)] + L[3:], rounded=True)
-    assert not r.ok and "multiplier's Gram block 2 is not positive definite" in r.reason
+    assert not r.ok and "multiplier's block 2 is not positive definite" in r.reason
     # an identity off by one coefficient: V' with its d_0^2 coefficient -2 raised by 2 (V' no
     # longer negative definite along d_0): the projection moves by 2 and no certificate remains
     Vdot = dict(data.Vdot)
@@ -222,7 +232,7 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
     cert = roa.certify(system, level=0.99 * opt, validator=roa.SosValidator(route="sparse"))
     assert cert.certified
     data = json.loads(roa.io.to_json(cert.to_dict()))
-    assert "sum" in data["certificate"] and data["certificate"]["sum"]["cliques"]
+    assert data["certificate"]["parts"][0]["cliques"]
 
     def no_solver(*a, **k):
         raise AssertionError("the re-check must not solve anything")
@@ -233,15 +243,16 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
     again = Certificate.from_dict(data, system).reverify()
     assert again.certified and "sparse SOS certificate re-checked exactly" in again.message
     negated = json.loads(json.dumps(data))
-    for block in negated["certificate"]["sum"]["sigma"][:1]:
+    for block in negated["certificate"]["parts"][0]["grams"][:1]:
         block["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row]
                       for row in block["Q"]]  # fmt: skip
     shifted = json.loads(json.dumps(data))
-    basis = shifted["certificate"]["sum"]["sigma"][0]["basis"]
+    basis = shifted["certificate"]["parts"][0]["grams"][0]["basis"]
     basis[-1] = [e + (k == 0) for k, e in enumerate(basis[-1])]  # one monomial of degree 3
     raised = {**data, "level": 1.0}
     malformed = json.loads(json.dumps(data))
-    malformed["certificate"]["sum"]["lambda"][0]["Q"] = [["1/0"]]
+    lam = [g for g in malformed["certificate"]["parts"][0]["grams"] if g["multiplies"] == 1]
+    lam[0]["Q"] = [["1/0"]]
     for forged in (negated, shifted, raised, malformed):
         v = Certificate.from_dict(forged, system).reverify()
         assert v.status is roa.Verdict.INCONCLUSIVE, v.message
@@ -262,13 +273,13 @@ def test_decoupled_rings_get_one_sparse_certificate_per_block(ring):
                         tuple(f"x{i}" for i in range(2 * N)), lyapunov=np.eye(2 * N))  # fmt: skip
     cert = roa.certify(system, level=0.99 * opt, validator=roa.SosValidator(route="sparse"))
     assert cert.certified, cert.message
-    stored = cert.validation.meta["certificate"]["blocks"]
+    stored = cert.validation.meta["certificate"]["parts"]
     assert [b["variables"] for b in stored] == [list(range(N)), list(range(N, 2 * N))]
-    assert all("sum" in b for b in stored)
+    assert all(sum(g["multiplies"] == 0 for g in b["grams"]) > 1 for b in stored)  # cliques
     data = json.loads(roa.io.to_json(cert.to_dict()))
     assert Certificate.from_dict(data, system).reverify().certified
     bad = json.loads(json.dumps(data))
-    block = bad["certificate"]["blocks"][1]["sum"]["sigma"][0]
+    block = bad["certificate"]["parts"][1]["grams"][0]
     block["Q"] = [[v[1:] if v.startswith("-") else f"-{v}" for v in row] for row in block["Q"]]
     again = Certificate.from_dict(bad, system).reverify()
     assert again.status is roa.Verdict.INCONCLUSIVE and "block [6," in again.message

@@ -45,7 +45,7 @@ def test_a_study_system_loads_by_name_with_parameters(registry):
     with pytest.raises(RoaInputError, match="unexpected keyword"):
         load_system("decay:mu=2")
     assert builtin_names() == {**dict.fromkeys(BUILTIN), "decay": "toy"}
-    assert describe_builtins() == "vanderpol; study toy: decay"
+    assert describe_builtins() == "vanderpol, cubic-map; study toy: decay"
 
 
 def test_the_library_built_ins_come_first(registry):
@@ -64,5 +64,5 @@ def test_a_name_declared_by_two_studies_is_an_error_when_loaded(registry):
 
 def test_without_studies_only_the_library_built_ins_remain(registry):
     assert builtin_names() == dict.fromkeys(BUILTIN)
-    with pytest.raises(RoaInputError, match=r"not a built-in system \(vanderpol\)"):
+    with pytest.raises(RoaInputError, match=r"not a built-in system \(vanderpol, cubic-map\)"):
         load_system("ipc")

@@ -20,14 +20,14 @@ from roa.systems.vanderpol import vanderpol
 @pytest.fixture
 def sdp_clock(monkeypatch):
     clock = [0.0]
-    solve = VS.Identity.solve
+    solve = VS.Program.solve
 
     def timed_solve(self, *args, **kw):
         clock[0] += 10.0
         return solve(self, *args, **kw)
 
     monkeypatch.setattr(VS, "_now", lambda: clock[0])
-    monkeypatch.setattr(VS.Identity, "solve", timed_solve)
+    monkeypatch.setattr(VS.Program, "solve", timed_solve)
     return clock
 
 
@@ -79,7 +79,7 @@ def test_a_budget_spent_while_building_gives_the_solver_a_positive_limit(monkeyp
         return False, None, None
 
     monkeypatch.setattr(VS, "_now", lambda: clock[0])
-    monkeypatch.setattr(VS.Identity, "solve", spy)
+    monkeypatch.setattr(VS.Program, "solve", spy)
     real_decrease = VS._Problem.decrease
 
     def slow_decrease(self, *args, **kw):  # building the gamma step passes the budget

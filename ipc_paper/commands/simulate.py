@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from roa import numparse
 from roa.commands.common import floats
 from roa.errors import RoaInputError
 from roa.io import to_json
@@ -24,22 +25,27 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="F*(t): 'sin:A,W', or an expression in t, e.g. '2*sin(t/2)'",
     )
-    p.add_argument("--t-final", type=float, default=60.0, help="final time (default 60)")
-    p.add_argument("--delta", type=float, default=None, help="mass ratio M/m > 0 (default 1.0)")
+    p.add_argument("--t-final", type=numparse.arg(), default=60.0, help="final time (default 60)")
+    p.add_argument(
+        "--delta", type=numparse.arg(), default=None, help="mass ratio M/m > 0 (default 1.0)"
+    )
     p.add_argument(
         "--poles",
         default=None,
         help="4 closed-loop poles, e.g. --poles=-1,-1,-2,-2 (default -1,-1,-1,-1; complex as -1+1j)",
     )
     p.add_argument("--coefficients", default=None, help="h0,h1,h2,h3 of p(s) instead of --poles")
-    p.add_argument("--saturation", type=float, default=None, help="actuator limit |u| <= U")
-    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+    p.add_argument(
+        "--saturation", type=numparse.arg(), default=None, help="actuator limit |u| <= U"
+    )
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SECONDS",
                    help="wall-clock budget of the run (> 0); then it ends undecided")  # fmt: skip
     p.add_argument(
         "--coordinates",
         choices=("physical", "flat"),
         default="physical",
-        help="integrate the physical model or the closed loop (3.8) in flat coordinates",
+        help="integrate the physical model or the closed loop (3.8) in flat coordinates "
+        "(default physical)",
     )
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")

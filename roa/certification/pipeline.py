@@ -160,6 +160,17 @@ def certify(
     elif isinstance(V, VsIteration | CuttingPlanes):
         source, V = V, V.seed
     _check_system(system)
+    if method == "sos" and level is None and system.time != "continuous":
+        raise RoaInputError(
+            f"system {system.name!r} is discrete-time: method='sos' (the SOS level search) is "
+            "for continuous-time systems; use method='interval' (the sampled search), or "
+            "validator='sos' to prove a level of a polynomial map with an exact SOS certificate"
+        )
+    if source is not None and system.time != "continuous":
+        raise RoaInputError(
+            f"system {system.name!r} is discrete-time: the search of V (degree=, VsIteration, "
+            "CuttingPlanes) is for continuous-time systems; give V (default: A'PA - P = -I)"
+        )
     if source is not None:
         seed = quadratic_seed(system, V, "the search of V starts from a quadratic seed; V")
         return _from_source(system, seed, source, check, sampled, interval, check_above,
@@ -296,7 +307,14 @@ def run(
         return float(choose(o)) if choose is not None else factor * o
 
     value = prop.level if given or choose is None else level_for(opt)
-    v = _validate(system, V, validator, value, trace, "validate")
+    from roa.certification.backoff import exact_first
+
+    first = None if given else exact_first(system, V, validator, value, trace)
+    backed_off = first is not None and first[1] != value
+    if first is not None:  # the exact SOS route and its back-off decided (before any B&B)
+        v, value = first
+    else:
+        v = _validate(system, V, validator, value, trace, "validate")
     notes: list[str] = []
     proof: tuple[Any, Any, float, Any] | None = None  # a confirmed witness below the optimum
     for _ in range(0 if given and not fresh else retries):
@@ -357,14 +375,19 @@ def run(
         message = (f"{message}; the proposal is the worst of the parameter box's sample points, "
                    "not a bound between them: " + "; ".join(backoff))  # fmt: skip
     if skipped and not given:
-        message = (f"SOS applies to quadratic V only ({type(V).__name__}): level from the "
-                   f"sampled search, checked by the validator. {message}")  # fmt: skip
+        why = (
+            "to continuous-time systems only (this one is a map)"
+            if system.time == "discrete"
+            else f"to quadratic V only ({type(V).__name__})"
+        )
+        message = (f"SOS applies {why}: level from the sampled search, checked by the "
+                   f"validator. {message}")  # fmt: skip
     if local is not None:  # a given level: the validator's verdict, and why
         message = f"{local[2]}. {message}"
     if given and not fresh:
         return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                     level_source="given", message=message, validation=v, above=above, candidate=value)  # fmt: skip
-    source = "backoff" if backoff else "witness" if notes else prop.source
+    source = "backoff" if backoff or backed_off else "witness" if notes else prop.source
     return done(status=v.status, level=value, method=v.meta.get("method", validator.name),
                 level_source=source,
                 message=message, candidate=opt,

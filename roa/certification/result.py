@@ -48,9 +48,11 @@ class Certificate:
         sample point of the box: no level > 0; ``message`` names the parameter values).
     level_source : str or None
         Where the level came from: ``"given"``, ``"sos"``, ``"sampled"``, ``"candidate"``,
-        ``"witness"`` (chosen again below a confirmed refutation witness) or ``"backoff"`` (a
-        system with uncertain parameters: lowered after an inconclusive validation, since a level
-        proposed at the box's sample points is no bound between them).
+        ``"witness"`` (chosen again below a confirmed refutation witness) or ``"backoff"``
+        (lowered after the exact SOS check failed at the proposal, every try in the trace and in
+        ``meta["backoff"]``, :mod:`roa.certification.backoff`; or, for a system with uncertain
+        parameters, after an inconclusive validation, since a level proposed at the box's sample
+        points is no bound between them).
     candidate : float or None
         The level before the safety factor (SOS optimum or sampled optimum).
     above : Validation or None
@@ -209,7 +211,7 @@ class Certificate:
     def reverify(self, interval: IntervalOptions | None = None) -> Certificate:
         """This claim proved again on its system: an exact SOS certificate (``method``
         ``"sos-exact"``) by re-checking its stored Gram matrices in exact arithmetic, without any
-        solver (:func:`roa.proof.sos_blocks.recheck`, block by block for independent blocks);
+        solver (:func:`roa.proof.sos_stored.recheck`, block by block for independent blocks);
         any other by interval validation
         (cached by content, :func:`roa.proof.reverify.reverify`). ``certified`` only if proved
         here."""
@@ -218,7 +220,7 @@ class Certificate:
         if self.system is None or self.V is None or self.level is None:
             raise RoaInputError("reverify: the certificate has no system, V or level")
         if self.method == SOS_EXACT and self.validation is not None:
-            from roa.proof.sos_blocks import recheck
+            from roa.proof.sos_stored import recheck
 
             with step(f"re-checking the SOS certificate of {self.V.name} <= {self.level:.6g}"):
                 v = recheck(self.system, self.V, self.level, self.validation.meta)
@@ -252,11 +254,13 @@ class Certificate:
                            system=self.system, V=self.V)  # fmt: skip
 
     def plot(self, ax: Any = None, *, axes: tuple[int, int] = (0, 1), n: int = 200) -> Any:
-        """The level set ``{V <= level}`` on the slice of two states through the equilibrium."""
+        """The level set ``{V <= level}`` on the slice of two states through the equilibrium; the
+        legend below the axes (never on the curve), one unit as long on both axes when they share
+        their unit, and a new figure laid out so that a plain ``savefig`` keeps it all."""
         import matplotlib.pyplot as plt
 
         if ax is None:
-            _, ax = plt.subplots(figsize=(5, 4.5))
+            _, ax = plt.subplots(figsize=(5, 5), layout="constrained")
         if self.level is None or self.V is None or self.system is None:
             ax.set_title(f"no level ({self.status.value})")
             return ax
@@ -272,10 +276,14 @@ class Certificate:
             ax.plot(c[i] + pts[0], c[j] + pts[1], style, label=label)
         else:
             _contour(ax, self.V, self.level, (i, j), n, style, label)
+        from roa.plotting.basin import shared_units, unit_text
+
         names, units = self.system.state_names, self.system.state_units or ("-",) * self.system.n
-        ax.set_xlabel(f"{names[i]} [{units[i]}]")
-        ax.set_ylabel(f"{names[j]} [{units[j]}]")
-        ax.legend(loc="best")
+        ax.set_xlabel(f"{names[i]} [{unit_text(units[i])}]")
+        ax.set_ylabel(f"{names[j]} [{unit_text(units[j])}]")
+        if shared_units(self.system, i, j):
+            ax.set_aspect("equal", adjustable="datalim")
+        ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.14), frameon=False, fontsize=9)
         return ax
 
 

@@ -37,8 +37,16 @@ from roa.options import (
 )
 from roa.progress import step
 from roa.proof.preconditions import Preconditions, Route, check_preconditions
+from roa.proof.putinar import check_level
+from roa.proof.recast import level_scale, recast_preconditions
+from roa.proof.recast_box import box_json
+from roa.proof.reductions import IndependentBlocks, Rescale
+from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
+from roa.search.sos_certificate import default_eps, propose_certificate
+from roa.search.sos_putinar import propose_putinar
+from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
 from roa.status import LevelStatus, SosStatus, Verdict
 from roa.system import System
 
@@ -91,8 +99,10 @@ SOS_ROUTE = Route("sos-exact", parameters=True)
 class IntervalValidator:
     """Interval branch and bound with outward rounding (:func:`roa.proof.validate.validate_level`).
 
-    Accepts every autonomous system with an equilibrium and every V; ``bounding_box`` (any
-    V) is a box holding the level set, proved by ``V > level`` on its faces. For a system with
+    Accepts every autonomous system with an equilibrium and every V, continuous-time (``V' < 0``)
+    or discrete-time (``V(F(x)) - V(x) < 0``, the whole sublevel set then proved invariant);
+    ``bounding_box`` (any V) is a box holding the level set, proved by ``V > level`` on its
+    faces (a map needs the whole sublevel set: the ``invariant`` precondition). For a system with
     uncertain parameters the level is proved for every parameter of the box
     (:func:`roa.proof.robust.validate_robust`).
     """
@@ -112,25 +122,16 @@ class IntervalValidator:
             from roa.proof.robust import validate_robust
             from roa.search.robust_witness import sampled_witness
 
-            with step(f"robust interval validation of level {level:.6g}"):
+            with step(f"robust interval validation of level {level:.6g}", own_budget=True):
                 return validate_robust(system, V, level, witness_search=sampled_witness,
                                        max_boxes=self.options.max_boxes,
                                        batch=self.options.batch,
                                        bounding_box=self.bounding_box,
                                        time_limit=self.options.seconds())  # fmt: skip
-        with step(f"interval validation of level {level:.6g}"):
+        with step(f"interval validation of level {level:.6g}", own_budget=True):
             return validate_level(system, V, level, max_boxes=self.options.max_boxes,
                                   batch=self.options.batch, bounding_box=self.bounding_box,
                                   time_limit=self.options.seconds())  # fmt: skip
-
-
-def _sparse_refusal(cand: Any, res: Any) -> str | None:
-    """Why a sparse SOS candidate (:meth:`SosValidator._sparse`) certifies nothing, or None."""
-    if res is None:
-        return f"sparse SOS solver failed ({cand.solver_status})"
-    if not res.ok:
-        return f"sparse SOS check failed: {res.reason}"
-    return None
 
 
 @dataclass(frozen=True)
@@ -151,7 +152,7 @@ class SosValidator:
 
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof.recast`) and proved by a constrained certificate
-    (:mod:`roa.proof.sos_putinar`, proposed by :mod:`roa.search.sos_putinar`); a field that
+    (:func:`roa.proof.putinar.check_level`, proposed by :mod:`roa.search.sos_putinar`); a field that
     cannot be recast (the term is named), or one with a domain, is decided by the interval branch
     and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
     inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
@@ -162,8 +163,17 @@ class SosValidator:
     memory budget (``route="auto"``; ``"sparse"`` forces it) gets the correlative-sparsity
     program instead (:mod:`roa.search.sos_sparse`: one Gram block per maximal clique of a chordal
     extension of the variables' interaction graph), proved by the same exact identity over the sum
-    of its blocks (:mod:`roa.proof.sos_sum`); its ``meta`` reports the cliques' and blocks' sizes,
-    the solver's and the check's seconds and the process's peak memory (``peak_mib``).
+    of its blocks (:func:`roa.proof.putinar.check_level`); its ``meta`` reports the cliques' and blocks' sizes,
+    the solver's and the check's seconds and the process's peak memory (``peak_mib``). A dense
+    coupled system with neither gets the sign-symmetry blocks and, for those too large for the
+    interior point, scaled diagonally dominant blocks (``route="sdsos"``,
+    :func:`roa.search.sos_sparse.sdsos_plan`), proved by exact scaled diagonal dominance.
+
+    When the exact check fails at a proposed level (not one the caller gave), up to ``backoff``
+    lower levels are tried on this route before any branch and bound
+    (:mod:`roa.certification.backoff`; each try in the trace and in ``meta["backoff"]``).
+    ``solver_options`` may name the solver (``"solver"``: ``"clarabel"``, ``"scs"`` or
+    ``"auto"``) and its tolerances (:func:`roa.search.sdp.settings`).
 
     Examples
     --------
@@ -180,13 +190,16 @@ class SosValidator:
     fallback: bool = True  # a field that cannot be recast goes to the branch and bound
     taylor: int | None = None  # order of the sin bounds of a recast (default from the level)
     refutes: bool = False  # the pipeline refutes above with the branch and bound
-    route: str = "auto"  # "dense", "sparse" (chordal cliques) or "auto" (by the memory budget)
+    route: str = "auto"  # "dense", "sparse" (cliques), "sdsos" or "auto" (by the memory budget)
+    backoff: int = 5  # lower levels tried when the exact check fails (roa.certification.backoff)
 
     def __post_init__(self) -> None:
-        from roa.search.sos_sparse import ROUTES
-
         if self.route not in ROUTES:
             raise RoaInputError(f"SosValidator route must be one of {ROUTES}, got {self.route!r}")
+        if isinstance(self.backoff, bool) or not isinstance(self.backoff, int) or not (
+                0 <= self.backoff <= 20):  # fmt: skip
+            raise RoaInputError(f"SosValidator backoff must be an integer in [0, 20], got "
+                                f"{self.backoff!r}")  # fmt: skip
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
         if getattr(V, "terms", None) is None or system.equilibrium is None:
@@ -206,8 +219,11 @@ class SosValidator:
             try:
                 exact_data(system, V)
                 return None
-            except NotPolynomial:
-                pass
+            except NotPolynomial as exc:
+                if system.time == "discrete":
+                    return f"{exc} (a map is checked as a polynomial, never recast)"
+        elif system.time == "discrete":
+            return "a map with uncertain parameters is not checked by SOS (no recast for maps)"
         try:
             recast_exact(system, V, taylor=1)
             return None
@@ -265,161 +281,99 @@ class SosValidator:
             first = self._prove_data(data, V, level, out)
         if first.status is Verdict.CERTIFIED:
             return first
-        from roa.proof.recast import level_scale
-        from roa.proof.sos_check import scale_data
-
-        scale = level_scale(V, level)
-        if all(r == 1 for r in scale):
+        rescale = Rescale(level_scale(V, level))
+        if not rescale.accepts(data):
             return first
+        (scaled,), scale = rescale.apply(data)
         with step(f"SOS exact validation of level {level:.6g}, variables rescaled"):
-            again = self._prove_data(scale_data(data, scale), V, level, out)
+            again = self._prove_data(scaled, V, level, out)
         if again.status is not Verdict.CERTIFIED:
             return first
-        cert = {**again.meta["certificate"], "scale": [str(r) for r in scale]}
+        cert = rescale.invert(again.meta["certificate"]["parts"], scale)
         return dataclasses.replace(again, meta={**again.meta, "certificate": cert},
                                    message=f"{again.message} (in d = diag(scale) y, scale "
                                    f"{[str(r) for r in scale]}; unscaled: {first.message})")  # fmt: skip
 
     def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The dense, block or sparse certificate of the exact data ``data`` (in ``d`` or in
-        rescaled variables)."""
-        from roa.proof.sos_blocks import blocks, restrict
-        from roa.proof.sos_check import check_certificate
-        from roa.search.sos_certificate import default_eps, propose_certificate
-        from roa.search.sos_sparse import choose_route
+        """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables): one
+        part per independent block of variables (:func:`roa.proof.sos_blocks.blocks`), each
+        proposed by the dense or the sparse program (:func:`roa.search.sos_sparse.choose_route`)
+        and proved by :func:`roa.proof.putinar.check_level`."""
+        import resource
 
-        parts = blocks(data)
+        split = IndependentBlocks()
+        subs, parts = split.apply(data)
         whole = len(parts) == 1
-        if whole:
-            route, plan, why = choose_route(data, self.multiplier_degree, self.route)
-            if route == "sparse":
-                return self._check_sparse(data, level, plan, why, out)
-            if route == "too_large":
-                return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built: {why}",
-                           route=route)  # fmt: skip
-        certs: list[dict[str, Any]] = []
+        stored: list[dict[str, Any]] = []
         statuses: list[str] = []
         margins: list[float | None] = []
         sizes: list[int] = []
-        sdp_seconds = 0.0
         figures: dict[str, Any] = {}
-        for block in parts:
-            sub = data if whole else restrict(data, block)
+        sdp_seconds = 0.0
+        res: Any = None
+        plan: Any = None
+        for block, sub in zip(parts, subs, strict=True):
+            where = "" if whole else f" (block {list(block)})"
+            route, plan, why = choose_route(sub, self.multiplier_degree, self.route,
+                                            self.solver_options)  # fmt: skip
+            if route == "too_large":
+                return out(Verdict.INCONCLUSIVE, f"SOS program too large, not built{where}: {why}",
+                           route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
-            route_b, plan_b, why_b = ("dense", None, "") if whole else choose_route(
-                sub, self.multiplier_degree, self.route)  # fmt: skip
-            if route_b == "sparse" and plan_b is not None:
-                cand_s, res_s, fig = self._sparse(sub, level, plan_b, why_b)
-                sdp_seconds += cand_s.seconds
-                statuses.append(cand_s.solver_status)
-                margins.append(cand_s.margin)
-                sizes.append(plan_b.largest)
-                figures = {"solver_status": statuses, "margin": margins,
-                           "sdp_seconds": round(sdp_seconds, 3), "gram_sizes": sizes}  # fmt: skip
-                refused = _sparse_refusal(cand_s, res_s)
-                if refused is not None:
-                    return out(Verdict.INCONCLUSIVE, f"{refused} (block {list(block)})",
-                               **figures)  # fmt: skip
-                certs.append({"variables": list(block), "sum": fig.pop("certificate"),
-                              "residual": res_s.residual, "min_pivot": res_s.min_pivot,
-                              **res_s.meta})  # fmt: skip
-                res = res_s
-                continue
-            cand = propose_certificate(sub, level, eps=eps,
-                                       multiplier_degree=self.multiplier_degree,
-                                       solver_options=self.solver_options)  # fmt: skip
+            if plan is not None:  # the clique or the SDSOS pattern
+                cand = propose_sparse(sub, level, plan, eps=eps,
+                                      solver_options=self.solver_options)  # fmt: skip
+                figures.update(route=route, why_sparse=why, blocks=plan.sizes, **cand.sizes)
+                sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
+            else:
+                cand = propose_certificate(sub, level, eps=eps,
+                                           multiplier_degree=self.multiplier_degree,
+                                           solver_options=self.solver_options)  # fmt: skip
+                sizes.append(max(cand.sizes["gram_sizes"]))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
-            sizes.append(len(cand.basis0))
             sdp_seconds += cand.seconds
-            figures = {
-                "solver_status": statuses[0] if whole else statuses,
-                "margin": margins[0] if whole else margins,
-                "sdp_seconds": round(sdp_seconds, 3),
-                "gram_sizes": sizes,
-            }
-            where = "" if whole else f" (block {list(block)})"
-            if cand.Q0 is None:
+            figures.update(solver_status=statuses[0] if whole else statuses,
+                           margin=margins[0] if whole else margins,
+                           sdp_seconds=round(sdp_seconds, 3), gram_sizes=sizes)  # fmt: skip
+            if cand.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS solver failed{where} "
                            f"({cand.solver_status})", **figures)  # fmt: skip
-            res = check_certificate(sub, level, eps, cand.basis0, cand.Q0, cand.basis1,
-                                    cand.Q1)  # fmt: skip
-            if not res.ok:
+            t0 = time.perf_counter()
+            res = check_level(sub, level, eps, cand.certificate)
+            if plan is not None:
+                figures.update(check_seconds=round(time.perf_counter() - t0, 3),
+                               peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+                                              / 1024))  # fmt: skip
+            if not res.ok or res.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed{where}: {res.reason}",
                            residual=res.residual, min_pivot=res.min_pivot, **figures)  # fmt: skip
-            assert res.Q0 is not None and res.Q1 is not None
-            certs.append({"variables": list(block),
-                          "basis0": [list(b) for b in cand.basis0],
-                          "basis1": [list(b) for b in cand.basis1],
-                          "Q0": [[str(v) for v in row] for row in res.Q0],
-                          "Q1": [[str(v) for v in row] for row in res.Q1],
-                          "residual": res.residual, "min_pivot": res.min_pivot,
-                          **res.meta})  # fmt: skip
-        if whole:  # one certificate, stored as before (meta: eps, digest, k, residual, ...)
-            one = certs[0]
-            stats = {key: one.pop(key) for key in ("residual", "min_pivot", "eps", "digest",
-                                                   "k")}  # fmt: skip
-            one.pop("variables")
-            return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {res.reason}",
-                       certificate=one, M=np.eye(V.n).tolist(), **figures,
-                       **stats)  # fmt: skip
+            extra = {"cliques": [list(c) for c in plan.cliques]} if route == "sparse" else {}
+            if route == "sdsos":
+                extra = {"sdsos": plan.sizes}
+            stored.append(part_json(list(block), res.certificate, None if whole else eps,
+                                    **extra))  # fmt: skip
+        if whole:  # eps, digest, k, residual, min_pivot in the meta (eps read by a re-check)
+            what = "SOS certificate"
+            if plan is not None and plan.kind == "sdsos":
+                what = (f"SDSOS certificate (sign blocks {[len(b) for b in plan.sigma]}, scaled "
+                        f"diagonally dominant {plan.sizes['sdd_blocks']})")  # fmt: skip
+            elif plan is not None:
+                what = (f"sparse SOS certificate ({len(plan.cliques)} cliques of sizes <= "
+                        f"{max(map(len, plan.cliques))})")  # fmt: skip
+            return out(Verdict.CERTIFIED, f"{what} checked exactly: {res.reason}",
+                       certificate={"parts": stored}, M=np.eye(V.n).tolist(), **figures,
+                       residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip
         # the whole of {V <= level} is proved (not one component): any frame bounds it
         reason = (f"{len(parts)} independent blocks of variables (sizes "
                   f"{[len(b) for b in parts]}), each: {res.reason}")  # fmt: skip
         return out(Verdict.CERTIFIED, f"SOS certificate checked exactly: {reason}",
-                   certificate={"blocks": certs}, M=np.eye(V.n).tolist(),
+                   certificate=split.invert(stored, parts), M=np.eye(V.n).tolist(),
                    **figures)  # fmt: skip
 
-    def _sparse(self, data: Any, level: float, plan: Any, why: str) -> tuple[Any, Any, dict]:
-        """The correlative-sparsity certificate (:mod:`roa.search.sos_sparse` proposes,
-        :func:`roa.proof.sos_sum.check_sum` proves) of coupled data whose dense program does not
-        fit the memory budget (``why``): ``(candidate, check or None, figures)``, the figures
-        holding the stored ``certificate`` when the check passed."""
-        import resource
-
-        from roa.proof.sos_sum import check_sum, to_json
-        from roa.search.sos_certificate import default_eps
-        from roa.search.sos_sparse import propose_sparse
-
-        eps = default_eps(data, self.eps)
-        cand = propose_sparse(data, level, plan, eps=eps, solver_options=self.solver_options)
-        figures: dict[str, Any] = {
-            "route": "sparse", "why_sparse": why, "solver_status": cand.solver_status,
-            "margin": cand.margin, "sdp_seconds": round(cand.seconds, 3), **cand.figures,
-            "blocks": plan.sizes, "gram_sizes": [len(b) for b in plan.sigma]}  # fmt: skip
-        if cand.sigma is None or cand.lam is None:
-            return cand, None, figures
-        t0 = time.perf_counter()
-        res = check_sum(data, level, eps, list(zip(plan.sigma, cand.sigma, strict=True)),
-                        list(zip(plan.lam, cand.lam, strict=True)))  # fmt: skip
-        figures.update(check_seconds=round(time.perf_counter() - t0, 3), residual=res.residual,
-                       min_pivot=res.min_pivot,
-                       peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024))  # fmt: skip
-        if res.ok and res.sigma is not None and res.lam is not None:
-            figures["certificate"] = to_json(list(zip(plan.sigma, res.sigma, strict=True)),
-                                             list(zip(plan.lam, res.lam, strict=True)),
-                                             cliques=[list(c) for c in plan.cliques])  # fmt: skip
-        return cand, res, figures
-
-    def _check_sparse(self, data: Any, level: float, plan: Any, why: str,
-                      out: Any) -> Validation:  # fmt: skip
-        """The sparse certificate of the whole (:meth:`_sparse`) as a validation."""
-        cand, res, figures = self._sparse(data, level, plan, why)
-        refused = _sparse_refusal(cand, res)
-        if refused is not None:
-            return out(Verdict.INCONCLUSIVE, refused, **figures)
-        cert = {"sum": figures.pop("certificate")}
-        return out(Verdict.CERTIFIED, f"sparse SOS certificate ({len(plan.cliques)} cliques of "
-                   f"sizes <= {max(map(len, plan.cliques))}) checked exactly: {res.reason}",
-                   certificate=cert, M=np.eye(data.n).tolist(), **figures, **res.meta)  # fmt: skip
-
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The recast field's constrained certificate (:mod:`roa.proof.sos_putinar`)."""
-        from roa.proof.recast import level_scale
-        from roa.proof.recast_box import box_json
-        from roa.proof.sos_putinar import check_putinar, recast_preconditions
-        from roa.search.sos_putinar import default_eps, propose_putinar
-
+        """The recast field's (or parameter box's) constrained certificate
+        (:func:`roa.proof.putinar.check_level` with the recast's constraints)."""
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
             scale = level_scale(V, level)
             data, why = recast_preconditions(system, V, level, self.taylor, scale)
@@ -430,15 +384,15 @@ class SosValidator:
             figures = {"solver_status": cand.solver_status, "margin": cand.margin,
                        "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
                        "sizes": cand.sizes, "recast": data.description}  # fmt: skip
-            if cand.blocks is None:
+            if cand.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
                            **figures)  # fmt: skip
-            res = check_putinar(data, level, eps, cand.blocks)
+            res = check_level(data, level, eps, cand.certificate)
             figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
-            if not res.ok or res.blocks is None:
+            if not res.ok or res.certificate is None:
                 return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            cert = {"putinar": res.blocks.to_json(), "taylor": data.taylor,
-                    "scale": [str(r) for r in data.scale]}  # fmt: skip
+            cert = {"parts": [part_json(list(range(V.n)), res.certificate)],
+                    "taylor": data.taylor, "scale": [str(r) for r in data.scale]}  # fmt: skip
             if data.parameters:  # the box it holds for (a re-check takes the system's)
                 cert["parameters"] = box_json(data.parameters)
             return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
@@ -593,7 +547,7 @@ class SosLevel:
     only: bool = False
 
     def accepts(self, system: System, V: Lyapunov) -> bool:
-        return V.as_quadratic() is not None
+        return V.as_quadratic() is not None and system.time == "continuous"
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
         from roa.search.sos import sos_level
@@ -629,7 +583,6 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
     whose sparse program does (:func:`roa.search.sos_sparse.choose_route`: bisection with the
     chordal clique program), as an ``SOSResult``; None when the data are not polynomial or
     neither applies (then the one program of :func:`roa.search.sos.sos_level` is used)."""
-    from roa.proof.sos_blocks import blocks
     from roa.proof.sos_check import NotPolynomial, exact_data
     from roa.search.sos import SOSResult
     from roa.search.sos_bisection import block_levels
@@ -640,16 +593,15 @@ def _block_sos_level(system: System, V: Lyapunov, o: SosOptions) -> Any:
         data = exact_data(system, V)
     except NotPolynomial:
         return None
-    parts = blocks(data)
+    parts = IndependentBlocks().blocks(data)
     sparse, plan = False, None
     if len(parts) < 2:
-        from roa.search.sos_sparse import choose_route
-
-        route, plan, _ = choose_route(data)
-        if route != "sparse":
+        route, plan, _ = choose_route(data, solver_options=o.solver_options())
+        if route not in ("sparse", "sdsos"):
             return None
         sparse = True
-    what = ("the sparse (chordal clique) program" if sparse
+    what = ("the sparse (chordal clique) program" if sparse and route == "sparse"
+            else "the SDSOS program (sign blocks, scaled diagonally dominant)" if sparse
             else f"{len(parts)} independent blocks of variables")  # fmt: skip
     with step(f"SOS level by bisection with {what}"):
         bl = block_levels(data, solver_options=o.solver_options())
@@ -756,7 +708,7 @@ class VsIteration:
         from roa.search.vs_iteration import vs_search
 
         vs = self.options
-        with step(f"SOS V-s iteration, degree {self.degree}"):
+        with step(f"SOS V-s iteration, degree {self.degree}", own_budget=True):
             return vs_search(system, seed, degree=self.degree,
                              shape=None if vs.shape is None else np.asarray(vs.shape),
                              rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,

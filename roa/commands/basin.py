@@ -13,7 +13,7 @@ from roa.commands import common as C
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json, check_figure_path, to_json
 from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
-from roa.shares import share
+from roa.shares import interval, share
 
 if TYPE_CHECKING:
     from roa.system import System
@@ -21,6 +21,7 @@ if TYPE_CHECKING:
 EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
   roa basin --system ipc:saturation=2 --slice q,theta --grid 100x100 --fix theta_dot=0.5 --json
+  roa basin --system vanderpol --slice x1,x2 --grid 100x100 --box x1=-3:3,x2=-3:3 --plot map.png --trajectories 16
   roa basin --system ipc --samples 1000000 --box q=-1:1,q_dot=-1:1,theta=-1:1,theta_dot=-1:1 --out runs/box
   roa basin --system ipc --samples 20000 --scheduler tcp://10.0.0.5:8786 --json
   roa basin --system vanderpol --param mu=0.8..1.2 --param-samples 8 --slice x1,x2 --grid 80x80 --box x1=-3:3,x2=-3:3 --terminal-set cert.json --plot robust.png
@@ -62,13 +63,34 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--box", default=None, metavar="NAME=LO:HI,...",
                    help="ranges of the slice axes or of the sampled box, every one of them "
                    "(default without --box: equilibrium +- 1)")  # fmt: skip
-    p.add_argument("--samples", type=int, default=None, help="N seeded uniform samples of the box")
+    p.add_argument(
+        "--samples",
+        type=numparse.integer(),
+        default=None,
+        help="N seeded uniform samples of the box",
+    )
     C.add_stop_rules(p)
-    p.add_argument("--rtol", type=float, default=1e-6, help="relative tolerance (default 1e-6)")
-    p.add_argument("--atol", type=float, default=1e-9, help="absolute tolerance (default 1e-9)")
-    p.add_argument("--chunk-size", type=int, default=4096, help="initial conditions per task")
-    p.add_argument("--jobs", type=int, default=-1, help="parallel workers (default -1: all cores)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the random samples (default 0)")
+    p.add_argument(
+        "--rtol", type=numparse.arg(), default=1e-6, help="relative tolerance (default 1e-6)"
+    )
+    p.add_argument(
+        "--atol", type=numparse.arg(), default=1e-9, help="absolute tolerance (default 1e-9)"
+    )
+    p.add_argument(
+        "--chunk-size",
+        type=numparse.integer(),
+        default=4096,
+        help="initial conditions per task (default 4096)",
+    )
+    p.add_argument(
+        "--jobs",
+        type=numparse.integer(),
+        default=-1,
+        help="parallel workers (default -1: all cores)",
+    )
+    p.add_argument(
+        "--seed", type=numparse.integer(), default=0, help="seed of the random samples (default 0)"
+    )
     p.add_argument(
         "--scheduler", default=None, metavar="ADDRESS", help="Dask scheduler, e.g. tcp://host:8786"
     )
@@ -78,10 +100,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--force", action="store_true",
                    help="with --out: recompute every chunk instead of resuming (default: resume)")  # fmt: skip
     p.add_argument("--plot", default=None, metavar="FILE", help="save the slice's basin map (PNG)")
-    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+    p.add_argument("--trajectories", type=numparse.integer(), default=0, metavar="N",
+                   help="with --plot: overlay N trajectories (roa simulate, the same stop rules) "
+                   "started at N states spread over the slice, coloured by how they end, in "
+                   "[1, 400]; projected onto the slice when the system has more states")  # fmt: skip
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget in seconds, in (0, 1e9]: when it runs out the run ends "
                    "inconclusive (exit 1) with the runs not run counted as not_run, no plot; "
-                   "with --out the same command resumes from the completed chunks")  # fmt: skip
+                   "with --out the same command resumes from the completed chunks; tracing the "
+                   "field for the compiled kernel is stopped at it (exit 1)")  # fmt: skip
     p.add_argument(
         "--lyapunov-level",
         type=numparse.arg(0.0, numparse.MAX_LEVEL, low_open=True),
@@ -103,7 +130,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         "entering {V <= level} stop as converged",
     )
     p.add_argument(
-        "--param-samples", type=int, default=None, metavar="N",
+        "--param-samples", type=numparse.integer(), default=None, metavar="N",
         help="for a system with uncertain parameters: seeded uniform samples of the parameter box "
         f"on top of the nominal values and the vertices, in [0, {MAX_PARAM_SAMPLES}] (default "
         f"{DEFAULT_PARAM_SAMPLES}; seed --seed)",
@@ -140,10 +167,8 @@ def parse_box(text: str | None, names: tuple[str, ...]) -> dict[str, tuple[float
         name = m.group(1)
         if name not in names:
             raise RoaInputError(f"--box: unknown state {name!r}; allowed: {', '.join(names)}")
-        try:
-            lo, hi = float(m.group(2)), float(m.group(3))
-        except ValueError as exc:
-            raise RoaInputError(f"--box {name}: LO and HI must be numbers, got {part!r}") from exc
+        lo = numparse.parse_number(m.group(2), f"--box {name}")
+        hi = numparse.parse_number(m.group(3), f"--box {name}")
         if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
             raise RoaInputError(f"--box {name}: need finite LO < HI, got {lo}:{hi}")
         out[name] = (lo, hi)
@@ -159,10 +184,7 @@ def parse_fix(items: list[str], names: tuple[str, ...]) -> dict[str, float]:
             raise RoaInputError(f"--fix: expected NAME=VALUE, got {item!r}")
         if name not in names:
             raise RoaInputError(f"--fix: unknown state {name!r}; allowed: {', '.join(names)}")
-        try:
-            out[name] = float(value)
-        except ValueError as exc:
-            raise RoaInputError(f"--fix {name}: value must be a number, got {value!r}") from exc
+        out[name] = numparse.parse_number(value, f"--fix {name}")
     return out
 
 
@@ -338,6 +360,22 @@ def run(args: argparse.Namespace) -> int:
         raise RoaInputError("--plot draws a slice: use it with --slice")
     if args.plot:
         check_figure_path(args.plot)
+    if args.trajectories:
+        from roa.plotting.basin import MAX_TRAJECTORIES
+
+        if not 1 <= args.trajectories <= MAX_TRAJECTORIES:
+            raise RoaInputError(
+                f"--trajectories must be an integer in [1, {MAX_TRAJECTORIES}], got "
+                f"{args.trajectories}"
+            )
+        if not (args.plot or args.out) or not isinstance(sampler, GridSlice):
+            raise RoaInputError("--trajectories overlays runs on the slice's map: use it with "
+                                "--slice and --plot")  # fmt: skip
+        if system.parameters:
+            raise RoaInputError(
+                "--trajectories: a trajectory needs one value of each uncertain parameter; "
+                "fix them with --param NAME=VALUE or --nominal"
+            )
     plot = args.plot or (
         str(Path(args.out) / "basin.png") if args.out and isinstance(sampler, GridSlice) else None
     )
@@ -376,12 +414,22 @@ def run(args: argparse.Namespace) -> int:
                if args.out else "(no plot drawn); give --out DIR to make a run resumable")
         )  # fmt: skip
     if plot and not cut:
+        from roa.montecarlo.basin import overlay_runs
         from roa.plotting.basin import plot_slice
 
-        plot_slice(system, sampler, result.code, plot, regions=regs,
+        runs = overlay_runs(system, sampler, args.trajectories, rules)
+        if runs:
+            summary["trajectories_drawn"] = {"n": len(runs), "counts": {
+                s: sum(r.status.value == s for r in runs) for s in sorted({r.status.value for r in runs})}}  # fmt: skip
+        plot_slice(system, sampler, result.code, plot, regions=regs, trajectories=runs,
                    title=f"basin of {system.name}")  # fmt: skip
     if args.out:
         atomic_write_json(Path(args.out) / "summary.json", summary)
+    if summary.get("chunks_resumed"):  # a resumed run says what it reused (stderr: not data)
+        import sys
+
+        print(f"roa basin: resumed {summary['chunks_resumed']} completed chunk(s) from "
+              f"{args.out}, computed {summary['chunks_computed']}", file=sys.stderr)  # fmt: skip
     if args.json:
         print(to_json(summary))
     else:
@@ -390,7 +438,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"n = {summary['n']}: " + ", ".join(f"{k} {v}" for k, v in c.items()))
         frac = summary["fraction_converged"]
         print(f"fraction converged {'unknown' if frac is None else share(frac, 4)} "
-              f"(95 % CI {share(lo, 4)}-{share(hi, 4)})")  # fmt: skip
+              f"(95 % CI {interval(lo, hi, 4)})")  # fmt: skip
         if terminal is not None:
             print(f"entered the certified set {terminal.name}: {summary['entered_certified_set']}")
         from roa.montecarlo.certified_share import share_line
@@ -434,7 +482,7 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
     w = summary["worst_case"]
     lo, hi = w["fraction_ci95"]
     print(f"converged for every sampled parameter value: {w['converged']} "
-          f"({share(w['fraction'], 4)}, 95 % CI {share(lo, 4)}-{share(hi, 4)}); mean converged "
+          f"({share(w['fraction'], 4)}, 95 % CI {interval(lo, hi, 4)}); mean converged "
           f"share {share(summary['converged_share']['mean'], 4)}")  # fmt: skip
     if terminal is not None:
         print(f"terminal set (proved for the whole box): {terminal.name}")

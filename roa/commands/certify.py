@@ -23,7 +23,9 @@ def register(sub: argparse._SubParsersAction) -> None:
             "(the default, --maximise), a candidate level is found first -- by the SOS program "
             f"(validated at {sos.safety_factor} x its level) and/or the sampled level search "
             f"(validated at {itv.sampled_safety} x the sampled optimum) -- and then validated. "
-            "Only an interval validation gives status 'certified'. Exit code 0 iff certified. "
+            "Only a check independent of the solver gives status 'certified': the interval "
+            "branch and bound or the exact rational check of an SOS certificate (sos-exact). "
+            "Exit code 0 iff certified. "
             "For a system with uncertain parameters (--param NAME=LOW..HIGH, or declared by the "
             "system) the level holds for every parameter of the box (--nominal: the nominal "
             "values only); a refutation names the parameter values of its witness. Without "
@@ -48,26 +50,28 @@ def register(sub: argparse._SubParsersAction) -> None:
         "interval validation; sampled search if SOS fails). With --level only 'interval' is "
         "possible. Default: both, or interval with --level",
     )
-    p.add_argument("--max-boxes", type=int, default=itv.max_boxes,
+    p.add_argument("--max-boxes", type=numparse.integer(), default=itv.max_boxes,
                    help=f"box budget of the interval validation, 1..2e8 (default {itv.max_boxes})")  # fmt: skip
-    p.add_argument("--check-above", type=float, default=None, metavar="FACTOR",
+    p.add_argument("--check-above", type=numparse.arg(), default=None, metavar="FACTOR",
                    help="also validate FACTOR x the candidate level (> 1, e.g. 1.001): a refutation "
                    "there shows the certified level is close to the best for this V")  # fmt: skip
-    p.add_argument("--degree", type=int, default=None, choices=(2, 4, 6, 8),
+    p.add_argument("--degree", type=numparse.integer(), default=None, choices=(2, 4, 6, 8),
                    help="search a polynomial V of this degree by SOS V-s iteration (seeded by the "
                    "quadratic --lyapunov or the system's default), then certify it; its "
                    "coefficients are in the JSON (candidate_kind)")  # fmt: skip
-    p.add_argument("--rounds", type=int, default=VsOptions().rounds,
+    p.add_argument("--rounds", type=numparse.integer(), default=VsOptions().rounds,
                    help=f"V-s rounds with --degree, 1..50 (default {VsOptions().rounds})")  # fmt: skip
-    p.add_argument("--budget", type=float, default=VsOptions().budget, metavar="SEC",
+    p.add_argument("--budget", type=numparse.arg(), default=VsOptions().budget, metavar="SEC",
                    help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
-    p.add_argument("--time-limit", type=float, default=None, metavar="SEC",
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget of each interval validation, in (0, 1e9] seconds: "
                    "when it runs out the verdict is inconclusive, saying so; with --degree also "
                    "of the V-s iteration (the least of it and --budget), which then stops with "
                    "the rounds completed, status stopped (default: 3600, and 300 for the branch and "
-                   "bound backing up the SOS route above 4 states and parameters)")  # fmt: skip
+                   "bound backing up the SOS route above 4 states and parameters); every other "
+                   "long step (the SOS program, a level search, tracing the field) is stopped at "
+                   "it, exit 1 naming the step")  # fmt: skip
     p.add_argument("--validator", choices=("auto", "interval", "sos"), default="auto",
                    help="what proves the level: auto (default: the interval branch and bound up "
                    "to 4 states and parameters, the exact SOS certificate above, each backing up "

@@ -256,10 +256,8 @@ def options(make: Callable[[], T], flags: dict[str, str]) -> T:
 
 
 def floats(text: str, what: str, n: int | None = None) -> list[float]:
-    try:
-        vals = [float(v) for v in text.split(",") if v.strip() != ""]
-    except ValueError as exc:
-        raise RoaInputError(f"{what}: expected comma-separated numbers, got {text!r}") from exc
+    """Comma-separated numbers (:func:`roa.numparse.parse_number`: no spaces in a number)."""
+    vals = [numparse.parse_number(v, what) for v in text.split(",") if v.strip() != ""]
     if n is not None and len(vals) != n:
         raise RoaInputError(f"{what}: expected {n} comma-separated numbers, got {len(vals)}")
     return vals
@@ -283,14 +281,16 @@ def fmt(value: Any, spec: str = ".6g", missing: str = "none") -> str:
 def add_stop_rules(p: argparse.ArgumentParser) -> None:
     """``--t-final``, ``--converge-tol``, ``--diverge-bound``, ``--diverge-growth``
     (:class:`roa.StopRules`; read back by :func:`stop_rules`)."""
-    p.add_argument("--t-final", type=float, default=60.0, help="final time > 0 (default 60)")
-    p.add_argument("--converge-tol", type=float, default=1e-3,
+    p.add_argument(
+        "--t-final", type=numparse.arg(), default=60.0, help="final time > 0 (default 60)"
+    )
+    p.add_argument("--converge-tol", type=numparse.arg(), default=1e-3,
                    help="radius of the ball around the equilibrium that counts as converged "
                    "(default 1e-3)")  # fmt: skip
-    p.add_argument("--diverge-bound", type=float, default=1e6, metavar="NORM",
+    p.add_argument("--diverge-bound", type=numparse.arg(), default=1e6, metavar="NORM",
                    help="a run whose norm ||x|| reaches NORM is diverged; finite, > --converge-tol "
                    "(default 1e6)")  # fmt: skip
-    p.add_argument("--diverge-growth", type=float, default=100.0, metavar="G",
+    p.add_argument("--diverge-growth", type=numparse.arg(), default=100.0, metavar="G",
                    help="a run still going at --t-final is diverged when ||x - x_eq|| is then >= "
                    "NORM/G, >= G x its largest value over the first half of the run, and still "
                    "growing exponentially; G finite > 1, or 0 for no growth rule (default 100)")  # fmt: skip

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from roa import numparse
 from roa.commands import common as C
 
 
@@ -23,11 +24,13 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="ball (default): the system's norm; level: sublevel sets of V")  # fmt: skip
     p.add_argument("--method", choices=("sampled", "casadi", "both"), default="both",
                    help="default both (they must agree)")  # fmt: skip
-    p.add_argument("--directions", type=int, default=20000,
+    p.add_argument("--directions", type=numparse.integer(), default=20000,
                    help="sampled: number of ray directions, 16..2000000 (default 20000)")  # fmt: skip
-    p.add_argument("--starts", type=int, default=16,
+    p.add_argument("--starts", type=numparse.integer(), default=16,
                    help="casadi: IPOPT starts, 1..10000 (default 16)")  # fmt: skip
-    p.add_argument("--seed", type=int, default=0, help="random seed >= 0 (default 0)")
+    p.add_argument(
+        "--seed", type=numparse.integer(), default=0, help="random seed >= 0 (default 0)"
+    )
     p.add_argument("--json", action="store_true", help="print one JSON object")
     p.set_defaults(func=run)
 

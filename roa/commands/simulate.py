@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 
+from roa import numparse
 from roa.commands import common as C
 
 
@@ -20,10 +21,16 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--x0", "--ic", dest="x0", required=True, metavar="X1,X2,...",
                    help="initial state, one number per state of the system")  # fmt: skip
     C.add_stop_rules(p)
-    p.add_argument("--time-limit", type=float, default=None, metavar="SECONDS",
+    p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SECONDS",
                    help="wall-clock budget of the run (> 0); then it ends undecided")  # fmt: skip
     p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    p.add_argument("--plot", default=None, metavar="FILE", help="save a plot of the run (PNG)")
+    p.add_argument(
+        "--plot",
+        default=None,
+        metavar="FILE",
+        help="save a plot of the run (PNG): the states against time and, for a "
+        "closed loop with a feedback (System.from_control), its inputs u(t) below",
+    )
     p.set_defaults(func=run)
 
 
@@ -56,9 +63,9 @@ def run(args: argparse.Namespace) -> int:
 
         from roa.io import atomic_savefig
 
-        fig, ax = plt.subplots(figsize=(8, 4))
-        traj.plot(ax)
-        fig.tight_layout()
+        fig = traj.plot().figure  # the states and, for a closed loop, its inputs u(t) below
+        if fig.get_layout_engine() is None:
+            fig.tight_layout()
         atomic_savefig(fig, args.plot)
         plt.close(fig)
         out["plot"] = args.plot
@@ -68,4 +75,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"status: {out['status']} ({traj.message})")
         print(f"final state ({', '.join(out['state_names'])}):",
               np.array2string(traj.final_state, precision=6))  # fmt: skip
+        if "input_names" in out:
+            print(f"final input ({', '.join(out['input_names'])}):",
+                  np.array2string(np.asarray(out["final_input"]), precision=6),
+                  f"(largest |u| along the run: {np.array2string(np.asarray(out['max_abs_input']), precision=4)})")  # fmt: skip
     return 1 if traj.status.value == "diverged" else 0

@@ -114,13 +114,10 @@ class Lyapunov:
 
     # -- derived ---------------------------------------------------------------------------------
     def vdot_expr(self, system: System, x: Any, xp: Any) -> Any:
-        """V' = grad V . f as an expression of ``x`` in ``xp``."""
-        g = self.gradient_expr(x, xp)
-        f = system.field(0.0, x, xp)
-        out: Any = 0.0
-        for i in range(self.n):
-            out = g[i] * f[i] + out
-        return out
+        """The decrease of V along the system as an expression of ``x`` in ``xp``:
+        ``V' = grad V · f``, or ``V(F(x)) - V(x)`` for a discrete-time system
+        (:meth:`roa.System.decrease_expr`)."""
+        return system.decrease_expr(self, x, xp)
 
     def symbolic(self, system: System, x: Any, xp: Any) -> tuple[Any, Any]:
         """``(V, V')`` as expressions of the components ``x`` in namespace ``xp`` (CasADi, sympy)."""
@@ -139,9 +136,9 @@ class Lyapunov:
         return np.stack([np.broadcast_to(np.asarray(gi, float), x.shape[:-1]) for gi in g], -1)
 
     def derivative(self, system: System, x: np.ndarray) -> np.ndarray:
-        """V' = grad V . f on states of shape ``(..., n)`` (numpy)."""
-        x = np.asarray(x, dtype=float)
-        return np.einsum("...i,...i->...", self.gradient(x), system.f(x))
+        """The decrease of V on states of shape ``(..., n)`` (numpy): ``V' = grad V · f``, or
+        ``V(F(x)) - V(x)`` for a discrete-time system (:meth:`roa.System.decrease`)."""
+        return system.decrease(self, x)
 
     def hessian_at_center(self) -> np.ndarray:
         """The Hessian of V at its centre (central differences of the gradient; exact overrides)."""

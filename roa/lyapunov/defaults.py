@@ -26,8 +26,11 @@ def as_lyapunov(system: System, V: Any = None) -> Lyapunov:
 def default_lyapunov(system: System) -> QuadraticLyapunov:
     """The quadratic Lyapunov candidate of a system.
 
-    ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix), else
-    ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium.
+    ``system.lyapunov`` when the system comes with one (a paper's or a benchmark's matrix, or the
+    Riccati solution ``S`` of a loop built by :meth:`roa.System.from_control` from
+    ``control.lqr``), else
+    ``P`` solving ``A'P + PA = -I`` for the linearisation ``A`` at the equilibrium
+    (``A'PA - P = -I`` for a discrete-time system ``x+ = F(x)``, ``A = DF(x_eq)``).
 
     For a system with uncertain parameters, that candidate (at the nominal values) is kept when
     ``A(p)'P + PA(p) < 0`` at every sample point ``p`` of the box (nominal value, vertices and
@@ -51,13 +54,19 @@ def default_lyapunov(system: System) -> QuadraticLyapunov:
 
     check_system(system)  # a malformed field or a false equilibrium: a clear error first
     if system.lyapunov is not None:
-        V = QuadraticLyapunov.for_system(system, system.lyapunov, name=f"{system.name} V")
+        label = system.meta.get("lyapunov_name") or f"{system.name} V"
+        V = QuadraticLyapunov.for_system(system, system.lyapunov, name=str(label))
     else:
         from roa.linearisation import lyapunov_matrix
 
         at = system.nominal() if system.parameters else system
-        V = QuadraticLyapunov.for_system(system, lyapunov_matrix(at), name="P from A'P + PA = -I")
-    if system.parameters and worst_linearisation(system, V) is not None:
+        eq = "A'PA - P = -I" if system.time == "discrete" else "A'P + PA = -I"
+        V = QuadraticLyapunov.for_system(system, lyapunov_matrix(at), name=f"P from {eq}")
+    if (
+        system.parameters
+        and system.time == "continuous"  # the common Lyapunov LMIs are those of a flow
+        and worst_linearisation(system, V) is not None
+    ):
         from roa.search.box_lyapunov import box_lyapunov
 
         res = box_lyapunov(system)

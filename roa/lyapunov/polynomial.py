@@ -273,7 +273,10 @@ class QuadraticLyapunov(PolynomialLyapunov):
         return 2.0 * d @ self.P
 
     def derivative(self, system: System, x: np.ndarray) -> np.ndarray:
-        """V' = grad V . f on states of shape ``(..., n)`` (numpy)."""
+        """V' = grad V . f on states of shape ``(..., n)`` (numpy; ``V(F(x)) - V(x)`` for a
+        discrete-time system)."""
+        if system.time == "discrete":
+            return system.decrease(self, x)
         d = np.asarray(x, dtype=float) - self.center
         return 2.0 * np.einsum("...i,ij,...j->...", d, self.P, system.f(x))
 
@@ -299,6 +302,8 @@ class QuadraticLyapunov(PolynomialLyapunov):
 
     def symbolic(self, system: System, x: Any, xp: Any) -> tuple[Any, Any]:
         """``(V, V')`` as expressions of the components ``x`` in namespace ``xp`` (CasADi, sympy)."""
+        if system.time == "discrete":
+            return self.expr(x, xp), system.decrease_expr(self, x, xp)
         d = [x[i] - self.center[i] for i in range(self.n)]
         f = system.field(0.0, x, xp)
         Pd = [sum(self.P[i, j] * d[j] for j in range(self.n)) for i in range(self.n)]

@@ -113,25 +113,53 @@ class BasinResult:
             **({"backend_note": self.backend_note} if self.backend_note else {}),
             **(self.sampler.describe(self.system.state_names)
                if hasattr(self.sampler, "describe") else {}),
+            **({"state_units": dict(zip(self.system.state_names, self.system.state_units,
+                                        strict=True))}
+               if self.system.state_units else {}),
             **({"regions": [region_entry(r, self.sampler, self.code) for r in self.regions]}
                if self.regions else {}),
             **({"certified_share": [dict(e) for e in self.certified_shares]}
                if self.certified_shares else {}),
         }  # fmt: skip
 
-    def plot(self, ax: Any = None, *, regions: Any = (), title: str | None = None) -> Any:
-        """The basin map of a :func:`grid_slice` run, with optional regions drawn over it."""
+    def plot(self, ax: Any = None, *, regions: Any = (), title: str | None = None,
+             trajectories: Any = 0, rules: StopRules | None = None) -> Any:  # fmt: skip
+        """The basin map of a :func:`grid_slice` run, with optional regions drawn over it.
+
+        ``trajectories``: a number ``k`` of runs to overlay, started at ``k`` states spread over
+        the slice (:func:`roa.plotting.basin.trajectory_starts`), or an array of initial states;
+        each is simulated by :func:`roa.simulate` (``rules``, default the run's) and
+        drawn in the slice's coordinates, coloured by how it ended.
+        """
         import matplotlib.pyplot as plt
 
         from roa.plotting.basin import draw_slice
 
         if not isinstance(self.sampler, GridSlice):
             raise RoaInputError("plot() draws a 2-D slice: run basin() on a grid_slice sampler")
+        runs = overlay_runs(self.system, self.sampler, trajectories, rules or self.rules)
         if ax is None:
             _, ax = plt.subplots(figsize=(8.6, 6.0))
-        draw_slice(ax, self.system, self.sampler, self.code, regions=regions,
+        draw_slice(ax, self.system, self.sampler, self.code, regions=regions, trajectories=runs,
                    title=f"basin of {self.system.name}" if title is None else title)  # fmt: skip
         return ax
+
+
+def overlay_runs(system: System, grid: GridSlice, trajectories: Any,
+                 rules: StopRules | None = None) -> list[Any]:  # fmt: skip
+    """The runs a basin map overlays: none for ``0``/``None``, ``k`` runs from states spread over
+    the slice for an integer ``k``, else one run from each given initial state (rows of ``n``)."""
+    from roa.plotting.basin import trajectory_starts
+    from roa.simulation import simulate
+
+    if trajectories is None or (isinstance(trajectories, int) and trajectories == 0):
+        return []
+    if isinstance(trajectories, int | np.integer) and not isinstance(trajectories, bool):
+        starts = trajectory_starts(grid, int(trajectories))
+    else:
+        starts = system.check_state(np.atleast_2d(np.asarray(trajectories, dtype=float)),
+                                    what="trajectories (initial states)")  # fmt: skip
+    return [simulate(system, x0, rules=rules) for x0 in starts]
 
 
 def basin(

@@ -119,7 +119,7 @@ def certified_shares(
 
 def share_line(entry: dict[str, Any]) -> str:
     """One line of text for an entry of :func:`certified_shares`."""
-    from roa.shares import percent
+    from roa.shares import interval, percent
 
     where = {"slice": "of the slice", "box": "of the box (uniform samples)"}.get(
         entry["over"], "of the samples"
@@ -130,5 +130,5 @@ def share_line(entry: dict[str, Any]) -> str:
     return (
         f"{entry['region']} [{entry['status']}]: holds {percent(entry['share'])} of the "
         f"converged points {where} ({entry['converged_in_region']} of {entry['converged']}; "
-        f"95 % CI {percent(lo)} - {percent(hi)}, Clopper-Pearson)"
+        f"95 % CI {interval(lo, hi, 2, scale=100, unit=' %')}, Clopper-Pearson)"
     )

@@ -113,6 +113,55 @@ def close_quietly(client: Any, results: Any = None) -> None:
 POLL = 0.5
 
 
+class _Watch:
+    """The cluster's workers, looked at between waits: :meth:`check` raises a
+    :class:`roa.errors.SolverError` once there has been no worker (or no reachable scheduler) for
+    ``timeout`` seconds."""
+
+    def __init__(self, client: Any, timeout: float, address: str) -> None:
+        self.client, self.timeout, self.address = client, timeout, address
+        self.lost_since: float | None = None
+
+    def ok(self) -> None:
+        self.lost_since = None
+
+    def check(self, pending: int) -> None:
+        import time
+
+        try:
+            workers = len(self.client.nthreads(callback_timeout=self.timeout))
+        except Exception:  # noqa: BLE001 - an unreachable scheduler counts as no worker
+            workers = 0
+        if workers:
+            self.lost_since = None
+            return
+        now = time.monotonic()
+        self.lost_since = now if self.lost_since is None else self.lost_since
+        if now - self.lost_since > self.timeout:
+            raise SolverError(
+                f"scheduler {self.address}: no Dask worker for {self.timeout:g} s "
+                f"with {pending} task(s) pending (the workers died or left); start workers "
+                "with `dask worker ADDRESS`"
+            )
+
+
+def _result(fut: Any, watch: _Watch, pending: int) -> Any:
+    """``fut``'s result, gathered in waits of :data:`POLL` seconds: a finished task whose worker
+    died before its result was gathered is rescheduled by the client, and waits for a worker
+    like a pending one (the watch ends the wait when none is left)."""
+    from distributed import KilledWorker
+
+    while True:
+        try:
+            return fut.result(timeout=POLL)
+        except KilledWorker as exc:
+            raise SolverError(
+                f"scheduler {watch.address}: a task killed the workers that ran it ({exc})"
+            ) from None
+        except TimeoutError:
+            watch.check(pending + 1)
+
+
 def run_tasks(
     client: Any, fn: Any, tasks: Any, timeout: float, *, address: str = "?", window: int = 64
 ) -> Any:
@@ -122,17 +171,22 @@ def run_tasks(
     lost with its worker is re-run by the scheduler on another worker (the scheduler's policy); a
     cluster that has had no worker (or no reachable scheduler) for ``timeout`` seconds, or a task
     that killed its workers, ends the run with a :class:`roa.errors.SolverError` within about
-    ``timeout + POLL`` seconds, never a silent wait. Pending futures are released on the way out
-    (closing the client, :func:`close_quietly`, cancels them).
+    ``timeout + POLL`` seconds, never a silent wait: also while a finished task's result is
+    gathered (its worker may die in between). Pending futures are released on the way out
+    (closing the client, :func:`close_quietly`, cancels them). The client's own log lines about
+    lost results are kept off stderr while this runs.
     """
-    import time
+    import logging
 
-    from distributed import KilledWorker, wait
+    from distributed import wait
 
     pending: set[Any] = set()
     it = iter(tasks)
     more = True
-    lost_since: float | None = None
+    watch = _Watch(client, timeout, address)
+    log = logging.getLogger("distributed.client")
+    level = log.level
+    log.setLevel(logging.ERROR)  # "Couldn't gather 1 keys, rescheduling": handled below
     try:
         while True:
             while more and len(pending) < window:
@@ -151,32 +205,13 @@ def run_tasks(
             except TimeoutError:
                 done = set()
             for fut in done:
-                try:
-                    result = fut.result()
-                except KilledWorker as exc:
-                    raise SolverError(
-                        f"scheduler {address}: a task killed the workers that "
-                        f"ran it ({exc}); completed chunks are kept (resume with --out)"
-                    ) from None
-                yield result
+                yield _result(fut, watch, len(pending))
             if done:
-                lost_since = None
+                watch.ok()
                 continue
-            try:
-                workers = len(client.nthreads(callback_timeout=timeout))
-            except Exception:  # noqa: BLE001 - an unreachable scheduler counts as no worker
-                workers = 0
-            if workers:
-                lost_since = None
-                continue
-            lost_since = time.monotonic() if lost_since is None else lost_since
-            if time.monotonic() - lost_since > timeout:
-                raise SolverError(
-                    f"scheduler {address}: no Dask worker for {timeout:g} s "
-                    f"with {len(pending)} task(s) pending (the workers died or left); completed "
-                    "chunks are kept (resume with --out); start workers with `dask worker ADDRESS`"
-                )
+            watch.check(len(pending))
     finally:
+        log.setLevel(level)
         # pending futures are released with this generator; the caller closes the client
         # (close_quietly, bounded), which cancels whatever still runs: no unbounded call here
         pending.clear()

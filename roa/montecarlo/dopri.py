@@ -17,7 +17,8 @@ from roa.status import RunStatus
 CONVERGED, LEFT_DOMAIN, DIVERGED, UNDECIDED, STEP_FAILURE = 0, 1, 2, 3, 4
 #: An undecided run that sat at another equilibrium at t_final (set after integration).
 CONVERGED_ELSEWHERE = 5
-#: Code -> status; STEP_FAILURE is an undecided run whose step size underflowed.
+#: Code -> status; STEP_FAILURE is an undecided run whose step size underflowed or that used up
+#: its step budget (:data:`MAX_STEPS`, :data:`MAX_TINY_STEPS`).
 CODE_STATUS = {
     CONVERGED: RunStatus.CONVERGED,
     LEFT_DOMAIN: RunStatus.LEFT_DOMAIN,
@@ -55,6 +56,18 @@ DENSE_P = np.array(
     ]
 )
 SAFETY, MIN_FACTOR, MAX_FACTOR = 0.9, 0.2, 10.0
+#: Most accepted steps of one run: a run that has not stopped after them ends as
+#: :data:`STEP_FAILURE` (undecided) where it is, so no run costs more than this many steps.
+MAX_STEPS = 100_000
+#: A step shorter than ``TINY_STEP_FRACTION * t_final`` is tiny (scipy's own minimum,
+#: ``10 |nextafter(t) - t|``, is subnormal near ``t = 0``: a field of scale 1e150 asks for steps
+#: of 1e-150 and would never reach ``t_final``).
+TINY_STEP_FRACTION = 1e-9
+#: Most tiny steps of one run before it ends as :data:`STEP_FAILURE`. Not a floor on the step: a
+#: blow-up near its escape time takes a few tiny steps (its state grows by a fixed factor per
+#: step) and still reaches ``diverge_bound``; a run that would need ~``t_final / h`` of them
+#: (a stiff field, a huge parameter) ends after these.
+MAX_TINY_STEPS = 1000
 EPS = np.finfo(float).eps
 
 

@@ -36,7 +36,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.errors import ResultsError, RoaInputError
+from roa.errors import ResultsError, RoaInputError, SolverError
 from roa.io import code_hash, to_json
 from roa.montecarlo import budget
 from roa.montecarlo import integrator as I  # noqa: N812
@@ -236,6 +236,16 @@ MAX_TIME_LIMIT = 1e9
 IDLE_WORKERS = 30
 
 
+def kept(chunk_dir: Path | None, computed: int, resumed: int) -> str:
+    """What a basin run that stops early leaves behind, for its message."""
+    if chunk_dir is None:
+        return "nothing was kept (no --out: the completed chunks were not saved)"
+    if computed == 0 and resumed == 0:
+        return f"nothing was kept (no chunk completed; {chunk_dir} holds none)"
+    return (f"completed chunks are kept in {chunk_dir} ({computed} computed by this run, "
+            f"{resumed} resumed; run the same command with the same --out to resume)")  # fmt: skip
+
+
 def run_basin(system: System, sampler: Any, *, out_dir: str | Path | None = None,
               **kw: Any) -> BasinRun:  # fmt: skip
     """Integrate every initial condition of ``sampler`` (see :func:`_run_basin` for the
@@ -432,6 +442,11 @@ def _run_basin(
                         bar.update(1)
                     if _stop_after is not None and computed >= _stop_after:
                         raise KeyboardInterrupt("stopped on request (test hook)")
+        except SolverError as exc:  # a lost cluster: say what this run kept
+            raise SolverError(f"{exc}; {kept(chunk_dir, computed, len(done))}") from None
+        except KeyboardInterrupt as exc:
+            exc.add_note(kept(chunk_dir, computed, len(done)))
+            raise
         finally:
             if bar is not None:
                 bar.close()

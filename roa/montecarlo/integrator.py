@@ -9,7 +9,9 @@ Every trajectory has its own step size and stops at its own first event, with th
 * ``diverged``: ``diverge_bound - ||x||`` goes from >= 0 to <= 0 (non-finite stage values make the
   step be rejected and shrunk, as in scipy);
 * ``undecided``: none of the above by ``t_final`` (code :data:`UNDECIDED`), or the step size fell
-  below scipy's minimum (code :data:`STEP_FAILURE`, counted as undecided but reported apart);
+  below scipy's minimum, or the run used up its step budget (:data:`MAX_STEPS` steps, or
+  :data:`MAX_TINY_STEPS` steps shorter than ``TINY_STEP_FRACTION * t_final``) (code
+  :data:`STEP_FAILURE`, counted as undecided but reported apart: no run does unbounded work);
   after the batch, undecided runs sitting at another equilibrium are ``converged_elsewhere`` and
   those blowing up (:func:`roa.divergence.blows_up`, confirmed by the reference integrator)
   ``diverged``.
@@ -61,6 +63,8 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     ERROR_E,
     LEFT_DOMAIN,
     MAX_FACTOR,
+    MAX_STEPS,
+    MAX_TINY_STEPS,
     MIN_FACTOR,
     SAFETY,
     STATUS_NAMES,
@@ -68,6 +72,7 @@ from roa.montecarlo.dopri import (  # noqa: F401  (re-exported: codes and tablea
     TABLEAU_A,
     TABLEAU_B,
     TABLEAU_C,
+    TINY_STEP_FRACTION,
     UNDECIDED,
     check_tolerances,
 )
@@ -101,6 +106,9 @@ def integrate_batch(
     deadline: float | None = None,
 ) -> BatchResult:
     """Integrate ``system`` from every row of ``x0`` (shape ``(m, n)``) until its own event.
+
+    A discrete-time system's map is iterated instead (:func:`roa.montecarlo.iterate.iterate_map`:
+    ``t_final`` in units of its ``sample_time``; tolerances and backend unused).
 
     Parameters
     ----------
@@ -140,6 +148,15 @@ def integrate_batch(
     if backend not in ("auto", "numba", "numpy"):
         raise RoaInputError(f"backend must be auto, numba or numpy; got {backend!r}")
     bound = None if terminal is None else terminal.bind(system)
+    if system.time == "discrete":  # a map: iterated, nothing to integrate
+        from roa.montecarlo.iterate import iterate_map
+
+        res = iterate_map(system, x0, rules=rules, margin_tol=margin_tol, terminal=bound,
+                          deadline=deadline)  # fmt: skip
+        entered = res.code == ENTERED
+        res.code[entered] = CONVERGED
+        return _elsewhere(system, BatchResult(res.code, res.t_end, res.x_end, res.steps, entered),
+                          rules.converge_tol)  # fmt: skip
     from roa.montecarlo.kernel_cache import NUMPY, compiled_system
 
     system, ran, _ = compiled_system(system, backend, terminal, x0.shape[0])
@@ -511,10 +528,15 @@ def _one(
         h1 = (0.01 / max(d1, d2)) ** (1.0 / 5.0)
     h_abs = min(100 * h0, h1, t_final)
     steps = 0
+    tiny = 0
+    tiny_step = TINY_STEP_FRACTION * t_final
     while True:
         if t >= t_final:
             _copy(y, x_out)
             return UNDECIDED, t, steps
+        if steps >= MAX_STEPS or tiny >= MAX_TINY_STEPS:  # the run's step budget: undecided
+            _copy(y, x_out)
+            return STEP_FAILURE, t, steps
         min_step = 10 * abs(np.nextafter(t, np.inf) - t)
         if h_abs < min_step:
             h_abs = min_step
@@ -566,6 +588,8 @@ def _one(
             h_abs *= fac
             step_rejected = True
         steps += 1
+        if h < tiny_step:  # the step just taken
+            tiny += 1
         _events(y_new, x_eq, tol, bound, margin, params, margin_tol, g_new)
         first = -1
         t_first = np.inf

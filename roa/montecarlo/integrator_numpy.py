@@ -98,6 +98,8 @@ def integrate_numpy(
     fresh = np.ones(idx.size, bool)
     rejected = np.zeros(idx.size, bool)
     nsteps = np.zeros(idx.size, np.int64)
+    ntiny = np.zeros(idx.size, np.int64)
+    tiny_step = I.TINY_STEP_FRACTION * rules.t_final
 
     def finish(sel: np.ndarray, c: np.ndarray | int, tt: np.ndarray, xx: np.ndarray) -> None:
         rows = idx[sel]
@@ -107,6 +109,7 @@ def integrate_numpy(
         min_step = 10 * np.abs(np.nextafter(t, np.inf) - t)
         h_abs = np.where(fresh & (h_abs < min_step), min_step, h_abs)
         fail = ~(h_abs >= min_step)  # NaN (a field not finite here) fails too: never loops
+        fail |= (nsteps >= I.MAX_STEPS) | (ntiny >= I.MAX_TINY_STEPS)  # the step budget
         if fail.any():
             finish(fail, I.STEP_FAILURE, t[fail], y[fail])
         t_new = np.minimum(t + h_abs, rules.t_final)
@@ -130,6 +133,7 @@ def integrate_numpy(
         rejected = np.where(acc, False, True)
         fresh = acc.copy()
         nsteps += acc
+        ntiny += acc & (h < tiny_step)
         g_new = _events(system, y_new, rules, margin_tol)
         trig = acc[:, None] & (g_old >= 0) & (g_new <= 0)
         ev_rows = np.flatnonzero(trig.any(axis=1))
@@ -185,4 +189,5 @@ def integrate_numpy(
         keep = ~done
         idx, y, t, K0, g_old = idx[keep], y[keep], t[keep], K0[keep], g_old[keep]
         h_abs, fresh, rejected, nsteps = h_abs[keep], fresh[keep], rejected[keep], nsteps[keep]
+        ntiny = ntiny[keep]
     return I.BatchResult(code, t_end, x_end, steps)

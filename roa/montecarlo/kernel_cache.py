@@ -406,7 +406,7 @@ def compiled_system(system: System, backend: str = "auto", terminal: Any = None,
     :class:`roa.RoaInputError` where ``auto`` falls back."""
     from roa.errors import RoaInputError
 
-    if backend == "numpy":
+    if backend == "numpy" or system.time == "discrete":  # a map is iterated with numpy
         return system, NUMPY, None
     if system.numba is not None or isinstance(system.numba_fast, GeneratedKernels):
         return system, (GENERATED if system.numba is None else OWN), None
@@ -421,7 +421,10 @@ def compiled_system(system: System, backend: str = "auto", terminal: Any = None,
         if coords is not None:
             raise Untraceable(f"the terminal set lives in the coordinates {coords!r}, which a "
                               "generated kernel has no compiled map to")  # fmt: skip
-        factory = generate(system)
+        from roa.stage_limit import guard
+
+        with guard(f"tracing the field of {system.name!r} with sympy for the basin kernel"):
+            factory = generate(system)
     except Untraceable as exc:
         note = f"system {system.name!r}: {exc}; the numpy backend runs (slower)"
         if backend == "numba":

@@ -90,6 +90,8 @@ def _activation(spec: Any, where: str) -> Activation | None:
     if spec is None or spec == "identity" or spec == "linear":
         return None
     name, args = (spec, ()) if isinstance(spec, str) else (spec[0], tuple(spec[1:]))
+    if name in ("identity", "linear") and not args:  # also as a step of from_ops: no activation
+        return None
     if name not in ACTIVATION_NAMES:
         raise RoaInputError(
             f"MLP: {where}: unknown activation {name!r}; allowed: {', '.join(ACTIVATION_NAMES)}"
@@ -204,6 +206,15 @@ class MLP:
         from roa.nn.onnx import read_onnx
 
         return cls.from_ops(read_onnx(path))
+
+    @classmethod
+    def from_torch(cls, module: Any) -> MLP:
+        """A network from a PyTorch ``nn.Sequential`` (:func:`roa.nn.pytorch.read_torch`; needs
+        PyTorch, the ``torch`` extra). Modules other than Linear, ReLU, Tanh, Sigmoid, LeakyReLU,
+        Hardtanh/ReLU6, Softplus (and Identity, Flatten, Dropout, skipped) are refused by name."""
+        from roa.nn.pytorch import read_torch
+
+        return cls.from_ops(read_torch(module))
 
     @classmethod
     def load(cls, path: str | Path) -> MLP:

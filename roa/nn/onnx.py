@@ -35,7 +35,7 @@ def _onnx() -> Any:
         import onnx
     except ImportError:
         raise RoaInputError(
-            "MLP.from_onnx needs the onnx package: pip install 'roa-verify[nn]' (or pip install onnx)"
+            "MLP.from_onnx needs the onnx package: pip install onnx (in a checkout of roa: pip install -e '.[nn]')"
         ) from None
     return onnx
 

@@ -294,6 +294,57 @@ def draw_lines(
     return handles
 
 
+#: Line colour of an overlaid trajectory per status display index (visible on the map's colours).
+TRAJECTORY_COLOURS = {I.CONVERGED: "#0b3d0b", I.LEFT_DOMAIN: "#4d2600", I.DIVERGED: "#f5d000",
+                      I.UNDECIDED: "#000000", 4: "#1f3a93"}  # fmt: skip
+#: Most trajectories a map overlays.
+MAX_TRAJECTORIES = 400
+
+
+def trajectory_starts(grid: GridSlice, k: int) -> np.ndarray:
+    """``k`` initial states spread over the slice: the cell centres of an ``m x m`` sub-grid
+    (``m = ceil(sqrt(k))``) of the slice's ranges, ``k`` of them evenly by index; the states off
+    the slice at the slice's fixed values. Shape ``(k, n)``."""
+    from roa.errors import RoaInputError
+
+    if isinstance(k, bool) or not isinstance(k, int | np.integer) or not 1 <= k <= MAX_TRAJECTORIES:
+        raise RoaInputError(
+            f"trajectories must be an integer in [1, {MAX_TRAJECTORIES}], got {k!r}"
+        )
+    m = int(np.ceil(np.sqrt(k)))
+    ia, ib = grid.axes
+    fr = (np.arange(m) + 0.5) / m
+    xs = grid.xs[0] + fr * (grid.xs[-1] - grid.xs[0])
+    ys = grid.ys[0] + fr * (grid.ys[-1] - grid.ys[0])
+    XX, YY = np.meshgrid(xs, ys)
+    pick = np.unique(np.linspace(0, m * m - 1, k).round().astype(int))
+    pts = np.repeat(grid.base[None, :], len(pick), axis=0)
+    pts[:, ia], pts[:, ib] = XX.ravel()[pick], YY.ravel()[pick]
+    return pts
+
+
+def draw_trajectories(ax: Any, system: System, grid: GridSlice, runs: Sequence[Any]) -> list[Any]:
+    """Overlay simulated runs (:class:`roa.simulation.Trajectory`) on the slice: each run's path
+    in the slice's two coordinates (projected onto the slice when the system has more states),
+    a dot at its start, coloured by how it ended; one legend handle per status present."""
+    from roa.status import RunStatus
+
+    ia, ib = grid.axes
+    index = {RunStatus.CONVERGED: I.CONVERGED, RunStatus.LEFT_DOMAIN: I.LEFT_DOMAIN,
+             RunStatus.DIVERGED: I.DIVERGED, RunStatus.CONVERGED_ELSEWHERE: 4}  # fmt: skip
+    counts: dict[int, int] = {}
+    for run in runs:
+        c = index.get(run.status, I.UNDECIDED)
+        counts[c] = counts.get(c, 0) + 1
+        colour = TRAJECTORY_COLOURS[c]
+        ax.plot(run.x[:, ia], run.x[:, ib], color=colour, lw=0.8, alpha=0.85)
+        ax.plot(run.x[0, ia], run.x[0, ib], "o", color=colour, ms=2.5)
+    where = " (projected onto the slice)" if system.n > 2 else ""
+    return [Line2D([], [], color=TRAJECTORY_COLOURS[c], lw=0.8, marker="o", ms=2.5,
+                   label=f"trajectories, {STATUS_WORDS[c]}: {counts[c]}{where}")
+            for c in sorted(counts)]  # fmt: skip
+
+
 def _fixed_text(system: System, grid: GridSlice, names: Sequence[str] | None = None) -> str:
     ia, ib = grid.axes
     names = names or system.state_names
@@ -312,9 +363,11 @@ def draw_slice(
     contour_resolution: int = 401,
     t_end: np.ndarray | None = None,
     colours: Mapping[str, str] | None = None,
+    trajectories: Sequence[Any] = (),
 ) -> Any:
     """Draw the statuses of ``grid`` into ``ax`` with region boundaries and marker lines, and one
-    legend below the axes (a colorbar beside it when ``t_end`` colours the converged points).
+    legend below the axes (a colorbar beside it when ``t_end`` colours the converged points);
+    ``trajectories`` (simulated runs) are overlaid (:func:`draw_trajectories`).
 
     ``lines`` are ``(state name, value, label)``: a line at that value of a slice axis (e.g. the
     paper's claimed sector theta = +-60 deg); lines with the same label share one legend entry.
@@ -324,6 +377,7 @@ def draw_slice(
     handles += draw_regions(ax, grid, regions, colours=colours,
                             contour_resolution=contour_resolution)  # fmt: skip
     handles += draw_lines(ax, system, grid, lines)
+    handles += draw_trajectories(ax, system, grid, trajectories)
     x0, x1, y0, y1 = _extent(grid)
     ax.set_xlim(x0, x1)
     ax.set_ylim(y0, y1)
@@ -431,11 +485,13 @@ def plot_slice(
     title: str = "",
     contour_resolution: int = 401,
     t_end: np.ndarray | None = None,
+    trajectories: Sequence[Any] = (),
 ) -> Path:
-    """Heatmap of statuses over ``grid`` with region boundaries ``V(coords(x)) = level`` (any V)
-    and marker lines, saved to ``path`` (see :func:`draw_slice`)."""
+    """Heatmap of statuses over ``grid`` with region boundaries ``V(coords(x)) = level`` (any V),
+    marker lines and overlaid ``trajectories``, saved to ``path`` (see :func:`draw_slice`)."""
     fig, ax = plt.subplots(figsize=(8.6, 6.0))
     draw_slice(ax, system, grid, code, regions=regions, lines=lines, title=title,
-               contour_resolution=contour_resolution, t_end=t_end)  # fmt: skip
+               contour_resolution=contour_resolution, t_end=t_end,
+               trajectories=trajectories)  # fmt: skip
     fig.tight_layout()
     return save_figure(fig, path)

@@ -11,7 +11,7 @@ lie inside ``{margin > 0}``. Three tools, each independent of any solver:
   ``d = x - x_eq``, ``eps > 0``, ``Q0`` and ``Q1`` positive definite in exact rationals. Then on
   ``{V <= c}``: ``margin >= eps + lambda (c - V) >= eps > 0``. A fresh candidate (float Gram
   matrices of :mod:`roa.search.sos_domain`) is rounded and ``Q0`` projected onto the identity
-  (Peyrl-Parrilo, as :mod:`roa.proof.sos_check`); a stored one is checked exactly as stored.
+  (Peyrl-Parrilo: :func:`roa.proof.putinar.check_identity`, the one exact check); a stored one is checked exactly as stored.
 * :func:`interval_containment`: an interval branch and bound over a proved cover of the set
   (:func:`roa.proof.cover.prove_cover`): every box has ``V > c`` or ``margin > 0`` (outward
   rounding), within a budget of boxes and seconds. It proves the claim for the equilibrium's
@@ -33,21 +33,15 @@ import numpy as np
 
 from roa.backend import namespace
 from roa.lyapunov import Lyapunov
-from roa.proof.exact import exact_positive_definite
 from roa.proof.interval import INTERVAL, Interval
+from roa.proof.putinar import Certificate, check_identity
 from roa.proof.sos_check import (
-    Mono,
     NotPolynomial,
     QPoly,
     as_float,
     exact_fraction,
-    exact_matrix,
-    gram_poly,
-    is_symmetric,
     matrix_digest,
     poly_lin,
-    poly_mul,
-    project_gram,
 )
 from roa.system import System
 
@@ -94,20 +88,10 @@ class DomainCheck:
     min_pivot: float | None = None
 
 
-def check_domain_certificate(
-    margin: QPoly,
-    Vq: QPoly,
-    n: int,
-    level: Any,
-    eps: Any,
-    basis0: list[Mono],
-    Q0: Any,
-    basis1: list[Mono],
-    Q1: Any,
-    *,
-    stored: bool = False,
-) -> DomainCheck:
-    """Exact check of ``margin - eps - lambda (c - V) = m0' Q0 m0`` (module docstring).
+def check_domain_certificate(margin: QPoly, Vq: QPoly, n: int, level: Any, eps: Any,
+                             cert: Certificate, *, stored: bool = False) -> DomainCheck:  # fmt: skip
+    """Exact check of ``margin - eps - lambda (c - V) = m0' Q0 m0`` (module docstring): ``cert``
+    holds ``(0, m0, Q0)`` and, unless ``lambda = 0``, ``(1, m1, Q1)``.
 
     ``stored=False``: float Gram matrices, rounded to dyadics, ``Q0`` projected onto the identity;
     ``stored=True``: rationals, checked exactly as given (no projection: the identity must hold
@@ -116,36 +100,24 @@ def check_domain_certificate(
     c, e = Fraction(level), Fraction(eps)
     if not (c > 0 and e > 0):
         return DomainCheck(False, f"level and eps must be > 0 (got {as_float(c)}, {as_float(e)})")
-    if any(len(b) != n for b in (*basis0, *basis1)) or len(Q0) != len(basis0) or (
-            len(Q1) != len(basis1)):  # fmt: skip
-        return DomainCheck(False, "the bases and Gram matrices of the domain certificate do not "
-                           "match")  # fmt: skip
-    R0, R1 = exact_matrix(Q0, stored), exact_matrix(Q1, stored)
-    if not (is_symmetric(R0) and is_symmetric(R1)):
-        return DomainCheck(False, "a Gram matrix of the domain certificate is not symmetric")
-    target = domain_target(margin, e, n)
-    if basis1:
-        c_minus_V = poly_lin((Fraction(-1), Vq), (c, {tuple([0] * n): Fraction(1)}))
-        target = poly_lin((Fraction(1), target),
-                          (Fraction(-1), poly_mul(gram_poly(basis1, R1), c_minus_V)))  # fmt: skip
-    ok1, piv1 = exact_positive_definite(R1)
-    if not ok1:
-        return DomainCheck(False, "the domain multiplier's Gram matrix is not positive definite "
-                           "(exact)")  # fmt: skip
-    P, _, why = project_gram(basis0, R0, target, exact=stored)
-    if P is None:
-        return DomainCheck(False, f"domain certificate: {why}")
-    ok0, piv0 = exact_positive_definite(P)
-    if not ok0:
-        return DomainCheck(False, "the domain certificate's Gram matrix is not positive definite "
-                           "(exact)")  # fmt: skip
-    cert = {"eps": str(e), "basis0": [list(b) for b in basis0],
+    one: QPoly = {tuple([0] * n): Fraction(1)}
+    if len(cert.blocks(0)) != 1 or len(cert.blocks(1)) > 1 or len(cert.grams) > 2:
+        return DomainCheck(False, "the domain certificate needs one block Q0 and at most one Q1")
+    res = check_identity(domain_target(margin, e, n),
+                         [one, poly_lin((Fraction(-1), Vq), (c, one))], [], cert,
+                         rounded=stored)  # fmt: skip
+    if not res.ok or res.certificate is None:
+        return DomainCheck(False, f"domain certificate: {res.reason}")
+    (basis0, P), *_ = res.certificate.blocks(0)
+    basis1, R1 = (res.certificate.blocks(1) or [([], [])])[0]
+    stored_form = {"eps": str(e), "basis0": [list(b) for b in basis0],
             "basis1": [list(b) for b in basis1],
             "Q0": [[str(v) for v in row] for row in P],
             "Q1": [[str(v) for v in row] for row in R1],
             "digest": matrix_digest(P, R1)}  # fmt: skip
-    return DomainCheck(True, "margin > 0 on the level set (Putinar certificate, exact)", cert,
-                       as_float(min(piv0 + piv1)) if piv0 + piv1 else None)  # fmt: skip
+    return DomainCheck(
+        True, "margin > 0 on the level set (Putinar certificate, exact)", stored_form, res.min_pivot
+    )
 
 
 # -- witnesses ---------------------------------------------------------------------------------------

@@ -97,6 +97,13 @@ def enclose_constant(c: Any) -> Interval:
     a = np.asarray(c)
     if a.dtype == np.float64:
         return Interval(a)
+    if a.dtype.kind == "c":  # a real quantity only: the imaginary part was dropped silently
+        if np.any(a.imag != 0):
+            raise RoaInputError(
+                f"a complex constant ({c!r}) in a real expression (e.g. a negative number to a "
+                "fractional power in the field): write the field with real operations"
+            )
+        a = a.real
     fa = a.astype(float)
     if (a.dtype.kind == "f" and a.dtype.itemsize <= 4) or (
         a.dtype.kind in "biu" and np.all(np.abs(fa) <= 2.0**53)

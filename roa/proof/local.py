@@ -55,6 +55,18 @@ around the equilibrium ``x_eq`` proved here (:func:`local_box`), by one of two a
    y``) the box ``L`` in ``y`` is mapped to its exact rational hull ``X`` in ``x`` and ``K`` is
    checked in ``y`` with ``W = y' M' P M y`` (the same function), so the float ``M^-1`` of the
    whitened field is never used.
+
+**Discrete time** (``x+ = F(x)``, :attr:`roa.System.time`): ``V'`` above is the decrease
+``Delta V(x) = V(F(x)) - V(x)`` (:meth:`roa.System.decrease_expr`) and arguments 1 and 2 hold
+unchanged for it: with ``F(x_eq) = x_eq`` exactly (the residual ``F(x) - x`` vanishes,
+:func:`roa.proof.exact.exact_equilibrium`) and ``grad V(x_eq) = 0``, ``Delta V(x_eq) = 0`` and
+``grad Delta V(x_eq) = DF(x_eq)' grad V(x_eq) - grad V(x_eq) = 0``. The Hessian of ``Delta V``
+at ``x_eq`` is ``2 (A'PA - P)`` for ``V = d'Pd`` and ``A = DF(x_eq)``: negative definite when
+``P`` solves the discrete Lyapunov equation ``A'PA - P = -Q`` with ``Q > 0`` (a Schur ``A``,
+:func:`roa.linearisation.lyapunov_matrix`). The interval enclosure of the Hessians of
+``Delta V`` over ``L`` (second-order jets of ``V(F(x))``, outward rounded) bounds the remainder,
+so ``Delta V < 0`` on all of ``L`` minus ``x_eq``: no hole at the equilibrium. Argument 3 is
+about a flow and is not used for a map.
 """
 
 from __future__ import annotations
@@ -127,8 +139,15 @@ def local_box_proof(
 
 
 def hessian_preconditions(system: System, lyap: Lyapunov) -> bool:
-    """``grad V(x_eq) = 0`` and ``f(x_eq) = 0`` exactly (the Hessian argument's premises)."""
-    return gradient_vanishes(lyap) and exact_equilibrium(system, lyap.center)
+    """``grad V(x_eq) = 0`` and ``f(x_eq) = 0`` exactly (the Hessian argument's premises;
+    ``F(x_eq) = x_eq`` for a map). For a whitened candidate the residual is checked on the
+    system in ``x``: ``x(0) = x_eq`` exactly, so the whitened field (``M^-1 f``, or
+    ``M^-1 (F - x_eq)``) vanishes at ``y = 0`` exactly when it does at ``x_eq``."""
+    if getattr(lyap, "whitened", False):
+        base_sys, center = lyap.system, lyap.base.center  # type: ignore[attr-defined]
+    else:
+        base_sys, center = system, lyap.center
+    return gradient_vanishes(lyap) and exact_equilibrium(base_sys, center)
 
 
 def local_box(
@@ -227,6 +246,8 @@ def contraction_box(
     from roa.proof.exact import interval_negative_definite
     from roa.proof.interval import INTERVAL
 
+    if system.time == "discrete":
+        return None  # an argument about a flow; a map has the Hessian and lowest-order ones
     base_sys, base = system, lyap
     n = lyap.n
     M = [[Fraction(int(i == j)) for j in range(n)] for i in range(n)]
@@ -353,14 +374,14 @@ def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
     c = [sp.Rational(float(v)) for v in lyap.center]
     x = [c[i] + d[i] for i in range(n)]
     try:
-        f = system.field(0.0, x, namespace("sympy"))
-        if lyap.P is not None:
+        if lyap.P is not None and system.time == "continuous":
+            f = system.field(0.0, x, namespace("sympy"))
             P = [[sp.Rational(float(lyap.P[i, j])) for j in range(n)] for i in range(n)]
             vd = 2 * sum(d[i] * P[i][j] * f[j] for i in range(n) for j in range(n))
         else:
             from roa.lyapunov import exact_rationals
 
-            # V' as the candidate writes it (a whitened V: grad V . f at x = c + M y with the
+            # V' (or V(F(x)) - V(x) for a map) as the candidate writes it (a whitened V: grad V . f at x = c + M y with the
             # system's own field, never the float inverse of M)
             vd = exact_rationals(sp.sympify(lyap.vdot_expr(system, x, namespace("sympy"))))
         poly = sp.Poly(sp.expand(vd), *d)

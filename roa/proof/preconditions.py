@@ -13,6 +13,18 @@ of the region of attraction only when, in addition (:data:`PRECONDITIONS`):
 * ``bounded``: ``{V <= c}`` is compact (V positive definite: ``V >= mu |d|^2`` from V's Gram
   matrix in exact rationals, :func:`roa.proof.cover.gram_cover`), or, for a route that proves its
   own cover of the equilibrium's component (the branch and bound), that cover;
+* ``invariant`` (discrete-time systems ``x+ = F(x)``): the certified set is the *whole*
+  sublevel set ``{V <= c}`` (the global cover of ``V >= mu |d|^2``, above). Then
+  ``Delta V = V(F(x)) - V(x) < 0`` on it minus the fixed point ``x_eq`` gives
+  ``V(F(x)) <= V(x) <= c``: ``F`` maps ``{V <= c}`` into itself, so the set is invariant, and
+  ``V`` decreases strictly along every orbit in it, which therefore converges to ``x_eq``
+  (``V(x_k)`` decreases to a limit; the limit points form an invariant set on which
+  ``Delta V = 0``, that is ``{x_eq}``; ``F`` and ``V`` continuous, the set compact). For a flow
+  the equilibrium's connected component of the set is enough (a trajectory cannot leave it
+  without crossing its boundary); a map can *jump* from that component into another one where
+  nothing is proved, so a route's cover of the component alone (the branch and bound's box with
+  ``V > c`` on its faces) is refused for a map: it is the whole set only when the set is
+  connected, which this module does not prove for a non-convex ``V``;
 * ``domain``: ``{V <= c}`` lies inside the system's declared domain ``{margin > 0}``, proved by a
   Putinar certificate (exact check, stored with the certificate and re-checked with it) or by
   interval branch and bound (:mod:`roa.proof.domain`), or by the route's own boxes (the branch
@@ -42,7 +54,15 @@ from roa.status import Verdict
 from roa.system import System
 
 #: Every precondition of a certificate, by name (module docstring).
-PRECONDITIONS = ("autonomous", "equilibrium", "level", "parameters", "bounded", "domain")
+PRECONDITIONS = (
+    "autonomous",
+    "equilibrium",
+    "level",
+    "parameters",
+    "bounded",
+    "invariant",
+    "domain",
+)
 
 
 @dataclass(frozen=True)
@@ -116,6 +136,12 @@ def check_preconditions(
         return refuse("parameters", f"the system has uncertain parameters and route "
                       f"{route.name!r} proves one field, not the whole box")  # fmt: skip
     whole = gram_cover(V, lvl) is not None
+    if not whole and system.time == "discrete":
+        return refuse("invariant", "for a map x+ = F(x) the certified set must be the whole "
+                      "sublevel set {V <= level} (V >= mu |d|^2 from a positive definite Gram "
+                      "matrix, e.g. a quadratic V): a cover of the equilibrium's component alone "
+                      "does not prove F maps it into itself (an orbit may jump to another "
+                      "component)")  # fmt: skip
     if not whole and not route.cover:
         return refuse("bounded", "V >= mu |d|^2 not proved (no positive definite Gram matrix "
                       "over the linear monomials): {V <= level} may be unbounded")  # fmt: skip
@@ -134,6 +160,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         interval_containment,
         margin_poly,
     )
+    from roa.proof.putinar import Certificate
     from roa.proof.sos_check import (
         NotPolynomial,
         exact_terms,
@@ -167,8 +194,9 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             Q0 = parse_matrix(stored.get("Q0"), len(b0), "domain Q0")
             Q1 = parse_matrix(stored.get("Q1"), len(b1), "domain Q1")
             eps = parse_eps(stored.get("eps"))
-            res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps, b0, Q0,
-                                           b1, Q1, stored=True)  # fmt: skip
+            grams = ((0, b0, Q0), (1, b1, Q1)) if b1 else ((0, b0, Q0),)
+            res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps,
+                                           Certificate(grams), stored=True)  # fmt: skip
         except (ValueError, TypeError, ZeroDivisionError, NotPolynomial) as exc:
             return refuse("domain", f"malformed domain certificate: {exc}")
         if not res.ok:
@@ -182,11 +210,11 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         try:
             mq = margin_poly(system, V)
             cand = propose(mq, exact_terms(V), V.n, level)
-            if cand.Q0 is None:
+            if cand.certificate is None:
                 why = f"Putinar candidate not found ({cand.solver_status})"
             else:
-                res = check_domain_certificate(mq, exact_terms(V), V.n, level, cand.eps, cand.basis0,
-                                               cand.Q0, cand.basis1, cand.Q1)  # fmt: skip
+                res = check_domain_certificate(mq, exact_terms(V), V.n, level, cand.eps,
+                                               cand.certificate)  # fmt: skip
                 if res.ok:
                     return Preconditions(None, {"method": "putinar", **(res.certificate or {})},
                                          {"domain": res.reason})  # fmt: skip

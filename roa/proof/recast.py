@@ -1,4 +1,4 @@
-"""Exact polynomial recast of a non-polynomial field for the SOS check (:mod:`roa.proof.sos_putinar`).
+"""Exact polynomial recast of a non-polynomial field for the SOS check (:func:`roa.proof.putinar.check_level`).
 
 **Claim.** :func:`recast_exact` returns, for a field with ``sin``/``cos`` of states and rational
 terms, polynomials over the rationals in ``z = (d, s_a, q_a, ...)`` (``d = x - x_eq``; per angle
@@ -73,6 +73,7 @@ from roa.proof.sos_check import (
     Mono,
     NotPolynomial,
     QPoly,
+    bounded_and_even,
     exact_fraction,
     poly_lin,
     poly_mul,
@@ -229,11 +230,24 @@ def taylor_order(radius: float) -> int:
 
 
 def _pretty(p: QPoly, gens: list[Any]) -> str:
+    """``p`` for a message: exact coefficients with small denominators (``1/2``), the others as
+    the shortest decimal of their double (``0.1``, not ``3602879701896397/36028797018963968``:
+    the polynomial itself stays exact)."""
     import sympy as sp
 
-    return str(sp.Add(*[sp.Rational(c.numerator, c.denominator)
+    return str(sp.Add(*[shown_coefficient(c)
                         * sp.Mul(*[g**e for g, e in zip(gens, m, strict=True)])
                         for m, c in p.items()]))  # fmt: skip
+
+
+def shown_coefficient(c: Fraction) -> Any:
+    """An exact coefficient as shown in messages: itself when its denominator is at most 1000,
+    else the sympy Float of the shortest decimal of its double."""
+    import sympy as sp
+
+    if c.denominator <= 1000:
+        return sp.Rational(c.numerator, c.denominator)
+    return sp.Float(repr(float(c)))
 
 
 def _square_roots(
@@ -513,3 +527,20 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
                       order, sc, None if bounds is None else Fraction(level), tuple(eqs),
                       tuple(ineqs), den, desc or "polynomial (no recast)", Lq,
                       root_data, params)  # fmt: skip
+
+
+def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
+                         scale: Any) -> tuple[RecastData | None, str]:  # fmt: skip
+    """The recast data at ``level``, or None and why the check does not apply: V not centred at
+    the equilibrium, a term that cannot be recast (named), ``{V <= level}`` not proved bounded
+    (:func:`roa.proof.cover.gram_cover`), V' starting at an odd degree."""
+    import numpy as np
+
+    if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
+        return None, "V must be centred at the system's equilibrium"
+    try:
+        data = recast_exact(system, V, taylor=taylor, scale=scale, level=level)
+    except NotPolynomial as exc:
+        return None, f"no exact recast: {exc}"
+    why = bounded_and_even(V, level, data.low)
+    return (None, why) if why else (data, "")

@@ -15,7 +15,7 @@ factor. So a polynomial identity in ``(z, w)``
 with every ``sigma``, ``tau``, ``lambda`` SOS and ``eps > 0`` a constant (the same for every
 parameter) proves ``-N(z(x), w(p)) >= eps |d|^2k > 0`` for every state ``x != x_eq`` of
 ``{V <= c}`` and every ``p`` of the box, i.e. ``V' < 0`` there for every parameter of the box
-(:mod:`roa.proof.sos_putinar` checks the identity; the parameters are the last variables of
+(:func:`roa.proof.putinar.check_level` checks the identity; the parameters are the last variables of
 ``z``, and nothing else about them is assumed).
 
 **Assumptions, checked exactly.** The field evaluated in sympy sees each uncertain parameter as a

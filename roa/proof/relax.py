@@ -35,7 +35,9 @@ interval (slope 0).
 offsets; the error of each computed coefficient against the exact combination is at most
 ``gamma_K`` times the sum of the magnitudes combined (Higham (3.5), ``K`` terms, with underflow),
 so the error of the computed function over the box is at most ``2 gamma_K`` times the same
-combination of magnitudes evaluated at ``|d_i| = r_i`` (plus ``(K + 2) 2^-1022``); it is
+combination of magnitudes evaluated at ``|d_i| = r_i``, plus the underflow part ``(K + 2)
+2^-1022 (1 + sum_i r_i)`` (each coefficient may be off by ``K 2^-1075`` absolutely, and it is
+multiplied by ``d_i``; likewise with the magnitudes of a layer's values in a network); it is
 subtracted from the lower and added to the upper offset with :func:`~roa.proof.interval.round_down`
 / :func:`~roa.proof.interval.round_up`. The products of back-substitution through a network are
 matrix products (BLAS, any summation order): their error is bounded the same way from the
@@ -82,6 +84,17 @@ def _abs_dot(A: np.ndarray, r: np.ndarray) -> np.ndarray:
     k = A.shape[-1]
     s = np.sum(np.abs(A) * r, axis=-1)
     return round_up(s * (1.0 + _gamma2(k + 1)) + (k + 1) * _TINY)
+
+
+def _underflow(k: int, mag: np.ndarray) -> np.ndarray:
+    """``k 2^-1022 (1 + sum_i mag_i)``: a bound of the underflow part of the error of an affine
+    function whose coefficients are sums of at most ``k`` products, each off by at most
+    ``2^-1075`` absolutely, the coefficients multiplied by values ``|z_i| <= mag_i`` (last axis).
+    It exceeds that part by a factor ``2^53``, so the float evaluation of the sum needs no
+    rounding term. Without the factor ``1 + sum mag`` a coefficient that underflows to 0 would
+    lose its whole term over a wide box (``(x 1e-200) 1e-200`` on ``|x| <= 1e300``)."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        return (k * _TINY) * (1.0 + np.sum(mag, axis=-1))
 
 
 class Lin:
@@ -222,7 +235,7 @@ def combine(terms: Sequence[tuple[np.ndarray, np.ndarray, Lin]], iv: Interval,
                 mag += np.abs(s) * (np.sum(np.abs(Aq) * r, axis=1) + np.abs(cq))
         k = len(terms) + 1
         with np.errstate(invalid="ignore", over="ignore"):
-            err = round_up(mag * (1.0 + _gamma2(n + 1)) * _gamma2(k + n) + (k + n + 2) * _TINY)
+            err = round_up(mag * (1.0 + _gamma2(n + 1)) * _gamma2(k + n) + _underflow(k + n + 2, r))
             c = round_down(c - err) if side == 0 else round_up(c + err)
         sides.append((A, c))
     return _settle(sides[0][0], sides[0][1], sides[1][0], sides[1][1], iv, r)
@@ -521,7 +534,7 @@ def _back(ops: Sequence[Any], rel: dict[int, tuple[np.ndarray, ...]], mags: list
                 c = c + Lam @ op.b
                 Lam = Lam @ op.W
             p = op.W.shape[0] + 1
-            err = err + (e * _gamma2(p) + (p + 2) * _TINY)
+            err = err + (e * _gamma2(p) + _underflow(p + 2, mags[k])[:, None])
         else:
             a_lo, b_lo, a_hi, b_hi = rel[k]
             pos = Lam >= 0
@@ -538,7 +551,7 @@ def _back(ops: Sequence[Any], rel: dict[int, tuple[np.ndarray, ...]], mags: list
                 c = c + np.sum(Lam * B, axis=2)
                 Lam = Lam * A
             p = mags[k].shape[1] + 2
-            err = err + (e * _gamma2(p) + (p + 2) * _TINY)
+            err = err + (e * _gamma2(p) + _underflow(p + 2, mags[k])[:, None])
     return Lam, c, err
 
 
@@ -623,6 +636,6 @@ def _compose_in(Lam: np.ndarray, c: np.ndarray, err: np.ndarray, inp: tuple[np.n
         ms = np.sum(np.abs(sA) * rr, axis=2) + np.abs(sc)
         mag = np.einsum("mok,mk->mo", P, mf) - np.einsum("mok,mk->mo", N, ms) + np.abs(c)
         e = round_up(err + mag * (1.0 + _gamma2(r.shape[1] + 1)) * _gamma2(2 * k + 2)
-                     + (2 * k + 4) * _TINY)  # fmt: skip
+                     + _underflow(2 * k + 4, r)[:, None])  # fmt: skip
         cc = round_up(cc + e) if upper else round_down(cc - e)
     return A, cc

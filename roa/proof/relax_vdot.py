@@ -35,7 +35,8 @@ CHUNK = 2048
 
 
 def has_network(system: System) -> bool:
-    """Whether the field calls a network in the linear namespace (one probe box; cached)."""
+    """Whether the field (or the map) calls a network in the linear namespace (one probe box;
+    cached)."""
     cached = getattr(system, "_relax_network", None)
     if cached is not None:
         return bool(cached)
@@ -43,7 +44,7 @@ def has_network(system: System) -> bool:
     x, _ = variables(np.full((1, n), -1e-3), np.full((1, n), 1e-3))
     try:
         with network_calls() as calls, np.errstate(all="ignore"):
-            system.field(0.0, x, LINEAR)
+            system.dynamics(0.0, x, LINEAR)
         found = bool(calls)
     except (TypeError, ValueError, AttributeError, ArithmeticError, KeyError):
         found = False

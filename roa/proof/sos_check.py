@@ -1,33 +1,17 @@
-"""Exact check of an SOS certificate of a level (Peyrl-Parrilo rounding and projection).
+"""Exact data of the SOS check of a polynomial field, and the exact arithmetic it is written in.
 
-**Claim.** For a polynomial field ``f``, a polynomial ``V`` (``V.terms`` in ``d = x - x_eq``,
-``x_eq = V.center``) and a level ``c > 0``, the checker proves, in exact rational arithmetic, the
-polynomial identity (coefficient by coefficient)::
+:func:`exact_data` expands, for a polynomial field ``f`` and a polynomial ``V`` (``V.terms`` in
+``d = x - x_eq``, ``x_eq = V.center``), ``V`` and ``V' = grad V . f`` exactly over the rationals
+(every float taken as the exact rational of its double; ``f(x_eq) = 0`` checked exactly), and
+:func:`preconditions` adds what every level needs: V centred at the equilibrium, ``{V <= c}``
+bounded (``V >= mu |d|^2`` from V's Gram matrix, :func:`roa.proof.cover.gram_cover`) and ``V'``
+starting at an even degree ``2k``. The identity itself is checked by
+:func:`roa.proof.putinar.check_level` (the one exact check: rounding, the projection of
+:func:`project_grams`, exact LDL'); then on ``{V <= c}``, ``V' < 0`` minus ``x_eq``, the set is
+compact and positively invariant, and every trajectory from it converges to ``x_eq`` (LaSalle).
 
-    -V'(d) - eps |d|^(2k) - lambda(d) (c - V(d)) = sigma0(d),
-    sigma0 = m0(d)' Q0 m0(d),   lambda = m1(d)' Q1 m1(d)   (or lambda = 0),
-
-with ``Q0`` and ``Q1`` positive definite (exact leading minors, python-flint) and ``eps > 0``.
-Then on ``{V <= c}``: ``-V' >= eps |d|^(2k) + lambda (c - V) >= eps |d|^(2k) > 0`` for ``d != 0``,
-i.e. ``V' < 0`` on ``{V <= c}`` minus ``x_eq``.
-
-**Assumptions, each checked exactly** (else the verdict is inconclusive with the reason):
-
-* the field, evaluated in sympy at ``x_eq + d`` with every float taken as the exact rational of
-  the double, is polynomial in ``d`` (no recasting here); ``f(x_eq) = 0`` exactly;
-* ``V``'s coefficients and centre are the exact rationals of its doubles (the same V the interval
-  validation reads), and ``V`` has a Gram matrix ``V.gram`` over a basis holding the linear
-  monomials that is positive definite after the exact reproduction of the coefficients
-  (:func:`roa.proof.cover.gram_cover`): ``V >= mu |d|^2`` globally, so ``{V <= c}`` is compact.
-  With ``V' < 0`` on it (minus ``x_eq``) it is positively invariant and every trajectory from it
-  converges to ``x_eq`` (LaSalle): ``{V <= c}`` lies in the region of attraction.
-
-**Rounding and projection.** The float Gram matrices of the numerical solver
-(:mod:`roa.search.sos_certificate`) are rounded to dyadic rationals; ``lambda`` is fixed at its
-rounded Gram ``Q1``, and ``Q0`` is projected orthogonally (Frobenius norm, exact rationals) onto the
-affine space where ``m0' Q0 m0`` equals the exact residual ``-V' - eps|d|^2k - lambda (c - V)``:
-the constraints of distinct monomials touch disjoint entries, so the projection adds
-``(r_a - s_a) / N_a`` to each of the ``N_a`` entries ``(i, j)`` with ``m0_i m0_j = d^a``.
+The polynomials are ``{exponent tuple: Fraction}``; stored rationals follow one grammar
+(:func:`parse_rational`), bounded before any arithmetic.
 """
 
 from __future__ import annotations
@@ -35,14 +19,13 @@ from __future__ import annotations
 import hashlib
 import itertools
 import re
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.proof.exact import exact_positive_definite
 
 Mono = tuple[int, ...]
 QPoly = dict[Mono, Fraction]
@@ -61,6 +44,19 @@ class ExactData:
     V: QPoly
     Vdot: QPoly
     low: int  # lowest total degree of V' (2k)
+
+    # the view of :func:`roa.proof.putinar.check_level`: no auxiliary variable, no constraint
+    @property
+    def nv(self) -> int:
+        return self.n
+
+    @property
+    def N(self) -> QPoly:
+        return self.Vdot
+
+    equalities: tuple[tuple[str, QPoly], ...] = ()
+    inequalities: tuple[tuple[str, QPoly], ...] = ()
+    bounded_level: Fraction | None = None
 
 
 def exact_fraction(x: Any) -> Fraction:
@@ -81,11 +77,14 @@ def exact_terms(V: Any) -> QPoly:
 
 def exact_data(system: Any, V: Any) -> ExactData:
     """``V`` and ``V'`` expanded exactly (sympy over the rationals); raises :class:`NotPolynomial`
-    for a field that is not polynomial or a V without ``terms``."""
+    for a field that is not polynomial or a V without ``terms``. For a discrete-time system
+    ``Vdot`` is ``V(F(x)) - V(x)`` (a polynomial map ``F`` with ``F(x_eq) = x_eq`` exactly): the
+    certificate's claim is the same with that decrease."""
     import sympy as sp
 
     from roa.backend import namespace
     from roa.lyapunov.symbolic import exact_rationals
+    from roa.proof.fast_poly import field_polys
 
     terms = getattr(V, "terms", None)
     if terms is None:
@@ -96,31 +95,52 @@ def exact_data(system: Any, V: Any) -> ExactData:
     center = tuple(Fraction(float(c)) for c in V.center)
     xs = list(sp.symbols(f"x0:{n}", real=True))
     d = list(sp.symbols(f"d0:{n}", real=True))
+    discrete = getattr(system, "time", "continuous") == "discrete"
     try:  # unevaluated, so that no float is rounded against a rational before it is made exact
         with sp.evaluate(False):
-            f = system.field(0.0, xs, namespace("sympy"))
+            f = system.dynamics(0.0, xs, namespace("sympy"))
+        fast = field_polys(list(f), xs, center, d) if len(f) == n else None  # exact ring route
         shift = {
             xs[i]: d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)
         }
-        f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        if fast is None:
+            f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+        if discrete:  # the image's offset from the fixed point: F(x) - x_eq, in d
+            c_eq = [sp.Rational(c.numerator, c.denominator) for c in center]
+            if fast is not None:
+                fast = [fi - ci for fi, ci in zip(fast, c_eq, strict=True)]
+            else:
+                f = [fi - ci for fi, ci in zip(f, c_eq, strict=True)]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
         raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
     try:  # polynomial arithmetic over QQ (exact, and much faster than expanding expressions)
-        fp = [sp.Poly(fi, *d, domain="QQ") for fi in f]
+        fp = fast if fast is not None else [sp.Poly(fi, *d, domain="QQ") for fi in f]
     except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:
         raise NotPolynomial(
             f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
         ) from None
     if any(p.coeff_monomial(1) != 0 for p in fp):
-        raise NotPolynomial("f(x_eq) != 0 exactly: V's centre is not an equilibrium")
+        raise NotPolynomial(
+            "F(x_eq) != x_eq exactly: V's centre is not a fixed point" if discrete
+            else "f(x_eq) != 0 exactly: V's centre is not an equilibrium"
+        )  # fmt: skip
     Vq = exact_terms(V)
     Vp = sp.Poly.from_dict(
         {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
     )
     poly = sp.Poly(0, *d, domain="QQ")
-    for i in range(n):
+    if discrete:  # Delta V = V(F(x)) - V(x): V's terms composed with F - x_eq, exactly
+        one = sp.Poly(1, *d, domain="QQ")
+        for a, c in Vq.items():
+            term = one * sp.Rational(c.numerator, c.denominator)
+            for i, k in enumerate(a):
+                if k:
+                    term = term * fp[i] ** k
+            poly = poly + term
+        poly = poly - Vp
+    for i in range(0 if discrete else n):
         poly = poly + Vp.diff(d[i]) * fp[i]
     Vd: QPoly = {tuple(m): exact_fraction(c) for m, c in poly.terms() if c != 0}
     if any(sum(m) == 0 for m in Vd):
@@ -206,38 +226,15 @@ def matrix_digest(*mats: list[list[Fraction]]) -> str:
     return h.hexdigest()
 
 
-@dataclass(frozen=True)
-class SosCheck:
-    """Outcome of :func:`check_certificate`: ``ok`` only if every exact check passed."""
-
-    ok: bool
-    reason: str
-    residual: float | None = None  # max |coefficient| of the identity before projection
-    min_pivot: float | None = None  # least LDL' pivot of the projected Q0 (and of Q1)
-    Q0: list[list[Fraction]] | None = None
-    Q1: list[list[Fraction]] | None = None
-    meta: dict[str, Any] = field(default_factory=dict)
-
-
-def project_gram(
-    basis0: list[Mono], R0: list[list[Fraction]], target: QPoly, *, exact: bool = False
-) -> tuple[list[list[Fraction]] | None, Fraction | None, str]:
-    """``(P, residual, why)``: the rounded Gram matrix ``R0`` projected orthogonally (Frobenius,
-    exact rationals) onto the affine space where ``m0' P m0 = target`` (module doc: each
-    monomial's ``N_a`` entries move by ``(r_a - s_a) / N_a``), the largest coefficient moved,
-    and ``P`` None with the reason when the identity cannot hold. ``exact=True`` (a stored
-    certificate): nothing is moved; ``P`` is ``R0`` when the identity holds exactly as given."""
-    Ps, residual, why = project_grams([(basis0, R0)], target, exact=exact)
-    return (None if Ps is None else Ps[0]), residual, why
-
-
 def project_grams(
     blocks: list[tuple[list[Mono], list[list[Fraction]]]], target: QPoly, *, exact: bool = False
 ) -> tuple[list[list[list[Fraction]]] | None, Fraction | None, str]:
-    """:func:`project_gram` for a sum of Gram forms ``sum_b m_b' P_b m_b = target``, projected
-    jointly (Frobenius norm over all blocks): every entry ``(b, i, j)`` yields one monomial
-    ``m_bi m_bj``, so the constraints of distinct monomials still touch disjoint entries and each
-    monomial's ``N_a`` entries, over all blocks, move by ``(r_a - s_a) / N_a``. ``exact=True``
+    """``(P, residual, why)``: the rounded Gram blocks projected jointly (Frobenius norm over all
+    blocks, exact rationals) onto the affine space where ``sum_b m_b' P_b m_b = target``: every
+    entry ``(b, i, j)`` yields one monomial ``m_bi m_bj``, so the constraints of distinct
+    monomials touch disjoint entries and each monomial's ``N_a`` entries, over all blocks, move
+    by ``(r_a - s_a) / N_a`` (``r_a`` the target's coefficient, ``s_a`` the blocks'); the largest
+    coefficient moved, and ``P`` None with the reason when the identity cannot hold. ``exact=True``
     (stored certificates): no entry moves; the identity must hold exactly as given, else the
     first monomial whose coefficients differ is named."""
     pairs: dict[Mono, list[tuple[int, int, int]]] = {}
@@ -266,77 +263,6 @@ def project_grams(
     if total != target:  # the identity must now hold exactly
         return None, residual, "the projection did not reproduce the identity exactly"
     return Ps, residual, ""
-
-
-def identity_refusal(data: ExactData, level: Fraction, eps: Fraction) -> str | None:
-    """Why the identity ``-V' - eps|d|^2k - lambda (c - V) = sigma`` cannot prove the level
-    (``level`` or ``eps`` not positive, or ``V'`` not starting at an even degree >= 2), else
-    None."""
-    if not (level > 0 and eps > 0):
-        return f"level and eps must be > 0 (got {as_float(level)}, {as_float(eps)})"
-    k, rem = divmod(data.low, 2)
-    if rem or k < 1:
-        return (f"the lowest degree of V' is {data.low}, not even: V' is not negative definite "
-                "near x_eq")  # fmt: skip
-    return None
-
-
-def check_certificate(
-    data: ExactData,
-    level: Any,
-    eps: Any,
-    basis0: list[Mono],
-    Q0: Any,
-    basis1: list[Mono] | None,
-    Q1: Any,
-    *,
-    rounded: bool = False,
-) -> SosCheck:
-    """Exact Peyrl-Parrilo check of ``-V' - eps|d|^2k - lambda (c - V) = m0' Q0 m0``.
-
-    ``Q0``, ``Q1``: float Gram matrices (rounded here) or, with ``rounded=True``, rational ones
-    taken as they are (``Q0`` is projected in both cases; ``Q1`` is never changed). ``basis1`` None
-    or empty: ``lambda = 0``. Returns ``ok`` True only if the projected ``Q0`` and ``Q1`` are
-    positive definite exactly and ``eps``, ``level`` > 0.
-    """
-    c, e = Fraction(level), Fraction(eps)
-    refused = identity_refusal(data, c, e)
-    if refused:
-        return SosCheck(False, refused)
-    n, k = data.n, data.low // 2
-    if any(len(b) != n for b in basis0) or len(Q0) != len(basis0):
-        return SosCheck(False, "basis0 and Q0 do not match")
-    R0 = [[exact_fraction(v) for v in row] for row in Q0] if rounded else round_matrix(Q0)
-    if any(R0[i][j] != R0[j][i] for i in range(len(R0)) for j in range(i)):
-        return SosCheck(False, "Q0 is not symmetric")
-    target = poly_lin((Fraction(-1), data.Vdot), (-e, norm_power(n, k)))
-    R1: list[list[Fraction]] = []
-    if basis1:
-        if len(Q1) != len(basis1) or any(len(b) != n for b in basis1):
-            return SosCheck(False, "basis1 and Q1 do not match")
-        R1 = [[exact_fraction(v) for v in row] for row in Q1] if rounded else round_matrix(Q1)
-        if any(R1[i][j] != R1[j][i] for i in range(len(R1)) for j in range(i)):
-            return SosCheck(False, "Q1 is not symmetric")
-        lam = gram_poly(basis1, R1)
-        c_minus_V = poly_lin((Fraction(-1), data.V), (c, {tuple([0] * n): Fraction(1)}))
-        target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(lam, c_minus_V)))
-    ok1, piv1 = exact_positive_definite(R1)
-    if not ok1:
-        return SosCheck(False, "the multiplier's Gram matrix Q1 is not positive definite (exact)",
-                        min_pivot=as_float(min(piv1)) if piv1 else None, Q1=R1)  # fmt: skip
-    P, residual, why = project_gram(basis0, R0, target, exact=rounded)
-    if P is None:
-        return SosCheck(False, why, None if residual is None else as_float(residual))
-    assert residual is not None
-    ok0, piv0 = exact_positive_definite(P)
-    pivots = piv0 + piv1
-    mp = as_float(min(pivots)) if pivots else None
-    meta = {"digest": matrix_digest(P, R1), "eps": str(e), "k": k}
-    if not ok0:
-        return SosCheck(False, "the projected Gram matrix Q0 is not positive definite (exact)",
-                        as_float(residual), mp, P, R1, meta)  # fmt: skip
-    return SosCheck(True, "identity exact, Q0 and Q1 positive definite (exact)",
-                    as_float(residual), mp, P, R1, meta)  # fmt: skip
 
 
 def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, str]:
@@ -462,61 +388,3 @@ def stored_scale(cert: Any, n: int) -> tuple[Fraction, ...] | None:
     if not all(r > 0 for r in scale):
         raise ValueError("scale must be positive rationals")
     return scale
-
-
-def recheck_stored(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Any:
-    """Re-check a stored exact SOS certificate (``meta``: ``certificate`` with ``basis0``,
-    ``basis1``, ``Q0``, ``Q1`` as rationals, and ``eps``) for ``system`` and ``V`` at ``level``,
-    in exact arithmetic and without any solver: ``certified`` only if every check of
-    :func:`check_certificate` passes on the stored matrices (plus the exact equilibrium and the
-    bounded sublevel set that :class:`roa.certification.SosValidator` requires)."""
-    import time
-
-    from roa.proof.validation import Validation
-    from roa.status import Verdict
-
-    t0 = time.perf_counter()
-
-    def out(status: Verdict, message: str, **extra: Any) -> Validation:
-        m = {"method": "sos-exact", "M": np.eye(int(V.n)).tolist(), **extra}
-        return Validation(status, float(level), 0, time.perf_counter() - t0, message=message,
-                          meta=m)  # fmt: skip
-
-    cert = meta.get("certificate")
-    try:
-        if not isinstance(cert, dict):
-            raise ValueError("no certificate (bases and Gram matrices) in the file")
-        n = int(V.n)
-        eps = parse_eps(meta.get("eps"))
-        if "putinar" in cert:  # a recast (non-polynomial) field's constrained certificate
-            from roa.proof.sos_putinar import recheck_recast
-
-            ok, reason, rres = recheck_recast(system, V, level, cert, eps)
-            fig = {} if rres is None else {"residual": rres.residual, "min_pivot": rres.min_pivot}
-            if not ok:
-                return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {reason}",
-                           **fig)  # fmt: skip
-            assert rres is not None
-            return out(Verdict.CERTIFIED, "stored SOS certificate (recast field) re-checked "
-                       f"exactly: {reason}", **fig, **rres.meta)  # fmt: skip
-        basis0 = parse_basis(cert.get("basis0"), n, "basis0")
-        basis1 = parse_basis(cert.get("basis1") or [], n, "basis1")
-        Q0 = parse_matrix(cert.get("Q0"), len(basis0), "Q0")
-        Q1 = parse_matrix(cert.get("Q1") or [], len(basis1), "Q1")
-    except (ValueError, TypeError, ZeroDivisionError) as exc:
-        return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
-    data, why = preconditions(system, V, level)
-    if data is None:
-        return out(Verdict.INCONCLUSIVE, why)
-    try:
-        scale = stored_scale(cert, n)
-    except ValueError as exc:
-        return out(Verdict.INCONCLUSIVE, f"malformed SOS certificate: {exc}")
-    if scale is not None:
-        data = scale_data(data, scale)
-    res = check_certificate(data, level, eps, basis0, Q0, basis1, Q1, rounded=True)
-    if not res.ok:
-        return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {res.reason}",
-                   residual=res.residual, min_pivot=res.min_pivot)  # fmt: skip
-    return out(Verdict.CERTIFIED, f"stored SOS certificate re-checked exactly: {res.reason}",
-               residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip

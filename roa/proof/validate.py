@@ -51,6 +51,15 @@ to the field's zero ``x*`` next to it). Steps, all in interval arithmetic with o
    :mod:`roa.proof.preconditions` fails). With a component cover, a point counts only once proved to lie
    in the equilibrium's component (:func:`roa.proof.cover.connected_to_center`).
 
+**Discrete time.** For a map ``x+ = F(x)`` (:attr:`roa.System.time`) ``V'`` is everywhere
+the decrease ``Delta V = V(F(x)) - V(x)`` (:meth:`roa.System.decrease_expr`: the one hook through
+which the boxes see the system), enclosed by the same jets (of the composition ``V(F(x))``) and
+the same three forms; the local proof is the Hessian of ``Delta V`` (:mod:`roa.proof.local`).
+The claim is then ``Delta V < 0`` on ``{V <= level} \\ {x_eq}``, and the set must be the whole
+sublevel set (a global cover): ``F`` maps it into itself, it is invariant and every orbit in it
+converges to ``x_eq`` (the ``invariant`` precondition of :mod:`roa.proof.preconditions`). A
+cover of the equilibrium's component alone is refused (inconclusive) for a map.
+
 **Coordinates.** When the Hessian of V at the equilibrium is definite and not diagonal, the
 branch and bound runs on boxes in ``y`` with ``x = x_eq + M y`` (:mod:`roa.proof.whiten`); a
 polynomial V (a quadratic one included) is then evaluated from exact expansions in ``y``.
@@ -495,6 +504,12 @@ def _branch_and_bound(
     c = lyap.center
     n = lyap.n
     component = "component" in str(info.get("cover", ""))
+    if component and system.time == "discrete":  # module doc: invariance under a map
+        return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
+                   "precondition 'invariant' not met: the cover holds only the equilibrium's "
+                   "component of {V <= level}, and a map may jump out of it (prove the whole "
+                   "sublevel set: a V with a positive definite Gram matrix, no bounding_box)",
+                   meta={**info, "precondition": "invariant"})  # fmt: skip
     plo = phi = np.zeros(0)
     if parameters is not None:
         plo, phi = (np.asarray(a, dtype=float).ravel() for a in parameters)
@@ -558,8 +573,9 @@ def _branch_and_bound(
                                witness=[float(v) for v in w], witness_check=check,
                                meta={**info, **local})  # fmt: skip
                 if check["confirmed"]:
+                    dv = "V(F(x)) - V(x)" if system.time == "discrete" else "V'"
                     return out(Verdict.REFUTED, boxes,
-                               "V' >= 0 at a point of the level set in the cover (float and 50 "
+                               f"{dv} >= 0 at a point of the level set in the cover (float and 50 "
                                "digits)", witness=[float(v) for v in w], witness_check=check,
                                meta={**info, **local})  # fmt: skip
         if len(lo) and deadline is not None and time.perf_counter() > deadline:
@@ -599,9 +615,15 @@ def _branch_and_bound(
     if "equilibrium_radius" in local:
         near += (" (f(x_eq) enclosed, not proved 0: trajectories converge to the field's unique "
                  f"zero within {local['equilibrium_radius']:.3g} of x_eq)")  # fmt: skip
-    return out(Verdict.CERTIFIED, boxes, f"V' < 0 proved on {proved} boxes of the cover; {near}",
+    extra: dict[str, Any] = {}
+    what = "V' < 0"
+    if system.time == "discrete":
+        what = "V(F(x)) - V(x) < 0"
+        extra["invariance"] = ("F maps {V <= level} into itself: V(F(x)) <= V(x) on the whole "
+                               "sublevel set (global cover)")  # fmt: skip
+    return out(Verdict.CERTIFIED, boxes, f"{what} proved on {proved} boxes of the cover; {near}",
                meta={"proved_boxes": proved, "proved_by_multiplier": proved_F, **info,
-                     **local})  # fmt: skip
+                     **local, **extra})  # fmt: skip
 
 
 class _Progress:

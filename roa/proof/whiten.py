@@ -262,7 +262,9 @@ class Whitened(Lyapunov):
         self.center = np.zeros(base.n)
         self.name = f"{base.name} (whitened)"
         #: the exact polynomials in ``y`` (module doc), or None (the composition through ``x``)
-        self.expanded = Expanded(base, system, self.M) if base.terms is not None else None
+        # the affine-field expansion of W' is for a flow; a map's W(F) - W goes through x
+        flow = system if system is not None and system.time == "continuous" else None
+        self.expanded = Expanded(base, flow, self.M) if base.terms is not None else None
         #: ``(basis, T' Q T)`` and the exact coefficients of ``W`` for a global cover
         #: (:func:`roa.proof.cover.gram_cover`), when V has a Gram matrix ``Q`` over a basis
         #: ``m`` with ``m(M y) = T m(y)`` (each degree's monomials all in it, e.g. quadratic V)
@@ -357,12 +359,16 @@ def _gram_in_y(base: Any, e: Expanded) -> tuple[list[tuple[int, ...]], np.ndarra
 
 
 def whitened_system(system: System, W: Whitened) -> System:
-    """The system in ``y``: ``y' = M^-1 f(c + M y)`` (float ``M^-1``: used for the equilibrium and
-    domain tests only; the proved ``W'`` never uses it), its margin composed with ``x(y)``."""
+    """The system in ``y``: ``y' = M^-1 f(c + M y)``, or ``y+ = M^-1 (F(c + M y) - c)`` for a
+    map (float ``M^-1``: used for the equilibrium and domain tests only; the proved ``W'`` never
+    uses it), its margin composed with ``x(y)``."""
     Minv = np.linalg.inv(W.M)
+    discrete = system.time == "discrete"
 
     def field(t: Any, y: Any, xp: Any) -> list[Any]:
-        f = system.field(t, W.x_of(y), xp)
+        f = list(system.dynamics(t, W.x_of(y), xp))
+        if discrete:
+            f = [f[i] - float(W.c[i]) if W.c[i] != 0.0 else f[i] for i in range(len(f))]
         n = len(f)
         out = []
         for i in range(n):
@@ -380,14 +386,13 @@ def whitened_system(system: System, W: Whitened) -> System:
         def margin(y: Any, xp: Any) -> Any:
             return base_margin(W.x_of(y), xp)
 
-    return System(
-        name=f"{system.name} (whitened)",
-        field=field,
-        equilibrium=tuple(0.0 for _ in range(system.n)),
-        state_names=tuple(f"y{i}" for i in range(system.n)),
-        margin=margin,
-        domain_description=system.domain_description,
-    )
+    common: dict[str, Any] = {"equilibrium": tuple(0.0 for _ in range(system.n)),
+              "state_names": tuple(f"y{i}" for i in range(system.n)), "margin": margin,
+              "domain_description": system.domain_description}  # fmt: skip
+    if discrete:
+        return System.discrete(field, name=f"{system.name} (whitened)",
+                               sample_time=system.sample_time, **common)  # fmt: skip
+    return System(name=f"{system.name} (whitened)", field=field, **common)
 
 
 def whitening_for(lyap: Lyapunov) -> np.ndarray | None:

@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.search.sdp import solve
 from roa.system import System
 
 #: Bound of the condition number of P per state (``trace(P) <= n * KAPPA``, ``P >= I``).
@@ -125,6 +126,9 @@ def box_lyapunov(
         raise RoaInputError(f"system {system.name!r} declares no uncertain parameters")
     if system.equilibrium is None:
         raise RoaInputError(f"system {system.name!r} has no equilibrium")
+    if system.time != "continuous":
+        raise RoaInputError(f"system {system.name!r} is discrete-time: these are the common "
+                            "Lyapunov LMIs of flows (A'P + PA < 0)")  # fmt: skip
     if isinstance(per_axis, bool) or not isinstance(per_axis, int) or not 0 <= per_axis <= 50:
         raise RoaInputError(f"per_axis must be an integer in [0, 50], got {per_axis!r}")
     if not (np.isfinite(kappa) and kappa >= 1):
@@ -141,12 +145,11 @@ def box_lyapunov(
         M = A.T @ P + P @ A
         cons.append(0.5 * (M + M.T) << -t * eye)
     prob = cp.Problem(cp.Maximize(t), cons)
-    try:
-        prob.solve(solver=cp.CLARABEL)
-    except cp.error.SolverError as exc:  # the solver gave up: no proposal
+    res = solve(prob)
+    if res.status.startswith("solver error"):  # the solver gave up: no proposal
         return BoxLyapunovResult(None, None, tuple(points), (), False, affine, "solver_error",
-                                 f"the LMI solver failed: {exc}", time.perf_counter() - t0)  # fmt: skip
-    status = str(prob.status)
+                                 f"the LMI solver failed: {res.status}", time.perf_counter() - t0)  # fmt: skip
+    status = res.status
     if P.value is None or t.value is None:
         return BoxLyapunovResult(None, None, tuple(points), (), False, affine, status,
                                  f"no common quadratic Lyapunov matrix (solver: {status})",

@@ -40,6 +40,7 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.options import SampleSearchOptions
+from roa.search.sdp import solve
 from roa.search.seed import seed_level
 from roa.system import System
 
@@ -228,16 +229,12 @@ class _Problem:
             cons.append(b.values(out) @ c >= 1.0 + o.slack)
         obj = cp.mean(cp.pos(b.values(soft) @ c - 1.0)) if len(soft) else cp.Constant(0.0)
         prob = cp.Problem(cp.Minimize(obj), cons)
-        try:
-            prob.solve(solver="CLARABEL")
-        except cp.error.SolverError:
+        res = solve(prob)
+        if res.status.startswith("solver error"):
             return "solver error", None, None
-        ok = prob.status in ("optimal", "optimal_inaccurate") and all(
-            g.value is not None for g in G
-        )
-        if not ok:
-            return str(prob.status), None, None
-        return str(prob.status), np.asarray(c.value, dtype=float), [np.asarray(g.value) for g in G]
+        if not (res.usable and all(g.value is not None for g in G)):
+            return res.status, None, None
+        return res.status, np.asarray(c.value, dtype=float), [np.asarray(g.value) for g in G]
 
     def violators(
         self, coef: np.ndarray, rng: np.random.Generator

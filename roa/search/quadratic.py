@@ -19,6 +19,7 @@ from typing import Any
 import numpy as np
 from scipy import optimize
 
+from roa.errors import RoaInputError
 from roa.levelset_core import crossings, problem
 from roa.lyapunov import QuadraticLyapunov
 from roa.regions import symmetric_extent
@@ -134,6 +135,9 @@ def optimise_quadratic(
         Only ``P`` with ``A'P + PA <= -min_decay P`` (``A`` the Jacobian at the equilibrium) are
         admitted: nearly degenerate ``P`` have thin cones of ``V' >= 0`` that rays miss.
     """
+    if system.time != "continuous":
+        raise RoaInputError(f"system {system.name!r} is discrete-time: this search admits P by "
+                            "A'P + PA, a flow's decrease")  # fmt: skip
     from roa.levelset import casadi_level, jacobian
 
     if objective not in OBJECTIVES:

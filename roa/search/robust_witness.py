@@ -61,13 +61,14 @@ def _near_equilibrium(
     an eigenvalue > 0, ``H`` half the Hessian of V): a confirmed witness ``x_eq + t u`` along its
     eigenvector ``u`` inside ``{V <= level}`` (``t`` halved until ``V' >= 0`` holds at 50 digits),
     or None. A search."""
-    from roa.linearisation import linearise
+    from roa.linearisation import decrease_matrix, linearise
     from roa.proof.cover import connected_to_center
     from roa.proof.witness import recheck_witness
 
     H = 0.5 * lyap.hessian_at_center()
     A = linearise(system).A
-    w, U = np.linalg.eigh(A.T @ H + H @ A)
+    Q = decrease_matrix(system, A, H)  # A'H + HA, or A'HA - H for a map
+    w, U = np.linalg.eigh(0.5 * (Q + Q.T))
     if not w[-1] > 0:
         return None
     u, c = U[:, -1], np.asarray(lyap.center, dtype=float)

@@ -32,13 +32,13 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 import sympy as sp
 
 from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, poly_of, sdp_bytes
+from roa.search.polysdp import poly_of
+from roa.search.sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 from roa.status import SosStatus
 from roa.system import System
 
@@ -182,7 +182,9 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
         subs[p] = s ** (-k) if k < 0 else base ** ((k + 1) // 2) * s
     f = [sp.expand(fi.xreplace(subs)) for fi in f]
     if not all(fi.is_polynomial(*d, *aux) for fi in f):
-        raise RoaInputError("the field is not polynomial after recasting half-integer powers")
+        raise RoaInputError(
+            "the SOS level proposer takes polynomial fields (half-integer powers recast) only; the field has other terms (sin, cos, a rational function, ...): no SOS candidate here, the sampled search proposes the level (the exact SOS validator recasts sin, cos and rational terms itself)"
+        )
     return RecastField(d, aux, dx, f, eqs, boxes, "; ".join(notes) or "polynomial (no recast)")
 
 
@@ -197,64 +199,15 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
     if not Vdot.is_polynomial(*rf.d, *rf.aux):
-        raise RoaInputError("V' is not polynomial after recasting half-integer powers")
+        raise RoaInputError(
+            "the SOS level proposer takes polynomial fields (half-integer powers recast) only; V' has other terms (sin, cos, a rational function, ...): no SOS candidate here, the sampled search proposes the level (the exact SOS validator recasts sin, cos and rational terms itself)"
+        )
     return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description)
-
-
-# -- polynomial <-> coefficient vectors --------------------------------------------------------------
-def _add(a: tuple, b: tuple) -> tuple:
-    return tuple(x + y for x, y in zip(a, b, strict=True))
 
 
 def _is_even(polys: list[dict[tuple, float]], nd: int) -> bool:
     """Every monomial of every polynomial has even total degree in the first ``nd`` variables."""
     return all(sum(m[:nd]) % 2 == 0 for p in polys for m in p)
-
-
-class _Assembler:
-    """Maps monomials to rows; collects sparse columns of the linear identity."""
-
-    def __init__(self) -> None:
-        self.rows: dict[tuple, int] = {}
-
-    def row(self, m: tuple) -> int:
-        if m not in self.rows:
-            self.rows[m] = len(self.rows)
-        return self.rows[m]
-
-    def multiplier(self, poly: dict, basis: list[tuple]) -> tuple[list, list, list]:
-        """Columns ``basis_k * poly`` for a free multiplier with coefficients on ``basis``."""
-        r, c, v = [], [], []
-        for k, b in enumerate(basis):
-            for m, coef in poly.items():
-                r.append(self.row(_add(m, b)))
-                c.append(k)
-                v.append(coef)
-        return r, c, v
-
-    def gram(self, basis: list[tuple], times: dict | None = None) -> tuple[list, list, list]:
-        """Columns of ``sum_ij Q_ij b_i b_j * times`` for a symmetric Q (flattened row-major)."""
-        times = times or {tuple([0] * len(basis[0])): 1.0}
-        r, c, v = [], [], []
-        nb = len(basis)
-        for i in range(nb):
-            for j in range(nb):
-                bij = _add(basis[i], basis[j])
-                for m, coef in times.items():
-                    r.append(self.row(_add(bij, m)))
-                    c.append(i * nb + j)
-                    v.append(coef)
-        return r, c, v
-
-
-def _sparse(parts: tuple, nrows: int, ncols: int) -> sps.csr_matrix:
-    r, c, v = parts
-    return sps.csr_matrix((v, (r, c)), shape=(nrows, ncols))
-
-
-#: Largest Gram block the SOS program is built with (beyond it the interior-point solver's memory
-#: grows past this machine's; a larger program is refused before it is built).
-MAX_GRAM_BLOCK = 400
 
 
 def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
@@ -301,9 +254,7 @@ def sos_level(
         Largest degree of the auxiliary variables in Gram bases and multipliers (default: no
         cap). A cap is a restriction of the relaxation: rho can only decrease.
     """
-    t0 = time.perf_counter()  # seconds include importing cvxpy: the whole step, as reported
-    import cvxpy as cp
-
+    t0 = time.perf_counter()
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     least = math.comb(
@@ -363,85 +314,42 @@ def sos_level(
     biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
     if biggest > MAX_GRAM_BLOCK or sdp_bytes(biggest) > MAX_SDP_BYTES:
         return _too_large(biggest, nv, t0)
-    asm = _Assembler()
+    prog = Program(nv)
+    rho = prog.scalar()
     lam_basis = keep(monomials(nv, multiplier_degree))
-    parts: dict[str, Any] = {"lambda": asm.multiplier(Vd, lam_basis)}
-    mu_bases = []
-    for j, h in enumerate(eq_polys):
-        mu_bases.append(keep(monomials(nv, total - max(sum(m) for m in h))))
-        parts[f"mu{j}"] = asm.multiplier(h, mu_bases[-1])
+    prog.free(Vd, lam_basis)
+    for h in eq_polys:
+        prog.free(h, keep(monomials(nv, total - max(sum(m) for m in h))))
     half = total // 2
     grams: list[tuple[list[tuple], dict | None]] = [(b, None) for b in blocks(monomials(nv, half))]
     for gp in nn_polys:
         basis = monomials(nv, (total - max(sum(m) for m in gp)) // 2)
         grams += [(b, gp) for b in blocks(basis)]
-    for j, (b, times) in enumerate(grams):
-        parts[f"gram{j}"] = asm.gram(b, times)
-    for m in list(A) + list(B):
-        asm.row(m)
-    nrow = len(asm.rows)
-    avec, bvec = np.zeros(nrow), np.zeros(nrow)
-    for m, c in A.items():
-        avec[asm.rows[m]] = c
-    for m, c in B.items():
-        bvec[asm.rows[m]] = c
-    rho = cp.Variable()
-    lam = cp.Variable(len(lam_basis))
-    expr = avec - rho * bvec + _sparse(parts["lambda"], nrow, len(lam_basis)) @ lam
-    cons = []
-    for j, basis in enumerate(mu_bases):
-        mu = cp.Variable(len(basis))
-        expr = expr + _sparse(parts[f"mu{j}"], nrow, len(basis)) @ mu
-    for j, (basis, _) in enumerate(grams):
-        Q = cp.Variable((len(basis), len(basis)), symmetric=True)
-        cons.append(Q >> 0)
-        expr = expr - _sparse(parts[f"gram{j}"], nrow, len(basis) ** 2) @ cp.vec(Q, order="C")
-    # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0 == 0
-    cons.append(expr == 0)
-    prob = cp.Problem(cp.Maximize(rho), cons)
+    for b, times in grams:  # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0 == 0
+        prog.gram(b, times)
+    prog.const(A)
+    prog.linear([{m: -c for m, c in B.items()}], rho)
     sizes = {
         "variables": [str(g) for g in gens],
         "degree": total,
         "gram_sizes": [len(b) for b, _ in grams],
         "symmetry": "even/odd blocks in x - x_eq" if use_sym else "none",
-        "equality_rows": nrow,
+        "equality_rows": len(prog.rows),
         "multiplier_degree": multiplier_degree,
         "k": k,
     }
-    try:
-        prob.solve(solver=cp.CLARABEL, **(solver_options or {}))
-        solver_status = str(prob.status)
-    except cp.error.SolverError as exc:
-        return SOSResult(
-            SosStatus.FAILED,
-            None,
-            f"solver error: {exc}",
-            time.perf_counter() - t0,
-            rc.description,
-            sizes,
-            "the solver failed: no certificate",
-        )
-    status = {
-        cp.OPTIMAL: "solved",
-        cp.OPTIMAL_INACCURATE: "inaccurate",
-        cp.INFEASIBLE: "infeasible",
-        cp.INFEASIBLE_INACCURATE: "infeasible",
-    }.get(prob.status, "failed")
-    value = (
-        float(rho.value) if status in ("solved", "inaccurate") and rho.value is not None else None
-    )
+    res = solve(prog.problem(rho), options=solver_options)
+    if res.status.startswith("solver error"):
+        return SOSResult(SosStatus.FAILED, None, res.status, time.perf_counter() - t0,
+                         rc.description, sizes, "the solver failed: no certificate")  # fmt: skip
+    status = {"optimal": "solved", "inaccurate": "inaccurate", "infeasible": "infeasible",
+              "error": "failed"}[res.group]  # fmt: skip
+    value = float(rho.value) if res.usable and rho.value is not None else None
     msg = {
         "solved": "SOS candidate level; certified only after interval validation",
         "inaccurate": "solver reported an inaccurate solution: not a certificate",
         "infeasible": "no certificate at this degree",
-        "failed": f"solver status {prob.status}: no certificate",
+        "failed": f"solver status {res.status}: no certificate",
     }[status]
-    return SOSResult(
-        SosStatus(status),
-        value,
-        solver_status,
-        time.perf_counter() - t0,
-        rc.description,
-        sizes,
-        msg,
-    )
+    return SOSResult(SosStatus(status), value, res.status, time.perf_counter() - t0,
+                     rc.description, sizes, msg)  # fmt: skip

@@ -22,7 +22,8 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from roa.proof.sos_blocks import Block, blocks, restrict
+from roa.proof.reductions import IndependentBlocks
+from roa.proof.sos_blocks import Block
 from roa.proof.sos_check import ExactData
 from roa.search.sos_certificate import default_eps, propose_certificate
 
@@ -44,8 +45,9 @@ class BlockLevels:
 
 
 def _feasible(data: ExactData, c: float, solver_options: dict[str, Any] | None) -> bool:
-    cand = propose_certificate(data, c, eps=default_eps(data), solver_options=solver_options)
-    return cand.Q0 is not None and cand.margin is not None and cand.margin > 0
+    return propose_certificate(
+        data, c, eps=default_eps(data), solver_options=solver_options
+    ).feasible
 
 
 #: Relative tolerance of the bisection with the sparse program (each step a re-solve).
@@ -56,24 +58,28 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
                  solver_options: dict[str, Any] | None = None) -> tuple[float | None, int]:  # fmt: skip
     """Largest numerically feasible level of one block (``inf``: unlimited; None: not even at
     ``2^-MAX_DOUBLINGS``), and the number of programs solved. A block whose dense program does
-    not fit the memory budget is bisected with the sparse program
+    not fit the memory budget is bisected with the clique or the SDSOS program
     (:func:`roa.search.sos_sparse.choose_route`; compiled once, ``rel_tol`` at least
-    :data:`SPARSE_REL_TOL`)."""
+    :data:`SPARSE_REL_TOL`, and each step at the zero of the margins' secant when both ends'
+    margins are known, a halving after two moves of one end)."""
     from roa.search.sos_sparse import SparseProgram, choose_route
 
     count = 0
-    route, plan, _ = choose_route(data)
+    route, plan, _ = choose_route(data, solver_options=solver_options)
     program = None
-    if route == "sparse" and plan is not None:
+    if route in ("sparse", "sdsos") and plan is not None:
         program = SparseProgram(data, plan, eps=default_eps(data), solver_options=solver_options)
         rel_tol = max(rel_tol, SPARSE_REL_TOL)
+    margins: dict[float, float] = {}
 
     def ok(c: float) -> bool:
         nonlocal count
         count += 1
         if program is not None:
             cand = program.solve(c)
-            return cand.sigma is not None and cand.margin is not None and cand.margin > 0
+            if cand.margin is not None:
+                margins[c] = cand.margin
+            return cand.feasible
         return _feasible(data, c, solver_options)
 
     lo, hi = 1.0, 1.0
@@ -93,9 +99,18 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
             hi = lo
         else:
             return None, count
+    side = ""
     while hi - lo > rel_tol * lo:  # invariant: lo feasible, hi not
         mid = 0.5 * (lo + hi)
-        if ok(mid):
+        m_lo, m_hi = margins.get(lo), margins.get(hi)
+        if m_lo is not None and m_hi is not None and m_lo > 0 > m_hi and side != "same":
+            # the margin is close to linear in the level: its secant's zero, inside the bracket
+            mid = min(max(lo - m_lo * (hi - lo) / (m_hi - m_lo), lo + 0.01 * (hi - lo)),
+                      hi - 0.01 * (hi - lo))  # fmt: skip
+        good = ok(mid)
+        moved = "lo" if good else "hi"
+        side = "same" if side == moved else moved  # after two moves of one end: a halving
+        if good:
             lo = mid
         else:
             hi = mid
@@ -106,12 +121,11 @@ def block_levels(data: ExactData, *, rel_tol: float = 1e-7,
                  solver_options: dict[str, Any] | None = None) -> BlockLevels:  # fmt: skip
     """The least of the blocks' largest numerically feasible levels (module docstring)."""
     t0 = time.perf_counter()
-    parts = blocks(data)
+    subs, parts = IndependentBlocks().apply(data)
     seen: dict[tuple, float | None] = {}
     per: list[tuple[Block, float | None]] = []
     programs = 0
-    for block in parts:
-        sub = data if len(parts) == 1 else restrict(data, block)
+    for block, sub in zip(parts, subs, strict=True):
         key = (sub.n, tuple(sorted(sub.V.items())), tuple(sorted(sub.Vdot.items())))
         if key not in seen:
             seen[key], k = bisect_level(sub, rel_tol=rel_tol, solver_options=solver_options)

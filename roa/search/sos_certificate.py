@@ -15,60 +15,63 @@ deg V'``). A degenerate equilibrium, ``V'`` starting at degree ``2k > 2``, force
 ``sigma`` starts at ``2k`` and ``lambda V`` at ``j + 2``), so ``m1`` starts at degree ``k``, as
 the Newton polytope says; a basis reaching lower would leave no strictly feasible point, which
 Peyrl-Parrilo rounding needs. The float Grams are a candidate: only
-:func:`roa.proof.sos_check.check_certificate` decides.
+:func:`roa.proof.putinar.check_level` decides.
 """
 
 from __future__ import annotations
 
-import itertools
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
+from roa.proof.putinar import Certificate
 from roa.proof.sos_check import ExactData, norm_power
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes, solve_margin
+from roa.search.sdp import MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search.sos_symmetry import sign_symmetries, split
 
 Mono = tuple[int, ...]
 
 
 @dataclass(frozen=True)
-class SosCandidate:
-    """Bases and float Gram matrices of a numerical certificate (``Q1`` None: ``lambda = 0``)."""
+class Candidate:
+    """A certificate proposed by a program, in floats (only :mod:`roa.proof.putinar` decides):
+    ``certificate`` None when the solver gave no usable point; ``margin`` the least eigenvalue
+    ``t`` of the Gram blocks the program maximised; ``sizes`` the program's figures."""
 
-    basis0: list[Mono]
-    Q0: np.ndarray | None
-    basis1: list[Mono]
-    Q1: np.ndarray | None
+    certificate: Certificate | None
     eps: Fraction
-    margin: float | None  # the solver's least eigenvalue t
+    margin: float | None
     solver_status: str
     seconds: float
+    sizes: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def feasible(self) -> bool:
+        """A solution with a positive margin (every block positive definite numerically)."""
+        return self.certificate is not None and self.margin is not None and self.margin > 0
 
 
-def default_eps(data: ExactData, scale: float = 1e-6) -> Fraction:
-    """``scale`` x the largest |coefficient| of the lowest-degree part of ``V'`` (a dyadic)."""
-    top = max((abs(float(c)) for m, c in data.Vdot.items() if sum(m) == data.low), default=1.0)
+def default_eps(data: Any, scale: float = 1e-6) -> Fraction:
+    """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (``V'``, or its
+    recast numerator; the degree in the state variables, parameters not counted), a dyadic:
+    the one default of every route."""
+    nz = data.nv - len(getattr(data, "parameters", ()))
+    top = max((abs(float(c)) for m, c in data.N.items() if sum(m[:nz]) == data.low),
+              default=1.0)  # fmt: skip
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
-def gram_columns(rows: dict[Mono, int], basis: list[Mono], times: dict[Mono, float]
-                 ) -> tuple[list[int], list[int], list[float]]:  # fmt: skip
-    """Sparse columns of ``m' Q m * times`` over the vectorised Gram matrix ``Q``: row indices
-    of the resulting monomials (``rows`` grows with new ones), column ``i * nb + j``, value."""
-    r, c, v = [], [], []
-    nb = len(basis)
-    for i, j in itertools.product(range(nb), range(nb)):
-        bij = tuple(p + q for p, q in zip(basis[i], basis[j], strict=True))
-        for m, coef in times.items():
-            key = tuple(p + q for p, q in zip(bij, m, strict=True))
-            r.append(rows.setdefault(key, len(rows)))
-            c.append(i * nb + j)
-            v.append(coef)
-    return r, c, v
+def level_target(data: ExactData, eps: Fraction) -> dict[Mono, float]:
+    """``-V' - eps |d|^(2k)`` in floats (the side of the identity the Gram forms must match)."""
+    target: dict[Mono, float] = {}
+    for m, c in data.Vdot.items():
+        target[m] = target.get(m, 0.0) - float(c)
+    for m, c in norm_power(data.n, data.low // 2).items():
+        target[m] = target.get(m, 0.0) - float(eps * c)
+    return target
 
 
 def degrees(data: ExactData, multiplier_degree: int | None = None) -> tuple[int, int, int]:
@@ -92,7 +95,7 @@ def propose_certificate(
     eps: Fraction | None = None,
     multiplier_degree: int | None = None,
     solver_options: dict[str, Any] | None = None,
-) -> SosCandidate:
+) -> Candidate:
     """Solve the SOS program for the level ``level`` (see the module docstring)."""
     t0 = time.perf_counter()
     n = data.n
@@ -100,65 +103,46 @@ def propose_certificate(
     low, D, L = degrees(data, multiplier_degree)
     basis0 = monomials(n, D, low)
     basis1 = monomials(n, L, low) if L >= low else []  # lambda starts at degree 2k (below)
+    target = level_target(data, eps)
+    syms = sign_symmetries([target, data.V], n)  # the Gram blocks by parity class
+    sos, lam = split(basis0, syms), split(basis1, syms)
+    sizes = {"gram_sizes": [len(b) for b in sos + lam], "sign_symmetries": len(syms)}
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
         status = (f"too large: a Gram block of {len(basis0)} monomials needs an estimated "
                   f"{sdp_bytes(len(basis0)) / 2**30:.3g} GiB (budget "
                   f"{MAX_SDP_BYTES / 2**30:.3g} GiB); not built")  # fmt: skip
-        return SosCandidate(basis0, None, basis1, None, eps, None, status,
-                            time.perf_counter() - t0)  # fmt: skip
-    target: dict[Mono, float] = {}
-    for m, c in data.Vdot.items():
-        target[m] = target.get(m, 0.0) - float(c)
-    for m, c in norm_power(n, data.low // 2).items():
-        target[m] = target.get(m, 0.0) - float(eps * c)
-    Q0, Q1, margin, status = gram_program(target, basis0, basis1, data.V, level,
-                                          solver_options)  # fmt: skip
-    return SosCandidate(basis0, Q0, basis1, Q1, eps, margin, status, time.perf_counter() - t0)
+        return Candidate(None, eps, None, status, time.perf_counter() - t0, sizes)
+    cert, margin, status = gram_program(target, sos, lam, data.V, level, solver_options)
+    return Candidate(cert, eps, margin, status, time.perf_counter() - t0, sizes)
 
 
 def gram_program(
     target: dict[Mono, float],
-    basis0: list[Mono],
-    basis1: list[Mono],
+    sos: list[list[Mono]],
+    lam: list[list[Mono]],
     Vq: dict[Mono, Any],
     level: float,
     solver_options: dict[str, Any] | None = None,
-) -> tuple[np.ndarray | None, np.ndarray | None, float | None, str]:
-    """The one program of a fixed level: Gram matrices with, coefficient by coefficient,
-    ``target = m0' Q0 m0 + (m1' Q1 m1) (c - V)`` (no multiplier for an empty ``basis1``),
-    maximising their least eigenvalue ``t <= 1``. ``(Q0, Q1, t, status)``, the matrices None
-    when the solver gives no usable point."""
-    import cvxpy as cp
-
-    n = len(basis0[0])
-    rows: dict[Mono, int] = {}
-    for m in target:
-        rows.setdefault(m, len(rows))
+) -> tuple[Certificate | None, float | None, str]:
+    """The one program of a fixed level: Gram blocks with, coefficient by coefficient,
+    ``target = sum_b m_b' Q_b m_b + (sum_j l_j' L_j l_j) (c - V)`` (``sos`` the bases of the
+    ``Q_b``, ``lam`` those of the ``L_j``: none, the multiplier is 0), maximising their least
+    eigenvalue ``t <= 1``. ``(certificate, t, status)``, the certificate None when the solver
+    gives no usable point."""
+    n = len(sos[0][0])
     zero = tuple([0] * n)
-    parts = [gram_columns(rows, basis0, {zero: 1.0})]
+    prog = Program(n)
+    prog.const({m: -v for m, v in target.items()})
+    t = prog.scalar()
     c_minus_V: dict[Mono, float] = {m: -float(c) for m, c in Vq.items()}
     c_minus_V[zero] = c_minus_V.get(zero, 0.0) + float(level)
-    if basis1:
-        parts.append(gram_columns(rows, basis1, c_minus_V))
-    nrow = len(rows)
-    b = np.zeros(nrow)
-    for m, value in target.items():
-        b[rows[m]] = value
-    n0, n1 = len(basis0), len(basis1)
-    Q0 = cp.Variable((n0, n0), symmetric=True)
-    t = cp.Variable()
-    A0 = sps.csr_matrix((parts[0][2], (parts[0][0], parts[0][1])), shape=(nrow, n0 * n0))
-    expr = A0 @ cp.vec(Q0, order="C")
-    cons = [Q0 - t * np.eye(n0) >> 0, t <= 1]
-    Q1 = None
-    if basis1:
-        Q1 = cp.Variable((n1, n1), symmetric=True)
-        A1 = sps.csr_matrix((parts[1][2], (parts[1][0], parts[1][1])), shape=(nrow, n1 * n1))
-        expr = expr + A1 @ cp.vec(Q1, order="C")
-        cons.append(Q1 - t * np.eye(n1) >> 0)
-    cons.append(expr == b)
-    status, usable = solve_margin(cp.Problem(cp.Maximize(t), cons), solver_options)
-    if not (usable and Q0.value is not None):
-        return None, None, None, status
-    return (np.asarray(Q0.value), None if Q1 is None else np.asarray(Q1.value),
-            None if t.value is None else float(t.value), status)  # fmt: skip
+    for b in sos:
+        prog.gram(b, None, sign=1.0, margin=t)
+    for b in lam:
+        prog.gram(b, c_minus_V, sign=1.0, margin=t)
+    res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
+    if not (res.usable and all(Q.value is not None for _, Q in prog.grams)):
+        return None, None, res.status
+    grams = tuple((0 if i < len(sos) else 1, b, np.asarray(Q.value))
+                  for i, (b, Q) in enumerate(prog.grams))  # fmt: skip
+    return Certificate(grams), None if t.value is None else float(t.value), res.status

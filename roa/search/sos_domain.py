@@ -14,29 +14,15 @@ matrices are a candidate: only :func:`roa.proof.domain.check_domain_certificate`
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
 from roa.proof.domain import domain_target
-from roa.proof.sos_check import Mono, QPoly
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search.sos_certificate import gram_program
-
-
-@dataclass(frozen=True)
-class DomainCandidate:
-    """Bases and float Gram matrices of a numerical domain certificate."""
-
-    basis0: list[Mono]
-    Q0: np.ndarray | None
-    basis1: list[Mono]
-    Q1: np.ndarray | None
-    eps: Fraction
-    solver_status: str
-    seconds: float
+from roa.proof.sos_check import QPoly
+from roa.search.sdp import MAX_SDP_BYTES, monomials, sdp_bytes
+from roa.search.sos_certificate import Candidate, gram_program
 
 
 def default_domain_eps(margin: QPoly, n: int) -> Fraction:
@@ -47,7 +33,7 @@ def default_domain_eps(margin: QPoly, n: int) -> Fraction:
 
 def propose_domain_certificate(
     margin: QPoly, Vq: QPoly, n: int, level: float, *, solver_options: dict[str, Any] | None = None
-) -> DomainCandidate:
+) -> Candidate:
     """Solve the program of the module docstring for ``{V <= level}``
     (:func:`roa.search.sos_certificate.gram_program`)."""
     t0 = time.perf_counter()
@@ -57,9 +43,11 @@ def propose_domain_certificate(
     L = max(0, (deg_g - deg_V + 1) // 2)
     D = (max(deg_g, 2 * L + deg_V) + 1) // 2
     basis0, basis1 = monomials(n, D, 0), monomials(n, L, 0)
+    sizes = {"gram_sizes": [len(basis0), len(basis1)]}
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
-        return DomainCandidate(basis0, None, basis1, None, eps, f"too large: a Gram block of "
-                               f"{len(basis0)} monomials; not built", time.perf_counter() - t0)  # fmt: skip
+        return Candidate(None, eps, None, f"too large: a Gram block of {len(basis0)} monomials; "
+                         "not built", time.perf_counter() - t0, sizes)  # fmt: skip
     target = {m: float(c) for m, c in domain_target(margin, eps, n).items()}
-    Q0, Q1, _, status = gram_program(target, basis0, basis1, Vq, level, solver_options)
-    return DomainCandidate(basis0, Q0, basis1, Q1, eps, status, time.perf_counter() - t0)
+    cert, t, status = gram_program(target, [basis0], [basis1] if basis1 else [], Vq, level,
+                                   solver_options)  # fmt: skip
+    return Candidate(cert, eps, t, status, time.perf_counter() - t0, sizes)

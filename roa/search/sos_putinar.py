@@ -1,9 +1,9 @@
 """Numerical constrained SOS certificate of a level for a recast field (proposes only).
 
 One semidefinite program (cvxpy, Clarabel) finds the Gram matrices and equality multipliers of
-the identity of :mod:`roa.proof.sos_putinar`, maximising the least eigenvalue ``t`` of every
+the identity of :func:`roa.proof.putinar.check_level`, maximising the least eigenvalue ``t`` of every
 Gram matrix (``t <= 1``): the margin the exact rounding and projection need. Only
-:func:`roa.proof.sos_putinar.check_putinar` decides.
+:func:`roa.proof.putinar.check_level` decides.
 
 **Bases** (``z`` = states and the auxiliary variables): ``m0`` holds every monomial of degree
 ``1..D`` in ``z`` (``2D`` the least even degree >= that of ``N`` and of ``lambda V``, at least 4)
@@ -20,38 +20,18 @@ matches with the multiplier's constant.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
+from roa.proof.putinar import Certificate, level_identity
 from roa.proof.recast import RecastData
-from roa.proof.sos_putinar import Blocks, target_poly, times_polys
-from roa.search.polysdp import monomials, solve_margin
-from roa.search.sos_certificate import gram_columns
+from roa.search.sdp import Program, monomials, solve
+from roa.search.sos_certificate import Candidate, default_eps
+from roa.search.sos_symmetry import sign_symmetries, split
 
 Mono = tuple[int, ...]
-
-
-@dataclass(frozen=True)
-class PutinarCandidate:
-    """Float blocks of a numerical certificate (``blocks`` None if the solver failed)."""
-
-    blocks: Blocks | None
-    eps: Fraction
-    margin: float | None
-    solver_status: str
-    seconds: float
-    sizes: dict[str, Any]
-
-
-def default_eps(data: RecastData, scale: float = 1e-6) -> Fraction:
-    """``scale`` x the largest |coefficient| of the lowest-degree part of ``N`` (a dyadic)."""
-    top = max((abs(float(c)) for m, c in data.N.items() if data.state_degree(m) == data.low),
-              default=1.0)  # fmt: skip
-    return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
 def _unit(nv: int, i: int, p: int = 1) -> Mono:
@@ -109,64 +89,37 @@ def _moving(data: RecastData, basis: list[Mono], keep_one: bool = False) -> list
 
 
 def propose_putinar(data: RecastData, level: float, *, eps: Fraction | None = None,
-                    solver_options: dict[str, Any] | None = None) -> PutinarCandidate:  # fmt: skip
+                    solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
     """Solve the constrained SOS program for ``level`` (module docstring)."""
-    import cvxpy as cp
-
     t0 = time.perf_counter()
     eps = default_eps(data) if eps is None else Fraction(eps)
     m0, m1, mj, me = bases(data)
     gram_bases = [m0, m1, *mj]
-    times = [{m: float(c) for m, c in p.items()} for p in times_polys(data, Fraction(level))]
-    rows: dict[Mono, int] = {}
-    target = {m: float(c) for m, c in target_poly(data, eps).items()}
-    for m in target:
-        rows.setdefault(m, len(rows))
-    gparts = [gram_columns(rows, B, T) for B, T in zip(gram_bases, times, strict=True)]
-    fparts = []
-    for B, (_, h) in zip(me, data.equalities, strict=True):
-        r: list[int] = []
-        c: list[int] = []
-        v: list[float] = []
-        for k, bm in enumerate(B):
-            for m, coef in h.items():
-                r.append(
-                    rows.setdefault(tuple(p + q for p, q in zip(bm, m, strict=True)), len(rows))
-                )
-                c.append(k)
-                v.append(float(coef))
-        fparts.append((r, c, v))
-    nrow = len(rows)
-    b = np.zeros(nrow)
-    for m, value in target.items():
-        b[rows[m]] = value
-    t = cp.Variable()
-    cons: list[Any] = [t <= 1]
-    Qs = []
-    expr: Any = 0
-    for B, (r, c, v) in zip(gram_bases, gparts, strict=True):
-        nb = len(B)
-        Q = cp.Variable((nb, nb), symmetric=True)
-        A = sps.csr_matrix((v, (r, c)), shape=(nrow, nb * nb))
-        expr = expr + A @ cp.vec(Q, order="C")
-        cons.append(Q - t * np.eye(nb) >> 0)
-        Qs.append(Q)
-    mus = []
-    for B, (r, c, v) in zip(me, fparts, strict=True):
-        mu = cp.Variable(len(B))
-        expr = expr + sps.csr_matrix((v, (r, c)), shape=(nrow, len(B))) @ mu
-        mus.append(mu)
-    cons.append(expr == b)
-    prob = cp.Problem(cp.Maximize(t), cons)
-    status, usable = solve_margin(prob, solver_options)
-    ok = usable and Qs[0].value is not None
-    blocks = None
+    target, exact_times = level_identity(data, Fraction(level), eps)
+    times = [{m: float(c) for m, c in p.items()} for p in exact_times]
+    prog = Program(data.nv)
+    prog.const({m: -float(c) for m, c in target.items()})
+    t = prog.scalar()
+    syms = sign_symmetries([target, *exact_times, *(h for _, h in data.equalities)], data.nv)
+    factors = []  # each Gram basis split by parity class (an empty one: its multiplier is 0)
+    for k, (B, T) in enumerate(zip(gram_bases, times, strict=True)):
+        for piece in split(B, syms):
+            prog.gram(piece, T, sign=1.0, margin=t)
+            factors.append(k)
+    # an invariant equality times mu: only mu's invariant monomials (the class of 1) matter
+    me = [[m for m in B if not any(sum(a * b for a, b in zip(sym, m, strict=True)) % 2
+                                   for sym in syms)] for B in me]  # fmt: skip
+    mus = [prog.free({m: float(c) for m, c in h.items()}, B)
+           for B, (_, h) in zip(me, data.equalities, strict=True)]  # fmt: skip
+    res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
+    ok = res.usable and 0 in factors and all(Q.value is not None for _, Q in prog.grams)
+    cert = None
     if ok:
-        blocks = Blocks(
-            [(B, np.asarray(Q.value)) for B, Q in zip(gram_bases, Qs, strict=True)],
-            [(B, np.asarray(mu.value)) for B, mu in zip(me, mus, strict=True)],
-        )
-    sizes = {"rows": nrow, "gram_sizes": [len(B) for B in gram_bases],
+        grams = [(k, B, np.asarray(Q.value)) for k, (B, Q) in zip(factors, prog.grams, strict=True)]
+        cert = Certificate(tuple(grams), tuple((B, np.asarray(mu.value))
+                                               for B, mu in zip(me, mus, strict=True)))  # fmt: skip
+    sizes = {"rows": len(prog.rows), "gram_sizes": [len(B) for B, _ in prog.grams],
+             "sign_symmetries": len(syms),
              "free": sum(len(B) for B in me)}  # fmt: skip
-    return PutinarCandidate(blocks, eps, float(t.value) if ok and t.value is not None else None,
-                            status, time.perf_counter() - t0, sizes)  # fmt: skip
+    return Candidate(cert, eps, float(t.value) if ok and t.value is not None else None,
+                     res.status, time.perf_counter() - t0, sizes)  # fmt: skip

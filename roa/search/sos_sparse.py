@@ -1,9 +1,9 @@
-"""Sparse numerical SOS certificate of a fixed level (correlative sparsity; proposes only).
+"""Patterned numerical SOS certificates of a fixed level (cliques, sign classes, SDSOS; proposes only).
 
 The program of :mod:`roa.search.sos_certificate` (``-V' - eps|d|^2k - lambda (c - V) = sigma``,
 ``lambda``, ``sigma`` SOS) with one Gram matrix over all monomials of degree ``k..D`` in ``n``
 variables needs ``O(n^2D)`` entries: at 20-30 states and degree 4, far more solver memory than
-the budget :data:`roa.search.polysdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
+the budget :data:`roa.search.sdp.MAX_SDP_BYTES`. Correlative sparsity (Waki, Kim, Kojima and Muramatsu 2006; CS-TSSOS,
 Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials instead:
 
 * the **interaction graph** joins two variables when they occur in one monomial of ``V'`` or
@@ -17,16 +17,27 @@ Wang, Magron, Lasserre and Mai 2022) uses the structure of the polynomials inste
   times ``lambda_j``'s Gram matrix is a feasible value: ``lambda_j p_q d_q^2`` is exactly such a
   Gram form).
 
-Every block is an ordinary Gram form, so :func:`roa.proof.sos_sum.check_sum` proves the result
+Every block is an ordinary Gram form, so :func:`roa.proof.putinar.check_level` proves the result
 exactly whatever the structure. The program is a restriction of the dense one (a sum of these
 blocks is one Gram matrix with zeros elsewhere): whatever it certifies the dense program could,
 not conversely; it loses most where ``V' >= 0`` is first reached with many variables at once,
 since each clique's blocks see only the part of ``V`` they hold. Each block is kept ``>= t I`` with the common margin ``t``
 maximised (``t <= 1``), as in the dense program.
 
+A dense coupled system (a complete interaction graph: no cliques) gets the **SDSOS pattern**
+(:func:`sdsos_plan`) instead: the dense program's bases split by sign symmetry
+(:mod:`roa.search.sos_symmetry`), and the largest ``sigma`` blocks, while the interior point's
+memory estimate exceeds the budget, made scaled diagonally dominant (``cone="sdd"`` of
+:meth:`roa.search.sdp.Program.gram`; Ahmadi and Majumdar 2019): a restriction, whatever it
+certifies the dense program could, with memory linear in the block's pairs. The exact check proves
+those blocks by scaled diagonal dominance (:func:`roa.proof.putinar.check_identity`). With
+``"solver": "scs"`` in the solver options every block stays PSD and SCS, whose memory grows with
+the program's size only, solves it.
+
 :func:`choose_route` picks the program automatically: the dense one when its Gram block fits the
-memory budget :data:`roa.search.polysdp.MAX_SDP_BYTES`, else this one when it applies (diagonal
-quadratic V, a clique smaller than ``n``) and fits, else none (``too_large``).
+memory budget :data:`roa.search.sdp.MAX_SDP_BYTES`, else the clique one when it applies (diagonal
+quadratic V, a clique smaller than ``n``) and fits, else the SDSOS one when it fits, else none
+(``too_large``).
 """
 
 from __future__ import annotations
@@ -34,16 +45,25 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
-import scipy.sparse as sps
 
-from roa.proof.sos_check import ExactData, Mono, norm_power
-from roa.search.polysdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search.sos_certificate import default_eps, degrees, gram_columns
+from roa.proof.putinar import Certificate
+from roa.proof.sos_check import ExactData, Mono
+from roa.search.sdp import (
+    MAX_SDP_BYTES,
+    Program,
+    choose_solver,
+    monomials,
+    sdd_bytes,
+    sdp_bytes,
+    solve,
+)
+from roa.search.sos_certificate import Candidate, default_eps, degrees, level_target
+from roa.search.sos_symmetry import sign_symmetries, split
 
 
 def interaction_graph(data: ExactData) -> Any:
@@ -87,15 +107,26 @@ def _embed(local: list[Mono], clique: tuple[int, ...], n: int) -> list[Mono]:
 
 @dataclass(frozen=True)
 class SparsePlan:
-    """The bases of the sparse program: ``sigma`` blocks (one per clique, then the cross blocks)
-    and ``lambda`` blocks (one per clique)."""
+    """The bases of a patterned program: ``sigma`` blocks (one per clique, then the cross blocks;
+    or the sign classes of the SDSOS pattern) and ``lambda`` blocks (one per clique or class);
+    ``sdd[b]`` True when ``sigma`` block ``b`` is scaled diagonally dominant (empty: none)."""
 
     cliques: list[tuple[int, ...]]
     sigma: list[list[Mono]]
     lam: list[list[Mono]]
+    sdd: tuple[bool, ...] = ()
+    kind: str = "cliques"  # or "sdsos"
+
+    def is_sdd(self, b: int) -> bool:
+        return b < len(self.sdd) and self.sdd[b]
 
     @property
     def sizes(self) -> dict[str, Any]:
+        if self.kind == "sdsos":
+            return {"sign_blocks": [len(b) for b in self.sigma],
+                    "sdd_blocks": [len(b) for i, b in enumerate(self.sigma) if self.is_sdd(i)],
+                    "lambda_blocks": [len(b) for b in self.lam],
+                    "estimated_gib": round(self.bytes / 2**30, 4)}  # fmt: skip
         K = len(self.cliques)
         return {"cliques": [len(c) for c in self.cliques],
                 "sigma_clique_blocks": [len(b) for b in self.sigma[:K]],
@@ -109,7 +140,8 @@ class SparsePlan:
     @property
     def bytes(self) -> int:
         """Estimated peak memory of the interior-point solve: the blocks' sum."""
-        return sum(sdp_bytes(len(b)) for b in self.sigma + self.lam)
+        return sum(sdd_bytes(len(b)) if self.is_sdd(i) else sdp_bytes(len(b))
+                   for i, b in enumerate(self.sigma + self.lam))  # fmt: skip
 
 
 def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparsePlan | None, str]:
@@ -131,15 +163,60 @@ def plan(data: ExactData, multiplier_degree: int | None = None) -> tuple[SparseP
     return SparsePlan(cl, sigma, lam), ""
 
 
-ROUTES = ("auto", "dense", "sparse")
+#: Largest block the automatic route makes scaled diagonally dominant: the solve time grows with
+#: the number of 2 x 2 cones (one per pair of monomials), so larger blocks are built only when
+#: the SDSOS route is requested.
+MAX_SDD_BLOCK = 256
 
 
-def choose_route(data: ExactData, multiplier_degree: int | None = None, route: str = "auto"
+def sdsos_plan(data: ExactData, multiplier_degree: int | None = None,
+               solver_options: dict[str, Any] | None = None, *, force: bool = False
+               ) -> tuple[SparsePlan | None, str]:  # fmt: skip
+    """The SDSOS pattern (module docstring): the dense bases split by sign symmetry, the largest
+    ``sigma`` blocks scaled diagonally dominant until the estimate fits :data:`MAX_SDP_BYTES`
+    (``force``: at least the largest one); with ``"solver": "scs"`` none, the estimate SCS's.
+    None and why when it does not fit."""
+    n = data.n
+    k, D, L = degrees(data, multiplier_degree)
+    syms = sign_symmetries([data.Vdot, data.V], n)
+    sigma = sorted(split(monomials(n, D, k), syms), key=len, reverse=True)
+    lam = sorted(split(monomials(n, L, k), syms), key=len, reverse=True) if L >= k else []
+    gib = 2**30
+    if str((solver_options or {}).get("solver", "clarabel")).lower() == "scs":
+        nnz = sum(len(b) ** 2 for b in sigma) + sum(len(b) ** 2 * len(data.V) for b in lam)
+        choice = choose_solver([len(b) for b in sigma + lam], len(monomials(n, 2 * D, 0)), nnz,
+                               "scs")  # fmt: skip
+        if choice.solver is None:
+            return None, choice.reason
+        return SparsePlan([tuple(range(n))], sigma, lam, kind="sdsos"), ""
+    sdd = [False] * len(sigma)
+    p = SparsePlan([tuple(range(n))], sigma, lam, tuple(sdd), "sdsos")
+    for i in range(len(sigma)):  # the largest first
+        if p.bytes <= MAX_SDP_BYTES and not (force and i == 0):
+            break
+        sdd[i] = True
+        p = SparsePlan([tuple(range(n))], sigma, lam, tuple(sdd), "sdsos")
+    if p.bytes > MAX_SDP_BYTES:
+        return None, (f"an estimated {p.bytes / gib:.3g} GiB even with the large blocks scaled "
+                      f"diagonally dominant (budget {MAX_SDP_BYTES / gib:.3g} GiB)")  # fmt: skip
+    if not force and len(sigma[0]) > MAX_SDD_BLOCK:
+        return None, (f"its largest block of {len(sigma[0])} monomials would hold "
+                      f"{len(sigma[0]) * (len(sigma[0]) - 1) // 2} cones, more than the automatic "
+                      f"route takes (blocks up to {MAX_SDD_BLOCK} monomials); not built: "
+                      "route='sdsos' forces it")  # fmt: skip
+    return p, ""
+
+
+ROUTES = ("auto", "dense", "sparse", "sdsos")
+
+
+def choose_route(data: ExactData, multiplier_degree: int | None = None, route: str = "auto",
+                 solver_options: dict[str, Any] | None = None
                  ) -> tuple[str, SparsePlan | None, str]:  # fmt: skip
-    """``("dense" | "sparse" | "too_large", plan, why)``: with ``route="auto"`` the dense
-    program if its Gram block fits :data:`MAX_SDP_BYTES`, else the sparse one if it applies and
-    fits, else neither; ``route="dense"`` or ``"sparse"`` forces one (``too_large`` with the
-    reason when it does not apply or fit)."""
+    """``("dense" | "sparse" | "sdsos" | "too_large", plan, why)``: with ``route="auto"`` the
+    dense program if its Gram block fits :data:`MAX_SDP_BYTES`, else the clique one if it
+    applies and fits, else the SDSOS one if it fits, else none; any other ``route`` forces
+    that program (``too_large`` with the reason when it does not apply or fit)."""
     if route not in ROUTES:
         raise ValueError(f"route must be one of {ROUTES}, got {route!r}")
     k, D, _ = degrees(data, multiplier_degree)
@@ -148,30 +225,23 @@ def choose_route(data: ExactData, multiplier_degree: int | None = None, route: s
         return "dense", None, ""
     too = (f"a dense Gram block of {dense} monomials needs an estimated "
            f"{sdp_bytes(dense) / 2**30:.3g} GiB (budget {MAX_SDP_BYTES / 2**30:.3g} GiB)")  # fmt: skip
-    if route == "sparse":
-        too = f"the sparse route was requested (the dense Gram block: {dense} monomials)"
-    p, why = plan(data, multiplier_degree)
-    if p is None:
-        return "too_large", None, f"{too}; {why}"
-    if p.bytes > MAX_SDP_BYTES:
-        return "too_large", p, (f"{too}; the sparse program's {len(p.sigma) + len(p.lam)} blocks "
-                                f"need an estimated {p.bytes / 2**30:.3g} GiB")  # fmt: skip
-    return "sparse", p, too
-
-
-@dataclass(frozen=True)
-class SparseCandidate:
-    """Bases and float Gram blocks of a numerical sparse certificate (``sigma``, ``lam`` None when
-    the solver failed)."""
-
-    plan: SparsePlan
-    sigma: list[np.ndarray] | None
-    lam: list[np.ndarray] | None
-    eps: Fraction
-    margin: float | None
-    solver_status: str
-    seconds: float
-    figures: dict[str, Any] = field(default_factory=dict)
+    if route != "auto":
+        too = f"the {route} route was requested (the dense Gram block: {dense} monomials)"
+    p: SparsePlan | None = None
+    if route in ("auto", "sparse"):
+        p, why = plan(data, multiplier_degree)
+        if p is not None and p.bytes > MAX_SDP_BYTES:
+            why = (f"the sparse program's {len(p.sigma) + len(p.lam)} blocks need an estimated "
+                   f"{p.bytes / 2**30:.3g} GiB")  # fmt: skip
+        elif p is not None:
+            return "sparse", p, too
+        too = f"{too}; {why}"
+        if route == "sparse":
+            return "too_large", p, too
+    s, why = sdsos_plan(data, multiplier_degree, solver_options, force=route == "sdsos")
+    if s is None:
+        return "too_large", p, f"{too}; SDSOS: {why}"
+    return "sdsos", s, too
 
 
 class SparseProgram:
@@ -183,75 +253,57 @@ class SparseProgram:
         import cvxpy as cp
 
         t0 = time.perf_counter()
-        n = data.n
         self.plan = plan
         self.eps = default_eps(data) if eps is None else Fraction(eps)
         self.solver_options = dict(solver_options or {})
-        k = data.low // 2
-        zero = tuple([0] * n)
-        target: dict[Mono, float] = {}
-        for m, c in data.Vdot.items():
-            target[m] = target.get(m, 0.0) - float(c)
-        for m, c in norm_power(n, k).items():
-            target[m] = target.get(m, 0.0) - float(self.eps * c)
-        rows: dict[Mono, int] = {m: i for i, m in enumerate(target)}
-        minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
-        bases = plan.sigma + plan.lam
-        # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
-        parts = [gram_columns(rows, b, {zero: 1.0}) for b in plan.sigma]
-        parts += [gram_columns(rows, b, minus_V) for b in plan.lam]
-        level_parts: list[tuple[list, list, list]] = [([], [], []) for _ in plan.sigma]
-        level_parts += [gram_columns(rows, b, {zero: 1.0}) for b in plan.lam]
-        offsets = np.cumsum([0] + [len(b) ** 2 for b in bases])
-        nrow, ncol = len(rows), int(offsets[-1])
-
-        def matrix(ps: list[tuple[list, list, list]]) -> Any:
-            r = np.concatenate([np.asarray(p[0], dtype=np.int64) for p in ps])
-            c = np.concatenate([np.asarray(p[1], dtype=np.int64) + offsets[i]
-                                for i, p in enumerate(ps)])  # fmt: skip
-            v = np.concatenate([np.asarray(p[2], dtype=float) for p in ps])
-            return sps.csr_matrix((v, (r, c)), shape=(nrow, ncol))
-
-        b = np.zeros(nrow)
-        for m, value in target.items():
-            b[rows[m]] = value
-        self.Qs = [cp.Variable((len(bb), len(bb)), symmetric=True) for bb in bases]
-        self.t = cp.Variable()
+        zero = tuple([0] * data.n)
+        prog = Program(data.n)
+        target = level_target(data, self.eps)
+        prog.const({m: -v for m, v in target.items()})
+        self.t = prog.scalar()
         self.level = cp.Parameter(nonneg=True)
-        x = cp.hstack([cp.vec(Q, order="C") for Q in self.Qs])
-        cons = [Q - self.t * np.eye(Q.shape[0]) >> 0 for Q in self.Qs]
-        cons += [self.t <= 1, matrix(parts) @ x + self.level * (matrix(level_parts) @ x) == b]
-        self.problem = cp.Problem(cp.Maximize(self.t), cons)
-        self.rows = nrow
+        minus_V: dict[Mono, float] = {m: -float(c) for m, c in data.V.items()}
+        syms = sign_symmetries([target, data.V], data.n)  # each block split by parity class
+        for i, b in enumerate(plan.sigma):
+            for piece in split(b, syms):
+                prog.gram(piece, {zero: 1.0}, sign=1.0, margin=self.t,
+                          cone="sdd" if plan.is_sdd(i) else "psd")  # fmt: skip
+        self.K = len(prog.grams)
+        # lambda_j (c - V) = c lambda_j - lambda_j V: the level multiplies the first part only
+        for b in plan.lam:
+            for piece in split(b, syms):
+                prog.gram(piece, minus_V, sign=1.0, margin=self.t, level=self.level,
+                          level_times={zero: 1.0})  # fmt: skip
+        self.bases = [b for b, _ in prog.grams]
+        self.Qs = [Q for _, Q in prog.grams]
+        self.cones = tuple(prog.cones) if "sdd" in prog.cones else ()
+        self.problem = prog.problem(self.t, extra=[self.t <= 1])
+        self.rows = len(prog.rows)
         self.build_seconds = time.perf_counter() - t0
 
-    def solve(self, level: float) -> SparseCandidate:
+    def solve(self, level: float) -> Candidate:
         """The program at ``level``: float blocks and the margin ``t`` (None when it failed)."""
-        import cvxpy as cp
-
         t0 = time.perf_counter()
         self.level.value = float(level)
-        try:
-            self.problem.solve(solver=cp.CLARABEL, **self.solver_options)
-            status = str(self.problem.status)
-        except cp.error.SolverError as exc:
-            status = f"solver error: {exc}"
+        res = solve(self.problem, options=self.solver_options)
         Qs = self.Qs
-        ok = status in (cp.OPTIMAL, cp.OPTIMAL_INACCURATE) and all(Q.value is not None for Q in Qs)
-        K = len(self.plan.sigma)
+        ok = res.usable and all(Q.value is not None for Q in Qs)
         vals = [np.asarray(Q.value) for Q in Qs] if ok else None
         t = self.t.value
         figures = {"rows": self.rows, "build_seconds": round(self.build_seconds, 3),
                    "solve_seconds": round(time.perf_counter() - t0, 3),
                    "estimated_gib": round(self.plan.bytes / 2**30, 4)}  # fmt: skip
-        return SparseCandidate(self.plan, None if vals is None else vals[:K],
-                               None if vals is None else vals[K:], self.eps,
-                               float(t) if ok and t is not None else None, status,
-                               time.perf_counter() - t0, figures)  # fmt: skip
+        cert = None
+        if vals is not None:
+            cert = Certificate(tuple((0 if i < self.K else 1, b, Q) for i, (b, Q) in
+                                     enumerate(zip(self.bases, vals, strict=True))), (),
+                               self.cones)  # fmt: skip
+        return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,
+                         time.perf_counter() - t0, figures)  # fmt: skip
 
 
 def propose_sparse(data: ExactData, level: float, plan: SparsePlan, *, eps: Fraction | None = None,
-                   solver_options: dict[str, Any] | None = None) -> SparseCandidate:  # fmt: skip
+                   solver_options: dict[str, Any] | None = None) -> Candidate:  # fmt: skip
     """Solve the sparse program of ``plan`` at ``level`` once (module docstring)."""
     prog = SparseProgram(data, plan, eps=eps, solver_options=solver_options)
     cand = prog.solve(level)

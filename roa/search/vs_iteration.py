@@ -13,6 +13,15 @@ three semidefinite programs (cvxpy + Clarabel) alternate, each linear in its unk
 * **V step** (``lambda``, ``lambda2`` fixed): V free with ``V - eps y'y`` SOS, both identities
   above at level 1, maximise ``beta``. The previous V is feasible, so ``beta`` never decreases.
 
+**Over a parameter box.** For a system with uncertain parameters, the decrease identity is imposed
+at each point of :func:`parameter_points` (the box's vertices when the field is affine in the
+parameters, since ``V'`` is then affine in them for a fixed ``V``; else the nominal values, the
+vertices and one interior point per axis), each with its own multiplier ``lambda_i`` and one common
+``V``: the gamma step takes the lowest level over the points, the V step keeps every identity. A
+seed that is not a Lyapunov function at the linearisation for some point is replaced by the box's
+common Lyapunov matrix (:func:`roa.search.box_lyapunov.box_lyapunov`). The candidates are proved
+for every parameter of the box by the caller's robust validator, never by this module.
+
 Odd fields (``f(x_eq - d) = -f(x_eq + d)``) keep V, ``lambda``, ``lambda2`` even and split the Gram
 matrices in even/odd blocks (same optimum). Each round's V is a *candidate*: :func:`vs_search`
 returns them all, and the caller (:func:`roa.certify`) finds its level by sampling and proves it by
@@ -31,16 +40,14 @@ import sympy as sp
 
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
+from roa.parameters import describe_point
 from roa.progress import note, step
 from roa.search.polysdp import (
-    Identity,
     Poly,
-    ProgramTooLarge,
     add,
     diff,
     is_even,
     monomial,
-    monomials,
     mul,
     poly_of,
     poly_sum,
@@ -48,16 +55,14 @@ from roa.search.polysdp import (
     scale,
     total_degree,
 )
+from roa.search.sdp import SOLVERS, Program, ProgramTooLarge, monomials
 from roa.search.seed import seed_level
 from roa.search.sos import recast_field
 from roa.status import SosStatus
 from roa.system import System
 
-SOLVERS = ("auto", "clarabel", "scs")
-
-
 #: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
-#: bounded on their own by :data:`roa.search.sos.MAX_GRAM_BLOCK` (roa.search.polysdp.check_block).
+#: bounded on their own by :data:`roa.search.sdp.MAX_GRAM_BLOCK` (roa.search.sdp.check_block).
 MAX_V_TERMS = 5000
 
 
@@ -189,7 +194,7 @@ class _Problem:
         return [m for m in basis if sum(m[self.nd :]) == 0]
 
     # -- the decrease identity: (y'y)^k (V - gamma) + lambda V' + mu h - sigma g - sigma0 ----------
-    def decrease(self, ident: Identity, Vc: Any, lam: Any, gamma: Any) -> None:
+    def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> None:
         """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
         multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
         cols = [mul(self.yyk, monomial(m)) for m in self.vbasis]
@@ -213,7 +218,7 @@ class _Problem:
                 ident.gram(b, g)
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
-    def contain(self, ident: Identity, Vc: Any, lam2: Poly | None, beta: Any) -> None:
+    def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
         ident.const(mul(self.yyk2, self.p))
         ident.linear([scale(self.yyk2, -1.0)], beta)
         deg = 2 * self.D + 2
@@ -228,7 +233,7 @@ class _Problem:
         for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
             ident.gram(b, None)
 
-    def positive(self, ident: Identity, Vc: Any, eps: float) -> None:
+    def positive(self, ident: Program, Vc: Any, eps: float) -> None:
         """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
         ident.linear([monomial(m) for m in self.vbasis], Vc)
         ident.const(scale(self.yy, -eps))
@@ -236,7 +241,7 @@ class _Problem:
         for b in self.blocks(basis):
             ident.gram(b, None)
 
-    def linear_decrease(self, ident: Identity, Vc: Any, margin: float) -> None:
+    def linear_decrease(self, ident: Program, Vc: Any, margin: float) -> None:
         """Local decrease kept strict: ``-(A'Pv + Pv A) >= margin * mu0 I`` for the quadratic part
         ``Pv`` of V (``A`` the field's Jacobian at the equilibrium, ``mu0`` the seed's value),
         an LMI linear in V's coefficients. Without it the V step may drift to a V whose
@@ -278,7 +283,11 @@ class _Problem:
         terms = [
             (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
         ]
-        return PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+        V = PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+        from roa.search.vs_gram import attach_gram
+
+        attach_gram(V)  # a positive definite Gram matrix: the exact route's V >= mu |d|^2
+        return V
 
 
 def vs_search(
@@ -303,7 +312,7 @@ def vs_search(
     ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
     shape function ``p(x) = (x - x_eq)' S (x - x_eq)`` (default ``V0.P``). Stops after ``rounds``
     V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
-    ``clarabel`` or ``scs`` (:meth:`roa.search.polysdp.Identity.solve`). ``budget``: wall-clock
+    ``clarabel`` or ``scs`` (:meth:`roa.search.sdp.Program.solve`). ``budget``: wall-clock
     seconds for the whole search; no SDP starts past it and each gets the time left as its solver
     time limit, so the search stops with the candidates of the rounds it completed: status
     ``stopped``, ``message`` saying when. With progress on (:func:`roa.progress.enable`), each
@@ -327,16 +336,22 @@ def vs_search(
                         "programs would not fit in memory): not built; use a lower degree or "
                         "fewer states")  # fmt: skip
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
-    scale = seed_level(system, V0)
+    points, how = parameter_points(system)
+    V0, reseeded = _box_seed(system, V0)
+    if reseeded and shape is None:
+        S = V0.P
+    at = [system] if not points else [system.at(**p) for p in points]
+    scale = min(seed_level(s, V0) for s in at)
     try:
-        pb = _Problem(system, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
-                      scale)  # fmt: skip
+        pbs = _problems(at, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
+                        scale)  # fmt: skip
     except ProgramTooLarge as exc:
         return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
                         message=str(exc))  # fmt: skip
     except (RoaInputError, sp.PolynomialError) as exc:
         return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], _now() - t0,
                         message=str(exc))  # fmt: skip
+    pb = pbs[0]
     base = dict(solver_options or {})
 
     def left() -> float | None:
@@ -360,6 +375,11 @@ def vs_search(
     sizes = {"variables": [str(g) for g in pb.gens], "degree_V": degree, "degree": pb.total,
              "V_coefficients": len(pb.vbasis), "symmetry": "even/odd blocks" if pb.sym else "none",
              "recast": pb.rf.description}  # fmt: skip
+    if points:
+        sizes["parameter_points"] = [dict(p) for p in points]
+        sizes["parameter_points_chosen"] = how
+        if reseeded:
+            sizes["seed"] = V0.name
     cands: list[PolynomialLyapunov] = []
     betas: list[float] = []
     log: list[VsRound] = []
@@ -374,21 +394,33 @@ def vs_search(
             break
         if r:
             _pace(r, rounds, t0, log, budget)
-        # gamma step: the level of the current V, then V / gamma (level 1)
-        ident = Identity(pb.nv)
-        gamma = ident.scalar()
-        pb.decrease(ident, Vc, None, gamma)
-        with step(f"V-s round {r}: gamma step"):
-            ok, gval, lam = ident.solve(gamma, options=options(), free_index=0, solver=solver)
-        if not ok or gval is None or gval <= 0:
+        # gamma step: the level of the current V (the lowest over the parameter points, each
+        # with its own multiplier), then V / gamma (level 1)
+        lams: list[Poly] = []
+        gval: float | None = None
+        for k, pk in enumerate(pbs):
+            ident = Program(pk.nv)
+            gamma = ident.scalar()
+            pk.decrease(ident, Vc, None, gamma)
+            where = f" at {describe_point(points[k])}" if points else ""
+            with step(f"V-s round {r}: gamma step{where}"):
+                ok, gk, lam = ident.solve(gamma, options=options(), free_index=0, solver=solver)
+            if not ok or gk is None or gk <= 0 or lam is None:
+                gval = None
+                break
+            lams.append(lam)
+            gval = gk if gval is None else min(gval, gk)
+        if gval is None:
             status, message = _failed(r, "gamma", ident.status, spent(), budget, len(cands))
+            if points:
+                message += f" at {describe_point(points[len(lams)])}"
             log.append(VsRound(r, None, None, _now() - t1, ident.status))
             break
         Vc = Vc / gval
         sizes.setdefault("gram_blocks_gamma_step", ident.sizes())
         sizes.setdefault("solver", ident.solver)
         # beta step: the shape level inside {V <= 1}
-        ident = Identity(pb.nv)
+        ident = Program(pb.nv)
         beta = ident.scalar()
         pb.contain(ident, Vc, None, beta)
         with step(f"V-s round {r}: beta step"):
@@ -408,19 +440,30 @@ def vs_search(
         if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
             log.append(VsRound(r, float(gval), float(bval), _now() - t1, "final"))
             message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
+            if points:
+                where = "; ".join(describe_point(p) for p in points)
+                message += f"; V' < 0 imposed at {len(points)} parameter points ({where}): {how}"
+                if reseeded:
+                    message += f"; seed: {V0.name}"
             break
         # V step: V free, lambda and lambda2 fixed, maximise beta
-        ident = Identity(pb.nv)
+        ident = Program(pb.nv)
         vvar = ident.vector(len(pb.vbasis))
         beta = ident.scalar()
-        pb.decrease(ident, vvar, lam, 1.0)
+        pb.decrease(ident, vvar, lams[0], 1.0)
+        others = []
+        for pk, lam_k in zip(pbs[1:], lams[1:], strict=True):  # the same V at every point
+            ik = ident.fork()
+            pk.decrease(ik, vvar, lam_k, 1.0)
+            others.append(ik)
         ident2 = ident.fork()
         pb.contain(ident2, vvar, lam2, beta)
         ident3 = ident.fork()
         pb.positive(ident3, vvar, eps)
-        pb.linear_decrease(ident, vvar, 0.01)
+        for pk in pbs:
+            pk.linear_decrease(ident, vvar, 0.01)
         with step(f"V-s round {r}: V step"):
-            ok, bnew, _ = ident.solve(beta, options=options(), also=[ident2, ident3],
+            ok, bnew, _ = ident.solve(beta, options=options(), also=[*others, ident2, ident3],
                                       solver=solver)  # fmt: skip
         log.append(VsRound(r, float(gval), float(bval), _now() - t1, ident.status))
         if not ok or bnew is None or vvar.value is None:
@@ -435,6 +478,86 @@ def vs_search(
     final = SosStatus.STOPPED if status is SosStatus.STOPPED else SosStatus.SOLVED
     return VsResult(final, degree, cands, betas, log, _now() - t0, sizes,
                     message)  # fmt: skip
+
+
+def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:
+    """The parameter values the V-s iteration imposes V's decrease at, and how they were chosen:
+    none for a system without uncertain parameters; the box's vertices when the field is affine
+    in the parameters (then ``V'(x, p)`` is affine in ``p`` for a fixed ``V``, and its decrease on
+    ``{V <= 1}`` at the vertices gives it on the whole box); else the nominal values, the vertices
+    and one interior point along each axis (nothing claimed between them). Either way a proposal:
+    the validator of :func:`roa.certify` decides for every parameter of the box."""
+    if not system.parameters:
+        return [], "none"
+    from roa.parameters import ParameterBox, sample_points
+
+    box = ParameterBox.of(system)
+    if _field_affine(system, box):
+        return [dict(v) for v in box.vertices()], "vertices (the field is affine in the parameters)"
+    return sample_points(system, per_axis=1), (
+        "nominal values, vertices and one interior point per axis (the field is not affine in the "
+        "parameters: nothing claimed between them)"
+    )
+
+
+def _field_affine(system: System, box: Any) -> bool:
+    """Whether ``f(x, p)`` is affine in ``p``: at seeded sample states, ``f`` at the centre and at
+    the midpoints of the edges through the lowest and highest vertex equals the mean of ``f`` at
+    the edge's (resp. all) vertices, to rounding (a check at those points: a proposal only)."""
+    rng = np.random.default_rng(0)
+    X = system.x_eq + rng.uniform(-1.0, 1.0, (16, system.n))
+    lo = dict(zip(box.names, box.lo, strict=True))
+    hi = dict(zip(box.names, box.hi, strict=True))
+    checks = [(box.midpoint, list(box.vertices()))]
+    for name in box.names:
+        for corner in (lo, hi):
+            a, b = {**corner, name: lo[name]}, {**corner, name: hi[name]}
+            checks.append(({**corner, name: 0.5 * (lo[name] + hi[name])}, [a, b]))
+    with np.errstate(all="ignore"):
+        for mid, ends in checks:
+            f_mid = system.at(**mid).f(X)
+            mean = sum(system.at(**e).f(X) for e in ends) / len(ends)
+            tol = 1e-9 * max(1.0, float(np.nanmax(np.abs(mean))))
+            if not np.all(np.abs(f_mid - mean) <= tol):
+                return False
+    return True
+
+
+def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov, bool]:
+    """``V0``, or, when it is not a Lyapunov function at the linearisation for some sample point
+    of the parameter box, the common quadratic V of the box's LMIs
+    (:func:`roa.search.box_lyapunov.box_lyapunov`, when feasible): a gamma step at a point where
+    ``V0'`` is positive near the equilibrium has no level, so the iteration could not start."""
+    if not system.parameters:
+        return V0, False
+    from roa.lyapunov.defaults import worst_linearisation
+    from roa.search.box_lyapunov import box_lyapunov
+
+    if worst_linearisation(system, V0) is None:
+        return V0, False
+    res = box_lyapunov(system)
+    if not res.feasible or res.P is None:
+        return V0, False
+    return QuadraticLyapunov.for_system(system, res.P, name="P of the box's common Lyapunov "
+                                        "LMIs"), True  # fmt: skip
+
+
+def _problems(systems: list[System], V0: QuadraticLyapunov, S: np.ndarray, degree: int,
+              multiplier_degree: int | None, symmetry: bool | str, aux_degree: int | None,
+              recast_mode: str, scale: float) -> list[_Problem]:  # fmt: skip
+    """One :class:`_Problem` per parameter point, sharing V's monomials: the even/odd split only
+    when every point allows it; the same recast variables at every point (else an error)."""
+    pbs = [_Problem(s, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode, scale)
+           for s in systems]  # fmt: skip
+    if len({pb.sym for pb in pbs}) > 1:
+        pbs = [_Problem(s, V0, S, degree, multiplier_degree, False, aux_degree, recast_mode, scale)
+               for s in systems]  # fmt: skip
+    if len({tuple(map(str, pb.gens)) for pb in pbs}) > 1 or len({pb.total for pb in pbs}) > 1:
+        raise RoaInputError(
+            "the recast field has other variables or degrees at other parameter values of the "
+            "box: the V-s iteration over the box needs one polynomial structure"
+        )
+    return pbs
 
 
 def _failed(r: int, what: str, solver: str, spent: bool, budget: float | None,

@@ -32,6 +32,7 @@ if TYPE_CHECKING:  # imported where needed: the CLI's --help lists the names wit
 #: (floats). Studies add their own (:attr:`roa.studies.Study.systems`), looked up after these.
 BUILTIN: dict[str, str] = {
     "vanderpol": "roa.systems.vanderpol:vanderpol",
+    "cubic-map": "roa.systems.cubic_map:cubic_map",
 }
 
 

@@ -221,6 +221,7 @@ def main(argv: list[str] | None = None) -> int:
         print(json.dumps(r), flush=True)
         s = r["share"]
         print(f"{name}: certified {r['level']:.6g} / optimum {r['optimum']:.6g} = {r['ratio']} "
+              f"(optimum point V' >= 0 at 50 digits: {r['optimum_50_digits']['confirmed']}) "
               f"[{r['status']}, local proof {r['local']}], {r['boxes']} boxes, {r['seconds']} s "
               f"({r['cpu_s']} s CPU, {r['workers']} workers), "
               f"peak {r['peak_mb']} MB; 1.01 x optimum: {r['above']}; basin share of the sampled "
@@ -230,7 +231,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"{r['baseline_seconds']} s (boxes ratio {r['boxes_ratio']})"
                  if "baseline_boxes" in r else ""))  # fmt: skip
         ok &= r["status"] == "certified" and r["above"] != "certified"
-        ok &= s["certified_not_converged"] == 0
+        ok &= s["certified_not_converged"] == 0 and r["optimum_50_digits"]["confirmed"]
     return 0 if ok else 1
 
 

@@ -19,7 +19,9 @@ each in a fresh process:
   up, :func:`confirmed_optimum`);
 * ``certified``: :func:`roa.proof.validate.validate_level` at ``ratio x optimum`` (0.99 for the
   pendulum, 0.95 for the quadrotor) with ``--workers`` processes (default 2): verdict, boxes,
-  wall seconds, CPU seconds (the process and its workers), peak resident memory of the process;
+  wall seconds, CPU seconds (the process and its workers), peak resident memory of the process
+  (``peak_mb``) and of its largest reaped worker (``peak_worker_mb``); on an inconclusive run the
+  share of the cover's volume decided and the search's estimate of the boxes a full run needs;
   ``local`` names the proof near the equilibrium (``hessian``: no excluded region);
 * ``above``: the verdict at ``1.01 x optimum`` (a refutation carries a 50-digit witness);
 * ``baseline`` (``--baseline``): the same certification without the CROWN bounds
@@ -210,7 +212,10 @@ def run(name: str, baseline: bool, time_limit: float, workers: int = 2) -> dict[
     out.update(status=cert.status.value, level=ratio * opt, boxes=cert.boxes,
                seconds=round(time.perf_counter() - t0, 1), cpu_s=round(_cpu() - c0, 1),
                workers=workers, local=cert.meta.get("local_proof"),
-               peak_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1))  # fmt: skip
+               peak_mb=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024, 1),
+               peak_worker_mb=round(resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss / 1024, 1),
+               volume_decided=cert.meta.get("volume_decided"),
+               boxes_estimate=cert.meta.get("boxes_estimate"))  # fmt: skip
     above = validate_level(system, V, 1.01 * opt, time_limit=time_limit, workers=workers)
     out["above"] = above.status.value
     if baseline:

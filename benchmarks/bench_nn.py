@@ -250,8 +250,8 @@ def main(argv: list[str] | None = None) -> int:
               f"[{r['status']}, local proof {r['local']}], {r['boxes']} boxes, {r['seconds']} s "
               f"({r['cpu_s']} s CPU, {r['workers']} workers), "
               f"peak {r['peak_mb']} MB; 1.01 x optimum: {r['above']}; basin share of the sampled "
-              f"box {s['in_basin']:.3f}, certified share of the basin "
-              f"{s['certified_of_basin']:.3f} (95 % CI {s['ci95'][0]:.3f}-{s['ci95'][1]:.3f})"
+              f"box {s['in_basin']:.3g}, certified share of the basin "
+              f"{s['certified_of_basin']:.3g} (95 % CI {s['ci95'][0]:.3g}-{s['ci95'][1]:.3g})"
               + (f"; without CROWN: {r['baseline_status']}, {r['baseline_boxes']} boxes, "
                  f"{r['baseline_seconds']} s (boxes ratio {r['boxes_ratio']})"
                  if "baseline_boxes" in r else ""))  # fmt: skip

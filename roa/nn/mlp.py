@@ -322,6 +322,12 @@ class MLP:
             from roa.proof.relax import crown
 
             return crown(self, x)
+        if name == "interval-jet":  # interval jets: whole layers as arrays (roa.proof.jet_net)
+            from roa.proof.jet_net import network_jet
+
+            out = network_jet(self, x)
+            if out is not None:
+                return out
         return self._elementwise(x, xp)
 
     def _numpy(self, x: list[np.ndarray], xp: Any) -> list[Any]:

@@ -95,7 +95,6 @@ def exact_equilibrium(system: System, center: np.ndarray) -> bool:
     taken as the exact rationals of the doubles, then evaluated."""
     import sympy as sp
 
-    from roa.lyapunov.symbolic import exact_rationals
     from roa.model.backend import namespace
 
     flow = _stepped_flow(system)
@@ -105,7 +104,18 @@ def exact_equilibrium(system: System, center: np.ndarray) -> bool:
     with sp.evaluate(False):  # no float is rounded against a rational before it is made exact
         f = system.residual_expr(xs, namespace("sympy"))
     at = {xs[i]: sp.Rational(float(c)) for i, c in enumerate(center)}
-    return all(sp.simplify(exact_rationals(sp.sympify(fi)).xreplace(at)) == 0 for fi in f)
+    # one substitution of the floats and the symbols at once: every node is rebuilt on exact
+    # rational arguments (a network's nested Max of numbers evaluates at once; made exact with
+    # the symbols still free, it was simplified symbolically)
+    return all(sp.simplify(_exact_at(sp.sympify(fi), at)) == 0 for fi in f)
+
+
+def _exact_at(expr: Any, at: dict[Any, Any]) -> Any:
+    """``expr`` with every float replaced by the exact rational of the double and the symbols
+    by the values ``at``, in one pass."""
+    import sympy as sp
+
+    return expr.xreplace({**{f: sp.Rational(f) for f in expr.atoms(sp.Float)}, **at})
 
 
 def _stepped_flow(system: System) -> System | None:

@@ -20,7 +20,9 @@ to the field's zero ``x*`` next to it). Steps, all in interval arithmetic with o
    on the box outside a set ``K = {V <= equilibrium_level}`` of roundoff size, in which the field
    contracts to its unique zero ``x*``. Trajectories then converge to ``x*``, proved within
    ``equilibrium_radius`` of ``x_eq`` (the meta; ``x* = x_eq`` when ``f(x_eq) = 0``).
-3. **Branch and bound** over ``B``. A box ``X`` is discarded when
+3. **Branch and bound** over ``B``. For a quadratic V each box is first shrunk to a box holding
+   every point of it with ``V <= level`` (:mod:`roa.proof.contract`; an emptied box is
+   discarded). A box ``X`` is discarded when
 
    * the interval ``V > level`` (natural extension, centred form and second-order Taylor form
      ``V(m) + grad V(m) . d + d' [H_V](X) d / 2`` intersected, ``d = x - m``, ``m`` the centre;
@@ -90,10 +92,12 @@ import numpy as np
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 from roa.model.system import System
+from roa.proof.contract import contract
 from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
 from roa.proof.local import local_box
+from roa.proof.parallel_boxes import box_workers, evaluate_batch
 from roa.proof.relax_vdot import relaxation_bounds
 from roa.proof.validation import Reason, Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
@@ -228,21 +232,29 @@ def _pad(e: Any, k: int) -> Enclosure:
 
 
 def evaluate_boxes(
-    system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, k: int = 0
-):
+    system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, k: int = 0,
+    *, skip_outside: bool = False,
+):  # fmt: skip
     """Enclosures on the boxes ``[lo, hi]`` (shape ``(m, n + k)``: the states, then ``k``
     uncertain parameters of a :func:`roa.model.parameters.over` system, which enter the jets as
     variables): ``V`` and ``V'`` (natural extension, centred and second-order Taylor forms
     intersected, over states and parameters), the upper bound of ``F = V' + lambda (level - V)``
     on the boxes that reach past the level surface (``inf`` elsewhere, step 3 of the module doc),
     the split scores (per column) and the domain margin (None without a domain). Returns
-    ``(V, V', F_hi, score, margin)``."""
+    ``(V, V', F_hi, score, margin)``. ``skip_outside``: on the boxes where ``V > level`` is
+    proved, ``V'`` is not evaluated (the whole line, ``F_hi = inf``, score 0): the branch and
+    bound discards them on ``V`` alone."""
     from roa.model.parameters import parameter_values
 
     n, m = lyap.n, len(lo)
     N, n_par = n + k, k
     mid = 0.5 * (lo + hi)
     delta = box_offsets(lo, hi, mid)
+    if skip_outside:
+        V, _, _ = _v_on_boxes(lyap, lo, hi, mid, delta, k)
+        need = np.flatnonzero(~(V.lo > level))
+        if len(need) < m:
+            return _evaluate_inside(system, lyap, lo, hi, level, k, V, need)
 
     def vdot(X: list[Jet]) -> Any:
         with parameter_values(X[n:] if k else None):
@@ -253,10 +265,7 @@ def evaluate_boxes(
     at = vdot(Jet.variables(mid, mid, order=1, centred=kinked))
     cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
     vdot_box = _meet(_full(vd.v, m), cen, tay)
-    Vb, Vm = _v_enclosures(lyap, lo[:, :n], hi[:, :n], mid[:, :n])
-    if k:
-        Vb, Vm = _pad(Vb, k), _pad(Vm, k)
-    V = _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m))
+    V, Vb, Vm = _v_on_boxes(lyap, lo, hi, mid, delta, k)
     score = np.zeros_like(lo)
     n = N  # every column from here: states and parameters
     for i in range(n):
@@ -297,6 +306,33 @@ def evaluate_boxes(
         X = [Interval(lo[:, i], hi[:, i]) for i in range(lyap.n)]
         margin = _full(system.margin(X, INTERVAL), m)
     return V, vdot_box, F_hi, score, margin
+
+
+def _v_on_boxes(lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, mid: np.ndarray, delta: list,
+                k: int) -> tuple[Interval, Any, Any]:  # fmt: skip
+    """V on the boxes (three forms met), and its enclosures on the boxes and at the centres."""
+    n, m = lyap.n, len(lo)
+    Vb, Vm = _v_enclosures(lyap, lo[:, :n], hi[:, :n], mid[:, :n])
+    if k:
+        Vb, Vm = _pad(Vb, k), _pad(Vm, k)
+    return _meet(_full(Vb.v, m), *_forms(Vm.v, Vm.g, Vb.g, Vb.h, delta, m)), Vb, Vm
+
+
+def _evaluate_inside(system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray,
+                     level: float, k: int, V: Interval, need: np.ndarray):  # fmt: skip
+    """:func:`evaluate_boxes` on the boxes ``need`` only, the others given ``V`` alone."""
+    m = len(lo)
+    vd_lo, vd_hi = np.full(m, -np.inf), np.full(m, np.inf)
+    F_hi, score = np.full(m, np.inf), np.zeros_like(lo)
+    margin = None
+    if len(need):
+        _, vd, F, sc, _ = evaluate_boxes(system, lyap, lo[need], hi[need], level, k)
+        vd_lo[need], vd_hi[need] = vd.lo, vd.hi
+        F_hi[need], score[need] = F, sc
+    if system.margin is not None:
+        X = [Interval(lo[:, i], hi[:, i]) for i in range(lyap.n)]
+        margin = _full(system.margin(X, INTERVAL), m)
+    return V, Interval(vd_lo, vd_hi), F_hi, score, margin
 
 
 # -- witness search (floats; every candidate is re-checked) ---------------------------------------
@@ -380,6 +416,7 @@ def validate_level(
     parameters: tuple[Any, Any] | None = None,
     time_limit: float | None = None,
     cover_estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
+    workers: int = 1,
 ) -> Validation:
     """Decide ``V' < 0`` on ``{V <= level} \\ {x_eq}`` rigorously (see module docstring).
 
@@ -410,6 +447,11 @@ def validate_level(
         branch and bound then runs over states and parameters (boxes of ``n + k`` columns, the
         parameters variables of the jets, split where that decides more) and proves ``V' < 0``
         for every parameter of the box; witnesses are at the system's float point.
+    time_limit : float, optional
+        Seconds of wall time; past them the verdict is ``inconclusive``.
+    workers : int
+        Processes evaluating each batch of boxes (forked: :mod:`roa.proof.parallel_boxes`); the
+        verdict and the boxes are the same for every number.
     """
     level = float(level)
     if not (np.isfinite(level) and level > 0):
@@ -418,7 +460,10 @@ def validate_level(
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
     if not np.allclose(system.x_eq, lyap.center):
         raise RoaInputError(f"V must be centred at the equilibrium {system.x_eq.tolist()}")
-    with np.errstate(over="ignore"):  # an interval bound that overflows is +-inf: still sound
+    if not (isinstance(workers, int) and workers >= 1):
+        raise RoaInputError(f"workers must be an integer >= 1, got {workers!r}")
+    # workers: box evaluations in forked processes (roa.proof.parallel_boxes; same result)
+    with np.errstate(over="ignore"), box_workers(workers):  # an overflowing bound is +-inf: sound
         res = _branch_and_bound(system, lyap, level, max_boxes=max_boxes, batch=batch,
                                 bounding_box=bounding_box, parameters=parameters,
                                 deadline=None if time_limit is None
@@ -492,13 +537,19 @@ def _branch_and_bound(
     queue_hi = [np.concatenate([hi0, phi])[None, :]]
     boxes = proved = proved_F = outside = 0
     progress = _Progress(np.concatenate([lo0, plo]), np.concatenate([hi0, phi]))
+    quad = QuadraticForm.of(lyap)
     while queue_lo:
         lo, hi = np.concatenate(queue_lo), np.concatenate(queue_hi)
         queue_lo = [lo[batch:]] if len(lo) > batch else []
         queue_hi = [hi[batch:]] if len(hi) > batch else []
         lo, hi = lo[:batch], hi[:batch]
         boxes += len(lo)
-        V, Vd, F_hi, score, margin = evaluate_boxes(system, lyap, lo, hi, level, n_par)
+        if quad is not None:  # each box shrunk to the part that can meet {V <= level}
+            lo, hi, gone = contract(quad, lo, hi, level)
+            lo, hi = lo[~gone], hi[~gone]
+            if not len(lo):
+                continue
+        V, Vd, F_hi, score, margin = evaluate_batch(system, lyap, lo, hi, level, n_par)
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
         in_local = np.all((lo[:, :n] >= loc_lo) & (hi[:, :n] <= loc_hi), axis=1)
         decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside

@@ -609,3 +609,25 @@ def test_sympy_fields_with_tanh_and_a_network_controller_compile_for_monte_carlo
         assert ("np.tanh" in text) == (name == "SYSTEM") and ("np.maximum" in text) == (
             name != "SYSTEM"
         )
+
+
+def test_exact_equilibrium_of_a_relu_network_field_evaluates_max_on_numbers():
+    """f(x_eq) = 0 exactly for the 6-16-16-2 ReLU quadrotor (centred network: 32 nested Max in
+    each output), decided on exact rationals in seconds (simplified symbolically first, it took
+    minutes); the same field with the network not centred is refused (f(0) != 0 exactly)."""
+    from roa import System
+    from roa.proof.exact import exact_equilibrium
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "systems" / "quadrotor_nn_relu.npz"
+    raw = MLP.load(path)
+
+    def make(net):
+        def field(t, x, xp):
+            u1, u2 = net(list(x[:6]), xp)
+            s, c = xp.sin(x[2]), xp.cos(x[2])
+            return (x[3], x[4], x[5], 9.81 * s + u1 * s, -9.81 + 9.81 * c + u1 * c, u2)
+
+        return System(name="q", field=field, equilibrium=(0.0,) * 6, state_names=tuple("abcdef"))
+
+    assert exact_equilibrium(make(raw.centred([0.0] * 6)), np.zeros(6))
+    assert not exact_equilibrium(make(raw), np.zeros(6))

@@ -46,7 +46,8 @@ from roa.model.system import System
 from roa.proof import validate as one
 from roa.proof.exact import exact_equilibrium
 from roa.proof.interval import INTERVAL, Interval, box_offsets
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 from roa.proof.local import hessian_negative_definite
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation

@@ -18,7 +18,8 @@ from scipy.optimize import minimize
 from ipc_paper.system import phi0, transformed
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof.interval import INTERVAL, Interval, box_offsets
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 from roa.proof.local import local_box, local_box_proof
 from roa.proof.validate import validate_level
 from roa.search.rays import ray_box

@@ -22,7 +22,8 @@ from ipc_paper.system.hybrid import (
 )
 from roa.integration.simulation import simulate
 from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 from roa.status import StopRules
 
 

@@ -20,7 +20,8 @@ from hypothesis import strategies as st
 
 from roa.errors import RoaInputError
 from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 from roa.search.rays import ray_box
 
 

@@ -13,7 +13,8 @@ from hypothesis import strategies as st
 from ipc_paper import system as ipc
 from roa.model.backend import FUNCTIONS, PIECEWISE, namespace
 from roa.proof.interval import INTERVAL, Interval, box_offsets, iabs, iclip, imaximum, iminimum
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 from roa.search.rays import ray_box
 
 finite = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)

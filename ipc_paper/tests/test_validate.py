@@ -15,7 +15,8 @@ from roa.lyapunov import PolynomialLyapunov
 from roa.model.backend import namespace
 from roa.proof.cover import connected_to_center
 from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 from roa.proof.validate import QuadraticForm, evaluate_boxes, validate_level
 from roa.proof.whiten import Whitened, affine_components, whitening_for
 from roa.search.rays import ray_box

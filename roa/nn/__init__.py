@@ -6,6 +6,7 @@ closed loop with a network controller claims.
 
 from __future__ import annotations
 
-from roa.nn.mlp import ACTIVATION_NAMES, MLP, Activation, Affine
+from roa.nn.mlp import MLP
+from roa.nn.ops import ACTIVATION_NAMES, Activation, Affine
 
 __all__ = ["ACTIVATION_NAMES", "MLP", "Activation", "Affine"]

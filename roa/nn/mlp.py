@@ -39,81 +39,13 @@ file are exact doubles), not about a float32 inference engine's rounding.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.model.backend import ACTIVATIONS, LEAKY_SLOPE
-
-#: Activation names accepted by :class:`MLP` (``None``/``"identity"``: no activation).
-ACTIVATION_NAMES = (*ACTIVATIONS, "clip", "identity")
-
-
-@dataclass(frozen=True, eq=False)
-class Affine:
-    """``y = W x + b``: ``W`` of shape ``(outputs, inputs)``, ``b`` of shape ``(outputs,)``."""
-
-    W: np.ndarray
-    b: np.ndarray
-
-
-@dataclass(frozen=True)
-class Activation:
-    """An elementwise activation ``name`` with its parameters (``leaky_relu``: ``(alpha,)``;
-    ``clip``: ``(lo, hi)``)."""
-
-    name: str
-    args: tuple[float, ...] = ()
-
-
-Op = Affine | Activation
-
-
-def _matrix(a: Any, what: str, ndim: int) -> np.ndarray:
-    try:
-        arr = np.array(a, dtype=np.float64)
-    except (TypeError, ValueError) as exc:
-        raise RoaInputError(f"MLP: {what} is not an array of numbers ({exc})") from None
-    if arr.ndim != ndim:
-        raise RoaInputError(f"MLP: {what} must have {ndim} dimensions, got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise RoaInputError(f"MLP: {what} has non-finite entries")
-    arr.setflags(write=False)
-    return arr
-
-
-def _activation(spec: Any, where: str) -> Activation | None:
-    """``None`` / ``"identity"``, a name, or a tuple ``(name, *args)``."""
-    if spec is None or spec == "identity" or spec == "linear":
-        return None
-    name, args = (spec, ()) if isinstance(spec, str) else (spec[0], tuple(spec[1:]))
-    if name in ("identity", "linear") and not args:  # also as a step of from_ops: no activation
-        return None
-    if name not in ACTIVATION_NAMES:
-        raise RoaInputError(
-            f"MLP: {where}: unknown activation {name!r}; allowed: {', '.join(ACTIVATION_NAMES)}"
-        )
-    try:
-        vals = tuple(float(a) for a in args)
-    except (TypeError, ValueError):
-        raise RoaInputError(
-            f"MLP: {where}: parameters of {name} must be numbers: {args!r}"
-        ) from None
-    if name == "leaky_relu":
-        if len(vals) > 1:
-            raise RoaInputError(f"MLP: {where}: leaky_relu takes one slope, got {args!r}")
-        vals = vals or (LEAKY_SLOPE,)
-        if not (np.isfinite(vals[0]) and vals[0] >= 0):
-            raise RoaInputError(f"MLP: {where}: the leaky_relu slope must be >= 0, got {vals[0]}")
-    elif name == "clip":
-        if len(vals) != 2 or not vals[0] <= vals[1] or np.isnan(vals).any():
-            raise RoaInputError(f"MLP: {where}: clip takes (lo, hi) with lo <= hi, got {args!r}")
-    elif vals:
-        raise RoaInputError(f"MLP: {where}: {name} takes no parameters, got {args!r}")
-    return Activation(name, vals)
+from roa.nn.ops import Activation, Affine, Op, activation, matrix
 
 
 class MLP:
@@ -125,7 +57,7 @@ class MLP:
         Weight matrices ``W`` of shape ``(outputs, inputs)`` and biases ``b`` of shape
         ``(outputs,)``, taken as float64 (exact real numbers from then on).
     activations : str or sequence, optional
-        One per layer, applied after it: a name of :data:`ACTIVATION_NAMES`, ``None`` (none), or a
+        One per layer, applied after it: a name of :data:`roa.nn.ACTIVATION_NAMES`, ``None`` (none), or a
         tuple ``("leaky_relu", alpha)`` / ``("clip", lo, hi)``. A sequence one shorter than
         ``layers`` leaves the output layer linear; a single name applies to every hidden layer.
     """
@@ -151,8 +83,8 @@ class MLP:
                 W, b = layer
             except (TypeError, ValueError):
                 raise RoaInputError(f"MLP: layer {k} must be a pair (W, b)") from None
-            ops.append(Affine(_matrix(W, f"layer {k} W", 2), _matrix(b, f"layer {k} b", 1)))
-            a = _activation(act, f"layer {k}")
+            ops.append(Affine(matrix(W, f"layer {k} W", 2), matrix(b, f"layer {k} b", 1)))
+            a = activation(act, f"layer {k}")
             if a is not None:
                 ops.append(a)
         self._init(tuple(ops), None)
@@ -187,10 +119,10 @@ class MLP:
         for k, op in enumerate(ops):
             if isinstance(op, Affine):
                 checked.append(
-                    Affine(_matrix(op.W, f"step {k} W", 2), _matrix(op.b, f"step {k} b", 1))
+                    Affine(matrix(op.W, f"step {k} W", 2), matrix(op.b, f"step {k} b", 1))
                 )
             elif isinstance(op, Activation):
-                a = _activation((op.name, *op.args), f"step {k}")
+                a = activation((op.name, *op.args), f"step {k}")
                 if a is not None:
                     checked.append(a)
             else:
@@ -303,9 +235,7 @@ class MLP:
 
             return [mp.mpf(v) for v in self.centre]
         if name in ("interval", "interval-jet"):
-            from roa.proof.interval import Interval
-
-            return [Interval(v) for v in self.centre]
+            return [xp.interval(v) for v in self.centre]  # point intervals
         return list(self.centre)
 
     def _raw(self, x: list[Any], xp: Any) -> list[Any]:
@@ -316,16 +246,9 @@ class MLP:
             except (TypeError, ValueError):
                 return self._elementwise(x, xp)
             return self._numpy(arrays, xp)
-        if name == "interval":
-            return self._interval(x, xp)
-        if name == "linear":  # linear relaxations: CROWN (roa.proof.relax)
-            from roa.proof.relax import crown
-
-            return crown(self, x)
-        if name == "interval-jet":  # interval jets: whole layers as arrays (roa.proof.jet_net)
-            from roa.proof.jet_net import network_jet
-
-            out = network_jet(self, x)
+        network = getattr(xp, "network", None)  # a proof namespace's own evaluation
+        if network is not None:
+            out = network(self, x)
             if out is not None:
                 return out
         return self._elementwise(x, xp)
@@ -340,22 +263,6 @@ class MLP:
             else:
                 h = getattr(xp, op.name)(h, *op.args)
         return list(h.reshape((h.shape[0], *shape)))
-
-    def _interval(self, x: list[Any], xp: Any) -> list[Any]:
-        from roa.proof.interval import Interval, interval_affine
-
-        ivs = [Interval.of(v) for v in x]
-        lows = np.broadcast_arrays(*[v.lo for v in ivs], *[v.hi for v in ivs])
-        shape = lows[0].shape
-        lo = np.stack(lows[: self.n_in]).reshape(self.n_in, -1)
-        hi = np.stack(lows[self.n_in :]).reshape(self.n_in, -1)
-        h = Interval(lo, hi)
-        for op in self.ops:
-            if isinstance(op, Affine):
-                h = interval_affine(op.W, op.b, h.lo, h.hi)
-            else:
-                h = getattr(xp, op.name)(h, *op.args)
-        return [Interval(h.lo[i].reshape(shape), h.hi[i].reshape(shape)) for i in range(len(h.lo))]
 
     def _elementwise(self, x: list[Any], xp: Any) -> list[Any]:
         h = x

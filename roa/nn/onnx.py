@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.nn.mlp import Activation, Affine, Op
+from roa.nn.ops import Activation, Affine, Op
 
 #: ONNX operators read by :func:`read_onnx` (``Constant`` only supplies data).
 SUPPORTED_OPS = ("Gemm", "MatMul", "Add", "Relu", "Tanh", "Sigmoid", "Clip")

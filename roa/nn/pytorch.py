@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.nn.mlp import Activation, Affine, Op
+from roa.nn.ops import Activation, Affine, Op
 
 #: PyTorch modules read by :func:`read_torch`.
 SUPPORTED_MODULES = (

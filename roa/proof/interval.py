@@ -523,9 +523,30 @@ def interval_affine(W: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray
     return Interval(out[0], out[1])
 
 
+def interval_network(net: Any, x: list[Any]) -> list[Interval]:
+    """The outputs of the network ``net`` (:class:`roa.nn.MLP`, uncentred) over the boxes ``x``
+    (intervals or floats): :func:`interval_affine` per affine step and the interval activations
+    of :data:`INTERVAL`, so an enclosure of the real network under :data:`LIBM_ULPS`."""
+    from roa.nn.ops import Affine
+
+    ivs = [Interval.of(v) for v in x]
+    lows = np.broadcast_arrays(*[v.lo for v in ivs], *[v.hi for v in ivs])
+    shape = lows[0].shape
+    lo = np.stack(lows[: net.n_in]).reshape(net.n_in, -1)
+    hi = np.stack(lows[net.n_in :]).reshape(net.n_in, -1)
+    h = Interval(lo, hi)
+    for op in net.ops:
+        if isinstance(op, Affine):
+            h = interval_affine(op.W, op.b, h.lo, h.hi)
+        else:
+            h = getattr(INTERVAL, op.name)(h, *op.args)
+    return [Interval(h.lo[i].reshape(shape), h.hi[i].reshape(shape)) for i in range(len(h.lo))]
+
+
 INTERVAL = SimpleNamespace(
     name="interval",
     interval=Interval,  # the constructor, for code that must not import this module
+    network=interval_network,  # a network (roa.nn.MLP) called in this namespace
     sqrt=isqrt,
     abs=iabs,
     sin=isin,

@@ -535,7 +535,7 @@ def _jet_fn(f0: Any, f1: Any, f2: Any) -> Any:
     return fn
 
 
-JET = SimpleNamespace(
+JET_FUNCTIONS = SimpleNamespace(
     name="interval-jet",
     interval=Interval,  # the constructor, for code that must not import this module
     abs=jabs,

@@ -30,12 +30,13 @@ of :data:`CHUNK`.
 
 from __future__ import annotations
 
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
 
 from roa.proof.interval import INTERVAL, Interval, interval_affine
-from roa.proof.jet import JET, Jet, _kink
+from roa.proof.jet import JET_FUNCTIONS, Jet, _kink
 
 #: Boxes per array step (the Hessian holds ``k * CHUNK * P`` intervals per layer).
 CHUNK = 4096
@@ -56,7 +57,7 @@ def _derivatives(name: str) -> tuple[Any, Any, Any]:
 
 def supported(net: Any) -> bool:
     """Whether every activation of ``net`` has an array rule here."""
-    from roa.nn.mlp import Affine
+    from roa.nn.ops import Affine
 
     return all(isinstance(op, Affine) or op.name in _SMOOTH + _PIECEWISE for op in net.ops)
 
@@ -108,7 +109,7 @@ def _range(s: _State, d: Interval | None) -> Interval:
 
 
 def _step(s: _State, op: Any, d: Interval | None, iu: np.ndarray, ju: np.ndarray) -> _State:
-    from roa.nn.mlp import Affine
+    from roa.nn.ops import Affine
 
     if isinstance(op, Affine):
         W = np.asarray(op.W, dtype=float)
@@ -298,5 +299,9 @@ def _assemble(outs: list[_State], i: int, n: int, P: int, iu: np.ndarray, ju: np
     c = None if s0.c is None or d is None else cat(lambda s: Interval(s.c.lo[i], s.c.hi[i]))
     return Jet(v, g, h, c, d)
 
+
+JET = SimpleNamespace(**vars(JET_FUNCTIONS), network=network_jet)
+"""Interval-jet namespace: the functions of :data:`roa.proof.jet.JET_FUNCTIONS` and networks
+(:class:`roa.nn.MLP`) evaluated as whole layers (:func:`network_jet`)."""
 
 __all__ = ["CHUNK", "JET", "network_jet", "supported"]

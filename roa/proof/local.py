@@ -82,7 +82,8 @@ from roa.lyapunov import Lyapunov
 from roa.model.system import System
 from roa.proof.exact import exact_equilibrium, interval_negative_definite
 from roa.proof.interval import Interval
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 
 
 def hessian_negative_definite(vd: Jet, n: int) -> bool:

@@ -27,11 +27,9 @@ _STATE: dict[str, Any] = {}
 
 
 def _evaluate(lo: np.ndarray, hi: np.ndarray) -> tuple[Any, ...]:
-    from roa.proof.validate import evaluate_boxes
-
     s = _STATE
-    V, Vd, F_hi, score, margin = evaluate_boxes(s["system"], s["lyap"], lo, hi, s["level"],
-                                                s["k"], skip_outside=True)  # fmt: skip
+    V, Vd, F_hi, score, margin = s["evaluate"](s["system"], s["lyap"], lo, hi, s["level"],
+                                               s["k"], skip_outside=True)  # fmt: skip
     m = len(lo)
 
     def flat(iv: Interval | None) -> tuple[np.ndarray, np.ndarray] | None:
@@ -62,12 +60,12 @@ class _Pool:
         self.pool: Any = None
         self.key: Any = None
 
-    def __call__(self, system: Any, lyap: Any, lo: np.ndarray, hi: np.ndarray, level: float,
-                 k: int) -> tuple[Any, ...]:  # fmt: skip
-        key = (id(system), id(lyap), level, k)
+    def __call__(self, evaluate: Any, system: Any, lyap: Any, lo: np.ndarray, hi: np.ndarray,
+                 level: float, k: int) -> tuple[Any, ...]:  # fmt: skip
+        key = (id(evaluate), id(system), id(lyap), level, k)
         if key != self.key:  # the workers inherit the state at fork: a new one needs new workers
             self.close()
-            _STATE.update(system=system, lyap=lyap, level=level, k=k)
+            _STATE.update(evaluate=evaluate, system=system, lyap=lyap, level=level, k=k)
             self.pool, self.key = mp.get_context("fork").Pool(self.workers), key
         if len(lo) < 2 * self.workers:
             return _join([_evaluate(lo, hi)])
@@ -103,13 +101,11 @@ def box_workers(workers: int) -> Iterator[None]:
         _STATE.clear()
 
 
-def evaluate_batch(system: Any, lyap: Any, lo: np.ndarray, hi: np.ndarray, level: float,
-                   k: int) -> tuple[Any, ...]:  # fmt: skip
-    """:func:`roa.proof.validate.evaluate_boxes` (``skip_outside``) on the boxes, by the workers
-    of the enclosing :func:`box_workers` block if any."""
+def evaluate_batch(evaluate: Any, system: Any, lyap: Any, lo: np.ndarray, hi: np.ndarray,
+                   level: float, k: int) -> tuple[Any, ...]:  # fmt: skip
+    """``evaluate`` (:func:`roa.proof.validate.evaluate_boxes`, with ``skip_outside``) on the
+    boxes, by the workers of the enclosing :func:`box_workers` block if any."""
     pool = _ACTIVE.get()
     if pool is None:
-        from roa.proof.validate import evaluate_boxes
-
-        return evaluate_boxes(system, lyap, lo, hi, level, k, skip_outside=True)
-    return pool(system, lyap, lo, hi, level, k)
+        return evaluate(system, lyap, lo, hi, level, k, skip_outside=True)
+    return pool(evaluate, system, lyap, lo, hi, level, k)

@@ -64,6 +64,7 @@ from roa.proof.interval import (
     INTERVAL,
     Interval,
     interval_affine,
+    interval_network,
     round_down,
     round_up,
 )
@@ -454,18 +455,6 @@ def _clip(x: Any, lo: Any, hi: Any) -> Any:
     return _minimum(_maximum(x, lo), hi)
 
 
-LINEAR = SimpleNamespace(
-    name="linear",
-    **{k: _lift(k) for k in FUNCTIONS},
-    leaky_relu=_lift("leaky_relu"),
-    minimum=_minimum,
-    maximum=_maximum,
-    clip=_clip,
-)
-"""Linear-relaxation namespace: ``system.field(t, variables(lo, hi), LINEAR)`` bounds the field
-on boxes by affine functions of the state (module doc)."""
-
-
 def variables(lo: np.ndarray, hi: np.ndarray) -> tuple[list[Lin], np.ndarray]:
     """The coordinates ``x_i`` on the boxes ``[lo, hi]`` (shape ``(m, n)``) as :class:`Lin`
     (``x_i = mid_i + d_i`` exactly, ``|d_i| <= r_i`` with ``r`` rounded up) and the centres."""
@@ -517,7 +506,7 @@ def _back(ops: Sequence[Any], rel: dict[int, tuple[np.ndarray, ...]], mags: list
     . z0 + c - err <= value``; upper: ``<= Lam . z0 + c + err``). ``mags[k]``: a bound of the
     magnitude of the values entering op ``k``; ``rel[k]``: the relaxation lines of the
     activation op ``k``."""
-    from roa.nn.mlp import Affine
+    from roa.nn.ops import Affine
 
     width = mags[upto].shape[1]
     Lam = np.broadcast_to(np.eye(width), (m, width, width)).copy()
@@ -558,10 +547,10 @@ def _back(ops: Sequence[Any], rel: dict[int, tuple[np.ndarray, ...]], mags: list
 def crown(net: Any, x: Sequence[Any]) -> list[Lin]:
     """The outputs of the network ``net`` (:class:`roa.nn.MLP`, uncentred) on the inputs ``x``
     (:class:`Lin`, or constants) by CROWN (module doc)."""
-    from roa.nn.mlp import Affine
+    from roa.nn.ops import Affine
 
     if not any(isinstance(v, Lin) for v in x):
-        return net._interval([Interval.of(v) for v in x], INTERVAL)
+        return interval_network(net, [Interval.of(v) for v in x])
     seen = _CALLS.get()
     if seen is not None:
         seen.append(net)
@@ -639,3 +628,16 @@ def _compose_in(Lam: np.ndarray, c: np.ndarray, err: np.ndarray, inp: tuple[np.n
                      + _underflow(2 * k + 4, r)[:, None])  # fmt: skip
         cc = round_up(cc + e) if upper else round_down(cc - e)
     return A, cc
+
+
+LINEAR = SimpleNamespace(
+    name="linear",
+    network=lambda net, x: crown(net, x),  # a network (roa.nn.MLP): CROWN
+    **{k: _lift(k) for k in FUNCTIONS},
+    leaky_relu=_lift("leaky_relu"),
+    minimum=_minimum,
+    maximum=_maximum,
+    clip=_clip,
+)
+"""Linear-relaxation namespace: ``system.field(t, variables(lo, hi), LINEAR)`` bounds the field
+on boxes by affine functions of the state (module doc)."""

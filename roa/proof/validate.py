@@ -95,7 +95,8 @@ from roa.model.system import System
 from roa.proof.contract import contract
 from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
-from roa.proof.jet import JET, Jet, nonsmooth
+from roa.proof.jet import Jet, nonsmooth
+from roa.proof.jet_net import JET
 from roa.proof.local import local_box
 from roa.proof.parallel_boxes import box_workers, evaluate_batch
 from roa.proof.relax_vdot import relaxation_bounds
@@ -549,7 +550,9 @@ def _branch_and_bound(
             lo, hi = lo[~gone], hi[~gone]
             if not len(lo):
                 continue
-        V, Vd, F_hi, score, margin = evaluate_batch(system, lyap, lo, hi, level, n_par)
+        V, Vd, F_hi, score, margin = evaluate_batch(
+            evaluate_boxes, system, lyap, lo, hi, level, n_par
+        )
         inside = np.ones(len(lo), dtype=bool) if margin is None else margin.lo > 0
         in_local = np.all((lo[:, :n] >= loc_lo) & (hi[:, :n] <= loc_hi), axis=1)
         decreasing = ((Vd.hi < 0) | (F_hi < 0)) & inside

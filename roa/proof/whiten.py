@@ -29,7 +29,7 @@ arithmetic (the float coefficients of V and the float entries of ``M`` taken exa
   in ``y`` whose coefficients are enclosed (interval products of the exact ones); the affine
   components are summed into one polynomial ``P(y)``, the others stay ``G_i(y) f_i(x(y))``.
 
-Intervals and jets (:data:`~roa.proof.interval.INTERVAL`, :data:`~roa.proof.jet.JET`) evaluate
+Intervals and jets (:data:`~roa.proof.interval.INTERVAL`, :data:`~roa.proof.jet_net.JET`) evaluate
 these polynomials in monomials of ``y`` with each coefficient a double when it is exactly one,
 else its outward enclosure, so every enclosure is one of the exact ``V(c + M y)``, its gradient and
 ``V'`` (on the IPC's boxes: V 3.8x and V' 2.4x tighter, Hessians of V' 2-11x). numpy uses the
@@ -209,7 +209,8 @@ def affine_components(system: System, center: np.ndarray) -> dict[int, tuple[Coe
     """``{i: (f_i(c), [a_i1, ..])}`` for the components of the field proved affine (module doc):
     ``f_i(c)`` an enclosure, ``a_ij`` the gradient enclosures of the jet over ``[-inf, inf]^n``."""
     from roa.proof.interval import INTERVAL
-    from roa.proof.jet import JET, Jet
+    from roa.proof.jet import Jet
+    from roa.proof.jet_net import JET
 
     n = len(center)
     try:

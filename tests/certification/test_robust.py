@@ -229,7 +229,8 @@ def test_every_proof_namespace_sees_the_box():
     from types import SimpleNamespace
 
     from roa.model.backend import NP
-    from roa.proof.jet import JET, Jet
+    from roa.proof.jet import Jet
+    from roa.proof.jet_net import JET
 
     s = over(vdp_box(), ParameterBox(("mu",), (0.8,), (1.2,)))
     x = Jet.variables(np.array([[1.0, 1.0]]), np.array([[1.0, 1.0]]), order=2)  # x = (1, 1)

@@ -18,7 +18,7 @@ import sympy as sp
 import roa
 from roa.model.backend import namespace
 from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import JET
+from roa.proof.jet_net import JET
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 x1, x2, mu = sp.symbols("x1 x2 mu")

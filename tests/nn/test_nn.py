@@ -23,7 +23,8 @@ from roa.errors import RoaInputError
 from roa.model.backend import ACTIVATIONS, namespace
 from roa.nn import MLP, Activation
 from roa.proof.interval import INTERVAL, Interval, interval_affine
-from roa.proof.jet import JET, Jet
+from roa.proof.jet import Jet
+from roa.proof.jet_net import JET
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "systems" / "pendulum_nn.py"
@@ -259,7 +260,7 @@ def _net(kind: str, seed: int = 1) -> MLP:
 
 def _mp_net(net: MLP, x: list[mp.mpf]) -> list[mp.mpf]:
     """The network at 50 digits, written out independently of MLP._elementwise."""
-    from roa.nn.mlp import Affine
+    from roa.nn import Affine
 
     h = list(x)
     for op in net.ops:
@@ -618,7 +619,7 @@ def test_exact_equilibrium_of_a_relu_network_field_evaluates_max_on_numbers():
     from roa import System
     from roa.proof.exact import exact_equilibrium
 
-    path = Path(__file__).resolve().parents[1] / "examples" / "systems" / "quadrotor_nn_relu.npz"
+    path = Path(__file__).resolve().parents[2] / "examples" / "systems" / "quadrotor_nn_relu.npz"
     raw = MLP.load(path)
 
     def make(net):

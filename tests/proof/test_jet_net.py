@@ -10,8 +10,8 @@ import pytest
 
 from roa.nn import MLP
 from roa.proof.interval import Interval
-from roa.proof.jet import JET, Jet, nonsmooth
-from roa.proof.jet_net import network_jet
+from roa.proof.jet import Jet, nonsmooth
+from roa.proof.jet_net import JET, network_jet
 
 ACTS = ["tanh", "sigmoid", "softplus", "relu", ("leaky_relu", 0.1), ("clip", -0.4, 0.7)]
 

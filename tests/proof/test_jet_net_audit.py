@@ -16,7 +16,7 @@ import pytest
 from test_jet_net import ACTS, _kink_free, _mp_act, _mp_jet, _net
 
 import roa.proof.jet_net as JN
-from roa.nn.mlp import MLP, Activation, Affine
+from roa.nn import MLP, Activation, Affine
 from roa.proof.interval import Interval
 from roa.proof.jet import Jet
 

@@ -16,8 +16,7 @@ import numpy as np
 import pytest
 
 from roa.model.backend import namespace
-from roa.nn import MLP
-from roa.nn.mlp import Affine
+from roa.nn import MLP, Affine
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.relax import LINEAR, Lin, variables
 from roa.search.rays import ray_box

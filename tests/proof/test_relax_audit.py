@@ -14,8 +14,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from roa.nn import MLP
-from roa.nn.mlp import Affine
+from roa.nn import MLP, Affine
 from roa.proof.relax import LINEAR, Lin, variables
 from roa.search.rays import ray_box
 
@@ -430,7 +429,7 @@ def test_an_identity_step_of_from_ops_is_no_activation_in_every_namespace():
     """``Activation("identity")`` passed to :meth:`MLP.from_ops` was kept as a step that the
     numpy and interval namespaces do not have (AttributeError); it is now dropped."""
     from roa.model.backend import namespace
-    from roa.nn.mlp import Activation
+    from roa.nn import Activation
     from roa.proof.interval import INTERVAL, Interval
 
     W, b = np.array([[2.0, -1.0]]), np.array([0.5])

@@ -544,7 +544,7 @@ def _back(ops: Sequence[Any], rel: dict[int, tuple[np.ndarray, ...]], mags: list
     return Lam, c, err
 
 
-def crown(net: Any, x: Sequence[Any]) -> list[Lin]:
+def crown(net: Any, x: Sequence[Any]) -> list[Lin] | list[Interval]:
     """The outputs of the network ``net`` (:class:`roa.nn.MLP`, uncentred) on the inputs ``x``
     (:class:`Lin`, or constants) by CROWN (module doc)."""
     from roa.nn.ops import Affine

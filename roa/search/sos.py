@@ -126,7 +126,7 @@ class RecastField:
 NONSMOOTH = (sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside)
 NO_TRIG = ("the SOS level proposer takes fields without sin/cos (the level program has no Taylor "
            "bounds): no SOS candidate here, the sampled search proposes the level (the exact SOS "
-           "validator recasts sin and cos itself)")  # fmt: skip
+           "validator recasts sin, cos and rational terms itself)")  # fmt: skip
 
 
 def _whitened(n: int, M: np.ndarray, center: np.ndarray) -> tuple[list[sp.Symbol], list[sp.Expr]]:

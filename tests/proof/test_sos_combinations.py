@@ -129,7 +129,11 @@ def small_ring_field(x, a=A):
     return [-x[i] + a * x[(i + 1) % n] + x[i] ** 3 for i in range(n)]
 
 
-@pytest.mark.parametrize("route", ["dense", "sparse", "sdsos"])
+@pytest.mark.parametrize(
+    "route",
+    [pytest.param("dense", marks=pytest.mark.slow), "sparse",
+     pytest.param("sdsos", marks=pytest.mark.slow)],
+)  # fmt: skip
 def test_degree_4_V_on_every_polynomial_route(route):
     """``V = |x|^2 + 0.5 sum x_i^4`` on a ring of 4 (two cliques of 3): each route certifies 0.99
     x the SLSQP optimum (the multiplier of V's degree; the sparse route's cross blocks through

@@ -19,12 +19,12 @@ import numpy as np
 
 from ipc_paper.system import transformed
 from ipc_paper.system.lyapunov import paper_lyapunov
-from roa.levelset import level_search
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof.cover import prove_cover
 from roa.proof.local import local_box
 from roa.proof.validate import evaluate_boxes, validate_level
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
+from roa.search.levelset import level_search
 from roa.search.sos import sos_level
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 

@@ -13,7 +13,7 @@ and checks that the statuses of both modes agree with the baseline's. Targets (i
     python benchmarks/bench_montecarlo.py --memory [--n-memory 1000000]   # peak RSS, 10^6 streamed
 
 The engine takes the IPC's fast path (System.numba_fast: njit functions compiled into a
-kernel of their own, roa/montecarlo/integrator.py compile_kernel); --public adds both modes with the
+kernel of their own, roa/integration/integrator.py compile_kernel); --public adds both modes with the
 public cfunc protocol of user systems (System.numba), same statuses bit for bit.
 
 Profile of the physical numba kernel (issue 14, item 2): one core of the 2-core machine, 20,000
@@ -65,7 +65,7 @@ Throughputs measured 2026-12-01 on this session's idle 2-core machine (default a
 fast path plain 52.5-53.7 k/s (488-521x); with the quadratic terminal set (T:optimised, 33.2
 accepted steps per run) 125-129 k/s (1164-1254x); with the certified degree-4 V of
 results/degrees (T:degree4, level 0.996294, share 1.000 of the reference box, 22.1 steps per
-run; the polynomial test of roa/montecarlo/terminal_poly.py in the kernel) 147-161 k/s (160-164 k
+run; the polynomial test of roa/integration/terminal_poly.py in the kernel) 147-161 k/s (160-164 k
 best, 1424-1495x); public cfuncs plain 49.0 k/s, T:optimised 86.5 k/s, T:degree4 115 k/s;
 statuses 2000/2000 identical to the baseline in every mode. The same machine kind ran ~2.2x
 slower for both sides later that day (a new session, 2.1 GHz; four runs): baseline 40.5-47.2/s,
@@ -96,11 +96,11 @@ import psutil
 from joblib import Parallel, delayed
 
 from ipc_paper import system as ipc
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.simulation import simulate
+from roa.integration.terminal import TerminalSet
 from roa.montecarlo.engine import run_basin
 from roa.montecarlo.sampling import box_sample
-from roa.montecarlo.terminal import TerminalSet
-from roa.simulation import simulate
 from roa.status import StopRules
 
 BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]

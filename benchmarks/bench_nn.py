@@ -129,7 +129,7 @@ def basin_share(system: Any, P: np.ndarray, optimum: float, level: float, horizo
 def run(name: str, baseline: bool, time_limit: float) -> dict[str, Any]:
     import roa
     import roa.proof.relax_vdot as rv
-    from roa.linearisation import lyapunov_matrix
+    from roa.model.linearisation import lyapunov_matrix
     from roa.proof.validate import validate_level
 
     system = _load(name)

@@ -49,7 +49,7 @@ from scipy.optimize import minimize
 
 import roa
 from roa.lyapunov import QuadraticLyapunov
-from roa.system import System
+from roa.model.system import System
 
 P_VDP = np.array([[1.5, -0.5], [-0.5, 1.0]])
 

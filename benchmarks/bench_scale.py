@@ -11,7 +11,7 @@ process (its peak memory is that process's ``ru_maxrss``) and gets one row:
   (scipy) from the first crossings of V' >= 0 along random rays, with the field written again in
   this file (not roa's) and checked against roa's at random points; closed forms where known
   (Van der Pol: 2.3045 published; poly3d and its rotated copies: 3; the LyZNet 10-state example
-  and its decoupled copies: 2025/8, derived in ``tests/test_levelset_scale.py``);
+  and its decoupled copies: 2025/8, derived in ``tests/search/test_levelset_scale.py``);
 * certified / optimum, and a refutation just above: the optimum's point moved out along its ray to
   ``V = 1.0005 x`` the optimum, where ``V' >= 0`` is re-checked at 50 digits (mpmath);
 * the SOS proposal's (or level search's), the validation's and the whole certification's seconds
@@ -391,7 +391,7 @@ def volume_shares(Vs: list[tuple[Any, float]], half: np.ndarray, *, samples: int
                   seed: int = 0) -> list[tuple[float, float]]:  # fmt: skip
     """Share of the box ``[-half, half]`` (around the origin) inside each ``{V <= level}``, with
     its binomial standard error, from the same uniform samples."""
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     X = np.random.default_rng(seed).uniform(-half, half, (samples, len(half)))
     out = []

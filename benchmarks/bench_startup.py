@@ -4,7 +4,7 @@ Run: ``python benchmarks/bench_startup.py [--repeat N] [--root DIR]`` (``--root`
 checkout, e.g. the commit before the lazy imports, for a before/after). Each command runs ``N`` times in a fresh
 interpreter (the best time is kept, as ``timeit`` does) and is printed beside the baseline
 ``python -c pass`` as a ratio. Targets (#25): ``import roa`` under 1 s, each ``--help`` under
-0.5 s. Nothing is asserted (times depend on the machine's load); tests/test_startup.py checks the
+0.5 s. Nothing is asserted (times depend on the machine's load); tests/api/test_startup.py checks the
 cause instead: no heavy module is imported by any of these.
 """
 

@@ -42,6 +42,7 @@ import numpy as np
 import roa
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
+from roa.model.system import System
 from roa.proof import validate as one
 from roa.proof.exact import exact_equilibrium
 from roa.proof.interval import INTERVAL, Interval, box_offsets
@@ -50,7 +51,6 @@ from roa.proof.local import hessian_negative_definite
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
 from roa.status import Verdict
-from roa.system import System
 from roa.systems.vanderpol import vanderpol
 
 CASES = (
@@ -77,8 +77,8 @@ def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
 
 
 def _mp_namespace() -> Any:
-    """The mpmath namespace of :mod:`roa.backend` (every function, saturation included)."""
-    from roa.backend import namespace
+    """The mpmath namespace of :mod:`roa.model.backend` (every function, saturation included)."""
+    from roa.model.backend import namespace
 
     return namespace("mpmath")
 

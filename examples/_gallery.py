@@ -68,7 +68,7 @@ def box_shares(system: Any, ranges: list[tuple[float, float]], drawn: list[Any],
 
 def regions(V: Any, search: Any, cert: Any) -> list[Any]:
     """The level-search estimate and the certified set as regions to draw."""
-    from roa.regions import Region
+    from roa.lyapunov.regions import Region
 
     out = []
     if search is not None and search.level is not None:

@@ -29,17 +29,24 @@ import roa
 from ipc_paper import system as ipc
 from ipc_paper.estimates import paper_ball
 from roa.errors import ResultsError, RoaInputError
-from roa.experiment import MAX_SEED, VERDICTS, accepts, check_int, check_number, check_numbers
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.terminal import REL_MARGIN, TerminalSet, coords_map
 from roa.io import atomic_write_json
 from roa.lyapunov import QuadraticLyapunov
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.lyapunov.regions import Region
 from roa.montecarlo.basin import BasinResult
 from roa.montecarlo.sampling import MAX_SAMPLES, box_sample, grid_slice, region_sample
-from roa.montecarlo.terminal import REL_MARGIN, TerminalSet, coords_map
 from roa.options import IntegratorOptions, Options, RunOptions
 from roa.proof.reverify import reverify
-from roa.regions import Region
 from roa.status import StopRules
+from roa.studies.experiment import (
+    MAX_SEED,
+    VERDICTS,
+    accepts,
+    check_int,
+    check_number,
+    check_numbers,
+)
 
 SECTOR = np.pi / 3
 SECTOR_LABEL = "paper's claimed sector |theta(0)| < 60 deg"
@@ -309,7 +316,7 @@ def _run_summary(res: BasinResult) -> dict[str, Any]:
 
 def _settings(opts: dict[str, Any]) -> dict[str, Any]:
     r, i = opts["rules"], opts["integrator"]
-    return {"integrator": "batch Dormand-Prince 5(4), numba kernel (roa.montecarlo.integrator)",
+    return {"integrator": "batch Dormand-Prince 5(4), numba kernel (roa.integration.integrator)",
             "rtol": i.rtol, "atol": i.atol, "t_final": r.t_final,
             "converge_tol": r.converge_tol, "diverge_bound": r.diverge_bound}  # fmt: skip
 

@@ -119,7 +119,7 @@ def _slice_coverage(sat: float, P: np.ndarray, level: float, p: dict[str, Any]) 
     import roa
     from ipc_paper.certified import coords_map
     from ipc_paper.system import closed_loop
-    from roa.montecarlo import integrator as I  # noqa: N812
+    from roa.integration import integrator as I  # noqa: N812
     from roa.montecarlo.sampling import grid_slice
     from roa.options import IntegratorOptions, RunOptions
     from roa.status import StopRules
@@ -174,8 +174,8 @@ def _fresh(progress: bool) -> None:
 
 def case_vanderpol(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C1: the Van der Pol benchmark (SOS level, sampled optimum, interval pair)."""
-    from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
+    from roa.search.levelset import level_search
     from roa.search.sos import sos_level
     from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
@@ -195,7 +195,7 @@ def case_paper(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C2-C4, C7: the paper's V (SOS programs, interval pair, sector and box share)."""
     from ipc_paper.system import REFERENCE_BOX, transformed
     from ipc_paper.system.lyapunov import paper_lyapunov
-    from roa.levelset import level_search
+    from roa.search.levelset import level_search
     from roa.search.sos import sos_level
 
     _fresh(progress)
@@ -243,8 +243,8 @@ def case_optimised(
     Returns ``(search result, block)``."""
     from ipc_paper.certified import coords_map
     from ipc_paper.system import REFERENCE_BOX
-    from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
+    from roa.search.levelset import level_search
     from roa.search.quadratic import optimise_quadratic
 
     _fresh(progress)
@@ -311,8 +311,8 @@ def case_saturated(
     """
     from ipc_paper.certified import coords_map
     from ipc_paper.system import REFERENCE_BOX, transformed
-    from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
+    from roa.search.levelset import level_search
     from roa.search.quadratic import optimise_quadratic
 
     _fresh(progress)

@@ -15,9 +15,9 @@ from ipc_paper.certify_cases import _box_fraction, _level, _physical, _sector_cu
 # re-exported: ipc_paper.degrees and tests use these helpers of the cases
 from ipc_paper.degrees_report import box_ci, box_share
 from roa.errors import RoaInputError
-from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import IntervalOptions, Options
+from roa.studies.experiment import accepts
 
 
 def _sos_text(res: dict[str, Any]) -> str:
@@ -451,9 +451,9 @@ def _saturated_claim(blk: dict[str, Any], E: str) -> dict[str, Any]:
 def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
     """``fraction`` x the CasADi optimum, returned only if the interval validation certifies it."""
     from roa.certification import certify
-    from roa.levelset import level_search
     from roa.lyapunov import QuadraticLyapunov
     from roa.options import IntervalOptions
+    from roa.search.levelset import level_search
 
     if case == "ipc-paper":
         from ipc_paper.system import transformed

@@ -28,10 +28,10 @@ from typing import Any
 
 import numpy as np
 
-from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import Options
 from roa.progress import step
+from roa.studies.experiment import accepts
 
 E = "results/degrees/summary.json"
 

@@ -9,9 +9,9 @@ from typing import Any
 import sympy as sp
 
 from ipc_paper import symbolic as S
-from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import Options
+from roa.studies.experiment import accepts
 
 
 def analyse() -> dict[str, Any]:
@@ -82,7 +82,7 @@ def run_experiment(params: dict[str, Any], out: Path, *, quick: bool) -> dict[st
                 f"z2' would depend on u (printed model: z2' free of u = {res['structure_2_3_printed_model']['z2_dot free of u (printed 2.1)']}), "
                 f"so (2.2) could not map it to (2.3). With the derived model: z1' = z2 {st['z1_dot == z2']}, "
                 f"z2' = w1 + phi0(w1) w2^2 {st['z2_dot == w1 + phi0(w1) w2^2']}, w1' = w2 {st['w1_dot == w2']}, "
-                f"w2' affine in u {st['w2_dot affine in u']} (sympy, tests/test_symbolic.py)."
+                f"w2' affine in u {st['w2_dot affine in u']} (sympy, ipc_paper/tests/test_symbolic.py)."
             ),
         },
         {

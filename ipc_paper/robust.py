@@ -37,10 +37,10 @@ from typing import Any
 
 import numpy as np
 
-from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import Options
 from roa.progress import step
+from roa.studies.experiment import accepts
 
 E = "results/robust/summary.json"
 
@@ -92,7 +92,7 @@ def robust_quadratic(system: Any, P_near: np.ndarray, alpha: float) -> tuple[np.
     import cvxpy as cp
 
     from roa.errors import RoaInputError
-    from roa.linearisation import linearise
+    from roa.model.linearisation import linearise
 
     box = system.parameters["delta_plant"]
     ends = [linearise(system.at(delta_plant=d)).A for d in (box.low, box.high)]
@@ -166,7 +166,7 @@ def sector_level(V: Any, degrees: float = 60.0) -> float:
     grid, x (1 + 1e-6)): ``{V <= it}`` holds the sector (checked after certification by
     :func:`roa.proof.sector.certified_sector`)."""
     from ipc_paper.system.coordinates import to_flat_components
-    from roa.backend import NP
+    from roa.model.backend import NP
 
     th = np.radians(np.linspace(-degrees, degrees, 40001))
     z = np.zeros_like(th)
@@ -178,7 +178,7 @@ def sector_level(V: Any, degrees: float = 60.0) -> float:
 def _cases(p: dict[str, Any], results: Path) -> dict[str, Any]:
     import roa
     from ipc_paper.system import transformed_uncertain
-    from roa.lyapunov import as_lyapunov
+    from roa.search.candidate import as_lyapunov
 
     system = transformed_uncertain(delta_low=p["delta_low"], delta_high=p["delta_high"])
     itv = roa.IntervalOptions(max_boxes=p["max_boxes"], sampled_safety=p["safety"])

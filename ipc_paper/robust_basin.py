@@ -20,10 +20,10 @@ from typing import Any
 
 import numpy as np
 
-from roa.experiment import accepts
 from roa.io import atomic_write_json
 from roa.options import Options
 from roa.shares import share
+from roa.studies.experiment import accepts
 
 E = "results/basin_robust/summary.json"
 

@@ -22,7 +22,6 @@ from ipc_paper import system as ipc
 from ipc_paper.basins import SECTOR, regions
 from ipc_paper.estimates import sector_theta
 from roa.errors import ResultsError
-from roa.experiment import MAX_SEED, accepts, check_int
 from roa.io import atomic_write_json
 from roa.montecarlo.sampling import box_sample
 from roa.options import Options
@@ -33,6 +32,7 @@ from roa.plotting.basin import (
     region_label,
     save_figure,
 )
+from roa.studies.experiment import MAX_SEED, accepts, check_int
 
 #: Row order of the kinds (top to bottom) and their markers.
 KINDS = ("claimed", "sampled", "certified", "refuted", "inconclusive", "empirical")

@@ -1,6 +1,6 @@
 """Symbolic derivation of the cart-pole model and of the transformed system (2.3), with sympy.
 
-Used by the errata experiment and by ``tests/test_symbolic.py``. Nothing here is transcribed from
+Used by the errata experiment and by ``ipc_paper/tests/test_symbolic.py``. Nothing here is transcribed from
 the paper except :func:`paper_printed`, which holds the paper's formulas *as printed*, to be compared.
 """
 

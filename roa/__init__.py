@@ -22,63 +22,88 @@ import importlib
 import importlib.util
 from typing import TYPE_CHECKING, Any
 
-#: Public name -> the module defining it. Each is imported on first use (PEP 562), so that
-#: ``import roa`` and ``roa --help`` stay fast: cvxpy, CasADi, numba, sympy, matplotlib and
-#: scipy.optimize are imported only by the analyses that need them.
-_LAZY: dict[str, str] = {
-    "AutoValidator": "roa.certification",
-    "CandidateLevel": "roa.certification",
-    "Certificate": "roa.certification",
-    "CuttingPlanes": "roa.certification",
-    "GivenLevel": "roa.certification",
-    "IntervalValidator": "roa.certification",
-    "SampledLevel": "roa.certification",
-    "SosLevel": "roa.certification",
-    "SosValidator": "roa.certification",
-    "VsIteration": "roa.certification",
-    "certify": "roa.certification",
-    "ResultsError": "roa.errors",
-    "RoaError": "roa.errors",
-    "RoaInputError": "roa.errors",
-    "SolverError": "roa.errors",
-    "SystemDefinitionError": "roa.errors",
-    "LevelSearchResult": "roa.levelset",
-    "level_search": "roa.levelset",
-    "FunctionLyapunov": "roa.lyapunov",
-    "Lyapunov": "roa.lyapunov",
-    "PolynomialLyapunov": "roa.lyapunov",
-    "QuadraticLyapunov": "roa.lyapunov",
-    "default_lyapunov": "roa.lyapunov",
-    "BasinResult": "roa.montecarlo.basin",
-    "basin": "roa.montecarlo.basin",
-    "RobustBasinResult": "roa.montecarlo.robust_basin",
-    "parameter_samples": "roa.montecarlo.robust_basin",
-    "box_sample": "roa.montecarlo.sampling",
-    "grid_slice": "roa.montecarlo.sampling",
-    "region_sample": "roa.montecarlo.sampling",
-    "CasadiOptions": "roa.options",
-    "IntegratorOptions": "roa.options",
-    "IntervalOptions": "roa.options",
-    "RunOptions": "roa.options",
-    "SampledOptions": "roa.options",
-    "SampleSearchOptions": "roa.options",
-    "SosOptions": "roa.options",
-    "VsOptions": "roa.options",
-    "Trajectory": "roa.simulation",
-    "simulate": "roa.simulation",
-    "BasinStatus": "roa.status",
-    "LevelStatus": "roa.status",
-    "RegionStatus": "roa.status",
-    "RunStatus": "roa.status",
-    "SosStatus": "roa.status",
-    "StopRules": "roa.status",
-    "Verdict": "roa.status",
-    "System": "roa.system",
-    "closed_loop": "roa.control_system",
-    "load_system": "roa.systems",
+#: The public API, written once: module -> the public names it defines. ``__all__`` and the lazy
+#: table are built from it; the type-checking imports below list the same pairs for static
+#: checkers (``tests/api/test_api.py`` keeps them equal). Each name is imported on first use
+#: (PEP 562), so that ``import roa`` and ``roa --help`` stay fast: cvxpy, CasADi, numba, sympy,
+#: matplotlib and scipy.optimize are imported only by the analyses that need them.
+PUBLIC: dict[str, tuple[str, ...]] = {
+    "roa.certification": (
+        "AutoValidator",
+        "CandidateLevel",
+        "Certificate",
+        "CuttingPlanes",
+        "GivenLevel",
+        "IntervalValidator",
+        "SampledLevel",
+        "SosLevel",
+        "SosValidator",
+        "VsIteration",
+        "certify",
+    ),
+    "roa.errors": (
+        "ResultsError",
+        "RoaError",
+        "RoaInputError",
+        "SolverError",
+        "SystemDefinitionError",
+    ),
+    "roa.integration.simulation": (
+        "Trajectory",
+        "simulate",
+    ),
+    "roa.lyapunov": (
+        "FunctionLyapunov",
+        "Lyapunov",
+        "PolynomialLyapunov",
+        "QuadraticLyapunov",
+    ),
+    "roa.model.system": (
+        "System",
+        "closed_loop",
+    ),
+    "roa.montecarlo.basin": (
+        "BasinResult",
+        "basin",
+    ),
+    "roa.montecarlo.robust_basin": (
+        "RobustBasinResult",
+        "parameter_samples",
+    ),
+    "roa.montecarlo.sampling": (
+        "box_sample",
+        "grid_slice",
+        "region_sample",
+    ),
+    "roa.options": (
+        "CasadiOptions",
+        "IntegratorOptions",
+        "IntervalOptions",
+        "RunOptions",
+        "SampleSearchOptions",
+        "SampledOptions",
+        "SosOptions",
+        "VsOptions",
+    ),
+    "roa.search.candidate": ("default_lyapunov",),
+    "roa.search.levelset": (
+        "LevelSearchResult",
+        "level_search",
+    ),
+    "roa.status": (
+        "BasinStatus",
+        "LevelStatus",
+        "RegionStatus",
+        "RunStatus",
+        "SosStatus",
+        "StopRules",
+        "Verdict",
+    ),
+    "roa.systems": ("load_system",),
 }
+_LAZY: dict[str, str] = {name: module for module, names in PUBLIC.items() for name in names}
 
-if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
+if TYPE_CHECKING:  # static checkers and IDEs see PUBLIC as eager imports
     from roa.certification import (
         AutoValidator,
         CandidateLevel,
@@ -92,16 +117,10 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         VsIteration,
         certify,
     )
-    from roa.control_system import closed_loop
     from roa.errors import ResultsError, RoaError, RoaInputError, SolverError, SystemDefinitionError
-    from roa.levelset import LevelSearchResult, level_search
-    from roa.lyapunov import (
-        FunctionLyapunov,
-        Lyapunov,
-        PolynomialLyapunov,
-        QuadraticLyapunov,
-        default_lyapunov,
-    )
+    from roa.integration.simulation import Trajectory, simulate
+    from roa.lyapunov import FunctionLyapunov, Lyapunov, PolynomialLyapunov, QuadraticLyapunov
+    from roa.model.system import System, closed_loop
     from roa.montecarlo.basin import BasinResult, basin
     from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
     from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
@@ -115,7 +134,8 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         SosOptions,
         VsOptions,
     )
-    from roa.simulation import Trajectory, simulate
+    from roa.search.candidate import default_lyapunov
+    from roa.search.levelset import LevelSearchResult, level_search
     from roa.status import (
         BasinStatus,
         LevelStatus,
@@ -125,61 +145,9 @@ if TYPE_CHECKING:  # static checkers and IDEs see the eager imports
         StopRules,
         Verdict,
     )
-    from roa.system import System
     from roa.systems import load_system
 
-__all__ = [
-    "BasinResult",
-    "RobustBasinResult",
-    "CandidateLevel",
-    "CuttingPlanes",
-    "GivenLevel",
-    "AutoValidator",
-    "IntervalValidator",
-    "SampledLevel",
-    "SosLevel",
-    "SosValidator",
-    "VsIteration",
-    "BasinStatus",
-    "CasadiOptions",
-    "Certificate",
-    "IntegratorOptions",
-    "IntervalOptions",
-    "LevelSearchResult",
-    "LevelStatus",
-    "FunctionLyapunov",
-    "Lyapunov",
-    "PolynomialLyapunov",
-    "QuadraticLyapunov",
-    "RegionStatus",
-    "ResultsError",
-    "RoaError",
-    "RoaInputError",
-    "RunOptions",
-    "RunStatus",
-    "SampledOptions",
-    "SolverError",
-    "SosOptions",
-    "SampleSearchOptions",
-    "VsOptions",
-    "SosStatus",
-    "StopRules",
-    "System",
-    "SystemDefinitionError",
-    "Trajectory",
-    "Verdict",
-    "basin",
-    "parameter_samples",
-    "box_sample",
-    "certify",
-    "closed_loop",
-    "default_lyapunov",
-    "grid_slice",
-    "level_search",
-    "load_system",
-    "region_sample",
-    "simulate",
-]
+__all__ = sorted(_LAZY)
 __version__ = "0.1.0"
 
 

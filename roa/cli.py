@@ -8,13 +8,16 @@ import sys
 
 from roa.errors import RoaError, RoaInputError, TimeLimitReached
 
-#: Subcommand modules under roa.commands, in --help order (studies add their own after these).
+#: Subcommand modules under roa.commands, in --help order: the general tool, then ``study`` (a
+#: case study's commands, ``roa study NAME ...``) and the shortcuts for the study of the checkout
+#: in the current folder (``roa reproduce`` is ``roa study NAME reproduce`` there).
 COMMANDS = (
     "simulate",
     "khalil",
     "certify",
     "verify",
     "basin",
+    "study",
     "run",
     "reproduce",
     "report",
@@ -23,7 +26,6 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from roa import studies
     from roa.commands.common import Parser
 
     parser = Parser(
@@ -33,9 +35,6 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
         importlib.import_module(f"roa.commands.{name}").register(sub)
-    for study in studies.registered().values():
-        for module in study.commands:
-            importlib.import_module(module).register(sub)
     return parser
 
 
@@ -57,21 +56,31 @@ def main(argv: list[str] | None = None) -> int:
 
     # --time-limit also bounds each long step without a budget of its own (roa.stage_limit)
     stage_limit.limit(getattr(args, "time_limit", None))
+    # the command as typed: "basin", or "study ipc reproduce"
+    label = " ".join(
+        str(part)
+        for part in (
+            args.command,
+            getattr(args, "study_name", None),
+            getattr(args, "study_command", None),
+        )
+        if part
+    )
     try:
         return int(args.func(args) or 0)
     except TimeLimitReached as exc:
-        print(f"roa {args.command}: stopped: {exc}", file=sys.stderr)
+        print(f"roa {label}: stopped: {exc}", file=sys.stderr)
         return 1
     except RoaInputError as exc:
-        print(f"roa {args.command}: error: {exc}", file=sys.stderr)
+        print(f"roa {label}: error: {exc}", file=sys.stderr)
         return 2
     except RoaError as exc:
-        print(f"roa {args.command}: failed: {exc}", file=sys.stderr)
+        print(f"roa {label}: failed: {exc}", file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
         # what was kept: the notes of the code interrupted (e.g. a basin's saved chunks)
         kept = "; ".join(getattr(exc, "__notes__", [])) or "nothing was kept"
-        print(f"roa {args.command}: interrupted; {kept}", file=sys.stderr)
+        print(f"roa {label}: interrupted; {kept}", file=sys.stderr)
         return 130
     finally:
         stage_limit.limit(None)

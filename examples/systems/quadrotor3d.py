@@ -11,7 +11,7 @@ attitude rates ``u2, u3, u4`` (an inner rate loop assumed perfect)::
 
 The thrust direction is written in the heading frame (``psi = 0``): the yaw enters only its own
 rate loop. ``K`` is the LQR gain of the linearisation at hover (``Q = I``, ``R = I``, rounded to
-4 decimals; ``tests/test_sos_backoff.py`` recomputes it with scipy). The equilibrium is the
+4 decimals; ``tests/certification/test_sos_backoff.py`` recomputes it with scipy). The equilibrium is the
 origin (hover). No LYAPUNOV_P: roa solves A'P + PA = -I for the linearisation."""
 
 from roa import System

@@ -1,4 +1,4 @@
-"""``roa bound``: the analytic bound (3.13)-(3.14) as printed and corrected."""
+"""``roa study ipc bound``: the analytic bound (3.13)-(3.14) as printed and corrected."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""``roa ipc-simulate``: one closed-loop run of the IPC with the paper's controller settings
+"""``roa study ipc simulate``: one closed-loop run of the IPC with the paper's controller settings
 (reference tracking, poles, mass ratio, saturation, flat or physical coordinates)."""
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ from roa.io import to_json
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
-        "ipc-simulate",
+        "simulate",
         help="IPC study: one closed-loop run with the paper's controller options (reference, poles)",
     )
     p.add_argument(
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ipc_paper import system as ipc
     from ipc_paper.system.controller import Gains, make_reference
-    from roa.simulation import simulate
+    from roa.integration.simulation import simulate
     from roa.status import StopRules
 
     x0 = np.array(floats(args.ic, "--ic", 4))

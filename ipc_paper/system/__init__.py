@@ -38,7 +38,7 @@ from ipc_paper.system.model import (
     phi3,
 )
 from roa.errors import RoaInputError
-from roa.system import System
+from roa.model.system import System
 
 __all__ = [
     "closed_loop",
@@ -91,7 +91,7 @@ def control_force(
     ``xp.clip`` (so the saturated loop runs in every namespace: numpy, CasADi, sympy, intervals
     and jets, where the validation encloses the kink).
     """
-    from roa.backend import NP
+    from roa.model.backend import NP
 
     xp = NP if xp is None else xp
     gains, reference = _settings(gains, reference)
@@ -189,7 +189,7 @@ def transformed(
     ``w2'``: with ``a = phi2(w1) + w2^2 phi3(w1)`` the law is ``u = (a - v) / phi1(w1)`` (2.5), and
     the model gives ``w2' = a - phi1(w1) u`` for any applied force ``u`` (``z2' = w1 + phi0 w2^2``
     does not depend on it), so ``w2' = a - phi1(w1) clip(u, -saturation, saturation)``: ``v`` where
-    the force is not saturated. ``tests/test_saturation.py`` checks it against the physical loop
+    the force is not saturated. ``ipc_paper/tests/test_saturation.py`` checks it against the physical loop
     pushed through (2.2).
     """
     gains, reference = _settings(gains, reference)
@@ -340,7 +340,7 @@ def _kernels(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
     """The System fields ``numba`` and ``numba_fast`` (factories) for the batch integrator (zero reference only;
     the public array signatures and the pointer-only fast path, see fast.py), and for the
     physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
-    coordinates, roa/montecarlo/terminal.py)."""
+    coordinates, roa/integration/terminal.py)."""
     if not reference.is_zero:
         return {}
     from ipc_paper.system import fast

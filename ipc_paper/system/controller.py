@@ -14,8 +14,8 @@ from typing import Any
 import numpy as np
 
 from ipc_paper.system.model import phi1, phi2, phi3
-from roa.backend import NP
 from roa.errors import RoaInputError
+from roa.model.backend import NP
 
 
 @dataclass(frozen=True)

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import NP
 from roa.errors import RoaInputError
+from roa.model.backend import NP
 
 HALF_PI = np.pi / 2
 

@@ -2,16 +2,16 @@
 
 The same formulas as :func:`ipc_paper.system.closed_loop` (physical coordinates, zero reference,
 optional saturation) and :func:`ipc_paper.system.transformed` ((3.8), flat coordinates), written as
-scalar code. ``tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
+scalar code. ``ipc_paper/tests/test_montecarlo.py`` checks them against ``System.f`` on random states.
 Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
 
 Each function exists twice, from one body: as a ``numba.cfunc`` of the public signatures of
-roa/montecarlo/integrator.py (``System.numba``, the protocol user systems follow) and as
+roa/integration/integrator.py (``System.numba``, the protocol user systems follow) and as
 a ``numba.njit`` function for the fast path (``System.numba_fast``, preferred by the
 engine: the kernel is compiled for these functions and calls them directly, no call through a
-pointer; :func:`roa.montecarlo.integrator.compile_kernel`). The fast path also fuses the field
+pointer; :func:`roa.integration.integrator.compile_kernel`). The fast path also fuses the field
 with the map to the coordinates of a terminal set, so the set test after each step reuses the
-field's sin, cos and log. ``tests/test_terminal_fastpath.py`` checks that both paths give the
+field's sin, cos and log. ``ipc_paper/tests/test_terminal_fastpath.py`` checks that both paths give the
 same trajectories bit for bit.
 """
 
@@ -23,16 +23,16 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from roa.montecarlo.integrator import (
+from roa.integration.integrator import (
     COORDS_SIGNATURE,
     FIELD_SIGNATURE,
     MARGIN_SIGNATURE,
     no_margin_njit,
 )
-from roa.montecarlo.lazy_cfunc import LazyCfuncs
+from roa.integration.lazy_cfunc import LazyCfuncs
 
 if TYPE_CHECKING:
-    from roa.system import System
+    from roa.model.system import System
 
 HALF_PI = np.pi / 2
 
@@ -239,7 +239,7 @@ class PhysicalKernels:
 
     ``kernels()`` returns ``(field, margin, params)``; ``kernels(coords=name)`` adds the compiled
     map ``coords(x, params, out)`` to the analysis coordinates ``name`` (:func:`compiled_coords`)
-    of a terminal set (roa/montecarlo/terminal.py).
+    of a terminal set (roa/integration/terminal.py).
     """
 
     def __init__(self, delta: float, h: Sequence[float], saturation: float | None) -> None:
@@ -256,7 +256,7 @@ class PhysicalKernels:
 class PhysicalFastKernels(PhysicalKernels):
     """Picklable factory for ``System.numba_fast`` (physical coordinates): the functions of
     :class:`PhysicalKernels` as ``numba.njit`` functions, for
-    :func:`roa.montecarlo.integrator.compile_kernel`. ``kernels()`` returns ``(field, margin,
+    :func:`roa.integration.integrator.compile_kernel`. ``kernels()`` returns ``(field, margin,
     params)``; ``kernels(coords=name)`` adds the map to ``name`` and the field fused with it."""
 
     def __call__(self, coords: str | None = None):
@@ -267,7 +267,7 @@ class PhysicalFastKernels(PhysicalKernels):
 
 
 class AnalysisCoords:
-    """``System.analysis_coords`` of the physical closed loop (roa/montecarlo/terminal.py).
+    """``System.analysis_coords`` of the physical closed loop (roa/integration/terminal.py).
 
     ``coords(name)`` is the numpy map physical -> ``name`` (inf outside |theta| < pi/2);
     ``systems`` maps the names of certified systems (``roa certify --json``) to their coordinates.
@@ -312,7 +312,7 @@ class FlatKernels:
         self.params = np.array([1.0, *map(float, h), np.nan])
 
     def __call__(self):
-        from roa.montecarlo import integrator
+        from roa.integration import integrator
 
         return __getattr__("flat_field"), integrator.no_margin, self.params
 

@@ -16,7 +16,7 @@ Solved for the accelerations (den = delta + sin^2 theta)::
     theta'' = ( -u cos(theta) - theta'^2 sin(theta) cos(theta) + (1 + delta) sin(theta) ) / den
 
 The paper's (2.1) prints these two right-hand sides with q'' and theta'' swapped (erratum E1);
-``tests/test_symbolic.py`` re-derives them from the Lagrangian with sympy.
+``ipc_paper/tests/test_symbolic.py`` re-derives them from the Lagrangian with sympy.
 
 The functions phi0..phi3 are those of (2.3) in the coordinates (2.2), with w = tan(theta); phi1 and
 phi2 carry a factor (1 + w^2)^(3/2) that the paper's (2.4) drops (erratum E2).
@@ -26,11 +26,11 @@ from __future__ import annotations
 
 from typing import Any
 
-from roa.backend import NP
 from roa.errors import RoaInputError
+from roa.model.backend import NP
 
 #: Default mass ratio delta = M / m. The paper gives none; 1.0 (equal masses) is documented here.
-#: The closed loop in transformed coordinates does not depend on it (tests/test_ipc.py).
+#: The closed loop in transformed coordinates does not depend on it (ipc_paper/tests/test_ipc.py).
 DEFAULT_DELTA = 1.0
 
 

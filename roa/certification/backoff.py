@@ -32,9 +32,9 @@ from typing import Any
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.validation import Validation
 from roa.status import Verdict
-from roa.system import System
 
 #: Relative steps below the proposal tried while no level is certified.
 STEPS = (1e-3, 1e-2, 3e-2, 1e-1)

@@ -44,16 +44,17 @@ from roa.certification.strategies import (
     VsIteration,
     WorstCase,
 )
-from roa.checks import check_system
 from roa.errors import RoaInputError
-from roa.levelset import LevelSearchResult, level_search
-from roa.lyapunov import Lyapunov, QuadraticLyapunov, as_lyapunov
+from roa.lyapunov import Lyapunov, QuadraticLyapunov
+from roa.model.checks import check_system
+from roa.model.parameters import ParameterBox
+from roa.model.system import System
 from roa.options import BNB_DIM, IntervalOptions, SampledOptions, SosOptions, VsOptions
-from roa.parameters import ParameterBox
 from roa.progress import step
 from roa.proof.validation import Validation
+from roa.search.candidate import as_lyapunov
+from roa.search.levelset import LevelSearchResult, level_search
 from roa.status import Verdict
-from roa.system import System
 
 METHODS = ("sos", "interval", "both")
 #: Times a proposed level is chosen again below a confirmed witness.
@@ -399,12 +400,12 @@ def _not_locally_negative(
     system: System, V: Lyapunov
 ) -> tuple[dict[str, float], float, str] | None:
     """For a parameter box: the first sample point where V' is not negative definite at the
-    equilibrium (:func:`roa.lyapunov.defaults.worst_linearisation`), its eigenvalue and a message
+    equilibrium (:func:`roa.search.candidate.worst_linearisation`), its eigenvalue and a message
     saying so (as ``roa khalil`` does); None when there is none or no box. At such a point no
     level > 0 holds for this V (V' >= 0 arbitrarily close to the equilibrium, or, for a zero
     eigenvalue, nothing from the linearisation)."""
-    from roa.lyapunov.defaults import worst_linearisation
-    from roa.parameters import describe_point
+    from roa.model.parameters import describe_point
+    from roa.search.candidate import worst_linearisation
 
     if not system.parameters:
         return None

@@ -15,15 +15,15 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.fingerprint import system_fingerprint
-from roa.levelset import LevelSearchResult
 from roa.lyapunov import Lyapunov, certificate_fields
+from roa.model.fingerprint import system_fingerprint
+from roa.model.system import System
 from roa.options import IntervalOptions
 from roa.progress import step
 from roa.proof.validation import Validation
+from roa.search.levelset import LevelSearchResult
 from roa.search.sos import SOSResult
 from roa.status import Verdict
-from roa.system import System
 
 METHODS = ("sos", "interval", "both")
 #: The method name of an exact SOS certificate (``roa.SosValidator``).

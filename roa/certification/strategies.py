@@ -24,8 +24,8 @@ from typing import Any, Protocol, runtime_checkable
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.levelset import LevelSearchResult, level_search
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.options import (
     BNB_DIM,
     BNB_SECONDS_BACKUP,
@@ -44,11 +44,11 @@ from roa.proof.reductions import IndependentBlocks, Rescale
 from roa.proof.sos_stored import part_json
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
+from roa.search.levelset import LevelSearchResult, level_search
 from roa.search.sos_certificate import default_eps, propose_certificate
 from roa.search.sos_putinar import propose_putinar
 from roa.search.sos_sparse import ROUTES, choose_route, propose_sparse
 from roa.status import LevelStatus, SosStatus, Verdict
-from roa.system import System
 
 
 # -- validators ------------------------------------------------------------------------------------
@@ -645,7 +645,7 @@ class SampledLevel:
 @dataclass(frozen=True)
 class WorstCase:
     """A proposer run at each sample point of an uncertain system's parameter box
-    (:func:`roa.parameters.sample_points`: nominal value, vertices and ``per_axis`` points along
+    (:func:`roa.model.parameters.sample_points`: nominal value, vertices and ``per_axis`` points along
     each axis); the lowest level wins.
     A proposal only: the robust validator decides for every parameter of the box."""
 
@@ -656,7 +656,7 @@ class WorstCase:
         return self.inner.accepts(system.nominal(), V)
 
     def propose(self, system: System, V: Lyapunov) -> Proposal:
-        from roa.parameters import describe_point, sample_points
+        from roa.model.parameters import describe_point, sample_points
 
         best: Proposal | None = None
         for p in sample_points(system, per_axis=self.per_axis):

@@ -16,7 +16,7 @@ from roa.options import DEFAULT_PARAM_SAMPLES, MAX_PARAM_SAMPLES
 from roa.shares import interval, share
 
 if TYPE_CHECKING:
-    from roa.system import System
+    from roa.model.system import System
 
 EPILOG = """examples:
   roa basin --system ipc --slice theta,theta_dot --grid 200x150 --box theta=-1.57:1.57,theta_dot=-6:6 --plot map.png
@@ -301,8 +301,8 @@ def lyapunov_regions(args: argparse.Namespace, system: System) -> list:
     import numpy as np
 
     import roa
+    from roa.lyapunov.regions import Region
     from roa.plotting.basin import kind_text
-    from roa.regions import Region
 
     if not args.lyapunov_level:
         return []
@@ -457,8 +457,8 @@ def _run_robust(args: argparse.Namespace, system: System, sampler: Any, rules: A
                 integrator: Any, run_opts: Any, terminal: Any, regs: list, plot: str | None
                 ) -> int:  # fmt: skip
     """``roa basin`` on a system with uncertain parameters (:func:`roa.montecarlo.basin.robust_basin`)."""
+    from roa.model.parameters import ParameterBox, describe_point
     from roa.montecarlo.basin import robust_basin
-    from roa.parameters import ParameterBox, describe_point
 
     result = robust_basin(system, sampler, param_samples=args.param_samples, param_seed=args.seed,
                           rules=rules, integrator=integrator, run=run_opts, terminal=terminal,

@@ -8,7 +8,8 @@ from roa.errors import RoaInputError
 from roa.io import to_json
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction, study: str | None = None) -> None:
+    """Add the command; under ``roa study NAME`` (``study``) it has no ``--study``."""
     p = sub.add_parser("check", help="recompute stored reference values (results/reference.json)")
     p.add_argument("--only", nargs="+", metavar="KEY", default=None, help="check only these keys")
     p.add_argument(
@@ -16,9 +17,10 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="recompute and STORE the selected keys (all if no --only) instead of checking",
     )
-    p.add_argument(
-        "--study", default=None, help="the study whose values are checked (default: ipc)"
-    )
+    if study is None:
+        p.add_argument(
+            "--study", default=None, help="the study whose values are checked (default: ipc)"
+        )
     p.add_argument("--reference", default="results/reference.json",
                    help="reference file (default results/reference.json of the checkout)")  # fmt: skip
     p.add_argument(
@@ -31,11 +33,12 @@ def register(sub: argparse._SubParsersAction) -> None:
         "edits that the hashes cannot (the reference values are not checked in this mode)",
     )
     p.add_argument("--json", action="store_true", help="print the rows as JSON")
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, **({} if study is None else {"study": study}))
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa import reference, studies
+    from roa import studies
+    from roa.studies import reference
 
     if args.recompute is not None:
         if args.update or args.only:
@@ -55,7 +58,7 @@ def run(args: argparse.Namespace) -> int:
     if not args.only:  # the outputs of the study's experiments next to the reference file
         from pathlib import Path
 
-        from roa.experiment import verify_outputs
+        from roa.studies.experiment import verify_outputs
 
         study = studies.get(args.study)
         for summary in sorted(Path(args.reference).parent.glob("*/summary.json")):
@@ -69,12 +72,12 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _recompute(args: argparse.Namespace) -> list[dict]:
-    """Rows of ``--recompute`` (:mod:`roa.recompute`)."""
+    """Rows of ``--recompute`` (:mod:`roa.studies.recompute`)."""
     from pathlib import Path
 
     from roa import studies
-    from roa.experiment import experiments_dir
-    from roa.recompute import recompute
+    from roa.studies.experiment import experiments_dir
+    from roa.studies.recompute import recompute
 
     results = Path(args.reference).parent
     configs = experiments_dir(studies.get(args.study))

@@ -146,7 +146,8 @@ def with_param_options(sys_: Any, specs: list[str]) -> Any:
 
 def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
     """The ``--lyapunov`` candidate for ``sys_`` (the system's default when not given)."""
-    from roa.lyapunov import Lyapunov, QuadraticLyapunov, default_lyapunov
+    from roa.lyapunov import Lyapunov, QuadraticLyapunov
+    from roa.search.candidate import default_lyapunov
 
     spec = getattr(args, "lyapunov", None)
     if spec is None:

@@ -5,9 +5,11 @@ from __future__ import annotations
 import argparse
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction, study: str | None = None) -> None:
+    """Add the command; under ``roa study NAME`` (``study``) it has no ``--study``."""
     p = sub.add_parser("report", help="generate the study's report (paper_repro.md) from results/")
-    p.add_argument("--study", default=None, help="the study (default: ipc)")
+    if study is None:
+        p.add_argument("--study", default=None, help="the study (default: ipc)")
     p.add_argument("--results", default="results", help="results directory (default results/)")
     p.add_argument("--out", default=None, help="output path (default the study's, paper_repro.md)")
     p.add_argument(
@@ -15,7 +17,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         action="store_true",
         help="exit 1 if the file differs from what would be generated",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, **({} if study is None else {"study": study}))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -23,7 +25,7 @@ def run(args: argparse.Namespace) -> int:
 
     from roa import studies
     from roa.errors import ResultsError
-    from roa.experiment import write_report
+    from roa.studies.experiment import write_report
 
     study = studies.get(args.study)
     out = args.out or study.report_name
@@ -32,7 +34,7 @@ def run(args: argparse.Namespace) -> int:
             f"no experiment summaries in {Path(args.results).resolve()} (expected "
             "RESULTS/NAME/summary.json): run roa reproduce first, or pass --results"
         )
-    from roa.experiment import verify_outputs
+    from roa.studies.experiment import verify_outputs
 
     problems = [
         problem

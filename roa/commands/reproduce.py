@@ -9,11 +9,13 @@ from pathlib import Path
 from roa.errors import RoaInputError
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction, study: str | None = None) -> None:
+    """Add the command; under ``roa study NAME`` (``study``) it has no ``--study``."""
     p = sub.add_parser("reproduce", help="run every experiment and regenerate paper_repro.md")
     p.add_argument("--quick", action="store_true", help="reduced grids (minutes, what CI runs)")
     p.add_argument("--force", action="store_true", help="re-run experiments even if cached")
-    p.add_argument("--study", default=None, help="the study to reproduce (default: ipc)")
+    if study is None:
+        p.add_argument("--study", default=None, help="the study to reproduce (default: ipc)")
     p.add_argument(
         "--experiments",
         default=None,
@@ -30,14 +32,25 @@ def register(sub: argparse._SubParsersAction) -> None:
         help="report path (default the study's report, paper_repro.md for ipc; under RESULTS/ "
         "with --quick)",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, shortcut=study is None, **({} if study is None else {"study": study}))
 
 
 def run(args: argparse.Namespace) -> int:
     from roa import studies
-    from roa.experiment import experiments_dir, list_experiments, run_experiment, write_report
+    from roa.studies.experiment import (
+        experiments_dir,
+        list_experiments,
+        run_experiment,
+        write_report,
+    )
 
     study = studies.get(args.study)
+    if args.shortcut and args.experiments is None and not any(Path("experiments").glob("*.toml")):
+        raise RoaInputError(
+            "roa reproduce runs the experiments of the study checkout in this folder "
+            "(experiments/*.toml) and there are none here; to write the results of study "
+            f"{study.name!r} into this folder, run `roa study {study.name} reproduce`"
+        )
     results = args.results or ("results-quick" if args.quick else "results")
     name = study.report_name
     report_path = args.report or (f"{results}/{name}" if args.quick else name)

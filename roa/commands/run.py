@@ -5,7 +5,8 @@ from __future__ import annotations
 import argparse
 
 
-def register(sub: argparse._SubParsersAction) -> None:
+def register(sub: argparse._SubParsersAction, study: str | None = None) -> None:
+    """Add the command; under ``roa study NAME`` (``study``) it has no ``--study``."""
     p = sub.add_parser(
         "run", help="run one experiment config (experiments/NAME.toml) into results/NAME/"
     )
@@ -19,11 +20,11 @@ def register(sub: argparse._SubParsersAction) -> None:
         default=None,
         help="results directory (default results/, or results-quick/ with --quick)",
     )
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, **({} if study is None else {"study": study}))
 
 
 def run(args: argparse.Namespace) -> int:
-    from roa.experiment import run_experiment
+    from roa.studies.experiment import run_experiment
 
     results = args.results or ("results-quick" if args.quick else "results")
     summary = run_experiment(args.config, results=results, quick=args.quick, force=args.force)

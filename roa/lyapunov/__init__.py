@@ -9,7 +9,6 @@ reads every JSON form the toolkit writes, :func:`certificate_fields` writes a ce
 """
 
 from roa.lyapunov.base import Lyapunov, check_positive_definite
-from roa.lyapunov.defaults import as_lyapunov, default_lyapunov
 from roa.lyapunov.function import FunctionLyapunov
 from roa.lyapunov.polynomial import PolynomialLyapunov, QuadraticLyapunov
 from roa.lyapunov.serial import certificate_fields, from_json
@@ -20,10 +19,8 @@ __all__ = [
     "Lyapunov",
     "PolynomialLyapunov",
     "QuadraticLyapunov",
-    "as_lyapunov",
     "certificate_fields",
     "check_positive_definite",
-    "default_lyapunov",
     "exact_rationals",
     "from_json",
     "symbolic_gradient",

@@ -14,9 +14,9 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from roa.backend import NP
 from roa.errors import RoaInputError
-from roa.system import System
+from roa.model.backend import NP
+from roa.model.system import System
 
 if TYPE_CHECKING:
     from roa.lyapunov.polynomial import QuadraticLyapunov

@@ -13,7 +13,7 @@ from roa.lyapunov.base import Lyapunov, center_vector
 class FunctionLyapunov(Lyapunov):
     """Any candidate ``V = func(x, xp)`` written against the array namespace ``xp``.
 
-    ``func`` must use only the functions of :mod:`roa.backend` (``xp.log``, ``xp.sqrt``, ...) so
+    ``func`` must use only the functions of :mod:`roa.model.backend` (``xp.log``, ``xp.sqrt``, ...) so
     that it runs on numpy, CasADi, sympy (its gradient is derived exactly) and intervals. It must
     vanish at ``center`` with a zero gradient there.
 

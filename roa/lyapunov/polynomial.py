@@ -7,7 +7,7 @@
   and exposes ``P``, which the quadratic fast paths (SOS level, whitened validation, ellipsoid
   terminal sets) take.
 
-Both run on every namespace of :mod:`roa.backend` and on the interval namespace and jets of
+Both run on every namespace of :mod:`roa.model.backend` and on the interval namespace and jets of
 :mod:`roa.proof.interval`.
 """
 
@@ -21,7 +21,7 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov.base import Lyapunov, center_vector, check_positive_definite
-from roa.system import System
+from roa.model.system import System
 
 #: Largest total degree of a term of a polynomial V (higher ones are refused before any work).
 MAX_DEGREE = 40

@@ -15,17 +15,17 @@ from typing import Any
 
 import numpy as np
 
-from roa.checks import check_system
 from roa.errors import RoaInputError
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.terminal import TerminalSet
+from roa.model.checks import check_system
+from roa.model.system import System
 from roa.montecarlo.certified_share import certified_shares
 from roa.montecarlo.engine import converged_interval, run_basin
 from roa.montecarlo.robust_basin import RobustBasinResult, parameter_samples
 from roa.montecarlo.sampling import GridSlice
-from roa.montecarlo.terminal import TerminalSet
 from roa.options import DEFAULT_PARAM_SAMPLES, IntegratorOptions, RunOptions
 from roa.status import BasinStatus, StopRules
-from roa.system import System
 
 
 @dataclass(frozen=True)
@@ -44,7 +44,7 @@ class BasinResult:
         Share of converged runs and its 95 % Wilson interval; for an ``inconclusive`` run None and
         an interval that holds whatever the runs not run would give.
     code, t_end : ndarray
-        Per initial condition: status code (:mod:`roa.montecarlo.integrator`) and stop time.
+        Per initial condition: status code (:mod:`roa.integration.integrator`) and stop time.
     entered_certified_set : int
         Converged runs finished on entering the terminal set (counted in ``counts["converged"]``;
         their stop time is the entry time).
@@ -52,7 +52,7 @@ class BasinResult:
         The certified terminal set of the run, if any.
     backend : str
         What integrated the runs: ``numba`` (the system's own compiled field), ``numba-generated``
-        (a kernel compiled from its traced field, :mod:`roa.montecarlo.kernel_cache`) or
+        (a kernel compiled from its traced field, :mod:`roa.integration.kernel_cache`) or
         ``numpy``; ``backend_note`` says why a field was not compiled.
     certified_shares : tuple of dict
         Per region given to :func:`basin` and for the terminal set: the share of the converged
@@ -150,8 +150,8 @@ def overlay_runs(system: System, grid: GridSlice, trajectories: Any,
                  rules: StopRules | None = None) -> list[Any]:  # fmt: skip
     """The runs a basin map overlays: none for ``0``/``None``, ``k`` runs from states spread over
     the slice for an integer ``k``, else one run from each given initial state (rows of ``n``)."""
+    from roa.integration.simulation import simulate
     from roa.plotting.basin import trajectory_starts
-    from roa.simulation import simulate
 
     if trajectories is None or (isinstance(trajectories, int) and trajectories == 0):
         return []
@@ -199,7 +199,7 @@ def basin(
     terminal : TerminalSet, path or dict, optional
         A certified set ``{V <= level}`` (or the JSON of ``roa certify --json``, refused unless
         certified and for this system or its analysis coordinates): runs that enter it stop as
-        converged, counted in ``entered_certified_set`` (:mod:`roa.montecarlo.terminal`).
+        converged, counted in ``entered_certified_set`` (:mod:`roa.integration.terminal`).
     regions : sequence of Region, optional
         Estimates to compare with the basin: on a :func:`grid_slice` the grid points inside
         each and whether all converged (``regions`` of :meth:`BasinResult.to_dict`); on any
@@ -270,7 +270,7 @@ def _over_box(system: System, sampler: Any, param_samples: int, param_seed: int,
                           {"seed": int(param_seed), "random": int(param_samples),
                            "samples": [s.to_dict() for s in samples]})  # fmt: skip
     # one traced and compiled kernel for every sample (parameters are its arguments)
-    from roa.montecarlo.kernel_cache import compiled_system
+    from roa.integration.kernel_cache import compiled_system
 
     backend = "auto" if integrator is None else integrator.backend
     system, _, _ = compiled_system(

@@ -4,7 +4,7 @@
 the claim is read by :meth:`roa.certification.Certificate.from_dict` for the system the
 certificate is about (``system`` itself, or analysis coordinates it declares), re-verified by
 interval validation (:meth:`~roa.certification.Certificate.reverify`, cached by content), and only
-then turned into a :class:`~roa.montecarlo.terminal.TerminalSet` (an ellipsoid for a quadratic V,
+then turned into a :class:`~roa.integration.terminal.TerminalSet` (an ellipsoid for a quadratic V,
 else the proved component box in the re-verification's frame).
 """
 
@@ -18,10 +18,10 @@ import numpy as np
 from roa.certification.files import read_certificate_json
 from roa.certification.result import Certificate
 from roa.errors import RoaInputError
+from roa.integration.terminal import TerminalSet
 from roa.lyapunov import Lyapunov, PolynomialLyapunov
-from roa.montecarlo.terminal import TerminalSet
+from roa.model.system import System
 from roa.status import Verdict
-from roa.system import System
 
 
 def terminal_from_certificate(source: str | Path | dict[str, Any], system: System) -> TerminalSet:

@@ -29,7 +29,7 @@ from typing import Any
 
 import numpy as np
 
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.integration import integrator as I  # noqa: N812
 
 #: Confidence of the intervals.
 CONFIDENCE = 0.95
@@ -66,9 +66,9 @@ def over_of(sampler: Any) -> str:
 
 
 def _members(region: Any, system: Any, X: np.ndarray) -> np.ndarray:
-    """Rows of ``X`` (simulated coordinates) inside ``region``: a :class:`roa.regions.Region` or a
-    :class:`roa.montecarlo.terminal.TerminalSet` (bound to ``system``, with its margin)."""
-    from roa.montecarlo.terminal import TerminalSet
+    """Rows of ``X`` (simulated coordinates) inside ``region``: a :class:`roa.lyapunov.regions.Region` or a
+    :class:`roa.integration.terminal.TerminalSet` (bound to ``system``, with its margin)."""
+    from roa.integration.terminal import TerminalSet
 
     if isinstance(region, TerminalSet):
         return region.bind(system).inside(X)
@@ -78,7 +78,7 @@ def _members(region: Any, system: Any, X: np.ndarray) -> np.ndarray:
 def certified_share(region: Any, system: Any, sampler: Any, code: np.ndarray) -> dict[str, Any]:
     """The share of the converged initial conditions of ``sampler`` (statuses ``code``) inside
     ``region``, with its Clopper-Pearson interval (module doc)."""
-    from roa.montecarlo.terminal import TerminalSet
+    from roa.integration.terminal import TerminalSet
 
     code = np.asarray(code)
     converged = code == I.CONVERGED

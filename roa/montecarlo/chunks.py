@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 from roa.errors import ResultsError, RoaInputError
+from roa.integration import integrator as I  # noqa: N812
 from roa.io import atomic_write_bytes, atomic_write_json
-from roa.montecarlo import integrator as I  # noqa: N812
 
 #: Version of the chunk file layout (arrays ``code``, ``t_end`` and a JSON ``binding``).
 CHUNK_FORMAT = 2

@@ -1,7 +1,7 @@
 """The Monte Carlo basin engine: chunks of initial conditions, in parallel, resumable, streamed.
 
 Initial conditions come from a sampler (:mod:`roa.montecarlo.sampling`) whose rows depend only on
-their index, and each trajectory is integrated on its own (:mod:`roa.montecarlo.integrator`), so the
+their index, and each trajectory is integrated on its own (:mod:`roa.integration.integrator`), so the
 result for a given seed does not depend on the number of workers or the chunk size. Only statuses and
 stop times are kept (1 + 4 bytes per initial condition), never trajectories.
 
@@ -15,7 +15,7 @@ refused (:class:`roa.errors.ResultsError`) unless ``fresh=True`` (recompute ever
 ``replace_stale=True``. ``scheduler`` runs the chunks on a Dask cluster as futures
 (:func:`roa.montecarlo.dask_client.run_tasks`), with bounded waits for the scheduler and its
 workers: a cluster left without workers ends the run with an error, its completed chunks kept.
-``time_limit`` bounds the run's wall-clock time (:mod:`roa.montecarlo.budget`).
+``time_limit`` bounds the run's wall-clock time (:mod:`roa.integration.budget`).
 
 Bounds, checked before any allocation: at most :data:`roa.montecarlo.sampling.MAX_SAMPLES`
 initial conditions (and at most half of the physical memory for their statuses), ``chunk_size`` in
@@ -37,9 +37,11 @@ from typing import Any
 import numpy as np
 
 from roa.errors import ResultsError, RoaInputError, SolverError
+from roa.integration import budget
+from roa.integration import integrator as I  # noqa: N812
+from roa.integration.terminal import TerminalSet
 from roa.io import code_hash, to_json
-from roa.montecarlo import budget
-from roa.montecarlo import integrator as I  # noqa: N812
+from roa.model.system import System
 from roa.montecarlo.chunks import (  # noqa: F401  (re-exported)
     CHUNK_FORMAT,
     VALID_CODES,
@@ -51,9 +53,7 @@ from roa.montecarlo.chunks import (  # noqa: F401  (re-exported)
 )
 from roa.montecarlo.dask_client import close_quietly, connect, run_tasks
 from roa.montecarlo.sampling import MAX_SAMPLES
-from roa.montecarlo.terminal import TerminalSet
 from roa.status import StopRules
-from roa.system import System
 
 DEFAULT_CHUNK = 4096
 #: Largest chunk (initial conditions per task).
@@ -94,7 +94,7 @@ NOT_RUN = -1
 
 @dataclass
 class BasinRun:
-    """Statuses of ``n`` initial conditions (codes of :mod:`roa.montecarlo.integrator`)."""
+    """Statuses of ``n`` initial conditions (codes of :mod:`roa.integration.integrator`)."""
 
     code: np.ndarray
     t_end: np.ndarray
@@ -288,7 +288,7 @@ def _run_basin(
     sampler : GridSlice, BoxSample, RegionSample or any object with ``n``, ``points(a, b)``, ``fingerprint()``
         The initial conditions (at most :data:`roa.montecarlo.sampling.MAX_SAMPLES`).
     rules, rtol, atol, margin_tol, backend
-        Passed to :func:`roa.montecarlo.integrator.integrate_batch`.
+        Passed to :func:`roa.integration.integrator.integrate_batch`.
     chunk_size : int
         Initial conditions per task, in ``[1, MAX_CHUNK]`` (does not change the result).
     n_jobs : int
@@ -313,9 +313,9 @@ def _run_basin(
         :class:`roa.errors.SolverError` says what is wrong.
     terminal : TerminalSet, optional
         A certified set of the closed loop: runs entering it stop as converged (counted in
-        ``entered_certified_set``; :mod:`roa.montecarlo.terminal`). Part of the run fingerprint.
+        ``entered_certified_set``; :mod:`roa.integration.terminal`). Part of the run fingerprint.
     time_limit : float, optional
-        Wall-clock budget in seconds (:mod:`roa.montecarlo.budget`). When it runs out, no new
+        Wall-clock budget in seconds (:mod:`roa.integration.budget`). When it runs out, no new
         chunk starts, a chunk under way is discarded, the completed ones are kept (and saved with
         ``out_dir``, so the same call resumes from them), and the initial conditions without a
         status get :data:`NOT_RUN` (``meta["not_run"]``, ``counts()["not_run"]``). Not part of
@@ -360,7 +360,7 @@ def _run_basin(
     n = int(sampler.n)
     _check_size(n)
     # the backend is chosen (and a generated kernel compiled) once, here: workers load it
-    from roa.montecarlo.kernel_cache import compiled_system
+    from roa.integration.kernel_cache import compiled_system
 
     system, ran, note = compiled_system(system, backend, terminal, n)
     if ran == "numpy":

@@ -26,9 +26,9 @@ output directory each sample's run is resumable in its own folder ``param_NNN`` 
 fingerprint includes the parameter values, so a folder of other values is never resumed).
 
 Kernels: ``system.at(...)`` keeps a compiled numba field only when its factory can be rebuilt for
-the new values (``factory.with_params``, :meth:`roa.system.System._rekernel`), never a kernel
+the new values (``factory.with_params``, :meth:`roa.model.system.System._rekernel`), never a kernel
 compiled for other parameter values. A system without one gets a kernel generated from its field
-once (:mod:`roa.montecarlo.kernel_cache`), with the parameters as kernel arguments, used by every
+once (:mod:`roa.integration.kernel_cache`), with the parameters as kernel arguments, used by every
 sample; a field that cannot be compiled runs on the numpy backend.
 """
 
@@ -41,19 +41,19 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.montecarlo import dopri as I  # noqa: N812  (status codes)
+from roa.integration import dopri as I  # noqa: N812  (status codes)
+from roa.integration.terminal import TerminalSet
+from roa.model.parameters import ParameterBox
+from roa.model.system import System
 from roa.montecarlo.engine import wilson_interval
 from roa.montecarlo.sampling import GridSlice
-from roa.montecarlo.terminal import TerminalSet
 from roa.options import (  # noqa: F401  (the sample counts are re-exported)
     DEFAULT_PARAM_SAMPLES,
     MAX_PARAM_SAMPLES,
     IntegratorOptions,
     RunOptions,
 )
-from roa.parameters import ParameterBox
 from roa.status import BasinStatus
-from roa.system import System
 
 #: Second word of the seed of the parameter samples (kept apart from the state samplers' streams).
 _STREAM = 0x70617261
@@ -86,7 +86,7 @@ def parameter_samples(
     system: System, n_random: int = DEFAULT_PARAM_SAMPLES, seed: int = 0
 ) -> list[ParameterSample]:
     """The parameter values a robust basin is run at: the nominal values, the box's vertices
-    (:meth:`roa.parameters.ParameterBox.vertices`) and ``n_random`` uniform samples of the box
+    (:meth:`roa.model.parameters.ParameterBox.vertices`) and ``n_random`` uniform samples of the box
     drawn from ``numpy.random.default_rng([seed, ...])`` (a value equal to an earlier one is
     listed once). Depends only on the box, ``n_random`` and ``seed``; the first ``k`` random
     samples are the same for every ``n_random >= k``."""

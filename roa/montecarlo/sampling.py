@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.regions import Region
-from roa.system import System
+from roa.lyapunov.regions import Region
+from roa.model.system import System
 
 #: Rows per random block (a constant: chunk sizes never change the samples).
 BLOCK = 4096

@@ -1,7 +1,7 @@
-"""Multilayer perceptrons as parts of a vector field, in every namespace of :mod:`roa.backend`.
+"""Multilayer perceptrons as parts of a vector field, in every namespace of :mod:`roa.model.backend`.
 
 An :class:`MLP` is a chain of affine maps ``y = W x + b`` and elementwise activations
-(:data:`roa.backend.ACTIVATIONS`, and ``clip``), with float64 weights taken as the exact real
+(:data:`roa.model.backend.ACTIVATIONS`, and ``clip``), with float64 weights taken as the exact real
 numbers they are. A field written against ``xp`` calls it like a function of the namespace::
 
     net = MLP([(W1, b1), (W2, b2)], ["tanh", None])
@@ -45,8 +45,8 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import ACTIVATIONS, LEAKY_SLOPE
 from roa.errors import RoaInputError
+from roa.model.backend import ACTIVATIONS, LEAKY_SLOPE
 
 #: Activation names accepted by :class:`MLP` (``None``/``"identity"``: no activation).
 ACTIVATION_NAMES = (*ACTIVATIONS, "clip", "identity")

@@ -1,7 +1,7 @@
 """Basin maps: statuses over a 2D slice, with region estimates drawn as contours.
 
 A region is the level set ``V(coords(x)) = level`` of any Lyapunov candidate
-(:class:`roa.regions.Region`: quadratic, polynomial or any function), drawn by contouring V on a
+(:class:`roa.lyapunov.regions.Region`: quadratic, polynomial or any function), drawn by contouring V on a
 fine grid of the slice; legends name a non-quadratic V's degree (:func:`kind_text`).
 
 Converged points are coloured by their time to converge (a colormap with a colorbar) when the stop
@@ -16,7 +16,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -24,11 +24,14 @@ from matplotlib.colors import BoundaryNorm, LinearSegmentedColormap, ListedColor
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
+from roa.integration import dopri as I  # noqa: N812  (status codes, without numba)
 from roa.io import atomic_savefig
-from roa.montecarlo import dopri as I  # noqa: N812  (status codes, without numba)
-from roa.montecarlo.sampling import GridSlice
-from roa.regions import Region
-from roa.system import System
+from roa.lyapunov.regions import Region
+from roa.model.system import System
+
+if TYPE_CHECKING:
+    from roa.montecarlo.sampling import GridSlice
+
 
 #: Colour per status display index (step-size failures are drawn as undecided); converged points
 #: are drawn with :data:`TIME_CMAP` instead when stop times are given.
@@ -324,7 +327,7 @@ def trajectory_starts(grid: GridSlice, k: int) -> np.ndarray:
 
 
 def draw_trajectories(ax: Any, system: System, grid: GridSlice, runs: Sequence[Any]) -> list[Any]:
-    """Overlay simulated runs (:class:`roa.simulation.Trajectory`) on the slice: each run's path
+    """Overlay simulated runs (:class:`roa.integration.simulation.Trajectory`) on the slice: each run's path
     in the slice's two coordinates (projected onto the slice when the system has more states),
     a dot at its start, coloured by how it ended; one legend handle per status present."""
     from roa.status import RunStatus

@@ -20,7 +20,8 @@ from matplotlib.colors import BoundaryNorm, ListedColormap
 from matplotlib.lines import Line2D
 from matplotlib.patches import Patch
 
-from roa.parameters import ParameterBox
+from roa.lyapunov.regions import Region
+from roa.model.parameters import ParameterBox
 from roa.plotting.basin import (
     _extent,
     _fixed_text,
@@ -29,7 +30,6 @@ from roa.plotting.basin import (
     save_figure,
     set_equal_aspect,
 )
-from roa.regions import Region
 
 __all__ = ["robust_figure", "save_figure", "terminal_region", "WORST_COLOURS"]
 
@@ -43,8 +43,8 @@ WORST_WORDS = ("converged for every sampled parameter value",
 def terminal_region(result: Any) -> Region | None:
     """The run's terminal set as a region to draw (a quadratic V; None without one or for a
     polynomial terminal set, which is named in the legend instead)."""
+    from roa.integration.terminal import coords_map
     from roa.lyapunov import QuadraticLyapunov
-    from roa.montecarlo.terminal import coords_map
 
     T = result.terminal
     if T is None or not T.quadratic:

@@ -9,7 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from roa.io import atomic_savefig
-from roa.system import System
+from roa.model.system import System
 
 
 def state_labels(system: System) -> tuple[str, ...]:

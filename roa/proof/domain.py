@@ -31,8 +31,9 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import namespace
 from roa.lyapunov import Lyapunov
+from roa.model.backend import namespace
+from roa.model.system import System
 from roa.proof.interval import INTERVAL, Interval
 from roa.proof.putinar import Certificate, check_identity
 from roa.proof.sos_check import (
@@ -43,7 +44,6 @@ from roa.proof.sos_check import (
     matrix_digest,
     poly_lin,
 )
-from roa.system import System
 
 
 def margin_poly(system: System, V: Lyapunov) -> QPoly:

@@ -13,7 +13,7 @@ from typing import Any
 import flint
 import numpy as np
 
-from roa.system import System
+from roa.model.system import System
 
 
 def _fmpq(x: Any) -> flint.fmpq:
@@ -95,8 +95,8 @@ def exact_equilibrium(system: System, center: np.ndarray) -> bool:
     taken as the exact rationals of the doubles, then evaluated."""
     import sympy as sp
 
-    from roa.backend import namespace
     from roa.lyapunov.symbolic import exact_rationals
+    from roa.model.backend import namespace
 
     flow = _stepped_flow(system)
     if flow is not None:
@@ -109,7 +109,7 @@ def exact_equilibrium(system: System, center: np.ndarray) -> bool:
 
 
 def _stepped_flow(system: System) -> System | None:
-    """For a map that is one explicit step of a field (:class:`roa.discrete.Step`), the system of
+    """For a map that is one explicit step of a field (:class:`roa.model.discrete.Step`), the system of
     that field (its parameters, fixed or ranging, kept), else None.
 
     ``F(x_eq) = x_eq`` exactly whenever ``f(x_eq) = 0`` exactly: each stage point is ``x_eq``
@@ -118,8 +118,8 @@ def _stepped_flow(system: System) -> System | None:
     than the composed step)."""
     import dataclasses
 
-    from roa.discrete import Step
-    from roa.system import BoundField
+    from roa.model.discrete import Step
+    from roa.model.system import BoundField
 
     dyn = system.dynamics
     inner = dyn if isinstance(dyn, Step) else getattr(dyn, "func", None)  # bound: unwrapped

@@ -5,11 +5,11 @@ once). Every arithmetic result is rounded outward (:func:`round_down`, :func:`ro
 2^-52 + (u + 1) 2^-1022)`` for a result ``r`` within ``u`` ulps of the exact value, one rounded
 operation in round-to-nearest; ``u = 1`` covers the correctly rounded IEEE ``+ - * / sqrt``).
 Library functions that are not correctly rounded (exp, log, sin, arctan, pow, ...) are assumed
-within :data:`LIBM_ULPS` ulps of the exact value; ``tests/test_libm.py`` measures numpy's error
+within :data:`LIBM_ULPS` ulps of the exact value; ``tests/proof/test_libm.py`` measures numpy's error
 against 50-digit mpmath values and fails if the assumption does not hold on this platform.
 ``x * x`` on the *same* object is evaluated as a square (tight, never negative).
 
-:data:`INTERVAL` is a namespace in the style of :mod:`roa.backend`, so ``system.field(t, x, INTERVAL)``
+:data:`INTERVAL` is a namespace in the style of :mod:`roa.model.backend`, so ``system.field(t, x, INTERVAL)``
 encloses the field over boxes. Jets (derivative enclosures) build on it in :mod:`roa.proof.jet`.
 """
 
@@ -25,12 +25,12 @@ from roa.errors import RoaInputError
 
 #: Assumed maximal error, in ulps of the exact result, of numpy's transcendental functions
 #: (sin, cos, tan, exp, log, log1p, arctan, arcsinh, arctanh, tanh, power). Checked by
-#: ``tests/test_libm.py`` against 50-digit mpmath values. The network activations build on it:
+#: ``tests/proof/test_libm.py`` against 50-digit mpmath values. The network activations build on it:
 #: ``tanh`` is numpy's (endpoints widened by it), ``sigmoid`` and ``softplus`` are interval
 #: compositions of ``exp`` and ``log1p`` (each enclosure sound under this assumption alone).
 LIBM_ULPS = 4
 #: Beyond this ``|x|`` the enclosures of sin and cos are ``[-1, 1]`` and tan the whole line: numpy's
-#: values are not used where the argument reduction is hardest (``tests/test_libm.py`` measures
+#: values are not used where the argument reduction is hardest (``tests/proof/test_libm.py`` measures
 #: 14 ulps for tan at ``6381956970095103 * 2^797``, the double closest to a multiple of pi/2).
 TRIG_ARGUMENT_LIMIT = 2.0**40
 _INF = np.inf
@@ -525,6 +525,7 @@ def interval_affine(W: np.ndarray, b: np.ndarray, lo: np.ndarray, hi: np.ndarray
 
 INTERVAL = SimpleNamespace(
     name="interval",
+    interval=Interval,  # the constructor, for code that must not import this module
     sqrt=isqrt,
     abs=iabs,
     sin=isin,

@@ -6,7 +6,7 @@ for the second-order proof near the equilibrium. Every jet coefficient is either
 :class:`Interval` (outward rounded) or a Python float that is *exactly* the coefficient (``0.0``, the
 seeds ``1.0``, an exactly representable constant, or an exactly representable product or sum of
 such floats, checked in rational arithmetic); constants entering a jet are enclosed, never rounded.
-:data:`JET` is the namespace of jets in the style of :mod:`roa.backend`.
+:data:`JET` is the namespace of jets in the style of :mod:`roa.model.backend`.
 """
 
 from __future__ import annotations
@@ -537,6 +537,7 @@ def _jet_fn(f0: Any, f1: Any, f2: Any) -> Any:
 
 JET = SimpleNamespace(
     name="interval-jet",
+    interval=Interval,  # the constructor, for code that must not import this module
     abs=jabs,
     minimum=jminimum,
     maximum=jmaximum,
@@ -570,4 +571,4 @@ JET = SimpleNamespace(
     relu=jrelu,
     leaky_relu=jleaky_relu,
 )
-"""Jet namespace (first/second-order interval AD) for the functions of :mod:`roa.backend` it supports."""
+"""Jet namespace (first/second-order interval AD) for the functions of :mod:`roa.model.backend` it supports."""

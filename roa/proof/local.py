@@ -63,7 +63,7 @@ unchanged for it: with ``F(x_eq) = x_eq`` exactly (the residual ``F(x) - x`` van
 ``grad Delta V(x_eq) = DF(x_eq)' grad V(x_eq) - grad V(x_eq) = 0``. The Hessian of ``Delta V``
 at ``x_eq`` is ``2 (A'PA - P)`` for ``V = d'Pd`` and ``A = DF(x_eq)``: negative definite when
 ``P`` solves the discrete Lyapunov equation ``A'PA - P = -Q`` with ``Q > 0`` (a Schur ``A``,
-:func:`roa.linearisation.lyapunov_matrix`). The interval enclosure of the Hessians of
+:func:`roa.model.linearisation.lyapunov_matrix`). The interval enclosure of the Hessians of
 ``Delta V`` over ``L`` (second-order jets of ``V(F(x))``, outward rounded) bounds the remainder,
 so ``Delta V < 0`` on all of ``L`` minus ``x_eq``: no hole at the equilibrium. Argument 3 is
 about a flow and is not used for a map.
@@ -79,10 +79,10 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.exact import exact_equilibrium, interval_negative_definite
 from roa.proof.interval import Interval
 from roa.proof.jet import JET, Jet
-from roa.system import System
 
 
 def hessian_negative_definite(vd: Jet, n: int) -> bool:
@@ -106,8 +106,8 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
         return bool(cached)
     import sympy as sp
 
-    from roa.backend import namespace
     from roa.lyapunov import exact_rationals
+    from roa.model.backend import namespace
 
     if lyap.terms is not None:
         ok = True  # every term has degree >= 2 in d = x - x_eq
@@ -367,7 +367,7 @@ def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
     """V' as a sympy Poly in d (exact rational coefficients), or None if it is not polynomial."""
     import sympy as sp
 
-    from roa.backend import namespace
+    from roa.model.backend import namespace
 
     n = lyap.n
     d = sp.symbols(f"d0:{n}")

@@ -49,9 +49,9 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.validation import Validation
 from roa.status import Verdict
-from roa.system import System
 
 #: Every precondition of a certificate, by name (module docstring).
 PRECONDITIONS = (

@@ -41,7 +41,7 @@ gives ``sin t <= t``, again ``1 - cos t <= t^2/2``, i.e. ``cos t >= C_2``, again
 and ``C_m`` are even (the cos bounds hold for all ``t``); ``sin`` and ``T_m`` are odd, so the sin
 bounds multiplied by ``d`` hold for all ``d``. Consecutive orders bracket the function, so it
 differs from either by at most their difference ``|d|^(m+2) / (m+2)!``: the bands; and
-``|d|^(m+2) <= r^m d^2`` for ``|d| <= r``. (``tests/test_sos_recast.py`` evaluates every
+``|d|^(m+2) <= r^m d^2`` for ``|d| <= r``. (``tests/proof/test_sos_recast.py`` evaluates every
 constraint at 50 digits.)
 
 **Scaling.** The polynomials are written in ``y`` with ``d_i = scale_i y_i`` (positive dyadics,
@@ -387,8 +387,8 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     the sin bounds (default from the angles' scale, :func:`taylor_order`)."""
     import sympy as sp
 
-    from roa.backend import namespace
     from roa.lyapunov.symbolic import exact_rationals
+    from roa.model.backend import namespace
 
     terms = getattr(V, "terms", None)
     if terms is None:

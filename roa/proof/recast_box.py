@@ -19,7 +19,7 @@ parameter) proves ``-N(z(x), w(p)) >= eps |d|^2k > 0`` for every state ``x != x_
 ``z``, and nothing else about them is assumed).
 
 **Assumptions, checked exactly.** The field evaluated in sympy sees each uncertain parameter as a
-real symbol (:class:`roa.parameters.RangeField`); the fixed parameters are floats taken as their
+real symbol (:class:`roa.model.parameters.RangeField`); the fixed parameters are floats taken as their
 exact rationals. ``f(x_eq, p) = 0`` must hold identically in ``p`` (no monomial of state degree 0
 in the field), so ``V'`` vanishes at ``x_eq`` for every parameter. The box is read from the
 system (never from a certificate file).
@@ -56,7 +56,7 @@ def box_variables(system: Any) -> BoxVariables | None:
     variables (``x0``, ``d1``, ``s0``, ``q0``, ``u0``...)."""
     import sympy as sp
 
-    from roa.parameters import ParameterBox, over
+    from roa.model.parameters import ParameterBox, over
 
     if not getattr(system, "parameters", None):
         return None

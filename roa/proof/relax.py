@@ -5,7 +5,7 @@ offsets ``d = x - mid`` (``mid`` the box centres, ``|d_i| <= r_i`` on the box) a
 
     lA . d + lc  <=  q(x)  <=  uA . d + uc,      q(x) in iv,      for every x of the box.
 
-:data:`LINEAR` is a namespace in the style of :mod:`roa.backend`: a field or a Lyapunov candidate
+:data:`LINEAR` is a namespace in the style of :mod:`roa.model.backend`: a field or a Lyapunov candidate
 evaluated on :func:`variables` gives such bounds of the exact real expression. What each step does:
 
 * sums and float multiples: the affine functions combined; products of two bounded quantities:

@@ -24,9 +24,9 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.interval import INTERVAL, Interval, round_up
 from roa.proof.relax import LINEAR, Lin, combine, network_calls, variables
-from roa.system import System
 
 #: Switch for comparisons (``benchmarks/bench_nn.py`` measures the branch and bound without it).
 ENABLED = True

@@ -9,7 +9,7 @@ one). What a terminal set, an overlay or a report row then uses is what was prov
 including the validation's own frame ``M`` (never the file's).
 
 Proved results are cached by content: the key is the SHA-256 of the system's exact identity
-(:func:`roa.fingerprint.system_identity`: states, equilibrium, parameters, the code and captured
+(:func:`roa.model.fingerprint.system_identity`: states, equilibrium, parameters, the code and captured
 values of its field and margin and the sources they may call), ``V``'s exact description, the
 level's exact value and the hash of the library's code, so a change of any of them re-runs the
 validation. A system or V that cannot be identified exactly (a function V, a field closing over
@@ -33,12 +33,12 @@ import time
 from dataclasses import dataclass, field
 from typing import Any
 
-from roa.fingerprint import system_identity
 from roa.io import cache_dir, cache_tag, tag_matches
 from roa.lyapunov import Lyapunov
+from roa.model.fingerprint import system_identity
+from roa.model.system import System
 from roa.options import IntervalOptions
 from roa.status import Verdict
-from roa.system import System
 
 
 @dataclass(frozen=True)

@@ -7,7 +7,7 @@ for every fixed parameter value of the box (LaSalle, as for one parameter value)
 
 **Proof.** One interval branch and bound (:func:`roa.proof.validate.validate_level` with
 ``parameters``) over boxes of states *and* parameters, on the system of
-:func:`roa.parameters.over`: the uncertain parameters enter the second-order jets as variables, so
+:func:`roa.model.parameters.over`: the uncertain parameters enter the second-order jets as variables, so
 the enclosures of ``V'`` (natural extension, centred and Taylor forms over all ``n + k`` columns)
 hold for every ``(x, p)`` of a box, and a box is split along a parameter where ``|dV'/dp|`` times
 its width is the largest score. The cover of ``{V <= level}`` depends on ``V`` only. Near ``x_eq``:
@@ -30,11 +30,11 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
-from roa.parameters import ParameterBox, describe_point, over, sample_points
+from roa.model.parameters import ParameterBox, describe_point, over, sample_points
+from roa.model.system import System
 from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
 from roa.status import Verdict
-from roa.system import System
 
 
 def validate_robust(

@@ -17,9 +17,9 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.model.backend import namespace
 from roa.proof.cover import bisect_widest, interval_value, prove_cover
 from roa.proof.whiten import Whitened, whitening_for
 

@@ -88,6 +88,7 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.cover import connected_to_center, prove_cover
 from roa.proof.interval import INTERVAL, Interval, box_offsets
 from roa.proof.jet import JET, Jet, nonsmooth
@@ -97,7 +98,6 @@ from roa.proof.validation import Validation
 from roa.proof.whiten import Whitened, whitened_system, whitening_for
 from roa.proof.witness import recheck_domain_witness, recheck_witness
 from roa.status import Verdict
-from roa.system import System
 
 
 # -- evaluation on boxes ---------------------------------------------------------------------------
@@ -230,13 +230,13 @@ def evaluate_boxes(
     system: System, lyap: Lyapunov, lo: np.ndarray, hi: np.ndarray, level: float, k: int = 0
 ):
     """Enclosures on the boxes ``[lo, hi]`` (shape ``(m, n + k)``: the states, then ``k``
-    uncertain parameters of a :func:`roa.parameters.over` system, which enter the jets as
+    uncertain parameters of a :func:`roa.model.parameters.over` system, which enter the jets as
     variables): ``V`` and ``V'`` (natural extension, centred and second-order Taylor forms
     intersected, over states and parameters), the upper bound of ``F = V' + lambda (level - V)``
     on the boxes that reach past the level surface (``inf`` elsewhere, step 3 of the module doc),
     the split scores (per column) and the domain margin (None without a domain). Returns
     ``(V, V', F_hi, score, margin)``."""
-    from roa.parameters import parameter_values
+    from roa.model.parameters import parameter_values
 
     n, m = lyap.n, len(lo)
     N, n_par = n + k, k
@@ -400,7 +400,7 @@ def validate_level(
         global bound from V's Gram matrix when there is one (every quadratic V), else a box found
         along rays and proved.
     parameters : (lo, hi), optional
-        For a system over a parameter box (:func:`roa.parameters.over`): the box's bounds. The
+        For a system over a parameter box (:func:`roa.model.parameters.over`): the box's bounds. The
         branch and bound then runs over states and parameters (boxes of ``n + k`` columns, the
         parameters variables of the jets, split where that decides more) and proves ``V' < 0``
         for every parameter of the box; witnesses are at the system's float point.
@@ -698,7 +698,7 @@ def _local_over(
     whole box first, then halves along the relatively widest parameter, at most
     :data:`LOCAL_PIECES`), each piece's parameters entering as its intervals; the intersection of
     the pieces' boxes (each holds the equilibrium) is proved for every piece, so for the box."""
-    from roa.parameters import parameter_values
+    from roa.model.parameters import parameter_values
     from roa.proof.local import hessian_preconditions
 
     exact = hessian_preconditions(system, lyap)  # f(x_eq, p) = 0 in the parameter symbols

@@ -46,8 +46,8 @@ from typing import Any, cast
 import numpy as np
 
 from roa.lyapunov import Lyapunov
+from roa.model.system import System
 from roa.proof.interval import Interval
-from roa.system import System
 
 _FAST = ("numpy", "interval", "interval-jet")  # namespaces that use the expanded polynomials
 Coef = Fraction | Interval

@@ -17,13 +17,13 @@ from typing import Any
 
 import numpy as np
 
-from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
+from roa.model.backend import namespace
+from roa.model.system import System
 from roa.proof.cover import connected_to_center
 from roa.proof.validation import Validation
 from roa.status import Verdict
-from roa.system import System
 
 #: A confirmed witness ``x`` is checked in ``{V <= V(x) WITNESS_SLACK}``: it refutes the levels
 #: at or above ``V(x) WITNESS_SLACK``.
@@ -38,7 +38,7 @@ def recheck_witness(
     ``V'(x) >= 0``."""
     import mpmath as mp
 
-    ns = namespace("mpmath")  # every function of roa.backend, also minimum, maximum, clip
+    ns = namespace("mpmath")  # every function of roa.model.backend, also minimum, maximum, clip
     with mp.workdps(digits):
         xs = [mp.mpf(float(v)) for v in x]
         V = lyap.expr(xs, ns)

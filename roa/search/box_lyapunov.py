@@ -1,8 +1,8 @@
 """A quadratic V designed for a whole parameter box: common Lyapunov LMIs at points of the box.
 
 For a system with uncertain parameters ``p`` in a box, the linearisation ``A(p)`` at the
-equilibrium is computed (CasADi's exact AD, :func:`roa.linearisation.jacobian`) at the box's
-vertices and at ``per_axis`` interior points along each axis (:func:`roa.parameters.sample_points`,
+equilibrium is computed (CasADi's exact AD, :func:`roa.model.linearisation.jacobian`) at the box's
+vertices and at ``per_axis`` interior points along each axis (:func:`roa.model.parameters.sample_points`,
 nominal value included). One semidefinite program (cvxpy + Clarabel) then finds ``P`` with
 
     maximise t   subject to   A_i' P + P A_i <= -t I   (every point i),
@@ -33,8 +33,8 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.model.system import System
 from roa.search.sdp import solve
-from roa.system import System
 
 #: Bound of the condition number of P per state (``trace(P) <= n * KAPPA``, ``P >= I``).
 KAPPA = 100.0
@@ -79,7 +79,7 @@ class BoxLyapunovResult:
 
 def linearisations(system: System, points: list[dict[str, float]]) -> list[np.ndarray]:
     """``A(p)``, the Jacobian at the equilibrium, at each parameter point ``p``."""
-    from roa.linearisation import jacobian
+    from roa.model.linearisation import jacobian
 
     return [jacobian(system.at(**p)) for p in points]
 
@@ -89,7 +89,7 @@ def is_affine(system: System) -> bool:
     edge of the box through a vertex, and at the centre, equals the mean of ``A`` at the two
     (resp. all) vertices. A numerical check at those points (exact for the fields met in
     practice, whose entries are polynomials in ``p``: a non-affine one differs at a midpoint)."""
-    from roa.parameters import ParameterBox
+    from roa.model.parameters import ParameterBox
 
     box = ParameterBox.of(system)
     lo, hi = dict(zip(box.names, box.lo, strict=True)), dict(zip(box.names, box.hi, strict=True))
@@ -119,7 +119,7 @@ def box_lyapunov(
     no common ``P``) is a result with ``feasible=False``."""
     import cvxpy as cp
 
-    from roa.parameters import sample_points
+    from roa.model.parameters import sample_points
 
     t0 = time.perf_counter()
     if not system.parameters:
@@ -161,7 +161,7 @@ def box_lyapunov(
     eigs = tuple(float(np.linalg.eigvalsh(A.T @ Pv + Pv @ A)[-1]) for A in As)
     definite = bool(np.linalg.eigvalsh(Pv)[0] > 0)
     feasible = definite and max(eigs) < 0 and tv > 0
-    from roa.parameters import describe_point
+    from roa.model.parameters import describe_point
 
     worst = int(np.argmax(eigs))
     if feasible:

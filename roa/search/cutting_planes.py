@@ -39,10 +39,10 @@ import numpy as np
 
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
+from roa.model.system import System
 from roa.options import SampleSearchOptions
 from roa.search.sdp import solve
 from roa.search.seed import seed_level
-from roa.system import System
 
 
 @dataclass(frozen=True)
@@ -280,7 +280,7 @@ class _Problem:
     def witness_cuts(self, V: PolynomialLyapunov, rng: np.random.Generator) -> np.ndarray:
         """The witness of :func:`roa.level_search` (sampled) and points around it, when its level
         is below ``1 + slack`` (else none)."""
-        from roa.levelset import level_search
+        from roa.search.levelset import level_search
         from roa.status import LevelStatus
 
         res = level_search(self.system, V, shape="level", method="sampled")

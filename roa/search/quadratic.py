@@ -20,10 +20,10 @@ import numpy as np
 from scipy import optimize
 
 from roa.errors import RoaInputError
-from roa.levelset_core import crossings, problem
 from roa.lyapunov import QuadraticLyapunov
-from roa.regions import symmetric_extent
-from roa.system import System
+from roa.lyapunov.regions import symmetric_extent
+from roa.model.system import System
+from roa.search.levelset_core import crossings, problem
 
 OBJECTIVES = ("box", "sector")
 
@@ -114,7 +114,7 @@ def optimise_quadratic(
     ``rho(P)`` is the ray estimate of :func:`ray_level` (an upper bound). Sampling gaps would be
     exploited by the optimiser, so the search runs in ``rounds`` exchange rounds: after each
     Nelder-Mead run the level of the best ``P`` is recomputed by the multistart IPOPT search of
-    :func:`roa.levelset.casadi_level`; if it is lower, its witness joins the rays and the search
+    :func:`roa.search.levelset.casadi_level`; if it is lower, its witness joins the rays and the search
     restarts from the best ``P``. The result is the round's ``P`` with the best objective measured
     at ``min(ray level, IPOPT level)`` (exchange rounds can lose ground), with that level.
 
@@ -138,7 +138,7 @@ def optimise_quadratic(
     if system.time != "continuous":
         raise RoaInputError(f"system {system.name!r} is discrete-time: this search admits P by "
                             "A'P + PA, a flow's decrease")  # fmt: skip
-    from roa.levelset import casadi_level, jacobian
+    from roa.search.levelset import casadi_level, jacobian
 
     if objective not in OBJECTIVES:
         raise ValueError(f"objective {objective!r}: allowed {', '.join(OBJECTIVES)}")

@@ -12,8 +12,8 @@ from typing import Any
 import numpy as np
 
 from roa.lyapunov import Lyapunov
-from roa.parameters import sample_points
-from roa.system import System
+from roa.model.parameters import sample_points
+from roa.model.system import System
 
 #: Directions of the sampled witness search at each sample point of the box.
 WITNESS_DIRECTIONS = 4000
@@ -23,13 +23,13 @@ def sampled_witness(
     system: System, lyap: Lyapunov, level: float, *, directions: int = WITNESS_DIRECTIONS
 ) -> tuple[np.ndarray | None, dict[str, float], dict[str, Any] | None]:
     """``(x, p, check)``: a confirmed witness of ``V'_p(x) >= 0`` inside ``{V <= level}`` at one of
-    the box's sample points (:func:`roa.parameters.sample_points`), else ``(None, p, None)`` with
+    the box's sample points (:func:`roa.model.parameters.sample_points`), else ``(None, p, None)`` with
     ``p`` the sample point of the lowest sampled level (the likely worst case). A search: no
     witness proves nothing."""
-    from roa.levelset import level_search
     from roa.options import SampledOptions
     from roa.proof.cover import connected_to_center
     from roa.proof.witness import recheck_witness
+    from roa.search.levelset import level_search
 
     best: tuple[float, np.ndarray, dict[str, float], System] | None = None
     opts = SampledOptions(n_directions=directions)
@@ -61,7 +61,7 @@ def _near_equilibrium(
     an eigenvalue > 0, ``H`` half the Hessian of V): a confirmed witness ``x_eq + t u`` along its
     eigenvector ``u`` inside ``{V <= level}`` (``t`` halved until ``V' >= 0`` holds at 50 digits),
     or None. A search."""
-    from roa.linearisation import decrease_matrix, linearise
+    from roa.model.linearisation import decrease_matrix, linearise
     from roa.proof.cover import connected_to_center
     from roa.proof.witness import recheck_witness
 

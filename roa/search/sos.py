@@ -34,13 +34,13 @@ from typing import Any
 import numpy as np
 import sympy as sp
 
-from roa.backend import namespace
 from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
+from roa.model.backend import namespace
+from roa.model.system import System
 from roa.search.polysdp import poly_of
 from roa.search.sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
 from roa.status import SosStatus
-from roa.system import System
 
 SYMMETRY = ("auto", True, False)
 SOS_STATUSES = ("solved", "inaccurate", "infeasible", "failed", "not_polynomial")

@@ -40,7 +40,8 @@ import sympy as sp
 
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
-from roa.parameters import describe_point
+from roa.model.parameters import describe_point
+from roa.model.system import System
 from roa.progress import note, step
 from roa.search.polysdp import (
     Poly,
@@ -59,7 +60,6 @@ from roa.search.sdp import SOLVERS, Program, ProgramTooLarge, monomials
 from roa.search.seed import seed_level
 from roa.search.sos import recast_field
 from roa.status import SosStatus
-from roa.system import System
 
 #: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
 #: bounded on their own by :data:`roa.search.sdp.MAX_GRAM_BLOCK` (roa.search.sdp.check_block).
@@ -489,7 +489,7 @@ def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:
     the validator of :func:`roa.certify` decides for every parameter of the box."""
     if not system.parameters:
         return [], "none"
-    from roa.parameters import ParameterBox, sample_points
+    from roa.model.parameters import ParameterBox, sample_points
 
     box = ParameterBox.of(system)
     if _field_affine(system, box):
@@ -530,8 +530,8 @@ def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov,
     ``V0'`` is positive near the equilibrium has no level, so the iteration could not start."""
     if not system.parameters:
         return V0, False
-    from roa.lyapunov.defaults import worst_linearisation
     from roa.search.box_lyapunov import box_lyapunov
+    from roa.search.candidate import worst_linearisation
 
     if worst_linearisation(system, V0) is None:
         return V0, False

@@ -1,0 +1,1 @@
+"""Integration: the reference and batch integrators, kernels and their cache, divergence, equilibria."""

@@ -1,0 +1,1 @@
+"""The model: systems and their front doors, array namespaces, checks, parameters, fingerprints."""

@@ -6,10 +6,12 @@
   signatures of :mod:`roa.integration.integrator` (``FIELD_SIGNATURE``, ``MARGIN_SIGNATURE``),
   common subexpressions computed once (``sympy.cse``);
 * ``run(params, X0, x_eq, ...)``: the integrator's batch Dormand-Prince kernel
-  (:func:`roa.integration.integrator.run_rows`, the step of :mod:`roa.integration.dopri`) compiled
-  for them (the fast path's :class:`~roa.integration.integrator.Inlined` functions: LLVM inlines
-  the field, no call through a pointer). No integrator source is copied: the same code, so the
-  same trajectories bit for bit as the integrator's own kernels on the same field.
+  (:func:`roa.integration.integrator.batch_kernel`, the step of :mod:`roa.integration.dopri`)
+  compiled for them (the fast path's :class:`~roa.integration.integrator.Inlined` functions: LLVM
+  inlines the field, no call through a pointer) with the number of states a compile-time
+  constant (``batch_kernel(STATES)``: LLVM unrolls the loops over the states). No integrator
+  source is copied: the same code, so the same trajectories bit for bit as the integrator's own
+  kernels on the same field.
 
 Every function is ``cache=True``: numba caches the compiled code next to the module's file, keyed
 by that file, whose name holds the SHA-256 of the text (:mod:`roa.integration.kernel_cache`). The
@@ -193,7 +195,7 @@ def kernel_source(trace: Trace, *, system_name: str, stamp: str) -> str:
         "import numba",
         "import numpy as np",
         "",
-        "from roa.integration.integrator import Inlined, identity_coords_njit, run_rows",
+        "from roa.integration.integrator import Inlined, batch_kernel, identity_coords_njit",
         "",
         f"KERNEL_STAMP = {stamp!r}  # roa.integration.kernel_cache.kernel_stamp()",
         f"STATES = {n}",
@@ -212,14 +214,14 @@ def kernel_source(trace: Trace, *, system_name: str, stamp: str) -> str:
         "",
         "",
         "_F, _M, _C = Inlined(field), Inlined(margin), Inlined(identity_coords_njit)",
+        "_ROWS = batch_kernel(STATES)  # the integrator's batch kernel, n a compile-time constant",
         "",
         "",
         '@numba.njit(cache=True, error_model="numpy")',
         "def run(params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, code, t_end,",
         "        x_end, steps):",
-        "    # the integrator's batch kernel (roa.integration.integrator.run_rows) for this field",
-        "    run_rows(_F, _M, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, _C,",
-        "             code, t_end, x_end, steps, None)",
+        "    _ROWS(_F, _M, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T, _C,",
+        "          code, t_end, x_end, steps, None)",
         "",
     ]
     text = "\n".join(header)

@@ -26,7 +26,7 @@ code) used when ``system.numba`` is a callable returning ``(field, margin, param
 :data:`FIELD_SIGNATURE` / :data:`MARGIN_SIGNATURE` (function pointers keep one kernel cacheable on
 disk for every system; see ipc_paper/system/fast.py); otherwise a vectorised numpy version over
 ``system.f``. A system with neither gets a fast path generated from its field
-(:mod:`roa.integration.kernel_cache`: traced with sympy, compiled with :func:`run_rows`, cached
+(:mod:`roa.integration.kernel_cache`: traced with sympy, compiled with :func:`batch_kernel`, cached
 on disk), for runs of ``kernel_cache.COMPILE_FROM`` rows or more. Built-in systems add a fast path,
 ``system.numba_fast``: the same functions as ``numba.njit`` functions, compiled into a kernel of
 their own (:func:`compile_kernel`: no call through a pointer, the field fused with the map to a
@@ -36,8 +36,8 @@ benchmarks/bench_dopri_kernels.py.
 
 The Dormand-Prince step, initial step, step-size control and dense output are
 :mod:`roa.integration.dopri`'s, written once for both back ends; every numba entry point (the
-public kernel, :func:`compile_kernel`, the generated modules) runs :func:`run_rows`, into which
-numba inlines them.
+public kernel, :func:`compile_kernel`, the generated modules) runs :data:`run_rows` (or
+:func:`batch_kernel`), into which numba inlines them.
 """
 
 from __future__ import annotations
@@ -452,140 +452,166 @@ def _inside(y, coords, params, T, w, d, pw):
     return _member(w, T, d, pw)
 
 
-@numba.njit(error_model="numpy")  # compiled into the entry points (which loop over the rows)
-def _one(
-    field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
-    T, coords, x_out, field_coords,
-):  # fmt: skip
-    n = y0.shape[0]
-    K = np.empty((7, n))
-    y = np.empty(n)
-    _copy(y0, y)
-    y_new = np.empty(n)
-    tmp = np.empty(n)
-    err = np.empty(n)
-    g_old = np.empty(3)
-    g_new = np.empty(3)
-    Q = np.empty((n, 4))
-    _events(y, x_eq, tol, bound, margin, params, margin_tol, g_old)
-    for i in range(n):
-        if not np.isfinite(y[i]):
+def _one_for(states: int) -> Any:
+    """The one-run loop (a numba function, compiled into the entry points) for ``states``
+    states, a compile-time constant (LLVM unrolls the loops over them), or any number (0)."""
+
+    @numba.njit(error_model="numpy")
+    def one(
+        field, margin, params, y0, x_eq, tol, bound, margin_tol, t_final, rtol, atol,
+        T, coords, x_out, field_coords,
+    ):  # fmt: skip
+        n = y0.shape[0] if states == 0 else states  # a constant for states > 0
+        K = np.empty((7, n))
+        y = np.empty(n)
+        _copy(y0, y)
+        y_new = np.empty(n)
+        tmp = np.empty(n)
+        err = np.empty(n)
+        g_old = np.empty(3)
+        g_new = np.empty(3)
+        Q = np.empty((n, 4))
+        _events(y, x_eq, tol, bound, margin, params, margin_tol, g_old)
+        for i in range(n):
+            if not np.isfinite(y[i]):
+                _copy(y, x_out)
+                return DIVERGED, 0.0, 0
+        if g_old[0] <= 0.0:
+            _copy(y, x_out)
+            return CONVERGED, 0.0, 0
+        if g_old[1] <= 0.0:
+            _copy(y, x_out)
+            return LEFT_DOMAIN, 0.0, 0
+        if g_old[2] <= 0.0:
             _copy(y, x_out)
             return DIVERGED, 0.0, 0
-    if g_old[0] <= 0.0:
-        _copy(y, x_out)
-        return CONVERGED, 0.0, 0
-    if g_old[1] <= 0.0:
-        _copy(y, x_out)
-        return LEFT_DOMAIN, 0.0, 0
-    if g_old[2] <= 0.0:
-        _copy(y, x_out)
-        return DIVERGED, 0.0, 0
-    w = np.empty(n)
-    term = T[0] != 0
-    d = np.empty(n)
-    pw = np.empty((n, T[9] + 1))
-    if term and _inside(y, coords, params, T, w, d, pw):
-        _copy(y, x_out)
-        return ENTERED, 0.0, 0
-    t = 0.0
-    field(t, y, params, K[0])
-    h_abs = _initial_step(field, params, t, y, K[0], K[1], tmp, n, rtol, atol, t_final, _rms)
-    steps = 0
-    tiny = 0
-    tiny_step = TINY_STEP_FRACTION * t_final
-    while True:
-        if t >= t_final:
+        w = np.empty(n)
+        term = T[0] != 0
+        d = np.empty(n)
+        pw = np.empty((n, T[9] + 1))
+        if term and _inside(y, coords, params, T, w, d, pw):
             _copy(y, x_out)
-            return UNDECIDED, t, steps
-        if steps >= MAX_STEPS or tiny >= MAX_TINY_STEPS:  # the run's step budget: undecided
-            _copy(y, x_out)
-            return STEP_FAILURE, t, steps
-        min_step = 10 * abs(np.nextafter(t, np.inf) - t)
-        if h_abs < min_step:
-            h_abs = min_step
-        step_rejected = False
+            return ENTERED, 0.0, 0
+        t = 0.0
+        field(t, y, params, K[0])
+        h_abs = _initial_step(field, params, t, y, K[0], K[1], tmp, n, rtol, atol, t_final, _rms)
+        steps = 0
+        tiny = 0
+        tiny_step = TINY_STEP_FRACTION * t_final
         while True:
-            if not (h_abs >= min_step):  # NaN (a field not finite here) fails too: never loops
+            if t >= t_final:
+                _copy(y, x_out)
+                return UNDECIDED, t, steps
+            if steps >= MAX_STEPS or tiny >= MAX_TINY_STEPS:  # the run's step budget: undecided
                 _copy(y, x_out)
                 return STEP_FAILURE, t, steps
-            h = h_abs
-            t_new = t + h
-            if t_new - t_final > 0:
-                t_new = t_final
-            h = t_new - t
-            h_abs = abs(h)
-            _stages(field, params, t, y, h, K, tmp, y_new, n)
-            if field_coords is None:  # pruned at compile time
-                field(t + h, y_new, params, K[6])
-            else:  # the field and coords(y_new) in one call (w: for the set test below)
-                field_coords(t + h, y_new, params, K[6], w)
-            _error(h, K, y, y_new, err, n, rtol, atol)
-            accepted, h_abs = _control(_rms(err), h_abs, step_rejected)
-            if accepted:
-                break
-            step_rejected = True
-        steps += 1
-        if h < tiny_step:  # the step just taken
-            tiny += 1
-        _events(y_new, x_eq, tol, bound, margin, params, margin_tol, g_new)
-        first = -1
-        t_first = np.inf
-        for e in range(3):
-            if g_old[e] >= 0.0 and g_new[e] <= 0.0:
-                # root of event e on this step's dense output, by bisection
-                if first == -1:
-                    _dense_coefficients(K, Q, n)
-                lo, hi = 0.0, 1.0
-                for _ in range(64):
-                    mid = 0.5 * (lo + hi)
-                    _dense(y, h, Q, mid, tmp, n)
-                    if e == 0:
-                        gm = _dist(tmp, x_eq) - tol
-                    elif e == 1:
-                        gm = margin(tmp, params) - margin_tol
-                    else:
-                        gm = bound - _rms(tmp) * np.sqrt(n)
-                    if gm > 0.0:
-                        lo = mid
-                    else:
-                        hi = mid
-                    if (hi - lo) * h <= 4 * EPS * max(1.0, abs(t)):
-                        break
-                te = t + hi * h
-                if te < t_first:
-                    t_first = te
-                    first = e
-                    _dense(y, h, Q, hi, x_out, n)
-        if first >= 0:
-            return first, t_first, steps  # codes 0, 1, 2 match the event order
-        if term:
-            if field_coords is None:
-                inside = _inside(y_new, coords, params, T, w, d, pw)
-            else:  # w holds coords(y_new) from the last stage
-                inside = _member(w, T, d, pw)
-        else:
-            inside = False
-        if inside:
-            _copy(y_new, x_out)
-            return ENTERED, t_new, steps
-        t = t_new
-        for i in range(n):
-            y[i] = y_new[i]
-            K[0, i] = K[6, i]
-        for e in range(3):
-            g_old[e] = g_new[e]
+            min_step = 10 * abs(np.nextafter(t, np.inf) - t)
+            if h_abs < min_step:
+                h_abs = min_step
+            step_rejected = False
+            while True:
+                if not (h_abs >= min_step):  # NaN (a field not finite here) fails too: never loops
+                    _copy(y, x_out)
+                    return STEP_FAILURE, t, steps
+                h = h_abs
+                t_new = t + h
+                if t_new - t_final > 0:
+                    t_new = t_final
+                h = t_new - t
+                h_abs = abs(h)
+                _stages(field, params, t, y, h, K, tmp, y_new, n)
+                if field_coords is None:  # pruned at compile time
+                    field(t + h, y_new, params, K[6])
+                else:  # the field and coords(y_new) in one call (w: for the set test below)
+                    field_coords(t + h, y_new, params, K[6], w)
+                _error(h, K, y, y_new, err, n, rtol, atol)
+                accepted, h_abs = _control(_rms(err), h_abs, step_rejected)
+                if accepted:
+                    break
+                step_rejected = True
+            steps += 1
+            if h < tiny_step:  # the step just taken
+                tiny += 1
+            _events(y_new, x_eq, tol, bound, margin, params, margin_tol, g_new)
+            first = -1
+            t_first = np.inf
+            for e in range(3):
+                if g_old[e] >= 0.0 and g_new[e] <= 0.0:
+                    # root of event e on this step's dense output, by bisection
+                    if first == -1:
+                        _dense_coefficients(K, Q, n)
+                    lo, hi = 0.0, 1.0
+                    for _ in range(64):
+                        mid = 0.5 * (lo + hi)
+                        _dense(y, h, Q, mid, tmp, n)
+                        if e == 0:
+                            gm = _dist(tmp, x_eq) - tol
+                        elif e == 1:
+                            gm = margin(tmp, params) - margin_tol
+                        else:
+                            gm = bound - _rms(tmp) * np.sqrt(n)
+                        if gm > 0.0:
+                            lo = mid
+                        else:
+                            hi = mid
+                        if (hi - lo) * h <= 4 * EPS * max(1.0, abs(t)):
+                            break
+                    te = t + hi * h
+                    if te < t_first:
+                        t_first = te
+                        first = e
+                        _dense(y, h, Q, hi, x_out, n)
+            if first >= 0:
+                return first, t_first, steps  # codes 0, 1, 2 match the event order
+            if term:
+                if field_coords is None:
+                    inside = _inside(y_new, coords, params, T, w, d, pw)
+                else:  # w holds coords(y_new) from the last stage
+                    inside = _member(w, T, d, pw)
+            else:
+                inside = False
+            if inside:
+                _copy(y_new, x_out)
+                return ENTERED, t_new, steps
+            t = t_new
+            for i in range(n):
+                y[i] = y_new[i]
+                K[0, i] = K[6, i]
+            for e in range(3):
+                g_old[e] = g_new[e]
+
+    return one
 
 
-@_inline  # inlined into every entry point: the batch, one run per row
-def run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+_one = _one_for(0)
+
+
+def _rows_for(one: Any) -> Any:
+    # the batch: ``one`` from every row (inlined into every entry point)
+    @_inline
+    def rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
              coords, code, t_end, x_end, steps, field_coords):  # fmt: skip
-    """Run :func:`_one` from every row of ``X0``: the batch kernel of every entry point (the
-    public one, :func:`compile_kernel`, the generated modules of :mod:`roa.integration.codegen`)."""
-    for k in range(X0.shape[0]):
-        code[k], t_end[k], steps[k] = _one(field, margin, params, X0[k], x_eq, tol, bound,
-                                           margin_tol, t_final, rtol, atol, T, coords, x_end[k],
-                                           field_coords)  # fmt: skip
+        for k in range(X0.shape[0]):
+            code[k], t_end[k], steps[k] = one(field, margin, params, X0[k], x_eq, tol, bound,
+                                              margin_tol, t_final, rtol, atol, T, coords,
+                                              x_end[k], field_coords)  # fmt: skip
+
+    return rows
+
+
+#: The batch kernel of every entry point (the public one, :func:`compile_kernel`, the generated
+#: modules of :mod:`roa.integration.codegen`): :func:`_one` from every row of ``X0``, called
+#: ``run_rows(field, margin, params, X0, x_eq, tol, bound, margin_tol, t_final, rtol, atol, T,
+#: coords, code, t_end, x_end, steps, field_coords)``.
+run_rows = _rows_for(_one)
+
+
+@functools.cache
+def batch_kernel(states: int = 0) -> Any:
+    """:data:`run_rows` for ``states`` states, a compile-time constant (LLVM unrolls the loops
+    over them; 0: any number). The generated modules of :mod:`roa.integration.codegen` run
+    ``batch_kernel(STATES)``: the same code, the same operations in the same order."""
+    return run_rows if states == 0 else _rows_for(_one_for(states))
 
 
 def _no_margin(x: np.ndarray, params: np.ndarray) -> float:

@@ -272,7 +272,7 @@ def test_quadratic_terminal_set_in_the_generated_kernel_matches_numpy(tmp_path, 
 
 @pytest.mark.slow
 def test_generated_kernel_is_the_integrators_kernel_bit_for_bit(tmp_path, monkeypatch):
-    """The generated module's kernel (the integrator's run_rows on the generated field) takes
+    """The generated module's kernel (the integrator's batch_kernel on the generated field) takes
     the same steps as the integrator's own kernel (compile_kernel) on the same compiled field:
     identical bits."""
     monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
@@ -297,7 +297,7 @@ def test_generated_kernel_is_the_integrators_kernel_bit_for_bit(tmp_path, monkey
 
 def _poison(text: str) -> str:
     """The kernel with ``run`` marking every run converged (the adversarial edit)."""
-    line = "             code, t_end, x_end, steps, None)\n"
+    line = "          code, t_end, x_end, steps, None)\n"
     assert line in text
     return text.replace(
         line, f"{line}    for k in range(X0.shape[0]):\n        code[k] = {CONVERGED}\n"
@@ -376,10 +376,10 @@ def test_a_kernel_text_that_does_not_hash_to_its_digest_is_never_loaded():
 
 def test_the_generated_module_holds_no_copy_of_the_integrator(tmp_path, monkeypatch):
     """The generated text is the field, the margin and a call of the integrator's own batch
-    kernel (``run_rows``): no step, controller or tableau of its own."""
+    kernel (``batch_kernel(STATES)``): no step, controller or tableau of its own."""
     monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
     text = kc.generate(vanderpol()).text
-    assert "run_rows(_F, _M, params" in text
+    assert "_ROWS = batch_kernel(STATES)" in text and "_ROWS(_F, _M, params" in text
     for copied in ("def _one", "TABLEAU", "ERROR_E", "DENSE_P", "SAFETY", "nextafter"):
         assert copied not in text
 

@@ -60,10 +60,10 @@ def test_a_change_in_terminal_poly_reaches_the_cached_kernels(tmp_path):
     before = _run(tmp_path)
     assert before.pop("file").startswith(str(tmp_path))  # the copy, not the installed package
     assert before == {"fast": [3, "converged"], "public": [3, "converged"]}
-    cache = tmp_path / "roa" / "montecarlo" / "__pycache__"  # the kernels are cached on disk
+    cache = tmp_path / "roa" / "integration" / "__pycache__"  # the kernels are cached on disk
     assert list(cache.glob("integrator.compile_kernel.locals.run-*.nbi"))
     assert list(cache.glob("integrator._public_kernel.locals.kernel-*.nbi"))
-    poly = tmp_path / "roa" / "montecarlo" / "terminal_poly.py"
+    poly = tmp_path / "roa" / "integration" / "terminal_poly.py"
     src = poly.read_text()
     marker = "    return v + g * s <= thr\n"
     assert src.count(marker) == 1
@@ -119,7 +119,7 @@ def test_a_change_of_the_step_reaches_every_cached_kernel(tmp_path):
 
     before = run()
     assert run() == before  # loaded from the caches: the same steps
-    dopri = tmp_path / "roa" / "montecarlo" / "dopri.py"
+    dopri = tmp_path / "roa" / "integration" / "dopri.py"
     src = dopri.read_text()
     marker = "        err[i] = h * acc / ("
     assert src.count(marker) == 1

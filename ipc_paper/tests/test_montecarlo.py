@@ -46,6 +46,7 @@ def test_numba_field_matches_system_f():
         np.testing.assert_allclose(out, flat.f(x), rtol=1e-12, atol=1e-12)
 
 
+@pytest.mark.slow
 def test_classifications_agree_with_solve_ivp_ipc():
     """Random states over the whole domain, including the edges where runs leave or diverge."""
     system = ipc.closed_loop()

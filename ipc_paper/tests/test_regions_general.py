@@ -154,6 +154,7 @@ def test_terminal_set_from_polynomial_certificate_keeps_statuses(certificate):
     assert repr(again) == repr(term) and "box=" in repr(term)
 
 
+@pytest.mark.slow
 def test_polynomial_terminal_set_runs_in_the_numba_kernel_for_the_ipc():
     """The IPC's numba kernels (fast path and public cfuncs, bit for bit alike) stop runs in a
     polynomial terminal set where the numpy integrator does (its steps differ from the kernel's in

@@ -107,6 +107,7 @@ def test_vanderpol_terminal_set():
     assert res.code[3] == I.DIVERGED and not res.entered[3]
 
 
+@pytest.mark.slow
 def test_basin_api_and_determinism_across_jobs(tmp_path):
     system = ipc.closed_loop()
     smp = box_sample(system, [(-1, 1), (-1, 1), (-1.2, 1.2), (-1, 1)], 400, seed=7)

@@ -155,6 +155,7 @@ def test_saturated_field_is_refused_by_sos():
     assert res.status is SosStatus.NOT_POLYNOMIAL and "saturation" in res.message
 
 
+@pytest.mark.slow
 def test_degrees_hybrid_row_matches_the_certify_case():
     """The degrees experiment's hybrid-coordinate row at degree 2 (ipc_paper.degrees._ipc_hybrid)
     certifies the certify experiment's quadratic V there (C9, results/certify/evidence.json) at the

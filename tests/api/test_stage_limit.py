@@ -29,6 +29,7 @@ SYSTEM = System(name="poly400", field=field, equilibrium=(0.0, 0.0), state_names
 """
 
 
+@pytest.mark.slow
 def test_certify_stops_the_sos_program_at_the_time_limit(tmp_path):
     path = tmp_path / "poly400.py"
     path.write_text(POLY400)

@@ -190,6 +190,7 @@ def test_sample_points_cover_vertices_and_nominal():
     assert len(pts) == 5
 
 
+@pytest.mark.slow
 def test_robust_certificate_file_checked_for_its_box(tmp_path, worst):
     """A certificate for the box re-verifies; the same file with a raised level is refused; a
     nominal certificate is refused for the box (another fingerprint)."""
@@ -244,6 +245,7 @@ def test_every_proof_namespace_sees_the_box():
     assert NP.name == "numpy"
 
 
+@pytest.mark.slow
 def test_level_search_and_simulation_over_a_box(capsys):
     """The level search reports the worst sample point with every point's level; a trajectory
     needs one parameter value (no silent nominal)."""
@@ -269,6 +271,7 @@ def poly(t, x, xp, p):
             + 1.5 * x[0] ** 2 * x[1])  # fmt: skip
 
 
+@pytest.mark.slow
 def test_worst_case_inside_the_box_is_never_exceeded():
     """V = |x|^2: with u = x1^2 = s r, x2^2 = (1 - s) r, V'/2 = -r + r^2 q(s), q(s) = A s^2 +
     0.6 (1 - s)^2 + 3 s (1 - s), so the largest level is 1 / max q, smallest at A = 1 (a = 1/2):

@@ -45,6 +45,7 @@ def _interrupt(proc: subprocess.Popen[str], ready: object) -> tuple[int, str]:
     return proc.returncode, err
 
 
+@pytest.mark.slow
 def test_an_interrupted_basin_with_out_keeps_its_chunks_and_resumes_from_them(tmp_path):
     out = tmp_path / "run"
     code, err = _interrupt(_start([*BASIN, "--out", str(out)]),
@@ -63,6 +64,7 @@ def test_an_interrupted_basin_with_out_keeps_its_chunks_and_resumes_from_them(tm
     )
 
 
+@pytest.mark.slow
 def test_an_interrupted_basin_without_out_says_nothing_was_kept():
     proc = _start(BASIN)
     t0 = time.monotonic()

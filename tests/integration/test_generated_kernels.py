@@ -63,6 +63,7 @@ def test_vanderpol_generated_kernel_matches_numpy(tmp_path, monkeypatch):
     assert 0 < np.count_nonzero(res.code == CONVERGED) < res.code.size  # both statuses occur
 
 
+@pytest.mark.slow
 def test_sincos_system_with_margin_matches_numpy(tmp_path, monkeypatch):
     monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
     system = _pendulum()
@@ -254,6 +255,7 @@ def test_an_index_entry_without_the_users_tag_is_ignored(tmp_path, monkeypatch):
         assert kc.generate(system).digest == good.digest
 
 
+@pytest.mark.slow
 def test_quadratic_terminal_set_in_the_generated_kernel_matches_numpy(tmp_path, monkeypatch):
     """Runs entering a certified ellipsoid of Van der Pol stop there in both backends alike (the
     published P at level 1, inside the certified 2.3045)."""
@@ -312,6 +314,7 @@ def _forget() -> None:
         sys.modules.pop(name, None)
 
 
+@pytest.mark.slow
 def test_an_edited_kernel_file_is_rewritten_and_counts_are_a_fresh_runs(tmp_path, monkeypatch):
     """Editing the cached kernel so that ``run`` marks every run converged turned 576 diverged
     runs of this grid into converged ones; the file is now checked against its hash when loaded,

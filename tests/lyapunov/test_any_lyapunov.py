@@ -107,6 +107,7 @@ def _square_vdot(w):
     return vdot
 
 
+@pytest.mark.slow
 def test_quartic_certifies_more_than_best_quadratic():
     V = PolynomialLyapunov([[2, 0], [0, 2], [4, 0], [0, 4]], [1.0, 1.0, 1.0, 1.0], [0.0, 0.0])
     # closed form 2 (at (+-1, 0), (0, +-1)); SLSQP from 15 starts confirms it

@@ -364,6 +364,7 @@ def test_polynomial_map_certified_by_an_exact_sos_certificate():
     assert not above.certified  # the SOS route never certifies above the optimum
 
 
+@pytest.mark.slow
 def test_a_map_with_uncertain_parameters_is_proved_for_the_whole_box():
     """mu in [0.9, 1.1]: the worst optimum is 1 / (1.1 (1 + lam)); 0.99 x it is certified for
     every mu of the box, 1.01 x it refuted by a 50-digit witness at mu = 1.1."""

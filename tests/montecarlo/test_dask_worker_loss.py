@@ -44,6 +44,7 @@ def _start_worker(address: str, tmp_path) -> subprocess.Popen:
     )  # fmt: skip
 
 
+@pytest.mark.slow
 def test_a_killed_worker_ends_the_run_within_a_bounded_time_and_it_resumes(tmp_path):
     from dask.distributed import LocalCluster
 
@@ -88,6 +89,7 @@ def test_a_killed_worker_ends_the_run_within_a_bounded_time_and_it_resumes(tmp_p
     np.testing.assert_array_equal(resumed.code, local.code)
 
 
+@pytest.mark.slow
 def test_a_result_lost_with_its_worker_before_it_was_gathered_ends_the_wait(tmp_path):
     """Issue 39, item 4 (every worker killed: the client hung, 5/5 runs): a task had finished
     but its result still sat on the worker when the worker died; ``Future.result()`` then waits

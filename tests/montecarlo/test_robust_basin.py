@@ -133,6 +133,7 @@ def test_json_keeps_every_sample_and_derives_the_maps(cubic_run):
     assert d["mode"] == "slice" and d["grid"] == [39, 3]
 
 
+@pytest.mark.slow
 def test_same_result_whatever_the_workers_and_chunk_size(cubic_run):
     s = cubic_box()
     other = roa.basin(s, cubic_grid(s), param_samples=4, param_seed=1,
@@ -199,6 +200,7 @@ def vdp(t, x, xp, p):
     return (-x[1], x[0] + p.mu * (x[0] * x[0] - 1) * x[1])
 
 
+@pytest.mark.slow
 def test_kernels_never_integrate_other_parameter_values():
     fixed = System("vdpk", vdp, (0.0, 0.0), ("x1", "x2"), params={"mu": 1.0},
                    numba=VdpKernels(1.0))  # fmt: skip

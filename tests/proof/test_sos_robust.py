@@ -218,6 +218,7 @@ def _pendulum_field(t, x, xp, p):
     return (x[1], -xp.sin(x[0]) - p.b * x[1])
 
 
+@pytest.mark.slow
 def test_recast_pendulum_with_uncertain_damping():
     """sin recast and a parameter box together: the damped pendulum with b in [0.8, 1.2] and
     the V of A'P + PA = -I at b = 1 (P = [[1.5, 0.5], [0.5, 1]]). V' is affine in b, so the

@@ -80,6 +80,7 @@ def test_casadi_without_a_violating_ray_runs_nothing_and_claims_no_bound():
     assert "not a bound" in msg and "at least" not in msg
 
 
+@pytest.mark.slow
 def test_lyznet_10d_both_methods_agree_on_the_closed_form():
     """LyZNet HSCC'24 example 4 (10 states), V from A'P + PA = -I, which is P = I/2. The skew linear
     parts cancel in V' = -|x|^2 + C(x), C(x) = -0.1 x1 x9^2 - 0.1 x3 x1^2 + 0.1 x5 x7^2

@@ -120,6 +120,7 @@ def test_certify_sampled_needs_a_quadratic_seed(vdp):
         certify_sampled(vdp, None, check_above=0.5)
 
 
+@pytest.mark.slow
 def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
     """A level above V's true optimum (here 1.3 x the sampled one, given on purpose) is refuted
     with a 50-digit witness w; V(w) bounds the optimum, so the level is chosen again below it and

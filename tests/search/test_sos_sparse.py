@@ -129,6 +129,7 @@ def test_the_library_default_validator_is_the_command_lines(ring):
     assert not roa.certify(system, level=1.001 * opt).certified
 
 
+@pytest.mark.slow
 def test_above_the_branch_and_bounds_dimension_a_level_search_witness_refutes_just_above(ring):
     """At 6 states the check above the certified level is refuted by a witness from the CasADi
     level search (V' >= 0 at 50 digits, V(x) at the independent optimum), without running the

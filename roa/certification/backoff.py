@@ -155,8 +155,9 @@ def back_off(system: System, V: Lyapunov, sos: Any, proposal: float, *,
         v = sos.check(system, V, level) if v is None else v
         dt = v.seconds if v.seconds else time.perf_counter() - s0
         ok = v.status is Verdict.CERTIFIED
-        log.append(BackoffTry(float(level), v.status.value, dt, _margin(v), v.message))
-        tried.append((float(level), ok, _margin(v)))
+        margin = _margin(v)
+        log.append(BackoffTry(float(level), v.status.value, dt, margin, v.message))
+        tried.append((float(level), ok, margin))
         if ok and (best is None or level > best[0]):
             best = (float(level), v)
         return v

@@ -13,9 +13,6 @@ import importlib
 #: The harness commands every study has, in --help order.
 HARNESS = ("run", "reproduce", "report", "check")
 
-#: Study name -> its command names, as registered (for ``roa study`` alone).
-_REGISTERED: dict[str, list[str]] = {}
-
 
 def register(sub: argparse._SubParsersAction) -> None:
     from roa import studies
@@ -26,6 +23,7 @@ def register(sub: argparse._SubParsersAction) -> None:
         description="roa study NAME COMMAND: the commands of an installed case study.",
     )
     names = p.add_subparsers(dest="study_name", metavar="STUDY")
+    listing: dict[str, list[str]] = {}  # study name -> its command names, as registered
     for study in studies.registered().values():
         q = names.add_parser(study.name, help=f"the {study.name} study ({study.package})")
         commands = q.add_subparsers(dest="study_command", required=True, metavar="COMMAND")
@@ -33,18 +31,15 @@ def register(sub: argparse._SubParsersAction) -> None:
             importlib.import_module(f"roa.commands.{name}").register(commands, study=study.name)
         for module in study.commands:
             importlib.import_module(module).register(commands)
-        _REGISTERED[study.name] = list(commands.choices)
-    p.set_defaults(func=_list)
+        listing[study.name] = list(commands.choices)
+    p.set_defaults(func=_list, listing=listing)
 
 
 def _list(args: argparse.Namespace) -> int:
     """``roa study`` without a study: what is installed."""
-    from roa import studies
-
-    found = studies.registered()
-    if not found:
+    if not args.listing:
         print("no study is installed (entry point group 'roa.studies')")
         return 0
-    for study in found.values():
-        print(f"{study.name}: roa study {study.name} {{{', '.join(_REGISTERED[study.name])}}}")
+    for name, commands in args.listing.items():
+        print(f"{name}: roa study {name} {{{', '.join(commands)}}}")
     return 0

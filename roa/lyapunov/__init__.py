@@ -12,7 +12,8 @@ from roa.lyapunov.base import Lyapunov, check_positive_definite
 from roa.lyapunov.function import FunctionLyapunov
 from roa.lyapunov.polynomial import PolynomialLyapunov, QuadraticLyapunov
 from roa.lyapunov.serial import certificate_fields, from_json
-from roa.lyapunov.symbolic import exact_rationals, symbolic_gradient, sympy_eval
+from roa.lyapunov.symbolic import symbolic_gradient
+from roa.model.sympy_eval import exact_rationals, sympy_eval
 
 __all__ = [
     "FunctionLyapunov",

@@ -1,7 +1,7 @@
 """Exact symbolic tools for Lyapunov candidates: sympy expressions evaluated in any namespace.
 
 :func:`symbolic_gradient` differentiates a candidate's ``expr`` exactly (every float taken as the
-exact rational of the double, :func:`exact_rationals`); :func:`sympy_eval` evaluates the result in
+exact rational of the double, :func:`roa.model.sympy_eval.exact_rationals`); :func:`roa.model.sympy_eval.sympy_eval` evaluates the result in
 any namespace of :mod:`roa.model.backend`, in the interval namespace and jets of
 :mod:`roa.proof.interval` (rational constants enclosed), or in mpmath.
 """
@@ -11,9 +11,7 @@ from __future__ import annotations
 from typing import TYPE_CHECKING, Any
 
 from roa.errors import RoaInputError
-from roa.model.sympy_eval import FUNCTIONS, exact_constant, exact_rationals, sympy_eval
-
-__all__ = ["FUNCTIONS", "exact_constant", "exact_rationals", "symbolic_gradient", "sympy_eval"]
+from roa.model.sympy_eval import exact_rationals, sympy_eval
 
 if TYPE_CHECKING:
     from roa.lyapunov.base import Lyapunov

@@ -52,7 +52,7 @@ def margin_poly(system: System, V: Lyapunov) -> QPoly:
     as the exact rationals of the doubles); raises :class:`NotPolynomial` otherwise."""
     import sympy as sp
 
-    from roa.lyapunov.symbolic import exact_rationals
+    from roa.model.sympy_eval import exact_rationals
 
     if system.margin is None:
         raise NotPolynomial("the system has no domain margin")

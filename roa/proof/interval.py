@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
+from roa.nn.ops import Affine
 
 #: Assumed maximal error, in ulps of the exact result, of numpy's transcendental functions
 #: (sin, cos, tan, exp, log, log1p, arctan, arcsinh, arctanh, tanh, power). Checked by
@@ -527,8 +528,6 @@ def interval_network(net: Any, x: list[Any]) -> list[Interval]:
     """The outputs of the network ``net`` (:class:`roa.nn.MLP`, uncentred) over the boxes ``x``
     (intervals or floats): :func:`interval_affine` per affine step and the interval activations
     of :data:`INTERVAL`, so an enclosure of the real network under :data:`LIBM_ULPS`."""
-    from roa.nn.ops import Affine
-
     ivs = [Interval.of(v) for v in x]
     lows = np.broadcast_arrays(*[v.lo for v in ivs], *[v.hi for v in ivs])
     shape = lows[0].shape

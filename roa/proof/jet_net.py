@@ -123,8 +123,10 @@ def _step(s: _State, op: Any, d: Interval | None, iu: np.ndarray, ju: np.ndarray
         c = None if s.c is None else _affine(W, op.b, s.c)
         g = _affine(W, zero, s.g)
         return _State(_affine(W, op.b, s.v), _zg(g, zg), _zeroed(h, zh), c, zg, zh)
-    r = _range(s, d)
     name = op.name
+    if name == "identity":
+        return s
+    r = _range(s, d)
     if name in _SMOOTH:
         f0, f1, f2 = _derivatives(name)
         d1 = f1(r)
@@ -139,8 +141,6 @@ def _step(s: _State, op: Any, d: Interval | None, iu: np.ndarray, ju: np.ndarray
         c = None if s.c is None else f0(s.c)
         zh = None if s.zh is None else s.zh & (s.zg[:, iu] | s.zg[:, ju])
         return _State(f0(r), _zg(g, s.zg), _zeroed(h, zh), c, s.zg, zh)
-    if name == "identity":
-        return s
     _kink(name)
     # pieces: (lower end, upper end, slope, value offset) with f = slope z + offset on the piece
     if name == "relu":

@@ -107,8 +107,8 @@ def gradient_vanishes(lyap: Lyapunov) -> bool:
         return bool(cached)
     import sympy as sp
 
-    from roa.lyapunov import exact_rationals
     from roa.model.backend import namespace
+    from roa.model.sympy_eval import exact_rationals
 
     if lyap.is_polynomial:
         ok = True  # every term has degree >= 2 in d = x - x_eq
@@ -383,7 +383,7 @@ def _poly(system: System, lyap: Lyapunov) -> tuple[Any, list[Any]] | None:
             P = [[sp.Rational(float(Pq[i, j])) for j in range(n)] for i in range(n)]
             vd = 2 * sum(d[i] * P[i][j] * f[j] for i in range(n) for j in range(n))
         else:
-            from roa.lyapunov import exact_rationals
+            from roa.model.sympy_eval import exact_rationals
 
             # V' (or V(F(x)) - V(x) for a map) as the candidate writes it (a whitened V: grad V . f at x = c + M y with the
             # system's own field, never the float inverse of M)

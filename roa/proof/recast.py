@@ -430,8 +430,8 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
     :class:`NotPolynomial` naming what cannot be recast."""
     import sympy as sp
 
-    from roa.lyapunov.symbolic import exact_rationals
     from roa.model.backend import namespace
+    from roa.model.sympy_eval import exact_rationals
 
     if getattr(system, "time_varying", False) or system.equilibrium is None:
         raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")

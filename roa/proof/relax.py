@@ -632,7 +632,7 @@ def _compose_in(Lam: np.ndarray, c: np.ndarray, err: np.ndarray, inp: tuple[np.n
 
 LINEAR = SimpleNamespace(
     name="linear",
-    network=lambda net, x: crown(net, x),  # a network (roa.nn.MLP): CROWN
+    network=crown,  # a network (roa.nn.MLP): CROWN
     **{k: _lift(k) for k in FUNCTIONS},
     leaky_relu=_lift("leaky_relu"),
     minimum=_minimum,

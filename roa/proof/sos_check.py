@@ -82,8 +82,8 @@ def exact_data(system: Any, V: Any) -> ExactData:
     certificate's claim is the same with that decrease."""
     import sympy as sp
 
-    from roa.lyapunov.symbolic import exact_rationals
     from roa.model.backend import namespace
+    from roa.model.sympy_eval import exact_rationals
     from roa.proof.fast_poly import field_polys
 
     terms = V.polynomial_view()

@@ -251,11 +251,12 @@ def evaluate_boxes(
     N, n_par = n + k, k
     mid = 0.5 * (lo + hi)
     delta = box_offsets(lo, hi, mid)
+    enclosures = None  # (V, Vb, Vm) on the boxes, once
     if skip_outside:
-        V, _, _ = _v_on_boxes(lyap, lo, hi, mid, delta, k)
-        need = np.flatnonzero(~(V.lo > level))
+        enclosures = _v_on_boxes(lyap, lo, hi, mid, delta, k)
+        need = np.flatnonzero(~(enclosures[0].lo > level))
         if len(need) < m:
-            return _evaluate_inside(system, lyap, lo, hi, level, k, V, need)
+            return _evaluate_inside(system, lyap, lo, hi, level, k, enclosures[0], need)
 
     def vdot(X: list[Jet]) -> Any:
         with parameter_values(X[n:] if k else None):
@@ -266,7 +267,7 @@ def evaluate_boxes(
     at = vdot(Jet.variables(mid, mid, order=1, centred=kinked))
     cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
     vdot_box = _meet(_full(vd.v, m), cen, tay)
-    V, Vb, Vm = _v_on_boxes(lyap, lo, hi, mid, delta, k)
+    V, Vb, Vm = enclosures or _v_on_boxes(lyap, lo, hi, mid, delta, k)
     score = np.zeros_like(lo)
     n = N  # every column from here: states and parameters
     for i in range(n):

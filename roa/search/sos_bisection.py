@@ -118,11 +118,13 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
 
 def block_levels(data: ExactData, *, rel_tol: float = 1e-7,
                  solver_options: dict[str, Any] | None = None,
-                 routes: list[SosRoute] | None = None) -> BlockLevels:  # fmt: skip
+                 routes: list[SosRoute] | None = None,
+                 split: tuple[list[Any], list[Any]] | None = None) -> BlockLevels:  # fmt: skip
     """The least of the blocks' largest numerically feasible levels (module docstring); each
-    distinct block's route chosen once (``routes``: already chosen, one per block)."""
+    distinct block's route chosen once (``routes``: already chosen, one per block; ``split``:
+    the data's independent blocks when already computed)."""
     t0 = time.perf_counter()
-    subs, parts = IndependentBlocks().apply(data)
+    subs, parts = split or IndependentBlocks().apply(data)
     seen: dict[tuple, float | None] = {}
     per: list[tuple[Block, float | None]] = []
     programs = 0
@@ -170,14 +172,15 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
             data = None
     if data is not None:
         subs, parts = IndependentBlocks().apply(data)
-        routes = [route_for(sub, solver_options=solver_options) for sub in subs] if len(
-            parts) == 1 else None  # fmt: skip
+        routes = [route_for(subs[0], solver_options=solver_options)] if len(parts) == 1 else None
         if routes is None or routes[0].kind in ("sparse", "sdsos"):
             what = (f"{len(parts)} independent blocks of variables" if routes is None
                     else "the sparse (chordal clique) program" if routes[0].kind == "sparse"
                     else "the SDSOS program (sign blocks, scaled diagonally dominant)")  # fmt: skip
             with step(f"SOS level by bisection with {what}"):
-                bl = block_levels(data, solver_options=solver_options, routes=routes)
+                bl = block_levels(
+                    data, solver_options=solver_options, routes=routes, split=(subs, parts)
+                )
             sizes: dict[str, Any] = {**bl.sizes, "programs": bl.programs}
             if routes is not None and routes[0].plan is not None:
                 sizes["sparse"] = routes[0].plan.sizes

@@ -321,7 +321,7 @@ def test_mlp_interval_and_jet_evaluations_enclose_the_network(kind):
 def test_mlp_centred_is_zero_at_the_point_exactly_and_checks_its_input():
     import sympy as sp
 
-    from roa.lyapunov.symbolic import exact_rationals
+    from roa.model.sympy_eval import exact_rationals
 
     rng = np.random.default_rng(2)
     net = MLP([(rng.normal(size=(4, 3)), rng.normal(size=4)), (rng.normal(size=(2, 4)), rng.normal(size=2))],

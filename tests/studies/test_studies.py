@@ -97,3 +97,13 @@ def test_reproduce_outside_a_study_checkout_writes_nothing_and_names_the_study_c
     err = capsys.readouterr().err
     assert "roa reproduce: error" in err and "roa study ipc reproduce" in err
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_unknown_study_or_study_command_exits_2_naming_it(capsys):
+    from roa.cli import main
+
+    for argv, bad in ((["study", "nope"], "nope"), (["study", "ipc", "frobnicate"], "frobnicate")):
+        with pytest.raises(SystemExit) as exc:
+            main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and f"'{bad}'" in err and "Traceback" not in err

@@ -5,7 +5,7 @@ without the even/odd block split). Targets: IPC paper's V at 0.999 of the sample
 optimum certified in < 60 s on 2 cores; SOS level of the IPC's quadratic V in < 30 s; Van der Pol
 against the published rho = 2.3045 (Drake notes).
 
-Baseline: the same interval evaluation (:func:`roa.proof.validate.evaluate_boxes`, the same tests
+Baseline: the same interval evaluation (:func:`roa.proof.evaluate_boxes`, the same tests
 per box over the same cover and local box) on a *uniform* grid of boxes (no branch and bound) of
 increasing resolution, stopped at the first resolution that proves every box or after a budget.
 """
@@ -20,13 +20,13 @@ import numpy as np
 from ipc_paper.system import transformed
 from ipc_paper.system.lyapunov import paper_lyapunov
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.cover import prove_cover
-from roa.proof.local import local_box
-from roa.proof.validate import evaluate_boxes, validate_level
-from roa.proof.whiten import Whitened, whitened_system, whitening_for
-from roa.search.levelset import level_search
-from roa.search.rays import ray_box
-from roa.search.sos import sos_level
+from roa.proof._cover import prove_cover
+from roa.proof._local import local_box
+from roa.proof._validate import evaluate_boxes, validate_level
+from roa.proof._whiten import Whitened, whitened_system, whitening_for
+from roa.search._levelset import level_search
+from roa.search._rays import ray_box
+from roa.search._sos import sos_level
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 

@@ -7,7 +7,7 @@ time (``time.process_time``: the kernels and numba's compiler run on one thread)
 shared with other jobs inflates far less than wall-clock time. Cases, one process and one thread each (no joblib): the IPC
 closed loop on its fast path (``System.numba_fast``, njit functions inlined) and on the public
 cfunc protocol (``System.numba``), the van der Pol oscillator and a damped pendulum with a margin
-on kernels generated from their fields (:mod:`roa.integration.kernel_cache`), and the numpy batch
+on kernels generated from their fields (:mod:`roa.integration._kernel_cache`), and the numpy batch
 (van der Pol). For each it prints runs per second of both, the ratio (this / other: above 1 is
 faster), the first compilation's seconds (numba's cache emptied before the first round) and
 whether both give the same codes, stop times, end states and step counts bit for bit. numba's
@@ -34,7 +34,7 @@ CHILD = r"""
 import dataclasses, hashlib, json, sys, time
 import numpy as np
 import roa
-from roa.integration.integrator import integrate_batch
+from roa.integration._integrator import integrate_batch
 from roa.status import StopRules
 from roa.systems.vanderpol import vanderpol
 

@@ -33,10 +33,10 @@ import bench_montecarlo as B  # noqa: N812
 import numpy as np
 
 from ipc_paper import system as ipc
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.simulation import simulate
-from roa.integration.terminal import coords_map
-from roa.montecarlo.sampling import box_sample
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._simulation import simulate
+from roa.integration._terminal import coords_map
+from roa.montecarlo._sampling import box_sample
 
 KS = (1.25, 1.5, 2.0, 3.0, 5.0, 10.0)
 

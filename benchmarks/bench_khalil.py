@@ -15,7 +15,7 @@ import numpy as np
 from scipy.optimize import minimize
 
 from ipc_paper.system import lyapunov as ly
-from roa.search.levelset import casadi_level, sampled_level
+from roa.search._levelset import casadi_level, sampled_level
 
 
 def scipy_baseline(shape: str, n_starts: int = 16, seed: int = 1) -> tuple[float, int]:

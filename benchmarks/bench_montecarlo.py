@@ -13,7 +13,7 @@ and checks that the statuses of both modes agree with the baseline's. Targets (i
     python benchmarks/bench_montecarlo.py --memory [--n-memory 1000000]   # peak RSS, 10^6 streamed
 
 The engine takes the IPC's fast path (System.numba_fast: njit functions compiled into a
-kernel of their own, roa/integration/integrator.py compile_kernel); --public adds both modes with the
+kernel of their own, roa/integration/_integrator.py compile_kernel); --public adds both modes with the
 public cfunc protocol of user systems (System.numba), same statuses bit for bit.
 
 Profile of the physical numba kernel (issue 14, item 2): one core of the 2-core machine, 20,000
@@ -65,7 +65,7 @@ Throughputs measured 2026-12-01 on this session's idle 2-core machine (default a
 fast path plain 52.5-53.7 k/s (488-521x); with the quadratic terminal set (T:optimised, 33.2
 accepted steps per run) 125-129 k/s (1164-1254x); with the certified degree-4 V of
 results/degrees (T:degree4, level 0.996294, share 1.000 of the reference box, 22.1 steps per
-run; the polynomial test of roa/integration/terminal_poly.py in the kernel) 147-161 k/s (160-164 k
+run; the polynomial test of roa/integration/_terminal_poly.py in the kernel) 147-161 k/s (160-164 k
 best, 1424-1495x); public cfuncs plain 49.0 k/s, T:optimised 86.5 k/s, T:degree4 115 k/s;
 statuses 2000/2000 identical to the baseline in every mode. The same machine kind ran ~2.2x
 slower for both sides later that day (a new session, 2.1 GHz; four runs): baseline 40.5-47.2/s,
@@ -96,12 +96,12 @@ import psutil
 from joblib import Parallel, delayed
 
 from ipc_paper import system as ipc
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.simulation import simulate
-from roa.integration.terminal import TerminalSet
-from roa.montecarlo.engine import run_basin
-from roa.montecarlo.sampling import box_sample
-from roa.search.rays import component_candidates, ray_box
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._simulation import simulate
+from roa.integration._terminal import TerminalSet
+from roa.montecarlo._engine import run_basin
+from roa.montecarlo._sampling import box_sample
+from roa.search._rays import component_candidates, ray_box
 from roa.status import StopRules
 
 BOX = [(-3.0, 3.0), (-3.0, 3.0), (-1.5, 1.5), (-3.0, 3.0)]
@@ -168,14 +168,14 @@ def certified_set(which: str) -> TerminalSet:
 def degree4_set(coords: str = "flat") -> TerminalSet:
     """The IPC's certified degree-4 V in ``coords`` (flat or hybrid) of
     results/degrees/evidence.json, as a polynomial terminal set (its certified component,
-    roa/proof/component.py)."""
+    roa/proof/_component.py)."""
     from roa.lyapunov import from_json as lyapunov_from_json
 
     key = {"flat": "ipc", "hybrid": "ipc_hybrid"}[coords]
     row = json.loads(DEGREES.read_text())[key]["degrees"]["4 (sampled)"]
     if row["status"] != "certified":
         raise SystemExit(f"{DEGREES}: the {coords} degree-4 V is {row['status']}, not certified")
-    from roa.proof.reverify import reverify
+    from roa.proof._reverify import reverify
 
     V = lyapunov_from_json(row["V"], np.zeros(4), name=row["V"]["lyapunov"])
     name = f"{row['V']['lyapunov']} <= {row['level']:.6g}"

@@ -17,7 +17,7 @@ each in a fresh process:
   at 50 digits, moved out along its ray by a relative ``1e-15 2^k`` when it sits on ``V' = 0``
   with ``V' < 0`` exactly (``optimum_50_digits``: a refutation of every level from ``optimum``
   up, :func:`confirmed_optimum`);
-* ``certified``: :func:`roa.proof.validate.validate_level` at ``ratio x optimum`` (0.99 for the
+* ``certified``: :func:`roa.proof.validate_level` at ``ratio x optimum`` (0.99 for the
   pendulum, 0.95 for the quadrotor) with ``--workers`` processes (default 2): verdict, boxes,
   wall seconds, CPU seconds (the process and its workers), peak resident memory of the process
   (``peak_mb``) and of its largest reaped worker (``peak_worker_mb``); on an inconclusive run the
@@ -25,13 +25,13 @@ each in a fresh process:
   ``local`` names the proof near the equilibrium (``hessian``: no excluded region);
 * ``above``: the verdict at ``1.01 x optimum`` (a refutation carries a 50-digit witness);
 * ``baseline`` (``--baseline``): the same certification without the CROWN bounds
-  (:data:`roa.proof.relax_vdot.ENABLED` off), and the ratio of boxes;
+  (:data:`roa.proof._relax_vdot.ENABLED` off), and the ratio of boxes;
 * ``share``: the empirical basin share beside the certified share: 20000 uniform samples of the
   box ``3 x`` the bounding box of ``{V <= optimum}``, simulated by RK4 (numpy, step 0.01, 30 s
   pendulum / 20 s quadrotor) and counted converged when ``|x(T)| < 1e-3``; ``in_basin`` is the
   share of samples that converged, ``certified_of_basin`` the share of converged samples inside
   the certified set ``{V <= level}`` with its Clopper-Pearson 95 % interval
-  (:func:`roa.montecarlo.certified_share.clopper_pearson`).
+  (:func:`roa.montecarlo.clopper_pearson`).
 
 Checks (exit 1 otherwise): every certified level at most the optimum; the target ratio certified;
 ``1.01 x optimum`` never certified; no certified sample outside the sampled basin.
@@ -142,11 +142,11 @@ def independent_optimum(system: Any, P: np.ndarray, seed: int = 0, rays: int = 2
 def confirmed_optimum(system: Any, V: Any, opt: float, point: np.ndarray
                       ) -> tuple[float, np.ndarray, dict[str, Any]]:  # fmt: skip
     """``(level, point, check)``: the optimum's point re-checked at 50 digits
-    (:func:`roa.proof.witness.recheck_witness`); a point found on the surface ``V' = 0`` may have
+    (:func:`roa.proof.recheck_witness`); a point found on the surface ``V' = 0`` may have
     ``V' < 0`` exactly, so it is moved out along its ray from the equilibrium (``V'`` turns
     positive past the first crossing) by ``1e-15 2^k`` relative until confirmed; the level is
     then ``V`` there (``opt`` and ``point`` unchanged when none is confirmed)."""
-    from roa.proof.witness import recheck_witness
+    from roa.proof._witness import recheck_witness
 
     c = np.asarray(V.center, dtype=float)
     check: dict[str, Any] = {}
@@ -162,7 +162,7 @@ def confirmed_optimum(system: Any, V: Any, opt: float, point: np.ndarray
 def basin_share(system: Any, P: np.ndarray, optimum: float, level: float, horizon: float,
                 samples: int = 20000, seed: int = 1) -> dict[str, Any]:  # fmt: skip
     """Empirical basin share and the certified share of it (module doc)."""
-    from roa.montecarlo.certified_share import clopper_pearson
+    from roa.montecarlo._certified_share import clopper_pearson
 
     Pinv = np.linalg.inv(P)
     half = 3.0 * np.sqrt(optimum * np.diag(Pinv))  # the bounding box of {V <= optimum}, x 3
@@ -193,10 +193,10 @@ def _cpu() -> float:
 
 def run(name: str, baseline: bool, time_limit: float, workers: int = 2) -> dict[str, Any]:
     import roa
-    import roa.proof.relax_vdot as rv
-    from roa.model.linearisation import lyapunov_matrix
-    from roa.proof.validate import validate_level
-    from roa.search.rays import ray_box
+    import roa.proof._relax_vdot as rv
+    from roa.model._linearisation import lyapunov_matrix
+    from roa.proof._validate import validate_level
+    from roa.search._rays import ray_box
 
     system = _load(name)
     ratio, horizon = SYSTEMS[name][2], SYSTEMS[name][3]

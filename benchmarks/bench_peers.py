@@ -20,7 +20,7 @@ integrate the same expressions. Systems: Van der Pol (``roa.systems.vanderpol``)
 quadrotor under LQR (examples/systems/quadrotor2d.py, 6 states, sin/cos), LyZNet's 10-state
 example (examples/systems/lyznet_10d.py) and the IPC (``ipc_paper.system.closed_loop``, its
 hand-written kernel). User systems run on the kernel roa generates from their field
-(roa/integration/kernel_cache.py).
+(roa/integration/_kernel_cache.py).
 
 Throughput is initial conditions per second of CPU time (roa: the process and its worker
 processes, via psutil; diffrax: the process, all its threads), median of ``--reps`` runs after a
@@ -138,8 +138,8 @@ def _cpu_delta(before: dict[int, float], after: dict[int, float]) -> float:
 def roa_side(name: str, n: int, reps: int) -> dict[str, Any]:
     """Statuses, CPU and wall time of ``roa.basin`` with its defaults."""
     import roa
-    from roa.integration import integrator as I  # noqa: N812
-    from roa.integration.kernel_cache import compiled_system
+    from roa.integration import _integrator as I  # noqa: N812
+    from roa.integration._kernel_cache import compiled_system
 
     system, sampler, X = _samples(name, n)
     t0 = time.perf_counter()

@@ -32,10 +32,9 @@ import numba
 import numpy as np
 
 from ipc_paper import system as ipc
-from ipc_paper.system.fast import physical_field_njit as field
-from ipc_paper.system.fast import physical_scalar as f4
-from roa.integration.dopri import ERROR_E, TABLEAU_A, TABLEAU_B, TABLEAU_C
-from roa.montecarlo.sampling import box_sample
+from ipc_paper.system.fast import physical_field_njit as field, physical_scalar as f4
+from roa.integration._dopri import ERROR_E, TABLEAU_A, TABLEAU_B, TABLEAU_C
+from roa.montecarlo._sampling import box_sample
 
 S, MAXF, MINF = 0.9, 10.0, 0.2
 

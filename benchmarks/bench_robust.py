@@ -22,7 +22,7 @@ Cases (V fixed, quadratic):
 Per case: ``roa.certify(box, V)`` (the robust pipeline: a level proposed at the box's sample
 points, validated for every parameter of the box), ``roa.certify`` at ``0.99 x`` the
 independent worst case for the box (the branch and bound's validation alone), the exact SOS
-validator (``roa.SosValidator``, parameters as indeterminates, :class:`roa.proof.reductions.ParameterBox`) at
+validator (``roa.SosValidator``, parameters as indeterminates, :class:`roa.proof.ParameterBox`) at
 ``0.99 x`` and at ``1.01 x`` the worst case (``sos99``, ``t_sos``, ``sos101``); the naive alternative certifies at a
 grid of ``G`` values per uncertain parameter, ``roa.certify(box.at(...), V)`` at each (its own
 level), and takes the minimum, which proves nothing between grid points: the last column asks
@@ -49,7 +49,7 @@ from scipy.optimize import minimize
 
 import roa
 from roa.lyapunov import QuadraticLyapunov
-from roa.model.system import System
+from roa.model._system import System
 
 P_VDP = np.array([[1.5, -0.5], [-0.5, 1.0]])
 

@@ -3,7 +3,7 @@
 Run: ``python benchmarks/bench_scale.py [--quick] [--only NAME ...]``. Each system runs in its own
 process (its peak memory is that process's ``ru_maxrss``) and gets one row:
 
-* ``n``; the SOS level (roa's SOS proposal, ``roa.search.sos_bisection.level_search``, or why
+* ``n``; the SOS level (roa's SOS proposal, ``roa.search.level_search``, or why
   there is none);
 * the certified level and its route: ``roa.certify(system, validator=roa.SosValidator())`` (the
   proposer: the SOS level, else the sampled level search; the exact SOS check, block by block
@@ -38,13 +38,13 @@ Systems (all polynomial; ``V = (x - x_eq)' P (x - x_eq)``):
 * ``quadrotor2d`` (6): the planar quadrotor under LyZNet's LQR gain (sin/cos of the pitch,
   ``examples/systems/quadrotor2d.py``), P from A'P + PA = -I: the exact recast route (split by
   sign symmetry), the sampled level search's proposal backed off on the exact route when its
-  check fails (``roa.certification.backoff``, every try in the row), no branch and bound;
+  check fails (``roa.certification._backoff``, every try in the row), no branch and bound;
 * ``quadrotor3d`` (9): the quadrotor in space under the LQR gain of its linearisation (sin/cos of
   roll and pitch, ``examples/systems/quadrotor3d.py``), as ``quadrotor2d``;
 * ``dense-cubic-20`` (20): ``examples/systems/dense_cubic.py``, every state coupled linearly and
   cubically, V = |x|^2, one dense Gram block of 230 monomials (16 GiB for the interior point):
   sign-symmetry blocks (210 + 20) with the 210 block scaled diagonally dominant
-  (``roa.search.sos_sparse.sdsos_plan``; ``"cone": "sdd"`` blocks, proved by exact dominance);
+  (``roa.search._sos_sparse.sdsos_plan``; ``"cone": "sdd"`` blocks, proved by exact dominance);
   closed form ``1 / lambda_max(B)``;
 * ``ring-20``, ``ring-30`` (20, 30): ``examples/systems/ring.py``, ``x_i' = -x_i + x_{i+1} / 2 +
   x_i^3`` on a ring, V = |x|^2: every variable coupled to its neighbours (no independent blocks),
@@ -392,7 +392,7 @@ def volume_shares(Vs: list[tuple[Any, float]], half: np.ndarray, *, samples: int
                   seed: int = 0) -> list[tuple[float, float]]:  # fmt: skip
     """Share of the box ``[-half, half]`` (around the origin) inside each ``{V <= level}``, with
     its binomial standard error, from the same uniform samples."""
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
 
     X = np.random.default_rng(seed).uniform(-half, half, (samples, len(half)))
     out = []
@@ -437,8 +437,8 @@ def measure_vs(name: str, budget: float = 600.0) -> dict[str, Any]:
 
 
 def _pd_exact(V: Any) -> bool:
-    """V >= mu |d|^2 proved by its Gram matrix (roa.proof.cover.gram_cover, exact LDL')."""
-    from roa.proof.cover import gram_cover
+    """V >= mu |d|^2 proved by its Gram matrix (roa.proof.gram_cover, exact LDL')."""
+    from roa.proof._cover import gram_cover
 
     return gram_cover(V, 1.0) is not None
 

@@ -6,7 +6,7 @@ For each case of ``results/certify/evidence.json`` with a ``below``/``above`` pa
 certified level and the refuted level just above the sampled optimum), the system and V are
 rebuilt as ipc_paper/certify_cases.py builds them (the paper's V, or the quadratic ``P`` of the
 case's search block; flat, hybrid or saturated flat coordinates) and
-:func:`roa.proof.validate.validate_level` (``max_boxes`` 3 M, the study's budget) is run at
+:func:`roa.proof.validate_level` (``max_boxes`` 3 M, the study's budget) is run at
 
 * the committed certified level (expected: certified),
 * the committed refuted level (expected: refuted),
@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.validate import validate_level
-from roa.search.rays import ray_box
+from roa.proof._validate import validate_level
+from roa.search._rays import ray_box
 
 ROOT = Path(__file__).resolve().parents[1]
 

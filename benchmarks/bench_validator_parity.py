@@ -3,17 +3,17 @@
 Run: ``python benchmarks/bench_validator_parity.py [--repeats 3]``.
 
 **Baseline** (labelled ``base``): a verbatim copy, kept in this file below, of the quadratic-only
-branch and bound that ``roa.proof.validate.validate_level`` ran for a
+branch and bound that ``roa.proof.validate_level`` ran for a
 :class:`~roa.lyapunov.QuadraticLyapunov` before the one loop (whitened frame ``x = c + M y``
 from the Cholesky factor of ``P``, closed-form interval ``V = y' G y``, jets of
 ``V' = 2 (x - c)' P f``, an inner level ``eps`` proved by the Hessian of ``V'``, domain-witness
 early exit); its degenerate-linearisation branch (lowest-order homogeneous part) is left out,
 since none of the cases reaches it. It is the reference the ratios are taken against.
 
-**One loop** (:func:`roa.proof.validate.validate_level` today) on three spellings of the same V:
+**One loop** (:func:`roa.proof.validate_level` today) on three spellings of the same V:
 
 * ``quad``: the system's default ``QuadraticLyapunov`` (closed-form strategy for V,
-  :class:`roa.proof.validate.QuadraticForm`);
+  :class:`roa.proof.QuadraticForm`);
 * ``poly``: the same V written as a degree-2 :class:`~roa.lyapunov.PolynomialLyapunov` from its
   Gram matrix ``P`` over the linear monomials (also the closed-form strategy);
 * ``jets``: ``quad`` with the closed-form strategy switched off (V through interval jets), to
@@ -42,16 +42,16 @@ import numpy as np
 import roa
 from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
-from roa.model.system import System
-from roa.proof import validate as one
-from roa.proof.exact import exact_equilibrium
-from roa.proof.interval import INTERVAL, Interval, box_offsets
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
-from roa.proof.local import hessian_negative_definite
-from roa.proof.validate import validate_level
-from roa.proof.validation import Validation
-from roa.search.rays import ray_box
+from roa.model._system import System
+from roa.proof import _validate as one
+from roa.proof._exact import exact_equilibrium
+from roa.proof._interval import INTERVAL, Interval, box_offsets
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
+from roa.proof._local import hessian_negative_definite
+from roa.proof._validate import validate_level
+from roa.proof._validation import Validation
+from roa.search._rays import ray_box
 from roa.status import Verdict
 from roa.systems.vanderpol import vanderpol
 
@@ -61,7 +61,7 @@ CASES = (
 )
 
 
-# == BASELINE: the quadratic-only loop as it was (copied from roa/proof/validate.py) ==============
+# == BASELINE: the quadratic-only loop as it was (copied from roa/proof/_validate.py) ==============
 # -- evaluation of V and V' ---------------------------------------------------------------------------
 def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
     """V' = 2 (x - c)' P f(x), written once for floats, intervals, jets and mpmath numbers."""
@@ -79,8 +79,8 @@ def _vdot(system: System, lyap: QuadraticLyapunov, x: list, xp: Any) -> Any:
 
 
 def _mp_namespace() -> Any:
-    """The mpmath namespace of :mod:`roa.model.backend` (every function, saturation included)."""
-    from roa.model.backend import namespace
+    """The mpmath namespace of :mod:`roa.model._backend` (every function, saturation included)."""
+    from roa.model._backend import namespace
 
     return namespace("mpmath")
 

@@ -68,7 +68,7 @@ def box_shares(system: Any, ranges: list[tuple[float, float]], drawn: list[Any],
 
 def regions(V: Any, search: Any, cert: Any) -> list[Any]:
     """The level-search estimate and the certified set as regions to draw."""
-    from roa.lyapunov.regions import Region
+    from roa.lyapunov import Region
 
     out = []
     if search is not None and search.level is not None:
@@ -94,7 +94,7 @@ def write(out: str | Path, name: str, system: Any, data: dict[str, Any], basin: 
 
     folder = Path(out)
     folder.mkdir(parents=True, exist_ok=True)
-    from roa.montecarlo.certified_share import share_line
+    from roa.montecarlo import share_line
 
     shares = [dict(e) for e in basin.certified_shares] + [dict(e) for e in extra_shares]
     doc = {"example": name, "system": system.name, "states": list(system.state_names), **data,

@@ -32,8 +32,8 @@ import control
 import numpy as np
 
 import roa
-from roa.lyapunov.regions import Region
-from roa.model.linearisation import lyapunov_matrix
+from roa.lyapunov import Region
+from roa.model import lyapunov_matrix
 
 M, MASS, LENGTH, G = 1.0, 0.1, 0.5, 9.81
 Q, R = np.eye(4), np.eye(1)

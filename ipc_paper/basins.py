@@ -29,17 +29,14 @@ import roa
 from ipc_paper import system as ipc
 from ipc_paper.estimates import paper_ball
 from roa.errors import ResultsError, RoaInputError
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.terminal import REL_MARGIN, TerminalSet, coords_map
+from roa.integration import CONVERGED, REL_MARGIN, TerminalSet, coords_map
 from roa.io import atomic_write_json
-from roa.lyapunov import QuadraticLyapunov
-from roa.lyapunov.regions import Region
-from roa.montecarlo.basin import BasinResult
-from roa.montecarlo.sampling import MAX_SAMPLES, box_sample, grid_slice, region_sample
+from roa.lyapunov import QuadraticLyapunov, Region
+from roa.montecarlo import MAX_SAMPLES, BasinResult, box_sample, grid_slice, region_sample
 from roa.options import IntegratorOptions, Options, RunOptions
-from roa.proof.reverify import reverify
+from roa.proof import reverify
 from roa.status import StopRules
-from roa.studies.experiment import (
+from roa.studies import (
     MAX_SEED,
     VERDICTS,
     accepts,
@@ -316,7 +313,7 @@ def _run_summary(res: BasinResult) -> dict[str, Any]:
 
 def _settings(opts: dict[str, Any]) -> dict[str, Any]:
     r, i = opts["rules"], opts["integrator"]
-    return {"integrator": "batch Dormand-Prince 5(4), numba kernel (roa.integration.integrator)",
+    return {"integrator": "batch Dormand-Prince 5(4), numba kernel (roa.integration._integrator)",
             "rtol": i.rtol, "atol": i.atol, "t_final": r.t_final,
             "converge_tol": r.converge_tol, "diverge_bound": r.diverge_bound}  # fmt: skip
 
@@ -340,7 +337,7 @@ def sector_line_scan(
     )
     run = _basin(system, g, opts, terminal=terminal)
     th = g.xs
-    conv = (run.code.reshape(g.shape) == I.CONVERGED).all(axis=0)
+    conv = (run.code.reshape(g.shape) == CONVERGED).all(axis=0)
     zero = n // 2
     # largest symmetric-about-0 interval of consecutive converged points
     lo = zero
@@ -432,7 +429,7 @@ def _basin_title(
     grid: Any = None,
     regs: list[Region] | None = None,
 ) -> str:
-    n, k = code.size, int(np.sum(code == I.CONVERGED))
+    n, k = code.size, int(np.sum(code == CONVERGED))
     if k == n:
         where = f"the basin is the whole slice: all {n} grid points converge"
     else:
@@ -445,7 +442,7 @@ def _basin_title(
         ]
         if own and grid is not None:
             inside = own[0].contains(grid.points(0, grid.n))
-            c = int(np.sum(inside & (code == I.CONVERGED)))
+            c = int(np.sum(inside & (code == CONVERGED)))
             where += (f";\nthe certified set V <= {own[0].level:.4g} of the saturated loop holds "
                       f"{c} of them ({100 * c / max(k, 1):.1f} %)")  # fmt: skip
             if c < int(inside.sum()):
@@ -472,7 +469,7 @@ def slice_map(
     colorbar, in short: the set and ``converge_tol`` are in the run's summary), failures by
     status. Converged points are coloured by time, so they get no legend swatch of their own."""
     from ipc_paper.figures import IPC_LABELS
-    from roa.plotting.basin import slice_figure
+    from roa.plotting import slice_figure
 
     panels = slice_panels(regs, saturated=saturation is not None)
     lines = [("theta", s * SECTOR, SECTOR_LABEL) for s in (-1, 1)]
@@ -489,7 +486,7 @@ def slice_map(
 @accepts(SliceParams)
 def run_slice(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """A 2D slice map with every region drawn, containment per region, optional sector line scan."""
-    from roa.plotting.basin import save_figure, slice_containment
+    from roa.plotting import save_figure, slice_containment
 
     sat = params["saturation"]
     system = ipc.closed_loop(saturation=None if sat is None else float(sat))
@@ -581,7 +578,7 @@ def run_box(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]
         for r in regs:  # streamed again in chunks: which sampled points are inside each region
             inside = np.concatenate([r.contains(smp.points(a, min(a + 65536, smp.n)))
                                      for a in range(0, smp.n, 65536)])  # fmt: skip
-            kk, c = int(inside.sum()), int(np.sum(run.code[inside] == I.CONVERGED))
+            kk, c = int(inside.sum()), int(np.sum(run.code[inside] == CONVERGED))
             contain.append({"region": r.name, "status": r.status, "points_in_region": kk,
                             "converged": c, "all_converged": (c == kk) if kk else None})  # fmt: skip
         lo, _ = run.ci95

@@ -1,8 +1,8 @@
-"""Certified IPC regions as :class:`roa.lyapunov.regions.Region` objects, for basin maps and Monte Carlo.
+"""Certified IPC regions as :class:`roa.lyapunov.Region` objects, for basin maps and Monte Carlo.
 
 Read from ``results/certify/certified.json`` (written by ``roa run experiments/certify.toml``).
 Entries hold a quadratic V (``P``) or a polynomial one (its monomials and coefficients, see
-:meth:`roa.lyapunov.regions.Region.from_json`). A region's status is ``certified`` only when the interval validation of its level passed; other
+:meth:`roa.lyapunov.Region.from_json`). A region's status is ``certified`` only when the interval validation of its level passed; other
 verdicts are kept with their own status (``refuted`` / ``inconclusive``), never merged.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.lyapunov.regions import Region
+from roa.lyapunov import Region
 
 CERTIFIED_PATH = Path("results/certify/certified.json")
 

@@ -53,13 +53,13 @@ def _physical(
     """Sector at q = q' = theta' = 0 and reference-box fraction of ``{V(coords(x)) <= level}``.
 
     ``sector_rad`` / ``sector_deg``: a certified lower bound (interval arithmetic on the exact
-    coordinate map, :func:`roa.proof.sector.certified_sector`; degrees rounded down);
+    coordinate map, :func:`roa.proof.certified_sector`; degrees rounded down);
     ``sector_float_rad`` / ``sector_float_deg``: the float grid + bisection estimate.
     """
     from ipc_paper.certified import coords_map
     from ipc_paper.system.coordinates import to_flat_components
-    from roa.proof.sector import certified_sector, degrees_lower, quadratic_form
-    from roa.search.quadratic import sector
+    from roa.proof import certified_sector, degrees_lower, quadratic_form
+    from roa.search import sector
 
     c2y = coords_map(coords)
 
@@ -119,8 +119,8 @@ def _slice_coverage(sat: float, P: np.ndarray, level: float, p: dict[str, Any]) 
     import roa
     from ipc_paper.certified import coords_map
     from ipc_paper.system import closed_loop
-    from roa.integration import integrator as I  # noqa: N812
-    from roa.montecarlo.sampling import grid_slice
+    from roa.integration import CONVERGED
+    from roa.montecarlo import grid_slice
     from roa.options import IntegratorOptions, RunOptions
     from roa.status import StopRules
 
@@ -142,12 +142,12 @@ def _slice_coverage(sat: float, P: np.ndarray, level: float, p: dict[str, Any]) 
     nq, nt = p["sat_grid"]
     g = grid_slice(system, ["q", "theta"], [(q_lo, q_hi), (t_lo, t_hi)], (nq, nt),
                    fixed={"q_dot": 0.0, "theta_dot": 0.0})  # fmt: skip
-    conv = roa.basin(system, g, **kw).code == I.CONVERGED
+    conv = roa.basin(system, g, **kw).code == CONVERGED
     ins = inside(g.points(0, g.n))
     eps = 1e-6  # the line q = q' = theta' = 0: where the empirical basin ends
     line = grid_slice(system, ["theta", "q"], [(-np.pi / 2 + eps, np.pi / 2 - eps), (-1e-12, 1e-12)],
                       (2001, 2))  # fmt: skip
-    lconv = (roa.basin(system, line, **kw).code.reshape(line.shape) == I.CONVERGED).all(axis=0)
+    lconv = (roa.basin(system, line, **kw).code.reshape(line.shape) == CONVERGED).all(axis=0)
     th, zero = line.xs, len(line.xs) // 2
     k = zero
     while k + 1 < len(th) and lconv[k + 1] and lconv[2 * zero - k - 1]:
@@ -175,8 +175,7 @@ def _fresh(progress: bool) -> None:
 def case_vanderpol(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C1: the Van der Pol benchmark (SOS level, sampled optimum, interval pair)."""
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.levelset import level_search
-    from roa.search.sos import sos_level
+    from roa.search import level_search, sos_level
     from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
     _fresh(progress)
@@ -195,8 +194,7 @@ def case_paper(p: dict[str, Any], progress: bool) -> dict[str, Any]:
     """C2-C4, C7: the paper's V (SOS programs, interval pair, sector and box share)."""
     from ipc_paper.system import REFERENCE_BOX, transformed
     from ipc_paper.system.lyapunov import paper_lyapunov
-    from roa.search.levelset import level_search
-    from roa.search.sos import sos_level
+    from roa.search import level_search, sos_level
 
     _fresh(progress)
     aux = p["sos_aux_degree"]
@@ -244,8 +242,7 @@ def case_optimised(
     from ipc_paper.certified import coords_map
     from ipc_paper.system import REFERENCE_BOX
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.levelset import level_search
-    from roa.search.quadratic import optimise_quadratic
+    from roa.search import level_search, optimise_quadratic
 
     _fresh(progress)
     system = _system(coords)
@@ -305,15 +302,14 @@ def case_saturated(
     loop in the coordinates (2.2), so ``{V <= c}`` in flat coordinates is ``{V(xi(x)) <= c}`` of
     physical states, and ``V' = grad V . f`` is the same number in both. The field carries
     ``xp.clip``: the interval validation encloses it and its generalised derivative
-    (:mod:`roa.proof.jet`), so the control may saturate inside the certified set. Returns
+    (:mod:`roa.proof._jet`), so the control may saturate inside the certified set. Returns
     ``(search result to cache or None, block, P of V)``; without ``sat_search`` (quick mode) the seed
     ``P0`` itself is certified.
     """
     from ipc_paper.certified import coords_map
     from ipc_paper.system import REFERENCE_BOX, transformed
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.levelset import level_search
-    from roa.search.quadratic import optimise_quadratic
+    from roa.search import level_search, optimise_quadratic
 
     _fresh(progress)
     sat = float(p["sat_limit"])

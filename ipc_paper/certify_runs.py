@@ -17,7 +17,7 @@ from ipc_paper.degrees_report import box_ci, box_share
 from roa.errors import RoaInputError
 from roa.io import atomic_write_json
 from roa.options import IntervalOptions, Options
-from roa.studies.experiment import accepts
+from roa.studies import accepts
 
 
 def _sos_text(res: dict[str, Any]) -> str:
@@ -112,13 +112,13 @@ class CertifyParams(Options):
 @accepts(CertifyParams)
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     """The certify experiment: independent cases run in parallel worker processes (``n_jobs``,
-    :mod:`ipc_paper.certify_cases`); searches are cached (:mod:`roa.search.cache`), every
+    :mod:`ipc_paper.certify_cases`); searches are cached (:mod:`roa.search._cache`), every
     level is certified afresh."""
     from ipc_paper import certify_cases as K
     from ipc_paper.system.lyapunov import paper_lyapunov
     from roa import progress
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.cache import SearchCache
+    from roa.search import SearchCache
 
     p = params  # every key of CertifyParams, defaults filled in
     show = progress.enabled()
@@ -242,7 +242,7 @@ def _ball_containment(blocks: dict[str, tuple[Any, dict[str, Any]]]) -> dict[str
     from fractions import Fraction
 
     from ipc_paper.system.lyapunov import T
-    from roa.proof.containment import ellipsoid_contains
+    from roa.proof import ellipsoid_contains
 
     out: dict[str, Any] = {"ball": "||T xi||^2 <= 489/100 (exact)", "candidates": {}}
     for key, (V, blk) in blocks.items():
@@ -453,7 +453,7 @@ def certified_level(case: str = "ipc-paper", fraction: float = 0.999) -> float:
     from roa.certification import certify
     from roa.lyapunov import QuadraticLyapunov
     from roa.options import IntervalOptions
-    from roa.search.levelset import level_search
+    from roa.search import level_search
 
     if case == "ipc-paper":
         from ipc_paper.system import transformed

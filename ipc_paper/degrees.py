@@ -31,7 +31,7 @@ import numpy as np
 from roa.io import atomic_write_json
 from roa.options import Options
 from roa.progress import step
-from roa.studies.experiment import accepts
+from roa.studies import accepts
 
 E = "results/degrees/summary.json"
 
@@ -231,8 +231,8 @@ def _ipc_row(cert: Any, p: dict[str, Any], coords: str = "flat") -> dict[str, An
     from ipc_paper.certified import coords_map
     from ipc_paper.certify_runs import _box_fraction, _sector_curve
     from ipc_paper.system import REFERENCE_BOX
-    from roa.proof.sector import certified_sector, degrees_lower
-    from roa.search.quadratic import sector
+    from roa.proof import certified_sector, degrees_lower
+    from roa.search import sector
 
     c2y, comps = coords_map(coords), _components(coords)
     row = _row(cert)

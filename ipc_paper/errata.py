@@ -11,7 +11,7 @@ import sympy as sp
 from ipc_paper import symbolic as S
 from roa.io import atomic_write_json
 from roa.options import Options
-from roa.studies.experiment import accepts
+from roa.studies import accepts
 
 
 def analyse() -> dict[str, Any]:

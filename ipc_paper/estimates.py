@@ -2,7 +2,7 @@
 
 :func:`khalil` runs :func:`roa.level_search` for the two shapes (the paper's ball
 ``||q||^2 = xi' T'T xi`` and the level sets of ``V``); :func:`ipc_regions` returns the estimates as
-:class:`roa.lyapunov.regions.Region` objects in flat coordinates with ``coords = physical_to_flat_or_inf``,
+:class:`roa.lyapunov.Region` objects in flat coordinates with ``coords = physical_to_flat_or_inf``,
 so they can be drawn over physical basin maps.
 """
 
@@ -22,8 +22,8 @@ from ipc_paper.system.lyapunov import (
     to_q,
 )
 from roa.errors import RoaInputError
-from roa.lyapunov.regions import Region, symmetric_extent
-from roa.search.levelset import inner_level, level_search
+from roa.lyapunov import Region, symmetric_extent
+from roa.search import inner_level, level_search
 
 
 @functools.lru_cache(maxsize=8)
@@ -75,7 +75,7 @@ def _regions() -> tuple[Region, ...]:
     c_ball, c_level = float(ball["value"]), float(level["value"])
     paper, corr = paper_bound(), corrected_bound()
     # the hand proof is not taken on trust: the level is validated with interval arithmetic
-    from roa.proof.validate import validate_level
+    from roa.proof import validate_level
 
     verdict = validate_level(flat_system(), paper_lyapunov(), corr["V_level_in_slab"])
     return (
@@ -190,7 +190,7 @@ def paper_ball() -> Region:
 
 
 def ipc_regions() -> list[Region]:
-    """The IPC's estimates as :class:`roa.lyapunov.regions.Region` objects (flat coordinates, physical coords).
+    """The IPC's estimates as :class:`roa.lyapunov.Region` objects (flat coordinates, physical coords).
 
     Names say what each is; ``meta["invariant"]`` tells whether the set is a sublevel set of V
     (forward invariant, hence an ROA estimate) or a ball. Values are computed once and cached.

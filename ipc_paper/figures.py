@@ -14,12 +14,12 @@ from ipc_paper import system as ipc
 from ipc_paper.system.controller import Gains, make_reference
 from ipc_paper.system.model import phi0
 from roa.errors import RoaInputError
-from roa.integration.simulation import simulate
+from roa.integration import simulate
 from roa.io import atomic_savefig, atomic_write_json
 from roa.options import Options
-from roa.plotting.trajectories import plot_runs
+from roa.plotting import plot_runs
 from roa.status import StopRules
-from roa.studies.experiment import accepts, check_int, check_number, check_numbers
+from roa.studies import accepts, check_int, check_number, check_numbers
 
 IPC_LABELS = ("q [-]", r"$\dot q$ [1/s]", r"$\theta$ [rad]", r"$\dot\theta$ [rad/s]")
 FORCE_LABEL = "force u [-] (u = F/(m g))"

@@ -11,12 +11,11 @@ import numpy as np
 
 from ipc_paper import estimates as est
 from ipc_paper.bound import check_against_phi, corrected_bound, kappa_numeric, paper_bound
-from ipc_paper.system import from_flat
-from ipc_paper.system import lyapunov as ly
+from ipc_paper.system import from_flat, lyapunov as ly
 from roa.io import atomic_savefig, atomic_write_json
 from roa.options import CasadiOptions, Options, SampledOptions
-from roa.search.levelset import inner_level, level_search
-from roa.studies.experiment import MAX_SEED, accepts, check_int
+from roa.search import inner_level, level_search
+from roa.studies import MAX_SEED, accepts, check_int
 
 _DERIVATION = (
     "From (3.12), Phi = -q'Mq + (3q1+q2) beta + q3 q4 - q4^2 with |beta| <= kappa q4^2, "

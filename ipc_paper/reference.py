@@ -6,7 +6,7 @@ Add a value with one line in :data:`REGISTRY`, then store it once with
 
 from __future__ import annotations
 
-from roa.studies.reference import Entry
+from roa.studies import Entry
 
 _L = "ipc_paper.estimates:khalil_value"
 _K = "IPOPT multi-start min s s.t. V'/s >= 0, witness on V' = 0"
@@ -36,7 +36,7 @@ REGISTRY: dict[str, Entry] = {
 def vanderpol_level(method: str = "casadi") -> float:
     """Largest V-level of the time-reversed Van der Pol benchmark (published 2.3045)."""
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.levelset import level_search
+    from roa.search import level_search
     from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
     system = vanderpol()

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from roa.errors import ResultsError
 from roa.io import atomic_write_text
-from roa.studies.experiment import VERDICTS
+from roa.studies import VERDICTS
 
 #: Sections in report order: (claim id prefix, heading).
 SECTIONS = (

@@ -4,7 +4,7 @@ The controller is designed with the nominal mass ratio ``delta = M / m = 1``; th
 ratio ``delta_plant`` lies in ``[delta_low, delta_high]`` (default ``[0.5, 2]``). The closed loop in
 flat coordinates is :func:`ipc_paper.system.transformed_uncertain`; every certificate here holds
 for *every* ``delta_plant`` of the box (:func:`roa.certify` on a system with uncertain parameters:
-one interval branch and bound over states and the parameter, :mod:`roa.proof.robust`).
+one interval branch and bound over states and the parameter, :mod:`roa.proof._robust`).
 
 Cases (each a :func:`roa.certify` call; refutations name the ``delta_plant`` of their witness):
 
@@ -40,7 +40,7 @@ import numpy as np
 from roa.io import atomic_write_json
 from roa.options import Options
 from roa.progress import step
-from roa.studies.experiment import accepts
+from roa.studies import accepts
 
 E = "results/robust/summary.json"
 
@@ -92,7 +92,7 @@ def robust_quadratic(system: Any, P_near: np.ndarray, alpha: float) -> tuple[np.
     import cvxpy as cp
 
     from roa.errors import RoaInputError
-    from roa.model.linearisation import linearise
+    from roa.model import linearise
 
     box = system.parameters["delta_plant"]
     ends = [linearise(system.at(delta_plant=d)).A for d in (box.low, box.high)]
@@ -141,7 +141,7 @@ def _sector_box(V: Any, level: float, p: dict[str, Any]) -> dict[str, Any]:
     from ipc_paper.certify_cases import _box_fraction
     from ipc_paper.system import REFERENCE_BOX
     from ipc_paper.system.coordinates import to_flat_components
-    from roa.proof.sector import certified_sector, degrees_lower
+    from roa.proof import certified_sector, degrees_lower
 
     c2y = coords_map("flat")
 
@@ -164,9 +164,9 @@ def _sector_box(V: Any, level: float, p: dict[str, Any]) -> dict[str, Any]:
 def sector_level(V: Any, degrees: float = 60.0) -> float:
     """The largest ``V`` on the sector ``|theta| <= degrees`` at ``q = q' = theta' = 0`` (a dense
     grid, x (1 + 1e-6)): ``{V <= it}`` holds the sector (checked after certification by
-    :func:`roa.proof.sector.certified_sector`)."""
+    :func:`roa.proof.certified_sector`)."""
     from ipc_paper.system.coordinates import to_flat_components
-    from roa.model.backend import NP
+    from roa.model import NP
 
     th = np.radians(np.linspace(-degrees, degrees, 40001))
     z = np.zeros_like(th)
@@ -178,7 +178,7 @@ def sector_level(V: Any, degrees: float = 60.0) -> float:
 def _cases(p: dict[str, Any], results: Path) -> dict[str, Any]:
     import roa
     from ipc_paper.system import transformed_uncertain
-    from roa.search.candidate import as_lyapunov
+    from roa.search import as_lyapunov
 
     system = transformed_uncertain(delta_low=p["delta_low"], delta_high=p["delta_high"])
     itv = roa.IntervalOptions(max_boxes=p["max_boxes"], sampled_safety=p["safety"])

@@ -23,7 +23,7 @@ import numpy as np
 from roa.io import atomic_write_json
 from roa.options import Options
 from roa.shares import share
-from roa.studies.experiment import accepts
+from roa.studies import accepts
 
 E = "results/basin_robust/summary.json"
 
@@ -44,7 +44,7 @@ class RobustBasinParams(Options):
 def run(params: dict[str, Any], out: Path, *, quick: bool) -> dict[str, Any]:
     import roa
     from ipc_paper.system import closed_loop_uncertain
-    from roa.montecarlo.sampling import grid_slice
+    from roa.montecarlo import grid_slice
 
     robust = json.loads((out.parent / "robust" / "evidence.json").read_text())
     lo, hi = robust["box"]

@@ -23,16 +23,16 @@ from ipc_paper.basins import SECTOR, regions
 from ipc_paper.estimates import sector_theta
 from roa.errors import ResultsError
 from roa.io import atomic_write_json
-from roa.montecarlo.sampling import box_sample
+from roa.montecarlo import box_sample
 from roa.options import Options
-from roa.plotting.basin import (
+from roa.plotting import (
     KIND_STYLES,
     KIND_WORDS,
     LINE_STYLE,
     region_label,
     save_figure,
 )
-from roa.studies.experiment import MAX_SEED, accepts, check_int
+from roa.studies import MAX_SEED, accepts, check_int
 
 #: Row order of the kinds (top to bottom) and their markers.
 KINDS = ("claimed", "sampled", "certified", "refuted", "inconclusive", "empirical")

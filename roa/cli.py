@@ -1,4 +1,4 @@
-"""The ``roa`` command line. Each subcommand lives in ``roa/commands/NAME.py`` with ``register``."""
+"""The ``roa`` command line. Each subcommand lives in ``roa/commands/_NAME.py`` with ``register``."""
 
 from __future__ import annotations
 
@@ -26,7 +26,7 @@ COMMANDS = (
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from roa.commands.common import Parser
+    from roa.commands._common import Parser
 
     parser = Parser(
         prog="roa",
@@ -34,7 +34,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for name in COMMANDS:
-        importlib.import_module(f"roa.commands.{name}").register(sub)
+        importlib.import_module(f"roa.commands._{name}").register(sub)
     return parser
 
 

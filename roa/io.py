@@ -1,7 +1,7 @@
 """Atomic writes and run manifests: a result file is either whole or absent; the cache's key.
 
-Cache entries that decide a result (proved levels, :mod:`roa.proof.reverify`; the index of
-generated kernels, :mod:`roa.integration.kernel_cache`) carry an HMAC-SHA256 tag under a per-user
+Cache entries that decide a result (proved levels, :mod:`roa.proof._reverify`; the index of
+generated kernels, :mod:`roa.integration._kernel_cache`) carry an HMAC-SHA256 tag under a per-user
 key (:func:`cache_secret`, a 0600 file in the cache directory). An entry whose tag does not
 check is ignored, so a file written into the cache by someone who cannot read the key (another
 user of a shared cache directory, a tool, a hand-written JSON) is never believed. Whoever can

@@ -13,7 +13,7 @@ Claims and assumptions:
   number, an integer must fit a finite double (checked by its bit length, without converting it
   to text), a float must be finite.
 * Stored certificates have their own exact-rational grammar
-  (:func:`roa.proof.sos_check.parse_rational`); this one is for floats.
+  (:func:`roa.proof._sos_check.parse_rational`); this one is for floats.
 """
 
 from __future__ import annotations
@@ -30,7 +30,7 @@ if TYPE_CHECKING:
 #: Longest number accepted as text (17 significant digits, sign, point and exponent fit easily).
 MAX_CHARS = 64
 #: The largest level of a Lyapunov candidate accepted from the command line: with ``P`` of
-#: entries up to :data:`roa.lyapunov.base.MAX_SCALE`, ``level / lambda_min(P)`` and the programs
+#: entries up to :data:`roa.lyapunov._base.MAX_SCALE`, ``level / lambda_min(P)`` and the programs
 #: built on ``{V <= level}`` stay finite doubles.
 MAX_LEVEL = 1e150
 #: Integers with more bits than this do not fit a finite double.

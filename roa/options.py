@@ -214,7 +214,7 @@ class SosOptions(Options):
 
 @dataclass(frozen=True)
 class VsOptions(Options):
-    """Search of a polynomial V by SOS V-s iteration (:func:`roa.search.vs_iteration.vs_search`).
+    """Search of a polynomial V by SOS V-s iteration (:func:`roa.search.vs_search`).
 
     Parameters
     ----------
@@ -306,7 +306,7 @@ class VsOptions(Options):
 
 @dataclass(frozen=True)
 class SampleSearchOptions(Options):
-    """Sampled cutting-plane search of a polynomial V (:func:`roa.search.cutting_planes.sample_search`)
+    """Sampled cutting-plane search of a polynomial V (:func:`roa.search._cutting_planes.sample_search`)
     and its certification (``roa.certify`` with :class:`roa.CuttingPlanes`).
 
     Parameters

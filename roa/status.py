@@ -135,7 +135,7 @@ class StopRules:
     diverge_bound : float
         Norm above which a run is ``diverged``.
     diverge_growth : float or None
-        Factor ``G > 1`` of the growth rule (:func:`roa.integration.divergence.blows_up`): a run still going
+        Factor ``G > 1`` of the growth rule (:func:`roa.integration._divergence.blows_up`): a run still going
         at ``t_final`` is ``diverged`` when ``||x - x_eq||`` is then at least ``diverge_bound / G``,
         at least ``G`` times its largest value over ``[0, t_final / 2]``, and still growing at
         no less than half its mean exponential rate over ``[t_final / 2, t_final]``. ``None``: no

@@ -27,7 +27,7 @@ def _pct(v: float) -> str:
 
 
 def _shares(doc: dict[str, Any]) -> list[tuple[str, str]]:
-    from roa.montecarlo.certified_share import clopper_pearson
+    from roa.montecarlo._certified_share import clopper_pearson
 
     rows = []
     entries = doc.get("certified_share")

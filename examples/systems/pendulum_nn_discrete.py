@@ -22,7 +22,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from pendulum_nn import load  # noqa: E402
 
-from roa.model.discrete import discretise  # noqa: E402
+from roa.model import discretise  # noqa: E402
 
 #: The sample time (s).
 H = 0.05

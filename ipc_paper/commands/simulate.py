@@ -7,7 +7,7 @@ import argparse
 from typing import Any
 
 from roa import numparse
-from roa.commands.common import floats
+from roa.commands import floats
 from roa.errors import RoaInputError
 from roa.io import to_json
 
@@ -96,7 +96,7 @@ def run(args: argparse.Namespace) -> int:
 
     from ipc_paper import system as ipc
     from ipc_paper.system.controller import Gains, make_reference
-    from roa.integration.simulation import simulate
+    from roa.integration import simulate
     from roa.status import StopRules
 
     x0 = np.array(floats(args.ic, "--ic", 4))
@@ -140,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
         half = traj.t >= traj.t_end / 2
         out["tracking_error_max_last_half"] = float(err[half].max())
     if args.plot:
-        from roa.plotting.trajectories import plot_run
+        from roa.plotting import plot_run
 
         plot_run(
             ipc.closed_loop(delta=delta, gains=gains),

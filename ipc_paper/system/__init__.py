@@ -38,7 +38,7 @@ from ipc_paper.system.model import (
     phi3,
 )
 from roa.errors import RoaInputError
-from roa.model.system import System
+from roa.model import System
 
 __all__ = [
     "closed_loop",
@@ -91,7 +91,7 @@ def control_force(
     ``xp.clip`` (so the saturated loop runs in every namespace: numpy, CasADi, sympy, intervals
     and jets, where the validation encloses the kink).
     """
-    from roa.model.backend import NP
+    from roa.model import NP
 
     xp = NP if xp is None else xp
     gains, reference = _settings(gains, reference)
@@ -105,7 +105,7 @@ def control_force(
 
 def _saturate(u: Any, limit: float, xp: Any) -> Any:
     """``xp.clip(u, -limit, limit)``; Python's min/max for a namespace of scalars without ``clip``
-    (e.g. the mpmath namespace of roa.proof.witness's 50-digit re-checks)."""
+    (e.g. the mpmath namespace of roa.proof._witness's 50-digit re-checks)."""
     clip = getattr(xp, "clip", None)
     return clip(u, -limit, limit) if clip is not None else min(max(u, -limit), limit)
 
@@ -340,7 +340,7 @@ def _kernels(which: str, reference: Reference, **kw: Any) -> dict[str, Any]:
     """The System fields ``numba`` and ``numba_fast`` (factories) for the batch integrator (zero reference only;
     the public array signatures and the pointer-only fast path, see fast.py), and for the
     physical loop without saturation ``analysis_coords`` (terminal sets in flat or hybrid
-    coordinates, roa/integration/terminal.py)."""
+    coordinates, roa/integration/_terminal.py)."""
     if not reference.is_zero:
         return {}
     from ipc_paper.system import fast

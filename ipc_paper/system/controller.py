@@ -15,7 +15,7 @@ import numpy as np
 
 from ipc_paper.system.model import phi1, phi2, phi3
 from roa.errors import RoaInputError
-from roa.model.backend import NP
+from roa.model import NP
 
 
 @dataclass(frozen=True)

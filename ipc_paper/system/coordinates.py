@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.model.backend import NP
+from roa.model import NP
 
 HALF_PI = np.pi / 2
 

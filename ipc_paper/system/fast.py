@@ -6,10 +6,10 @@ scalar code. ``ipc_paper/tests/test_montecarlo.py`` checks them against ``System
 Parameters travel in an array ``params = (delta, h0, h1, h2, h3, saturation or nan)``.
 
 Each function exists twice, from one body: as a ``numba.cfunc`` of the public signatures of
-roa/integration/integrator.py (``System.numba``, the protocol user systems follow) and as
+roa/integration/_integrator.py (``System.numba``, the protocol user systems follow) and as
 a ``numba.njit`` function for the fast path (``System.numba_fast``, preferred by the
 engine: the kernel is compiled for these functions and calls them directly, no call through a
-pointer; :func:`roa.integration.integrator.compile_kernel`). The fast path also fuses the field
+pointer; :func:`roa.integration.compile_kernel`). The fast path also fuses the field
 with the map to the coordinates of a terminal set, so the set test after each step reuses the
 field's sin, cos and log. ``ipc_paper/tests/test_terminal_fastpath.py`` checks that both paths give the
 same trajectories bit for bit.
@@ -23,16 +23,16 @@ from typing import TYPE_CHECKING
 import numba
 import numpy as np
 
-from roa.integration.integrator import (
+from roa.integration import (
     COORDS_SIGNATURE,
     FIELD_SIGNATURE,
     MARGIN_SIGNATURE,
+    LazyCfuncs,
     no_margin_njit,
 )
-from roa.integration.lazy_cfunc import LazyCfuncs
 
 if TYPE_CHECKING:
-    from roa.model.system import System
+    from roa.model import System
 
 HALF_PI = np.pi / 2
 
@@ -239,7 +239,7 @@ class PhysicalKernels:
 
     ``kernels()`` returns ``(field, margin, params)``; ``kernels(coords=name)`` adds the compiled
     map ``coords(x, params, out)`` to the analysis coordinates ``name`` (:func:`compiled_coords`)
-    of a terminal set (roa/integration/terminal.py).
+    of a terminal set (roa/integration/_terminal.py).
     """
 
     def __init__(self, delta: float, h: Sequence[float], saturation: float | None) -> None:
@@ -256,7 +256,7 @@ class PhysicalKernels:
 class PhysicalFastKernels(PhysicalKernels):
     """Picklable factory for ``System.numba_fast`` (physical coordinates): the functions of
     :class:`PhysicalKernels` as ``numba.njit`` functions, for
-    :func:`roa.integration.integrator.compile_kernel`. ``kernels()`` returns ``(field, margin,
+    :func:`roa.integration.compile_kernel`. ``kernels()`` returns ``(field, margin,
     params)``; ``kernels(coords=name)`` adds the map to ``name`` and the field fused with it."""
 
     def __call__(self, coords: str | None = None):
@@ -267,7 +267,7 @@ class PhysicalFastKernels(PhysicalKernels):
 
 
 class AnalysisCoords:
-    """``System.analysis_coords`` of the physical closed loop (roa/integration/terminal.py).
+    """``System.analysis_coords`` of the physical closed loop (roa/integration/_terminal.py).
 
     ``coords(name)`` is the numpy map physical -> ``name`` (inf outside |theta| < pi/2);
     ``systems`` maps the names of certified systems (``roa certify --json``) to their coordinates.
@@ -312,9 +312,9 @@ class FlatKernels:
         self.params = np.array([1.0, *map(float, h), np.nan])
 
     def __call__(self):
-        from roa.integration import integrator
+        from roa.integration import no_margin
 
-        return __getattr__("flat_field"), integrator.no_margin, self.params
+        return __getattr__("flat_field"), no_margin, self.params
 
 
 class FlatFastKernels(FlatKernels):

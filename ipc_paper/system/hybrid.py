@@ -25,7 +25,7 @@ import numpy as np
 from ipc_paper.system.controller import Gains, Reference, make_reference, virtual_input
 from ipc_paper.system.coordinates import physical_to_flat_or_inf
 from ipc_paper.system.model import phi0
-from roa.model.system import System
+from roa.model import System
 
 HYBRID_NAMES = ("q", "z2", "w1", "w2")
 

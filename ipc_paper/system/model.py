@@ -27,7 +27,7 @@ from __future__ import annotations
 from typing import Any
 
 from roa.errors import RoaInputError
-from roa.model.backend import NP
+from roa.model import NP
 
 #: Default mass ratio delta = M / m. The paper gives none; 1.0 (equal masses) is documented here.
 #: The closed loop in transformed coordinates does not depend on it (ipc_paper/tests/test_ipc.py).

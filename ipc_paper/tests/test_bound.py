@@ -73,7 +73,7 @@ def test_cli_khalil_json_vanderpol(capsys):
 def test_cli_khalil_user_file(tmp_path, capsys):
     f = tmp_path / "mysys.py"
     f.write_text(
-        "from roa.model.system import System\n"
+        "from roa.model._system import System\n"
         "def field(t, x, xp):\n    return (-x[0] + x[0]**3, -x[1])\n"
         "SYS = System('cubic', field, (0.0, 0.0), ('a', 'b'))\n"
     )

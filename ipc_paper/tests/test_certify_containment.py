@@ -12,8 +12,8 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from roa.proof.containment import ellipsoid_contains
-from roa.search.cache import SearchCache
+from roa.proof._containment import ellipsoid_contains
+from roa.search._cache import SearchCache
 
 
 def test_diagonal_containment_decided_on_both_sides_of_the_exact_bound():
@@ -97,7 +97,7 @@ def test_exact_positive_definite_is_sylvester_on_symmetric_matrices_only():
     positive minors (1 and 10) but is no symmetric positive-definite matrix, so it is refused."""
     from fractions import Fraction
 
-    from roa.proof.exact import exact_positive_definite
+    from roa.proof._exact import exact_positive_definite
 
     assert exact_positive_definite([[2, 1], [1, 2]]) == (True, [Fraction(2), Fraction(3, 2)])
     assert exact_positive_definite([[1, 3], [-3, 1]])[0] is False
@@ -113,7 +113,7 @@ def test_exact_positive_definite_pivots_are_ratios_of_leading_minors():
 
     import flint
 
-    from roa.proof.exact import exact_positive_definite
+    from roa.proof._exact import exact_positive_definite
 
     rng = random.Random(1)
     for _ in range(200):

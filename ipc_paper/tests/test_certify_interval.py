@@ -11,18 +11,17 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 from scipy.optimize import minimize
 
 from ipc_paper.system import phi0, transformed
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.interval import INTERVAL, Interval, box_offsets
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
-from roa.proof.local import local_box, local_box_proof
-from roa.proof.validate import validate_level
-from roa.search.rays import ray_box
+from roa.proof._interval import INTERVAL, Interval, box_offsets
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
+from roa.proof._local import local_box, local_box_proof
+from roa.proof._validate import validate_level
+from roa.search._rays import ray_box
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 finite = st.floats(-5, 5, allow_nan=False)
@@ -289,7 +288,7 @@ def test_compositions_never_produce_inverted_intervals(a, b, c, d, chain):
 
 def _half_plane_system():
     """Toy system x' = -x (V = |x|^2, V' = -2 |x|^2 < 0 everywhere) on the domain x1 < 1."""
-    from roa.model.system import System
+    from roa.model._system import System
 
     return System(
         name="decay_half_plane",
@@ -336,7 +335,7 @@ def _jet_and_mp_derivatives(fn, x, lo, hi):
     """Interval jet (order 2) of ``fn`` on the box [lo, hi] and 40-digit mpmath derivatives at x."""
     import mpmath as mp
 
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
 
     n = len(x)
     J = fn(Jet.variables(lo[None, :], hi[None, :], order=2), JET)
@@ -388,7 +387,7 @@ def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
     """The same for V' of the IPC closed loop (3.8) with the paper's V, as the validation uses it:
     in x (jets of ``grad V . f``), and in the whitened y of the one loop (jets from the exact
     expansions in y; mpmath through the composition with ``x = M y``)."""
-    from roa.proof.whiten import Whitened, whitened_system, whitening_for
+    from roa.proof._whiten import Whitened, whitened_system, whitening_for
 
     system = transformed()
     V = QuadraticLyapunov.for_system(system, _paper_V())
@@ -404,8 +403,8 @@ def test_jet_of_ipc_vdot_encloses_mpmath_derivatives(a, b, c, d, r):
 def test_public_interval_functions_have_docstrings():
     import inspect
 
-    import roa.proof.interval as mod
-    import roa.proof.jet as jet_mod
+    import roa.proof._interval as mod
+    import roa.proof._jet as jet_mod
 
     missing = [
         name

@@ -9,9 +9,9 @@ import sympy as sp
 
 from ipc_paper.system import transformed
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.validate import validate_level
-from roa.search.rays import ray_box
-from roa.search.sos import recast, sos_level
+from roa.proof._validate import validate_level
+from roa.search._rays import ray_box
+from roa.search._sos import recast, sos_level
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 
@@ -71,7 +71,7 @@ def test_symmetry_reduction_keeps_the_vanderpol_optimum():
 
 
 def test_symmetry_true_on_a_non_odd_field_is_rejected():
-    from roa.model.system import System
+    from roa.model._system import System
 
     sys_ = System(
         name="quadratic_drift",
@@ -95,7 +95,7 @@ def test_ipc_exact_sos_solves_with_symmetry_and_matches_sampled_optimum():
     solver tolerance) a lower bound of the true level, compared with the independent IPOPT
     optimum (an upper bound attained at a witness)."""
     from ipc_paper.system.lyapunov import paper_lyapunov
-    from roa.search.levelset import level_search
+    from roa.search._levelset import level_search
 
     system, V = transformed(), paper_lyapunov()
     r = sos_level(system, V, recast_mode="exact", aux_degree=2)

@@ -17,15 +17,18 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from ipc_paper import summary_figure as sf  # noqa: E402
-from ipc_paper import system as ipc  # noqa: E402
+import roa.plotting  # noqa: E402
+from ipc_paper import (
+    summary_figure as sf,  # noqa: E402
+    system as ipc,  # noqa: E402
+)
 from ipc_paper.figures import IPC_LABELS  # noqa: E402
-from roa.integration import dopri as I  # noqa: E402, N812
-from roa.lyapunov.regions import Region  # noqa: E402
-from roa.montecarlo.sampling import grid_slice  # noqa: E402
-from roa.plotting import basin as pb  # noqa: E402
-from roa.plotting.trajectories import state_labels  # noqa: E402
-from roa.studies.experiment import run_experiment  # noqa: E402
+from roa.integration import _dopri as I  # noqa: E402, N812
+from roa.lyapunov._regions import Region  # noqa: E402
+from roa.montecarlo._sampling import grid_slice  # noqa: E402
+from roa.plotting import _basin as pb  # noqa: E402
+from roa.plotting._trajectories import state_labels  # noqa: E402
+from roa.studies._experiment import run_experiment  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 UNIT = re.compile(r"\[[^\]]+\]")
@@ -74,6 +77,7 @@ def experiment_figures(tmp_path_factory):
     real = pb.save_figure
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(pb, "save_figure", keep)
+        mp.setattr(roa.plotting, "save_figure", keep)  # the study imports the public name
         mp.setattr(sf, "save_figure", keep)
         for name in (*BASIN_EXPERIMENTS, "basin_box", "summary"):
             current["name"] = name

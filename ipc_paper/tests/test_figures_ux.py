@@ -26,7 +26,7 @@ def test_basin_map_legend_and_colourbar():
 
     from ipc_paper import system as ipc
     from ipc_paper.basins import regions, slice_map
-    from roa.montecarlo.sampling import grid_slice
+    from roa.montecarlo._sampling import grid_slice
 
     system = ipc.closed_loop()
     g = grid_slice(system, ["theta", "theta_dot"], [(-1.5, 1.5), (-6.0, 6.0)], (6, 5),

@@ -9,8 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from ipc_paper import system as ipc
 from ipc_paper.system.hybrid import (
@@ -20,10 +19,10 @@ from ipc_paper.system.hybrid import (
     hybrid_to_physical,
     physical_to_hybrid_or_inf,
 )
-from roa.integration.simulation import simulate
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
+from roa.integration._simulation import simulate
+from roa.proof._interval import INTERVAL, Interval
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
 from roa.status import StopRules
 
 
@@ -75,8 +74,8 @@ def test_physical_and_hybrid_simulations_agree(x0):
 
 
 def test_hybrid_equilibrium_is_exact_and_linearisation_hurwitz():
-    from roa.proof.exact import exact_equilibrium
-    from roa.search.levelset import jacobian
+    from roa.proof._exact import exact_equilibrium
+    from roa.search._levelset import jacobian
 
     h = hybrid()
     assert exact_equilibrium(h, h.x_eq)

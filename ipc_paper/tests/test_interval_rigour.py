@@ -1,7 +1,7 @@
 """Rigour of the interval layer (issue 15): jets enclose exact values and derivatives; sectors.
 
 Random programs of jet operations with float constants are run three ways: on interval jets
-(:class:`roa.proof.jet.Jet`, second order, on a box), on exact rational jets
+(:class:`roa.proof.Jet`, second order, on a box), on exact rational jets
 (:class:`fractions.Fraction`, for the rational operations) and on 50-digit mpmath jets (with the
 transcendental functions); the interval jet must contain the exact value, gradient and Hessian at
 a point of the box. The exact derivatives come from the chain rule in exact / 50-digit arithmetic,
@@ -15,14 +15,13 @@ from fractions import Fraction
 import mpmath as mp
 import numpy as np
 import pytest
-from hypothesis import assume, example, given, settings
-from hypothesis import strategies as st
+from hypothesis import assume, example, given, settings, strategies as st
 
 from roa.errors import RoaInputError
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
-from roa.search.rays import ray_box
+from roa.proof._interval import INTERVAL, Interval
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
+from roa.search._rays import ray_box
 
 
 # -- reference jets: exact (Fraction) or 50-digit (mpmath) ------------------------------------------
@@ -370,7 +369,7 @@ def test_constants_entering_jets_and_intervals_are_enclosed():
 
 def test_outward_rounding_never_tightens():
     """The fast outward rounding is at least one ulp wide, also at 0, subnormals and huge values."""
-    from roa.proof.interval import LIBM_ULPS, round_down, round_up
+    from roa.proof._interval import LIBM_ULPS, round_down, round_up
 
     v = np.array([0.0, 5e-324, -5e-324, 2.0**-1022, 1.0, -1.0, 0.1, 1e300, -1e300, 1.7e308, 3.0])
     for k in (1, LIBM_ULPS):
@@ -389,7 +388,7 @@ def test_outward_rounding_never_tightens():
 def _exact_jacobian(system):
     import sympy as sp
 
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
 
     xs = sp.symbols(f"x0:{system.n}")
     f = system.field(0.0, list(xs), namespace("sympy"))
@@ -415,9 +414,9 @@ def test_hessian_of_vdot_at_the_equilibrium_is_enclosed_exactly(name):
     at y = 0 and on the local box it proves (the whitened V of the loop, jets from the exact
     expansions in y, the cover of {V <= 2})."""
     import roa
-    from roa.proof.cover import prove_cover
-    from roa.proof.local import local_box
-    from roa.proof.whiten import Whitened, whitened_system, whitening_for
+    from roa.proof._cover import prove_cover
+    from roa.proof._local import local_box
+    from roa.proof._whiten import Whitened, whitened_system, whitening_for
 
     system = _systems()[name]()
     V = roa.default_lyapunov(system)
@@ -454,7 +453,7 @@ def test_hessian_of_vdot_at_the_equilibrium_is_enclosed_exactly(name):
 
 # -- certified sectors --------------------------------------------------------------------------------
 def test_certified_sector_of_a_disc_along_a_line():
-    from roa.proof.sector import certified_sector, quadratic_form
+    from roa.proof._sector import certified_sector, quadratic_form
 
     form = quadratic_form(np.eye(2))
     t = certified_sector(form, 5.0, lambda s, xp: (s, 0.5 * s), 10.0)  # 1.25 s^2 <= 5: |s| <= 2
@@ -504,7 +503,7 @@ def test_ipc_certified_sector_is_a_lower_bound_of_the_exact_sector(coords):
 
 
 def test_certified_sector_rejects_bad_input():
-    from roa.proof.sector import certified_sector, degrees_lower, quadratic_form
+    from roa.proof._sector import certified_sector, degrees_lower, quadratic_form
 
     form = quadratic_form(np.eye(2))
     curve = lambda s, xp: (s, s)  # noqa: E731
@@ -525,8 +524,8 @@ def test_certified_sector_rejects_bad_input():
 
 def test_interval_namespace_sector_matches_float_form():
     """quadratic_form gives the same function in the float and the interval namespace."""
-    from roa.model.backend import NP
-    from roa.proof.sector import quadratic_form
+    from roa.model._backend import NP
+    from roa.proof._sector import quadratic_form
 
     P = np.array([[2.0, 0.3], [0.1, 1.0]])  # not symmetric: P_ij + P_ji = 0.4 (not a double)
     form = quadratic_form(P)
@@ -545,7 +544,7 @@ def test_interval_namespace_sector_matches_float_form():
 def test_jet_centring_is_decided_per_expression_not_by_process_history():
     """No process-global state: meeting a kink once no longer centres every later jet (box counts
     of a validation do not depend on what ran before it in the process)."""
-    from roa.proof.jet import jabs, nonsmooth
+    from roa.proof._jet import jabs, nonsmooth
 
     lo, hi = np.array([[-1.0, 0.5]]), np.array([[1.0, 2.0]])
     assert nonsmooth(lambda: jabs(Jet.variables(lo, hi)[0]))

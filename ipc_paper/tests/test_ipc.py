@@ -2,12 +2,11 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from ipc_paper import system as ipc
 from ipc_paper.system.controller import ExpressionReference, Gains, SineReference, make_reference
-from roa.integration.simulation import simulate
+from roa.integration._simulation import simulate
 from roa.status import RunStatus, StopRules
 
 finite = st.floats(-50, 50, allow_nan=False)

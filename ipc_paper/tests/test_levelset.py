@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from roa.lyapunov import QuadraticLyapunov
-from roa.model.system import System
+from roa.model._system import System
 from roa.options import SampledOptions
-from roa.search.levelset import (
+from roa.search._levelset import (
     AGREEMENT_RTOL,
     WITNESS_ATOL,
     casadi_level,

@@ -2,7 +2,7 @@
 
 Reference problem: the IPC closed loop (ipc_paper.system.closed_loop, physical coordinates) and the
 time-reversed Van der Pol benchmark; the reference integrator is scipy's solve_ivp (method RK45,
-the same Dormand-Prince 5(4) pair, same tolerances and events) through roa.integration.simulation.simulate.
+the same Dormand-Prince 5(4) pair, same tolerances and events) through roa.integration.simulate.
 """
 
 from __future__ import annotations
@@ -12,11 +12,11 @@ import pytest
 
 from ipc_paper import system as ipc
 from roa.errors import ResultsError
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.simulation import simulate
-from roa.lyapunov.regions import Region
-from roa.montecarlo.engine import run_basin, wilson_interval
-from roa.montecarlo.sampling import box_sample, grid_slice, region_sample
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._simulation import simulate
+from roa.lyapunov._regions import Region
+from roa.montecarlo._engine import run_basin, wilson_interval
+from roa.montecarlo._sampling import box_sample, grid_slice, region_sample
 from roa.status import StopRules
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
@@ -107,7 +107,7 @@ def test_status_counts_nothing_merged():
     assert list(free.code) == [I.DIVERGED]
     slow = I.integrate_batch(ipc.closed_loop(), X[1:2], rules=StopRules(t_final=0.5))
     assert list(slow.code) == [I.UNDECIDED]
-    from roa.montecarlo.engine import BasinRun
+    from roa.montecarlo._engine import BasinRun
 
     run = BasinRun(np.concatenate([res.code, free.code, slow.code]), np.zeros(5, np.float32))
     assert run.counts() == {"converged": 2, "left_domain": 1, "diverged": 1, "undecided": 1,

@@ -9,7 +9,7 @@ import pytest
 
 from ipc_paper.reference import REGISTRY
 from roa.cli import main
-from roa.studies import reference
+from roa.studies import _reference as reference
 
 REF = Path(__file__).resolve().parents[2] / "results" / "reference.json"
 

@@ -20,15 +20,15 @@ import roa
 from ipc_paper import system as ipc
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.terminal import TerminalSet
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._terminal import TerminalSet
 from roa.lyapunov import PolynomialLyapunov
-from roa.lyapunov.regions import Region
-from roa.montecarlo.certified_set import terminal_from_certificate
-from roa.montecarlo.engine import run_basin
-from roa.montecarlo.sampling import grid_slice, region_sample
-from roa.plotting.basin import region_label
-from roa.search.rays import component_candidates
+from roa.lyapunov._regions import Region
+from roa.montecarlo._certified_set import terminal_from_certificate
+from roa.montecarlo._engine import run_basin
+from roa.montecarlo._sampling import grid_slice, region_sample
+from roa.plotting._basin import region_label
+from roa.search._rays import component_candidates
 from roa.status import StopRules
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 

@@ -21,9 +21,9 @@ import pytest
 from ipc_paper import system as ipc
 from ipc_paper.system.controller import ExpressionReference, SineReference, make_reference
 from roa.errors import ResultsError, RoaInputError, SolverError
-from roa.montecarlo import engine
-from roa.montecarlo.engine import BasinRun, ChunkRejectedWarning, run_basin
-from roa.montecarlo.sampling import MAX_SAMPLES, box_sample, grid_slice
+from roa.montecarlo import _engine as engine
+from roa.montecarlo._engine import BasinRun, ChunkRejectedWarning, run_basin
+from roa.montecarlo._sampling import MAX_SAMPLES, box_sample, grid_slice
 from roa.status import StopRules
 from roa.systems.vanderpol import vanderpol
 
@@ -458,7 +458,7 @@ def test_search_cache_rejects_an_edited_entry(tmp_path):
     """Issue 12 item 4: a replaced P in the search cache is recomputed, never used silently."""
     import json
 
-    from roa.search.cache import SearchCache
+    from roa.search._cache import SearchCache
 
     path = tmp_path / "cache.json"
     cache = SearchCache(path)

@@ -10,7 +10,7 @@ from ipc_paper import STUDY
 from ipc_paper.report import collect, render_report
 from roa.errors import RoaInputError
 from roa.options import Options
-from roa.studies.experiment import (
+from roa.studies._experiment import (
     VERDICTS,
     check_params,
     experiments_dir,
@@ -188,7 +188,7 @@ def test_tampered_outputs_are_never_served(tmp_path, monkeypatch, capsys):
     import json
 
     from roa.cli import main
-    from roa.studies.experiment import verify_outputs
+    from roa.studies._experiment import verify_outputs
 
     results = tmp_path / "r"
     cfg = ROOT / "experiments" / "bound.toml"
@@ -233,7 +233,7 @@ def test_certify_params_name_the_bad_field():
 def test_resumable_chunks_are_scratch_not_results(tmp_path):
     """Chunk files in any chunks/ folder (git-ignored, e.g. results/basin_box/reference/chunks)
     are not outputs: a fresh clone without them verifies, a changed summary still does not."""
-    from roa.studies.experiment import output_hashes, verify_outputs
+    from roa.studies._experiment import output_hashes, verify_outputs
 
     out = tmp_path / "exp"
     (out / "reference" / "chunks").mkdir(parents=True)

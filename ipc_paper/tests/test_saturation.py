@@ -7,15 +7,14 @@ from fractions import Fraction
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from ipc_paper import system as ipc
-from roa.model.backend import FUNCTIONS, PIECEWISE, namespace
-from roa.proof.interval import INTERVAL, Interval, box_offsets, iabs, iclip, imaximum, iminimum
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
-from roa.search.rays import ray_box
+from roa.model._backend import FUNCTIONS, PIECEWISE, namespace
+from roa.proof._interval import INTERVAL, Interval, box_offsets, iabs, iclip, imaximum, iminimum
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
+from roa.search._rays import ray_box
 
 finite = st.floats(-50.0, 50.0, allow_nan=False, allow_infinity=False)
 
@@ -217,7 +216,7 @@ def test_clip_derivative_is_zero_one_or_the_hull():
 def test_kink_box_fails_the_hessian_test():
     """A box across the saturation gives an interval Hessian with infinite entries: the
     negative-definiteness test (local proof) refuses it instead of trusting a kinked V'."""
-    from roa.proof.local import hessian_negative_definite
+    from roa.proof._local import hessian_negative_definite
 
     x, y = Jet.variables(np.array([[0.5, -0.1]]), np.array([[1.5, 0.1]]), order=2)
     vd = -(x * x) - y * y + JET.clip(x + y, -1.0, 1.0) * x * 0.1  # x + y crosses 1
@@ -272,7 +271,7 @@ def test_saturated_field_is_the_same_in_every_namespace():
 
 
 def test_saturated_linearisation_is_the_unsaturated_one():
-    from roa.model.linearisation import jacobian
+    from roa.model._linearisation import jacobian
 
     np.testing.assert_allclose(
         jacobian(ipc.closed_loop(saturation=1.0)), jacobian(ipc.closed_loop()), atol=1e-14
@@ -338,7 +337,7 @@ def test_flat_saturated_loop_is_the_physical_one_in_flat_coordinates():
 
 # -- certificates of saturated loops ----------------------------------------------------------------
 def _saturated_pendulum():
-    from roa.model.system import System
+    from roa.model._system import System
 
     def field(t, x, xp):
         u = xp.clip(-2.0 * x[0] - 2.0 * x[1], -1.0, 1.0)  # PD law, |u| <= 1
@@ -362,9 +361,9 @@ def test_saturated_toy_certified_at_0999_and_refuted_just_above():
     1.001 with a saturated 50-digit witness."""
     from roa.certification import certify
     from roa.lyapunov import PolynomialLyapunov
-    from roa.model.linearisation import lyapunov_matrix
+    from roa.model._linearisation import lyapunov_matrix
     from roa.options import IntervalOptions
-    from roa.search.levelset import level_search
+    from roa.search._levelset import level_search
 
     s = _saturated_pendulum()
     V = PolynomialLyapunov.from_gram(np.eye(2, dtype=int), lyapunov_matrix(s), np.zeros(2))
@@ -381,8 +380,8 @@ def test_saturated_toy_certified_at_0999_and_refuted_just_above():
 
 def test_quadratic_fast_path_rechecks_a_clip_field_witness():
     from roa.lyapunov import QuadraticLyapunov
-    from roa.model.linearisation import lyapunov_matrix
-    from roa.proof.validate import validate_level
+    from roa.model._linearisation import lyapunov_matrix
+    from roa.proof._validate import validate_level
 
     s = _saturated_pendulum()
     V = QuadraticLyapunov(lyapunov_matrix(s), np.zeros(2))
@@ -393,7 +392,7 @@ def _ipc_saturated_certificate(fraction: float):
     from ipc_paper.system.lyapunov import paper_lyapunov
     from roa.certification import certify
     from roa.options import IntervalOptions
-    from roa.search.levelset import level_search
+    from roa.search._levelset import level_search
 
     s = ipc.transformed(saturation=1.0)  # the physical loop |u| <= 1 in flat coordinates
     V = paper_lyapunov()
@@ -436,8 +435,8 @@ def test_saturated_certificates_are_kept_apart_and_drawn_on_the_saturated_map(tm
     from ipc_paper.basins import _basin_title, slice_panels
     from ipc_paper.certified import ipc_certified_regions, ipc_saturated_regions
     from ipc_paper.system.lyapunov import paper_lyapunov
-    from roa.integration import integrator as I  # noqa: N812
-    from roa.montecarlo.sampling import grid_slice
+    from roa.integration import _integrator as I  # noqa: N812
+    from roa.montecarlo._sampling import grid_slice
 
     entry = {"name": "saturated loop |u| <= 1, optimised quadratic V: V <= 0.1 (certified)",
              "P": paper_lyapunov().P.tolist(), "level": 0.1, "status": "certified",

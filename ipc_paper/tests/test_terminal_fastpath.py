@@ -24,13 +24,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from ipc_paper import basins
-from ipc_paper import system as ipc
+from ipc_paper import basins, system as ipc
 from ipc_paper.system import fast
 from roa.errors import RoaInputError
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.terminal import TerminalSet
-from roa.montecarlo.sampling import box_sample, grid_slice
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._terminal import TerminalSet
+from roa.montecarlo._sampling import box_sample, grid_slice
 from roa.status import StopRules
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -15,11 +15,11 @@ import pytest
 import roa
 from ipc_paper import system as ipc
 from roa.errors import RoaInputError
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.terminal import REASON, TerminalSet
-from roa.montecarlo.certified_set import terminal_from_certificate
-from roa.montecarlo.engine import run_basin
-from roa.montecarlo.sampling import box_sample, grid_slice
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._terminal import REASON, TerminalSet
+from roa.montecarlo._certified_set import terminal_from_certificate
+from roa.montecarlo._engine import run_basin
+from roa.montecarlo._sampling import box_sample, grid_slice
 from roa.status import StopRules
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 

@@ -12,14 +12,14 @@ import pytest
 import roa
 from roa import System
 from roa.lyapunov import PolynomialLyapunov
-from roa.model.backend import namespace
-from roa.proof.cover import connected_to_center
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
-from roa.proof.validate import QuadraticForm, evaluate_boxes, validate_level
-from roa.proof.whiten import Whitened, affine_components, whitening_for
-from roa.search.rays import ray_box
+from roa.model._backend import namespace
+from roa.proof._cover import connected_to_center
+from roa.proof._interval import INTERVAL, Interval
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
+from roa.proof._validate import QuadraticForm, evaluate_boxes, validate_level
+from roa.proof._whiten import Whitened, affine_components, whitening_for
+from roa.search._rays import ray_box
 
 C = (0.5, -0.25, 1.0)
 
@@ -225,7 +225,7 @@ def test_whitened_gram_quadratic_gets_the_global_cover():
     """A quadratic written as a Gram polynomial keeps its proved global cover through the whitening
     (no face proofs, no component check) and keeps the quadratic loop's verdicts (Van der Pol
     2.30 certified, 2.31 refuted)."""
-    from roa.proof.cover import gram_cover
+    from roa.proof._cover import gram_cover
     from roa.systems.vanderpol import vanderpol
 
     s = vanderpol()
@@ -302,8 +302,8 @@ def test_a_whitened_degree_4_gram_v_takes_the_cover_from_rays():
     (inconclusive) where the box from rays certifies the level (results/degrees: 789619 boxes).
     The whitened quadratic keeps its Gram cover."""
     from ipc_paper.system import transformed
-    from roa.proof.cover import gram_cover
-    from roa.proof.whiten import Whitened, whitening_for
+    from roa.proof._cover import gram_cover
+    from roa.proof._whiten import Whitened, whitening_for
 
     system = transformed()
     V2 = roa.default_lyapunov(system)

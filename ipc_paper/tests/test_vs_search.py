@@ -1,4 +1,4 @@
-"""SOS V-s iteration (roa.search.vs_iteration) and roa.certify(..., degree=...).
+"""SOS V-s iteration (roa.search._vs_iteration) and roa.certify(..., degree=...).
 
 Reference: the reversed-time Van der Pol oscillator (mu = 1, Chesi 2011; Topcu, Packard, Seiler
 2008), whose region of attraction is bounded by its unstable limit cycle. The limit cycle's area is
@@ -17,7 +17,7 @@ from scipy.integrate import solve_ivp
 
 import roa
 from roa.cli import main
-from roa.search.vs_iteration import vs_search
+from roa.search._vs_iteration import vs_search
 from roa.status import SosStatus, Verdict
 
 
@@ -51,7 +51,7 @@ def test_vs_rounds_never_lose_shape_level(vdp):
     res = vs_search(vdp, roa.default_lyapunov(vdp), degree=4, shape=np.eye(2), rounds=5)
     assert res.status is SosStatus.SOLVED
     b = np.array(res.betas)
-    # round 0's gamma is the seed's SOS level (roa.search.sos.sos_level: 2.30448) in units of the
+    # round 0's gamma is the seed's SOS level (roa.search.sos_level: 2.30448) in units of the
     # seed's sampled level (the same 2.30448 for this V): 1
     assert res.rounds[0].gamma == pytest.approx(1.0, abs=1e-3)
     assert np.all(np.diff(b) > -1e-4 * b[:-1])  # the previous V stays feasible in each V step

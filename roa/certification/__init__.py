@@ -9,60 +9,7 @@ and :func:`plan` maps :func:`certify`'s arguments (names, numbers, shorthands) t
 A validator or proposer declares what it can do (:class:`ValidatorBase`, :class:`ProposerBase`).
 """
 
-from roa.certification.pipeline import (
-    METHODS,
-    Plan,
-    RetryPolicy,
-    WitnessRefuter,
-    certify,
-    plan,
-    run,
-)
-from roa.certification.result import Certificate
-from roa.certification.strategies import (
-    AutoValidator,
-    Candidate,
-    CandidateLevel,
-    Candidates,
-    CuttingPlanes,
-    GivenLevel,
-    IntervalValidator,
-    LevelProposer,
-    Proposal,
-    ProposerBase,
-    SampledLevel,
-    SosLevel,
-    SosValidator,
-    Validator,
-    ValidatorBase,
-    VsIteration,
-    VSource,
-)
+import lazy_loader as _lazy
 
-__all__ = [
-    "METHODS",
-    "Candidate",
-    "CandidateLevel",
-    "Candidates",
-    "Certificate",
-    "CuttingPlanes",
-    "GivenLevel",
-    "AutoValidator",
-    "IntervalValidator",
-    "LevelProposer",
-    "Plan",
-    "Proposal",
-    "ProposerBase",
-    "RetryPolicy",
-    "SampledLevel",
-    "SosLevel",
-    "SosValidator",
-    "Validator",
-    "ValidatorBase",
-    "VSource",
-    "VsIteration",
-    "WitnessRefuter",
-    "certify",
-    "plan",
-    "run",
-]
+# The public names are listed once, in __init__.pyi: it gives __all__, the lazy imports and the types.
+__getattr__, __dir__, __all__ = _lazy.attach_stub(__name__, __file__)

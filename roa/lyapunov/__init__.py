@@ -8,22 +8,7 @@ degree, :class:`QuadraticLyapunov` the degree-2 one (with ``P`` and closed-form 
 reads every JSON form the toolkit writes, :func:`certificate_fields` writes a certificate's.
 """
 
-from roa.lyapunov.base import Lyapunov, check_positive_definite
-from roa.lyapunov.function import FunctionLyapunov
-from roa.lyapunov.polynomial import PolynomialLyapunov, QuadraticLyapunov
-from roa.lyapunov.serial import certificate_fields, from_json
-from roa.lyapunov.symbolic import symbolic_gradient
-from roa.model.sympy_eval import exact_rationals, sympy_eval
+import lazy_loader as _lazy
 
-__all__ = [
-    "FunctionLyapunov",
-    "Lyapunov",
-    "PolynomialLyapunov",
-    "QuadraticLyapunov",
-    "certificate_fields",
-    "check_positive_definite",
-    "exact_rationals",
-    "from_json",
-    "symbolic_gradient",
-    "sympy_eval",
-]
+# The public names are listed once, in __init__.pyi: it gives __all__, the lazy imports and the types.
+__getattr__, __dir__, __all__ = _lazy.attach_stub(__name__, __file__)

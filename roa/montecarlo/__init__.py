@@ -1,0 +1,7 @@
+"""The basin experiment: Monte Carlo over grids and samples of initial conditions, with the engine's
+chunks, resumable runs and Dask; robust basins over parameter samples; certified sets and shares."""
+
+import lazy_loader as _lazy
+
+# The public names are listed once, in __init__.pyi: it gives __all__, the lazy imports and the types.
+__getattr__, __dir__, __all__ = _lazy.attach_stub(__name__, __file__)

@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 from roa.errors import RoaError, RoaInputError, SystemDefinitionError
 
 if TYPE_CHECKING:  # imported where needed: the CLI's --help lists the names without numpy
-    from roa.model.system import System
+    from roa.model._system import System
 
 #: The library's built-in systems: name -> "module:factory"; factories take keyword parameters
 #: (floats). Studies add their own (:attr:`roa.studies.Study.systems`), looked up after these.
@@ -45,7 +45,7 @@ def builtin_names() -> dict[str, str | None]:
     >>> builtin_names()["vanderpol"] is None
     True
     """
-    from roa.studies import systems
+    from roa.studies._registry import systems
 
     out: dict[str, str | None] = dict.fromkeys(BUILTIN)
     for name, entries in systems().items():
@@ -69,7 +69,7 @@ def _target(name: str) -> str | None:
     """``"module:factory"`` of the built-in ``name`` (the library's first, then the studies')."""
     if name in BUILTIN:
         return BUILTIN[name]
-    from roa.studies import systems
+    from roa.studies._registry import systems
 
     entries = systems().get(name)
     if not entries:
@@ -122,7 +122,7 @@ def load_system(spec: str) -> System:
     >>> load_system("vanderpol").state_names
     ('x1', 'x2')
     """
-    from roa.model.system import System
+    from roa.model._system import System
 
     builtin = _builtin(spec)
     if builtin is not None:
@@ -153,7 +153,7 @@ def load_system(spec: str) -> System:
         except RoaInputError as exc:
             raise SystemDefinitionError(f"{path}: LYAPUNOV_P: {exc}") from None
     system = _guarded(system, path)
-    from roa.model.checks import check_system
+    from roa.model._checks import check_system
 
     try:
         check_system(system)  # the field's size, f(x_eq) = 0, x_eq in the domain
@@ -193,7 +193,7 @@ class UserField:
 def _guarded(system: System, path: Path) -> System:
     """``system`` with its field wrapped in :class:`UserField` (the innermost function, so that
     declared parameters are still bound)."""
-    from roa.model.system import BoundField
+    from roa.model._system import BoundField
 
     inner = system.field.func if isinstance(system.field, BoundField) else system.field
     if isinstance(inner, UserField):

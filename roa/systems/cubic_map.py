@@ -19,7 +19,7 @@ import math
 from typing import Any
 
 from roa.errors import RoaInputError
-from roa.model.system import System
+from roa.model._system import System
 
 
 def optimum(lam: float = 0.5, mu: float = 1.0) -> float:

@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 
 from roa.errors import RoaInputError
-from roa.model.system import System
+from roa.model._system import System
 
 #: Lyapunov matrix of the published benchmark.
 P_BENCHMARK = np.array([[1.5, -0.5], [-0.5, 1.0]])

@@ -125,9 +125,9 @@ def test_every_public_name_is_documented_with_an_example():
         doc = getattr(roa, name).__doc__
         assert "Parameters" in doc or name == "default_lyapunov", name
         assert "Examples" in doc and ">>>" in doc, name
-    modules = ["roa.integration.simulation", "roa.search.levelset", "roa.certification.pipeline", "roa.montecarlo.basin",
-               "roa.search.candidate", "roa.lyapunov.polynomial", "roa.lyapunov.function",
-               "roa.options", "roa.status", "roa.model.linearisation", "roa.systems"]  # fmt: skip
+    modules = ["roa.integration._simulation", "roa.search._levelset", "roa.certification._pipeline", "roa.montecarlo._basin",
+               "roa.search._candidate", "roa.lyapunov._polynomial", "roa.lyapunov._function",
+               "roa.options", "roa.status", "roa.model._linearisation", "roa.systems"]  # fmt: skip
     for mod in modules:
         failed, tried = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)
         assert failed == 0, mod
@@ -205,21 +205,74 @@ def test_cli_reports_each_long_step_on_stderr_and_the_library_stays_silent(capsy
     assert capsys.readouterr().err == ""
 
 
-def test_the_public_names_are_written_once():
-    """``PUBLIC`` gives ``__all__`` and the lazy table; the type-checking imports list the same
-    (module, name) pairs, and each name is defined by the module it is listed under."""
+def _stub_names(package: Path) -> list[tuple[str, str]]:
+    """(module, name) for each ``from .module import name as name`` of a package's stub."""
     import ast
+
+    tree = ast.parse((package / "__init__.pyi").read_text())
+    pairs = []
+    for node in tree.body:
+        if isinstance(node, ast.ImportFrom):
+            assert node.level == 1 and node.module, f"{package}: only `from .module import`"
+            for a in node.names:
+                assert a.asname == a.name, f"{package}: `{a.name} as {a.name}` re-exports it"
+                pairs.append((node.module, a.name))
+    return pairs
+
+
+PACKAGES = sorted(p for p in (ROOT / "roa").iterdir() if (p / "__init__.pyi").exists())
+
+
+@pytest.mark.parametrize("package", [ROOT / "roa", *PACKAGES], ids=lambda p: p.name)
+def test_the_public_names_are_written_once(package):
+    """A package's stub lists its public names once: ``__all__`` and the lazy imports are built
+    from it, each name resolves to the object its module defines, and no private name is public."""
     import importlib
 
-    tree = ast.parse((ROOT / "roa" / "__init__.py").read_text())
-    block = next(
-        n
-        for n in tree.body
-        if isinstance(n, ast.If) and getattr(n.test, "id", "") == "TYPE_CHECKING"
-    )
-    pairs = {(imp.module, a.name) for imp in block.body for a in imp.names}
-    listed = {(module, name) for module, names in roa.PUBLIC.items() for name in names}
-    assert pairs == listed
-    assert sorted(roa.__all__) == sorted(name for _, name in listed)
-    for module, name in listed:
-        assert getattr(importlib.import_module(module), name) is getattr(roa, name), name
+    dotted = "roa" if package.name == "roa" else f"roa.{package.name}"
+    mod = importlib.import_module(dotted)
+    pairs = _stub_names(package)
+    names = [name for _, name in pairs]
+    assert len(names) == len(set(names))
+    assert sorted(mod.__all__) == sorted(names)
+    for module, name in pairs:
+        assert not name.startswith("_"), name
+        assert getattr(mod, name) is getattr(importlib.import_module(f"{dotted}.{module}"), name)
+
+
+def test_every_module_inside_a_package_is_private():
+    """The public/private line: inside ``roa``'s packages every module is private (``_name.py``)
+    and its public names are those of the package's stub; the built-in systems are the exception
+    (system definitions users import, ``roa.systems.vanderpol``). Each package with modules has a
+    stub."""
+    for package in (p for p in (ROOT / "roa").iterdir() if (p / "__init__.py").exists()):
+        if package.name == "systems":
+            continue
+        public = [f.name for f in package.glob("*.py") if not f.name.startswith("_")]
+        assert public == [], f"roa.{package.name}: public modules {public}"
+        assert (package / "__init__.pyi").exists(), f"roa.{package.name} has no stub"
+
+
+def test_the_study_and_the_examples_use_only_the_public_api():
+    """The IPC study's code (its tests may reach internals, as every test suite does) and the
+    examples import no private module and no private name of ``roa``."""
+    import ast
+
+    files = [p for p in (ROOT / "ipc_paper").rglob("*.py") if "tests" not in p.parts]
+    files += list((ROOT / "examples").rglob("*.py"))
+    bad = []
+    for path in files:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.ImportFrom) and (node.module or "").split(".")[0] == "roa":
+                names = [a.name for a in node.names]
+                if any(p.startswith("_") for p in node.module.split(".")) or any(
+                    n.startswith("_") for n in names
+                ):
+                    bad.append(f"{path.relative_to(ROOT)}:{node.lineno} {node.module} {names}")
+            elif isinstance(node, ast.Import):
+                bad += [
+                    f"{path.relative_to(ROOT)}:{node.lineno} {a.name}"
+                    for a in node.names
+                    if a.name.startswith("roa.") and "._" in a.name
+                ]
+    assert bad == []

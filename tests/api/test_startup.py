@@ -61,7 +61,7 @@ def test_help_exits_before_any_heavy_import(args):
 def test_lazy_public_names_resolve_to_the_defining_objects():
     import roa
     from roa.certification import certify
-    from roa.model.system import System
+    from roa.model._system import System
 
     assert roa.System is System and roa.certify is certify
     assert set(roa.__all__) <= set(dir(roa))
@@ -70,12 +70,12 @@ def test_lazy_public_names_resolve_to_the_defining_objects():
 
 
 def test_lazy_cfuncs_compile_on_access_and_once():
-    from roa.integration import integrator as I
+    from roa.integration import _integrator as I
 
     assert "identity_coords" in I.__getattr__.names()
     a = I.no_margin
     assert a is I.no_margin and a.address != 0  # one compiled cfunc, a real function pointer
-    from roa.integration.integrator import identity_coords
+    from roa.integration._integrator import identity_coords
 
     assert identity_coords is I.identity_coords
     with pytest.raises(AttributeError, match="no_such_kernel"):

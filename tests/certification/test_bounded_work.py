@@ -62,7 +62,7 @@ def test_too_many_terms_are_refused():
 def test_a_high_odd_interval_power_is_an_enclosure_in_few_steps():
     import numpy as np
 
-    from roa.proof.interval import Interval
+    from roa.proof._interval import Interval
 
     x = Interval(np.array([-1.5, 0.5, -0.9]), np.array([-1.0, 1.1, 1.01]))
     k = 1001
@@ -83,7 +83,7 @@ def test_an_sos_program_too_large_is_refused_before_it_is_built():
     import numpy as np
 
     from roa.lyapunov import QuadraticLyapunov
-    from roa.search.sdp import MAX_GRAM_BLOCK
+    from roa.search._sdp import MAX_GRAM_BLOCK
 
     n = 30
 
@@ -144,7 +144,7 @@ def test_a_polynomial_v_search_too_large_is_refused_before_any_work():
 
 
 def test_a_gram_block_too_large_is_refused_where_it_is_built():
-    from roa.search.sdp import MAX_GRAM_BLOCK, Program, ProgramTooLarge, monomials
+    from roa.search._sdp import MAX_GRAM_BLOCK, Program, ProgramTooLarge, monomials
 
     basis = monomials(12, 3, 0)
     assert len(basis) > MAX_GRAM_BLOCK

@@ -57,8 +57,8 @@ def test_the_backup_branch_and_bound_has_a_default_time_budget(monkeypatch):
     """Above the branch and bound's dimension, with the SOS route and the witness search
     failing, the branch and bound runs with BNB_SECONDS_BACKUP (300 s) unless a time limit is
     given; elsewhere BNB_SECONDS (3600 s)."""
-    from roa.certification import strategies
-    from roa.proof.validation import Validation
+    from roa.certification import _strategies as strategies
+    from roa.proof._validation import Validation
 
     seen = []
 
@@ -78,7 +78,7 @@ def test_the_backup_branch_and_bound_has_a_default_time_budget(monkeypatch):
 def test_an_overflowing_level_is_refused_before_any_program(capsys, monkeypatch):
     """Van der Pol's V' has a cubic term: at level 1e308 (|x| ~ 1e154 on the level set) and 1e200
     (|x| ~ 1e100, x1^2 x2 ~ 1e300 times P's entries and x) it overflows; at 1e150 it does not."""
-    from roa.search import sos_certificate
+    from roa.search import _sos_certificate as sos_certificate
 
     def never(*a, **k):
         raise AssertionError("an SOS program was built")

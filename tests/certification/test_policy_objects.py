@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import roa
-from roa.certification.pipeline import Attempt, RetryPolicy, Run, WitnessRefuter
-from roa.certification.strategies import (
+from roa.certification._pipeline import Attempt, RetryPolicy, Run, WitnessRefuter
+from roa.certification._strategies import (
     AutoValidator,
     CandidateLevel,
     Declared,
@@ -34,8 +34,8 @@ from roa.certification.strategies import (
 )
 from roa.lyapunov import FunctionLyapunov, PolynomialLyapunov, QuadraticLyapunov
 from roa.options import BNB_DIM
-from roa.proof.validation import Reason, Validation
-from roa.search.rays import ray_box
+from roa.proof._validation import Reason, Validation
+from roa.search._rays import ray_box
 from roa.status import Verdict
 from roa.systems.vanderpol import vanderpol
 
@@ -155,7 +155,7 @@ def test_capabilities_of_each_kind_of_v():
 
 
 def test_whitened_v_tells_its_frame():
-    from roa.proof.whiten import Whitened, whitening_for
+    from roa.proof._whiten import Whitened, whitening_for
 
     system = vanderpol()
     V = roa.default_lyapunov(system)
@@ -277,7 +277,7 @@ def test_retry_policy_checks_its_retries():
 
 
 def test_the_validations_reason_is_set_where_the_verdict_is_made():
-    from roa.proof.validate import validate_level
+    from roa.proof._validate import validate_level
 
     system = vanderpol()
     V = PolynomialLyapunov(
@@ -290,8 +290,8 @@ def test_the_validations_reason_is_set_where_the_verdict_is_made():
 
 # -- the proof/search boundary ------------------------------------------------------------------------
 def test_a_proposed_witness_is_proved_and_a_tampered_one_refused():
-    from roa.proof.witness import confirmed_bound
-    from roa.search.witness import lowest_confirmed_witness
+    from roa.proof._witness import confirmed_bound
+    from roa.search._witness import lowest_confirmed_witness
 
     system = vanderpol()
     V = roa.default_lyapunov(system)

@@ -14,13 +14,13 @@ from scipy.optimize import minimize
 
 import roa
 from roa.cli import main
-from roa.model.parameters import ParameterBox, over, sample_points
-from roa.model.system import System
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.robust import validate_robust
-from roa.search.candidate import as_lyapunov
-from roa.search.rays import ray_box
-from roa.search.robust_witness import sampled_witness
+from roa.model._parameters import ParameterBox, over, sample_points
+from roa.model._system import System
+from roa.proof._interval import INTERVAL, Interval
+from roa.proof._robust import validate_robust
+from roa.search._candidate import as_lyapunov
+from roa.search._rays import ray_box
+from roa.search._robust_witness import sampled_witness
 from roa.status import Verdict
 
 P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V
@@ -229,9 +229,9 @@ def test_every_proof_namespace_sees_the_box():
     namespaces see the point; an unknown namespace is refused (never a point by default)."""
     from types import SimpleNamespace
 
-    from roa.model.backend import NP
-    from roa.proof.jet import Jet
-    from roa.proof.jet_net import JET
+    from roa.model._backend import NP
+    from roa.proof._jet import Jet
+    from roa.proof._jet_net import JET
 
     s = over(vdp_box(), ParameterBox(("mu",), (0.8,), (1.2,)))
     x = Jet.variables(np.array([[1.0, 1.0]]), np.array([[1.0, 1.0]]), order=2)  # x = (1, 1)

@@ -1,4 +1,4 @@
-"""Back-off on the exact SOS route (roa.certification.backoff): a proposal above the optimum is
+"""Back-off on the exact SOS route (roa.certification._backoff): a proposal above the optimum is
 refused by the exact check, lower levels are tried, the largest certified one is kept (never
 above the closed-form optimum) and the level just above the optimum is refuted."""
 
@@ -11,8 +11,8 @@ import numpy as np
 import pytest
 
 import roa
-from roa.certification.backoff import REL_TOL, back_off, exact_route
-from roa.proof.validation import Validation
+from roa.certification._backoff import REL_TOL, back_off, exact_route
+from roa.proof._validation import Validation
 from roa.status import Verdict
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -160,9 +160,9 @@ def test_quadrotor2d_certified_by_the_exact_route_without_branch_and_bound():
     assert cert.level < float(search.level)
 
 
-# -- the solver and its memory estimate (roa.search.sdp) -------------------------------------------
+# -- the solver and its memory estimate (roa.search._sdp) -------------------------------------------
 def test_solver_settings_in_each_solvers_keywords():
-    from roa.search.sdp import settings
+    from roa.search._sdp import settings
 
     assert settings("scs", 1e-9, 100) == {"solver": "scs", "eps_abs": 1e-9, "eps_rel": 1e-9,
                                           "max_iters": 100}  # fmt: skip
@@ -174,7 +174,7 @@ def test_solver_settings_in_each_solvers_keywords():
 
 
 def test_memory_estimate_chooses_the_first_order_solver_for_a_231_block():
-    from roa.search.sdp import choose_solver
+    from roa.search._sdp import choose_solver
 
     # one Gram block of 231 monomials: s = 231 * 232 / 2 = 26796 svec entries, the interior
     # point's dense scaling block 24 s^2 bytes = 16.06 GiB, over the 4 GiB budget
@@ -189,7 +189,7 @@ def test_memory_estimate_chooses_the_first_order_solver_for_a_231_block():
 def test_auto_solver_takes_scs_for_blocks_above_the_interior_points_range():
     import cvxpy as cp
 
-    from roa.search.sdp import AUTO_SCS_BLOCK, solve
+    from roa.search._sdp import AUTO_SCS_BLOCK, solve
 
     for m, expected in ((3, "clarabel"), (AUTO_SCS_BLOCK + 1, "scs")):
         Q = cp.Variable((m, m), symmetric=True)
@@ -201,7 +201,7 @@ def test_auto_solver_takes_scs_for_blocks_above_the_interior_points_range():
 
 @pytest.mark.parametrize("solver", ["scs", "clarabel"])
 def test_the_solver_is_an_option_and_the_exact_check_still_decides(solver):
-    from roa.search.sdp import settings
+    from roa.search._sdp import settings
 
     system = _poly2d()
     V = roa.default_lyapunov(system)

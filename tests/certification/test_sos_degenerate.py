@@ -16,9 +16,9 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 import roa
-from roa.certification.result import Certificate
-from roa.proof.sos_check import exact_data
-from roa.search.sos_certificate import degrees, propose_certificate
+from roa.certification._result import Certificate
+from roa.proof._sos_check import exact_data
+from roa.search._sos_certificate import degrees, propose_certificate
 from roa.status import Verdict
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "systems" / "drake_nonconvex.py"

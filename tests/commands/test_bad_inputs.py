@@ -10,8 +10,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
+from hypothesis import HealthCheck, given, settings, strategies as st
 
 import roa
 from roa.certification import Certificate
@@ -207,7 +206,7 @@ def test_one_run_per_out_folder(tmp_path):
 
 
 def test_a_failed_experiment_leaves_no_empty_results_folder(tmp_path):
-    from roa.studies.experiment import run_experiment
+    from roa.studies._experiment import run_experiment
 
     cfg = tmp_path / "bound.toml"
     text = (ROOT / "experiments" / "bound.toml").read_text()
@@ -245,7 +244,7 @@ def test_lyapunov_json_reader_gives_a_candidate_or_an_input_error(data):
 )
 @given(st.binary(max_size=300) | st.text(max_size=300).map(str.encode))
 def test_config_reader_gives_a_config_or_an_input_error(tmp_path_factory, content):
-    from roa.studies.experiment import load_config
+    from roa.studies._experiment import load_config
 
     path = tmp_path_factory.mktemp("cfg") / "x.toml"
     path.write_bytes(content)
@@ -262,7 +261,7 @@ def test_config_reader_gives_a_config_or_an_input_error(tmp_path_factory, conten
 @given(JSON.map(json.dumps).map(str.encode) | st.binary(max_size=200))
 def test_reference_reader_gives_values_or_a_results_error(tmp_path_factory, content):
     from roa.errors import ResultsError
-    from roa.studies.reference import load
+    from roa.studies._reference import load
 
     path = tmp_path_factory.mktemp("ref") / "reference.json"
     path.write_bytes(content)
@@ -278,7 +277,7 @@ def test_reference_reader_gives_values_or_a_results_error(tmp_path_factory, cont
 )
 @given(st.binary(max_size=400))
 def test_npy_reader_gives_numbers_or_an_input_error(tmp_path_factory, content):
-    from roa.commands.common import read_matrix
+    from roa.commands._common import read_matrix
 
     path = tmp_path_factory.mktemp("npy") / "P.npy"
     path.write_bytes(b"\x93NUMPY" + content if content[:1] == b"\x01" else content)
@@ -433,7 +432,7 @@ def test_unsupported_or_huge_fields_exit_2_naming_file_line_and_term(tmp_path, c
 
 def test_a_numpy_function_on_the_states_is_refused_for_proofs_only():
     """The numpy-only analyses keep a field written with numpy (a fallback kernel, no proof)."""
-    from roa.model.checks import check_functions, check_system
+    from roa.model._checks import check_functions, check_system
 
     system = roa.System(name="np-hypot", field=lambda t, x, xp: (-x[0] + 0.1 * np.hypot(x[0], x[1]), -x[1]),
                         equilibrium=(0.0, 0.0), state_names=("a", "b"))  # fmt: skip
@@ -448,7 +447,7 @@ def test_a_numpy_function_on_the_states_is_refused_for_proofs_only():
 
 
 def test_a_nonfinite_jacobian_is_named():
-    from roa.model.linearisation import linearise
+    from roa.model._linearisation import linearise
 
     system = roa.System(name="kink", field=lambda t, x, xp: (-x[0] + 0.1 * xp.sqrt(x[0] ** 2 + x[1] ** 2), -x[1]),
                         equilibrium=(0.0, 0.0), state_names=("a", "b"))  # fmt: skip

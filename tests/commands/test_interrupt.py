@@ -78,7 +78,7 @@ SDP = """
 import sys
 import numpy as np
 import cvxpy as cp
-from roa.search.sdp import interruptible_scs
+from roa.search._sdp import interruptible_scs
 
 n = 120
 rng = np.random.default_rng(0)

@@ -10,8 +10,8 @@ import numpy as np
 import sympy as sp
 
 import roa
-from roa.proof.recast import _pretty, shown_coefficient
-from roa.search.candidate import default_lyapunov
+from roa.proof._recast import _pretty, shown_coefficient
+from roa.search._candidate import default_lyapunov
 
 
 def test_exact_constants_print_as_decimals_small_rationals_stay():
@@ -24,7 +24,7 @@ def test_exact_constants_print_as_decimals_small_rationals_stay():
 
 
 def test_the_sos_proposer_on_a_sin_field_says_the_validator_recasts_it():
-    from roa.search.sos import sos_level
+    from roa.search._sos import sos_level
 
     def field(t, x, xp):
         return (-x[1], xp.sin(x[0]) + (x[0] ** 2 - 1) * x[1])
@@ -37,7 +37,7 @@ def test_the_sos_proposer_on_a_sin_field_says_the_validator_recasts_it():
 
 
 def test_fewer_casadi_starts_than_asked_are_explained():
-    from roa.search.levelset_casadi import casadi_level
+    from roa.search._levelset_casadi import casadi_level
     from roa.systems.vanderpol import vanderpol
 
     s = vanderpol()

@@ -14,7 +14,7 @@ import dataclasses
 import pytest
 
 from roa.cli import main
-from roa.commands.common import join_negative_values
+from roa.commands._common import join_negative_values
 
 SLICE = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "4x4", "--jobs", "1"]
 
@@ -86,7 +86,7 @@ def test_simulate_plot_time_label():
 
 
 def test_basin_plot_title_names_the_system_not_the_file(tmp_path, monkeypatch):
-    import roa.plotting.basin as pb
+    import roa.plotting._basin as pb
 
     seen = {}
     monkeypatch.setattr(pb, "plot_slice", lambda *a, **kw: seen.update(kw))
@@ -114,13 +114,13 @@ def test_khalil_says_which_shape_it_used(capsys):
 
 def test_sos_seconds_cover_the_whole_step(monkeypatch):
     """The SOS time printed by ``certify`` is the step's (stderr's "SOS program: ... s"), importing
-    cvxpy included: a fake clock advanced by 10 whenever the program (:mod:`roa.search.sdp`)
+    cvxpy included: a fake clock advanced by 10 whenever the program (:mod:`roa.search._sdp`)
     imports cvxpy shows up in ``seconds``, which span the whole step."""
     import builtins
     import sys
 
     import roa
-    import roa.search.sos as S
+    import roa.search._sos as S
     from roa.systems.vanderpol import vanderpol
 
     system = vanderpol()
@@ -129,7 +129,7 @@ def test_sos_seconds_cover_the_whole_step(monkeypatch):
     real_import = builtins.__import__
 
     def fake_import(name, *args, **kw):
-        if name == "cvxpy" and sys._getframe(1).f_globals.get("__name__") == "roa.search.sdp":
+        if name == "cvxpy" and sys._getframe(1).f_globals.get("__name__") == "roa.search._sdp":
             clock[0] += 10.0
         return real_import(name, *args, **kw)
 
@@ -175,7 +175,7 @@ def test_progress_of_a_cover_beyond_double_precision_says_so():
     log space and no share of volume (not a share computed from inf / inf)."""
     import numpy as np
 
-    from roa.proof.validate import _Progress
+    from roa.proof._validate import _Progress
 
     lo, hi = np.full(3, -1e154), np.full(3, 1e154)
     p = _Progress(lo, hi)

@@ -1,7 +1,7 @@
 """Divergence by growth and --diverge-bound (#25): a blow-up at t_final is ``diverged``.
 
 The cases are linear or logistic 1-D growths whose solutions are closed-form, so which rule of
-:func:`roa.integration.divergence.blows_up` holds is derived, with margins far above the integrators' error.
+:func:`roa.integration._divergence.blows_up` holds is derived, with margins far above the integrators' error.
 """
 
 from __future__ import annotations
@@ -121,7 +121,7 @@ def test_basin_counts_blow_ups_as_diverged(spec):
     """Grid a in {-0.1, -0.05, 0, 0.05, 0.1} x b in {-1, 0, 1}: a(60) = 1.63e5 a0, so |a0| = 0.1
     ends at 1.63e4 >= 1e6/100 (diverged by growth), |a0| = 0.05 at 8.1e3 < 1e4 (undecided), a0 = 0
     converges with b (b(60) = e^-60)."""
-    from roa.montecarlo.sampling import grid_slice
+    from roa.montecarlo._sampling import grid_slice
 
     system = roa.load_system(spec(UNSTABLE))
     g = grid_slice(system, ["a", "b"], [(-0.1, 0.1), (-1.0, 1.0)], (5, 3))

@@ -1,4 +1,4 @@
-"""Kernels generated from a field written against ``xp`` (roa/integration/kernel_cache.py).
+"""Kernels generated from a field written against ``xp`` (roa/integration/_kernel_cache.py).
 
 The generated kernel and the numpy backend integrate the same ODE with the same Dormand-Prince
 5(4) step control (scipy's), so they take the same accepted steps up to rounding: the field's
@@ -23,9 +23,9 @@ import numpy as np
 import pytest
 
 import roa
-from roa.integration import kernel_cache as kc
-from roa.integration.integrator import CONVERGED, integrate_batch
-from roa.integration.trace import Untraceable
+from roa.integration import _kernel_cache as kc
+from roa.integration._integrator import CONVERGED, integrate_batch
+from roa.integration._trace import Untraceable
 from roa.systems.vanderpol import vanderpol
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -142,8 +142,8 @@ SCRIPT = """
 import sys, json
 import numpy as np
 import roa
-from roa.integration import kernel_cache as kc
-from roa.integration.integrator import integrate_batch
+from roa.integration import _kernel_cache as kc
+from roa.integration._integrator import integrate_batch
 gain = float(sys.argv[1])
 system = roa.System(name="cached", field=lambda t, x, xp: (x[1], -xp.sin(x[0]) - gain * x[1]),
                     equilibrium=(0.0, 0.0), state_names=("a", "b"))
@@ -199,7 +199,7 @@ def test_generated_factory_survives_pickling_and_with_params(tmp_path, monkeypat
 
 
 def test_code_key_follows_constants_closures_and_globals():
-    from roa.integration.code_identity import code_key
+    from roa.integration._code_identity import code_key
 
     def make(gain):
         return lambda t, x, xp: (x[1], -gain * x[0])
@@ -259,7 +259,7 @@ def test_an_index_entry_without_the_users_tag_is_ignored(tmp_path, monkeypatch):
 def test_quadratic_terminal_set_in_the_generated_kernel_matches_numpy(tmp_path, monkeypatch):
     """Runs entering a certified ellipsoid of Van der Pol stop there in both backends alike (the
     published P at level 1, inside the certified 2.3045)."""
-    from roa.integration.terminal import TerminalSet
+    from roa.integration._terminal import TerminalSet
     from roa.systems.vanderpol import P_BENCHMARK
 
     monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
@@ -374,7 +374,7 @@ def test_a_kernel_text_that_does_not_hash_to_its_digest_is_never_loaded():
         kc.load_module("X = 1\n", "0" * 64)
 
 
-# --- one Dormand-Prince step (roa/integration/dopri.py), no copied integrator source ----------
+# --- one Dormand-Prince step (roa/integration/_dopri.py), no copied integrator source ----------
 
 
 def test_the_generated_module_holds_no_copy_of_the_integrator(tmp_path, monkeypatch):
@@ -390,13 +390,13 @@ def test_the_generated_module_holds_no_copy_of_the_integrator(tmp_path, monkeypa
 def test_the_kernel_stamp_follows_the_step_and_the_text_follows_the_field(monkeypatch):
     """The generated text (whose SHA-256 names the kernel file and numba's cache of it) changes
     when the step's source (dopri.py) or the integrator's changes, and when the field changes."""
-    from roa.integration import code_identity
-    from roa.integration.codegen import kernel_source
-    from roa.integration.trace import trace_system
+    from roa.integration import _code_identity as code_identity
+    from roa.integration._codegen import kernel_source
+    from roa.integration._trace import trace_system
 
     real = code_identity.source_digest
     stamp = kc.kernel_stamp()
-    for name in ("dopri.py", "integrator.py", "terminal_poly.py"):
+    for name in ("_dopri.py", "_integrator.py", "_terminal_poly.py"):
         monkeypatch.setattr(code_identity, "source_digest",
                             lambda f, name=name: "edited" if f.endswith(name) else real(f))  # fmt: skip
         assert kc.kernel_stamp() != stamp, name
@@ -418,7 +418,7 @@ def test_numpy_and_the_numba_kernel_take_the_same_steps(tmp_path, monkeypatch):
     on this machine), which moves step sizes by as much; the step itself is compared bit for bit
     in the next test."""
     monkeypatch.setenv(kc.CACHE_ENV, str(tmp_path))
-    from roa.integration.dopri import UNDECIDED
+    from roa.integration._dopri import UNDECIDED
     from roa.status import StopRules
 
     centre = roa.System(name="centre", field=lambda t, x, xp: (x[1], -x[0]),
@@ -445,8 +445,7 @@ def test_the_step_is_the_same_bits_in_numba_and_numpy():
 
     import numba
 
-    from roa.integration import dopri
-    from roa.integration import integrator as ig
+    from roa.integration import _dopri as dopri, _integrator as ig
 
     @numba.njit(error_model="numpy")
     def lin(t, x, p, out):

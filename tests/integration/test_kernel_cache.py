@@ -1,4 +1,4 @@
-"""numba's disk cache sees changes of the kernels' dependencies (roa/integration/integrator.py).
+"""numba's disk cache sees changes of the kernels' dependencies (roa/integration/_integrator.py).
 
 numba keys a cached function by the source of its own file only; the batch kernels compile in
 code of other modules (the polynomial terminal-set test of terminal_poly.py, the tableau of
@@ -24,8 +24,8 @@ import dataclasses, json
 import numpy as np
 import roa
 from roa.lyapunov import PolynomialLyapunov
-from roa.integration.integrator import integrate_batch
-from roa.integration.terminal import TerminalSet
+from roa.integration._integrator import integrate_batch
+from roa.integration._terminal import TerminalSet
 from roa.status import StopRules
 from ipc_paper import system as ipc
 
@@ -63,7 +63,7 @@ def test_a_change_in_terminal_poly_reaches_the_cached_kernels(tmp_path):
     cache = tmp_path / "roa" / "integration" / "__pycache__"  # the kernels are cached on disk
     assert list(cache.glob("integrator.compile_kernel.locals.run-*.nbi"))
     assert list(cache.glob("integrator._public_kernel.locals.kernel-*.nbi"))
-    poly = tmp_path / "roa" / "integration" / "terminal_poly.py"
+    poly = tmp_path / "roa" / "integration" / "_terminal_poly.py"
     src = poly.read_text()
     marker = "    return v + g * s <= thr\n"
     assert src.count(marker) == 1
@@ -78,7 +78,7 @@ STEP_SCRIPT = """
 import dataclasses, json
 import numpy as np
 import roa
-from roa.integration.integrator import integrate_batch
+from roa.integration._integrator import integrate_batch
 from roa.status import StopRules
 from ipc_paper import system as ipc
 
@@ -119,7 +119,7 @@ def test_a_change_of_the_step_reaches_every_cached_kernel(tmp_path):
 
     before = run()
     assert run() == before  # loaded from the caches: the same steps
-    dopri = tmp_path / "roa" / "integration" / "dopri.py"
+    dopri = tmp_path / "roa" / "integration" / "_dopri.py"
     src = dopri.read_text()
     marker = "        err[i] = h * acc / ("
     assert src.count(marker) == 1

@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 
 import roa
-from roa.integration import dopri
-from roa.integration.integrator import integrate_batch
+from roa.integration import _dopri as dopri
+from roa.integration._integrator import integrate_batch
 from roa.status import StopRules
 from roa.systems.vanderpol import vanderpol
 
@@ -32,7 +32,7 @@ def _basin(*argv: str, timeout: float = 120) -> subprocess.CompletedProcess[str]
 
 
 def test_basin_with_the_largest_parameter_ends_every_run_undecided_in_bounded_time():
-    """mu = 1e150 (the largest value --param allows, roa.model.system.MAX_PARAM): every run is an
+    """mu = 1e150 (the largest value --param allows, roa.model._system.MAX_PARAM): every run is an
     undecided step failure, the JSON counts them, and the command ends (it ran until killed)."""
     out = _basin("--system", "vanderpol", "--param", "mu=1e150", "--slice", "x1,x2", "--grid",
                  "4x4", "--box", "x1=-1:1,x2=-1:1", "--t-final", "20", "--jobs", "1",

@@ -1,4 +1,4 @@
-"""Membership in a polynomial terminal set (roa/integration/terminal_poly.py).
+"""Membership in a polynomial terminal set (roa/integration/_terminal_poly.py).
 
 * the numpy and numba versions give the same answer, point for point, on random points, on points
   next to the level set (bisected onto it in float) and next to the box's faces, and on inf/NaN;
@@ -15,8 +15,8 @@ from fractions import Fraction
 
 import numpy as np
 
-from roa.integration.terminal import TerminalSet
-from roa.integration.terminal_poly import member_numba, member_numpy
+from roa.integration._terminal import TerminalSet
+from roa.integration._terminal_poly import member_numba, member_numpy
 from roa.lyapunov import PolynomialLyapunov
 
 #: A degree-4 V in 3 variables with cross terms (positive definite quadratic part).

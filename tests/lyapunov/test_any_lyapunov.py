@@ -19,8 +19,8 @@ from roa import System
 from roa.cli import main
 from roa.errors import RoaInputError
 from roa.lyapunov import FunctionLyapunov, Lyapunov, PolynomialLyapunov
-from roa.proof.validate import validate_level
-from roa.search.rays import ray_box
+from roa.proof._validate import validate_level
+from roa.search._rays import ray_box
 from roa.status import Verdict
 from roa.systems import load_system
 from roa.systems.vanderpol import vanderpol
@@ -50,7 +50,7 @@ def test_quadratic_is_a_lyapunov_and_unchanged():
     x = np.array([[0.3, -1.2], [2.0, 0.5]])
     d = x - V.center
     assert np.array_equal(V.value(x), np.einsum("...i,ij,...j->...", d, V.P, d))
-    from roa.model.backend import NP
+    from roa.model._backend import NP
 
     assert np.allclose(V.expr([x[:, 0], x[:, 1]], NP), V.value(x))
     assert np.allclose(V.gradient(x), 2 * d @ V.P)

@@ -21,8 +21,8 @@ from scipy.optimize import minimize
 
 import roa
 from roa import closed_loop
-from roa.model.control_system import RICCATI_NAME, lqr_parts
-from roa.model.linearisation import jacobian, lyapunov_matrix
+from roa.model._control_system import RICCATI_NAME, lqr_parts
+from roa.model._linearisation import jacobian, lyapunov_matrix
 
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "examples"))

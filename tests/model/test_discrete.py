@@ -19,7 +19,7 @@ import pytest
 
 import roa
 from roa.errors import RoaInputError
-from roa.search.rays import ray_box
+from roa.search._rays import ray_box
 from roa.status import Verdict
 from roa.systems.cubic_map import cubic_map, optimum
 
@@ -76,7 +76,7 @@ def test_a_map_is_a_system_whose_field_refuses_to_be_a_derivative():
         roa.System.discrete(lambda t, x, xp: [x[0] / 2], name="x", equilibrium=(0.0,),
                             state_names=("a",), sample_time=-1.0)  # fmt: skip
     # parameters: with_params changes the map, and the fingerprint sees it
-    from roa.model.fingerprint import system_fingerprint
+    from roa.model._fingerprint import system_fingerprint
 
     other = s.with_params(mu=2.0)
     np.testing.assert_allclose(other.step(X), F_numpy(X, mu=2.0), rtol=1e-15)
@@ -85,7 +85,7 @@ def test_a_map_is_a_system_whose_field_refuses_to_be_a_derivative():
 
 def test_default_candidate_solves_the_discrete_lyapunov_equation():
     """A = lam R with R a rotation: A'PA - P = -I has the solution P = I / (1 - lam^2)."""
-    from roa.model.linearisation import linearise
+    from roa.model._linearisation import linearise
 
     s = cubic_map()
     lin = linearise(s)
@@ -154,7 +154,7 @@ def test_a_cover_of_the_component_alone_is_refused_for_a_map():
     """A V with no Gram matrix has only a component cover (a box with V > c on its faces):
     a map may jump out of the component, so neither the route's preconditions nor the branch
     and bound called directly certify it (precondition 'invariant')."""
-    from roa.proof.validate import validate_level
+    from roa.proof._validate import validate_level
 
     s = cubic_map()
     V = roa.FunctionLyapunov(lambda x, xp: (x[0] ** 2 + x[1] ** 2) * (4.0 / 3.0), [0.0, 0.0])
@@ -227,7 +227,7 @@ def test_basin_of_the_map_agrees_with_direct_iteration():
      ("0.1", "rk4", "h"), (0.1, "midpoint", "method")],
 )  # fmt: skip
 def test_discretise_refuses_a_bad_step_naming_it(h, method, named):
-    from roa.model.discrete import discretise
+    from roa.model._discrete import discretise
     from roa.systems.vanderpol import vanderpol
 
     with pytest.raises(RoaInputError, match=named):
@@ -237,9 +237,9 @@ def test_discretise_refuses_a_bad_step_naming_it(h, method, named):
 
 
 def test_discretise_writes_the_euler_and_rk4_steps_in_every_namespace():
-    from roa.model.discrete import discretise
-    from roa.proof.exact import exact_equilibrium
-    from roa.proof.interval import INTERVAL, Interval
+    from roa.model._discrete import discretise
+    from roa.proof._exact import exact_equilibrium
+    from roa.proof._interval import INTERVAL, Interval
     from roa.systems.vanderpol import vanderpol
 
     flow = vanderpol()

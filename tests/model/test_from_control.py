@@ -15,7 +15,7 @@ import pytest
 
 import roa
 from roa import closed_loop
-from roa.model.linearisation import jacobian
+from roa.model._linearisation import jacobian
 
 G = 9.81
 A = np.array([[0.0, 1.0], [-G, -0.1]])
@@ -132,7 +132,7 @@ def test_docstring_examples_run():
     import doctest
     import importlib
 
-    for mod in ("roa.model.system",):
+    for mod in ("roa.model._system",):
         failed, tried = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)
         assert failed == 0 and tried > 0, mod
 

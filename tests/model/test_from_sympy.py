@@ -16,9 +16,9 @@ import pytest
 import sympy as sp
 
 import roa
-from roa.model.backend import namespace
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.jet_net import JET
+from roa.model._backend import namespace
+from roa.proof._interval import INTERVAL, Interval
+from roa.proof._jet_net import JET
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 x1, x2, mu = sp.symbols("x1 x2 mu")
@@ -165,7 +165,7 @@ def _nested_atan(depth: int):
 
 
 def test_an_expression_nested_deeper_than_the_limit_is_an_input_error():
-    from roa.model.sympy_system import MAX_DEPTH
+    from roa.model._sympy_system import MAX_DEPTH
 
     x, y = sp.symbols("x y")
     with pytest.raises(roa.RoaInputError, match=rf"expression 0 is nested more than {MAX_DEPTH}"):

@@ -1,4 +1,4 @@
-"""Box evaluations in forked workers (roa.proof.parallel_boxes): the same verdict, boxes and
+"""Box evaluations in forked workers (roa.proof._parallel_boxes): the same verdict, boxes and
 proved counts as in one process, and bad worker counts refused."""
 
 from __future__ import annotations
@@ -11,8 +11,8 @@ import pytest
 
 import roa
 from roa.errors import RoaInputError
-from roa.model.linearisation import lyapunov_matrix
-from roa.proof.validate import validate_level
+from roa.model._linearisation import lyapunov_matrix
+from roa.proof._validate import validate_level
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "systems"))
 import pendulum_nn  # noqa: E402

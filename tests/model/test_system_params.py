@@ -16,7 +16,7 @@ import pytest
 
 import roa
 from roa.errors import RoaInputError
-from roa.model.fingerprint import system_fingerprint
+from roa.model._fingerprint import system_fingerprint
 from roa.systems.vanderpol import vanderpol
 
 

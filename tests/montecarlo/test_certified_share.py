@@ -15,10 +15,10 @@ from scipy import stats
 
 import roa
 from roa.cli import main
-from roa.integration import integrator as I  # noqa: N812
-from roa.lyapunov.regions import Region
-from roa.montecarlo.certified_share import clopper_pearson
-from roa.plotting.basin import shared_units
+from roa.integration import _integrator as I  # noqa: N812
+from roa.lyapunov._regions import Region
+from roa.montecarlo._certified_share import clopper_pearson
+from roa.plotting._basin import shared_units
 
 P = np.array([[1.5, -0.5], [-0.5, 1.0]])
 LEVEL = 2.30  # certified for Van der Pol (README)

@@ -21,8 +21,8 @@ import numpy as np
 import pytest
 
 from roa.errors import SolverError
-from roa.montecarlo.engine import run_basin
-from roa.montecarlo.sampling import grid_slice
+from roa.montecarlo._engine import run_basin
+from roa.montecarlo._sampling import grid_slice
 from roa.status import StopRules
 from roa.systems.vanderpol import vanderpol
 
@@ -97,7 +97,7 @@ def test_a_result_lost_with_its_worker_before_it_was_gathered_ends_the_wait(tmp_
     slices and ends with the SolverError of a cluster without workers."""
     from dask.distributed import Client, LocalCluster
 
-    from roa.montecarlo.dask_client import POLL, _result, _Watch
+    from roa.montecarlo._dask_client import POLL, _result, _Watch
 
     with LocalCluster(n_workers=0, processes=False, protocol="tcp://", host="127.0.0.1",
                       dashboard_address=None) as cluster:  # fmt: skip

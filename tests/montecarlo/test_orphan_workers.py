@@ -1,6 +1,6 @@
 """Worker processes exit with their parent (reliability issue, finding 5 and Deliver 4): after the
 ``roa basin`` process is killed with SIGKILL, its loky workers used to linger 4-5 minutes (loky's
-default idle timeout); they now exit after :data:`roa.montecarlo.engine.IDLE_WORKERS` seconds
+default idle timeout); they now exit after :data:`roa.montecarlo._engine.IDLE_WORKERS` seconds
 without work. Slow (it waits for that timeout), so in ``pytest -m slow``.
 """
 
@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from roa.montecarlo.engine import IDLE_WORKERS
+from roa.montecarlo._engine import IDLE_WORKERS
 
 psutil = pytest.importorskip("psutil")
 ROOT = Path(__file__).resolve().parents[2]

@@ -1,4 +1,4 @@
-"""Robust basins: a basin over a box of uncertain parameters (roa/montecarlo/robust_basin.py).
+"""Robust basins: a basin over a box of uncertain parameters (roa/montecarlo/_robust_basin.py).
 
 Reference numbers come from closed forms. The test system ``x1' = -a x1 + x1^3, x2' = -x2``
 (``a`` uncertain in [0.5, 2]) has the basin ``|x1| < sqrt(a)`` at each ``a`` (x1 = +-sqrt(a) are
@@ -20,11 +20,11 @@ import pytest
 import roa
 from roa.cli import main
 from roa.errors import ResultsError
-from roa.integration import integrator as I  # noqa: N812
-from roa.integration.integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE
-from roa.model.system import System
-from roa.montecarlo.basin import robust_basin
-from roa.montecarlo.robust_basin import (
+from roa.integration import _integrator as I  # noqa: N812
+from roa.integration._integrator import FIELD_SIGNATURE, MARGIN_SIGNATURE
+from roa.model._system import System
+from roa.montecarlo._basin import robust_basin
+from roa.montecarlo._robust_basin import (
     MAX_PARAM_SAMPLES,
     RobustBasinResult,
     parameter_samples,
@@ -43,7 +43,7 @@ def cubic_box() -> System:
                   parameters={"a": (0.5, 1.0, 2.0)})  # fmt: skip
 
 
-def cubic_grid(system: System) -> roa.montecarlo.sampling.GridSlice:
+def cubic_grid(system: System) -> roa.montecarlo._sampling.GridSlice:
     return roa.grid_slice(system, ("x1", "x2"), [(-1.9, 1.9), (-0.5, 0.5)], (39, 3))
 
 

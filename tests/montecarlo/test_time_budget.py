@@ -2,7 +2,7 @@
 ``inconclusive``): the run stops between chunks (inside a chunk between kernel slices or field
 evaluations), keeps only completed chunks, is resumed from them, and says what was not run.
 
-The clock is replaced by a counter (``roa.integration.budget.now``), so no test depends on speed.
+The clock is replaced by a counter (``roa.integration._budget.now``), so no test depends on speed.
 """
 
 from __future__ import annotations
@@ -16,9 +16,9 @@ import pytest
 import roa
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.integration import budget
-from roa.montecarlo.engine import NOT_RUN, run_basin
-from roa.montecarlo.sampling import grid_slice
+from roa.integration import _budget as budget
+from roa.montecarlo._engine import NOT_RUN, run_basin
+from roa.montecarlo._sampling import grid_slice
 from roa.status import StopRules
 from roa.systems.vanderpol import vanderpol
 
@@ -42,7 +42,7 @@ def ticking_clock(monkeypatch):
 @pytest.fixture
 def chunk_clock(monkeypatch):
     """A clock that advances one second at the start of every chunk (and not otherwise)."""
-    from roa.montecarlo import engine
+    from roa.montecarlo import _engine as engine
 
     t = [0.0]
     original = engine._chunk
@@ -93,7 +93,7 @@ def test_a_chunk_cut_inside_the_numpy_integrator_is_discarded(tmp_path, ticking_
 
 
 def test_the_numba_kernel_stops_between_slices_and_slicing_changes_nothing(ticking_clock):
-    from roa.integration import integrator as I  # noqa: N812
+    from roa.integration import _integrator as I  # noqa: N812
 
     ipc = roa.load_system("ipc")
     x0 = np.zeros((3 * budget.SLICE + 5, 4))

@@ -16,15 +16,14 @@ from pathlib import Path
 import mpmath as mp
 import numpy as np
 import pytest
-from hypothesis import given, settings
-from hypothesis import strategies as st
+from hypothesis import given, settings, strategies as st
 
 from roa.errors import RoaInputError
-from roa.model.backend import ACTIVATIONS, namespace
+from roa.model._backend import ACTIVATIONS, namespace
 from roa.nn import MLP, Activation
-from roa.proof.interval import INTERVAL, Interval, interval_affine
-from roa.proof.jet import Jet
-from roa.proof.jet_net import JET
+from roa.proof._interval import INTERVAL, Interval, interval_affine
+from roa.proof._jet import Jet
+from roa.proof._jet_net import JET
 
 ROOT = Path(__file__).resolve().parents[2]
 EXAMPLE = ROOT / "examples" / "systems" / "pendulum_nn.py"
@@ -32,7 +31,7 @@ ALPHA = 0.01
 
 
 def _exact(name: str, x: mp.mpf, alpha: float = ALPHA) -> mp.mpf:
-    """50-digit activation values (the definitions of roa.model.backend)."""
+    """50-digit activation values (the definitions of roa.model._backend)."""
     if name == "tanh":
         return mp.tanh(x)
     if name == "sigmoid":
@@ -321,7 +320,7 @@ def test_mlp_interval_and_jet_evaluations_enclose_the_network(kind):
 def test_mlp_centred_is_zero_at_the_point_exactly_and_checks_its_input():
     import sympy as sp
 
-    from roa.model.sympy_eval import exact_rationals
+    from roa.model._sympy_eval import exact_rationals
 
     rng = np.random.default_rng(2)
     net = MLP([(rng.normal(size=(4, 3)), rng.normal(size=4)), (rng.normal(size=(2, 4)), rng.normal(size=2))],
@@ -494,7 +493,7 @@ def test_pendulum_nn_certified_at_099_of_the_optimum_down_to_the_equilibrium(nam
     the default quadratic V (15.93 tanh, 18.96 ReLU), with the Hessian proof on a box around
     the equilibrium (no excluded region), and refutes 1.01 x with a 50-digit witness."""
     import roa
-    from roa.model.linearisation import lyapunov_matrix
+    from roa.model._linearisation import lyapunov_matrix
 
     system = getattr(_example(), name)
     P = lyapunov_matrix(system)
@@ -518,8 +517,8 @@ def test_relu_network_is_affine_near_the_equilibrium_and_the_local_proof_sees_it
     biases every unit is at its kink at 0, every box around 0 has an unbounded Hessian and the
     local proof (so the certificate) fails: the network must not kink at the equilibrium."""
     from roa.lyapunov import QuadraticLyapunov
-    from roa.model.linearisation import lyapunov_matrix
-    from roa.proof.local import local_box, local_box_proof
+    from roa.model._linearisation import lyapunov_matrix
+    from roa.proof._local import local_box, local_box_proof
 
     ex = _example()
     system = ex.SYSTEM_RELU
@@ -595,8 +594,8 @@ def test_sympy_fields_with_tanh_and_a_network_controller_compile_for_monte_carlo
     import sympy as sp
 
     from roa import System
-    from roa.integration.codegen import kernel_source
-    from roa.integration.trace import trace_system
+    from roa.integration._codegen import kernel_source
+    from roa.integration._trace import trace_system
 
     a, b = sp.symbols("a b", real=True)
     s = System.from_sympy([b, -sp.tanh(a + b) - b], [a, b])
@@ -617,7 +616,7 @@ def test_exact_equilibrium_of_a_relu_network_field_evaluates_max_on_numbers():
     each output), decided on exact rationals in seconds (simplified symbolically first, it took
     minutes); the same field with the network not centred is refused (f(0) != 0 exactly)."""
     from roa import System
-    from roa.proof.exact import exact_equilibrium
+    from roa.proof._exact import exact_equilibrium
 
     path = Path(__file__).resolve().parents[2] / "examples" / "systems" / "quadrotor_nn_relu.npz"
     raw = MLP.load(path)

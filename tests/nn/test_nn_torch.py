@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from roa.errors import RoaInputError
-from roa.model.backend import namespace
+from roa.model._backend import namespace
 from roa.nn import MLP
 
 
@@ -65,7 +65,7 @@ def test_the_network_read_evaluates_as_pytorch_does_in_float64():
 @pytest.mark.torch
 def test_interval_evaluation_of_the_read_network_encloses_pytorch_outputs():
     torch = pytest.importorskip("torch")
-    from roa.proof.interval import INTERVAL, Interval
+    from roa.proof._interval import INTERVAL, Interval
 
     net = _network(torch).double()
     mlp = MLP.from_torch(net)

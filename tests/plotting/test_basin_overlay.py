@@ -18,8 +18,8 @@ from scipy.integrate import solve_ivp
 
 import roa
 from roa.cli import main
-from roa.integration import dopri as I  # noqa: N812
-from roa.plotting.basin import MAX_TRAJECTORIES, TRAJECTORY_COLOURS, trajectory_starts
+from roa.integration import _dopri as I  # noqa: N812
+from roa.plotting._basin import MAX_TRAJECTORIES, TRAJECTORY_COLOURS, trajectory_starts
 
 
 def vdp_field(t, x):

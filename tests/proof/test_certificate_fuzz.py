@@ -16,15 +16,13 @@ from typing import Any
 
 import numpy as np
 import pytest
-from hypothesis import HealthCheck, given, settings
-from hypothesis import strategies as st
-from sos_systems import poly3d_block as _poly3d
-from sos_systems import ring as _ring
+from hypothesis import HealthCheck, given, settings, strategies as st
+from sos_systems import poly3d_block as _poly3d, ring as _ring
 
 import roa
-from roa.certification.result import Certificate
+from roa.certification._result import Certificate
 from roa.errors import RoaInputError
-from roa.proof.sos_check import parse_rational
+from roa.proof._sos_check import parse_rational
 from roa.status import Verdict
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 

@@ -18,10 +18,10 @@ import pytest
 import roa
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.model.fingerprint import system_fingerprint
-from roa.montecarlo.certified_set import terminal_from_certificate
-from roa.proof.reverify import content_key, reverify
-from roa.search.rays import ray_box
+from roa.model._fingerprint import system_fingerprint
+from roa.montecarlo._certified_set import terminal_from_certificate
+from roa.proof._reverify import content_key, reverify
+from roa.search._rays import ray_box
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 LEVEL = 2.30

@@ -1,5 +1,5 @@
-"""Containment of sublevel sets for any V (roa.proof.sublevel_containment) against the exact rational
-ellipsoid test (roa.proof.containment.ellipsoid_contains): {x'Qx <= a} lies in {x'Px <= b} iff
+"""Containment of sublevel sets for any V (roa.proof._sublevel_containment) against the exact rational
+ellipsoid test (roa.proof.ellipsoid_contains): {x'Qx <= a} lies in {x'Px <= b} iff
 a lambda_max(Q^-1 P) <= b, here decided 1 % either side of the threshold."""
 
 from __future__ import annotations
@@ -9,9 +9,9 @@ import pytest
 
 import roa
 from roa.lyapunov import PolynomialLyapunov
-from roa.proof.containment import ellipsoid_contains
-from roa.proof.sublevel_containment import sublevel_contains
-from roa.search.rays import ray_box
+from roa.proof._containment import ellipsoid_contains
+from roa.proof._sublevel_containment import sublevel_contains
+from roa.search._rays import ray_box
 
 
 def _as_poly(P: np.ndarray) -> PolynomialLyapunov:

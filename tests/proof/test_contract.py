@@ -1,4 +1,4 @@
-"""Boxes shrunk to the part that can meet {V <= level} (roa.proof.contract): every point of the
+"""Boxes shrunk to the part that can meet {V <= level} (roa.proof._contract): every point of the
 box with V <= level (exact rational V at dense samples) stays in the shrunk box, an emptied box
 has no such point, and a box across the level surface of |x|^2 shrinks to the closed form."""
 
@@ -10,8 +10,8 @@ import numpy as np
 import pytest
 
 import roa
-from roa.proof.contract import contract
-from roa.proof.validate import QuadraticForm
+from roa.proof._contract import contract
+from roa.proof._validate import QuadraticForm
 
 
 def _exact_v(P: np.ndarray, x: np.ndarray) -> Fraction:

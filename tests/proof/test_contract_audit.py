@@ -1,4 +1,4 @@
-"""Audit of the box contraction (roa.proof.contract) against an independent reference in mpmath
+"""Audit of the box contraction (roa.proof._contract) against an independent reference in mpmath
 interval arithmetic at 200 bits (outward rounded by mpmath, so its box is a rigorous enclosure
 of the exact step-by-step contraction, tight to ~1e-55).
 
@@ -18,8 +18,8 @@ import numpy as np
 import pytest
 
 import roa
-import roa.proof.contract as C
-from roa.proof.validate import QuadraticForm
+import roa.proof._contract as C
+from roa.proof._validate import QuadraticForm
 
 iv = mp.iv
 
@@ -46,7 +46,7 @@ def _reference(quad: QuadraticForm, lo: np.ndarray, hi: np.ndarray, level: float
     c = [mp.mpf(float(v)) for v in quad.center]
     coef = {}
     for (p, q), v in quad.coef.items():
-        e = roa.proof.interval.Interval.of(v)
+        e = roa.proof.Interval.of(v)
         coef[p, q] = iv.mpf([float(np.ravel(e.lo)[0]), float(np.ravel(e.hi)[0])])
     box = [[iv.mpf(float(lo[i])), iv.mpf(float(hi[i]))] for i in range(n)]  # end points
     for i in range(n):

@@ -17,13 +17,13 @@ import pytest
 import sympy as sp
 
 import roa
-from roa.certification.result import Certificate
+from roa.certification._result import Certificate
 from roa.cli import main
 from roa.errors import RoaInputError
-from roa.montecarlo.certified_set import terminal_from_certificate
-from roa.proof.preconditions import PRECONDITIONS, Route, check_preconditions
-from roa.search.outside import domain_witness
-from roa.search.rays import ray_box
+from roa.montecarlo._certified_set import terminal_from_certificate
+from roa.proof._preconditions import PRECONDITIONS, Route, check_preconditions
+from roa.search._outside import domain_witness
+from roa.search._rays import ray_box
 from roa.status import Verdict
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "systems" / "domain.py"

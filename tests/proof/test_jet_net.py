@@ -1,4 +1,4 @@
-"""Interval jets through networks as arrays (roa.proof.jet_net): enclosures of the value,
+"""Interval jets through networks as arrays (roa.proof._jet_net): enclosures of the value,
 gradient and Hessian against 50-digit forward-mode derivatives at sample points, the exact-zero
 structure, and agreement with the neuron-by-neuron jets."""
 
@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from roa.nn import MLP
-from roa.proof.interval import Interval
-from roa.proof.jet import Jet, nonsmooth
-from roa.proof.jet_net import JET, network_jet
+from roa.proof._interval import Interval
+from roa.proof._jet import Jet, nonsmooth
+from roa.proof._jet_net import JET, network_jet
 
 ACTS = ["tanh", "sigmoid", "softplus", "relu", ("leaky_relu", 0.1), ("clip", -0.4, 0.7)]
 

@@ -1,4 +1,4 @@
-"""Audit of the network jets (roa.proof.jet_net) at the sharpest place for rounding: point boxes
+"""Audit of the network jets (roa.proof._jet_net) at the sharpest place for rounding: point boxes
 (``lo = hi``), where the enclosures of the value, gradient and Hessian are a few ulps wide, so
 every bound is compared exactly (as an mpmath number) with the 50-digit forward-mode derivatives
 of ``tests/proof/test_jet_net.py`` at random points of random affine input maps, and of one layer and
@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 from test_jet_net import ACTS, _kink_free, _mp_act, _mp_jet, _net
 
-import roa.proof.jet_net as JN
+import roa.proof._jet_net as JN
 from roa.nn import MLP, Activation, Affine
-from roa.proof.interval import Interval
-from roa.proof.jet import Jet
+from roa.proof._interval import Interval
+from roa.proof._jet import Jet
 
 
 def _shallow(act, seed: int) -> MLP:
@@ -110,8 +110,8 @@ def _nearest_affine(W, b, lo, hi):
 
 def _midpoint_derivatives(name):
     """``(f, f', f'')`` of the activation as float values at the interval's midpoint."""
-    import roa.proof.jet as J
-    from roa.proof.interval import INTERVAL
+    import roa.proof._jet as J
+    from roa.proof._interval import INTERVAL
 
     exact = {"tanh": (INTERVAL.tanh, J._dtanh, J._d2tanh),
              "sigmoid": (INTERVAL.sigmoid, J._dsigmoid, J._d2sigmoid),

@@ -1,5 +1,5 @@
 """The libm assumption of the interval layer, measured: numpy's transcendental functions are within
-``LIBM_ULPS`` ulps of the exact value (``roa.proof.interval`` widens their results by that much).
+``LIBM_ULPS`` ulps of the exact value (``roa.proof._interval`` widens their results by that much).
 
 For every function the interval namespace evaluates with numpy (sin, cos, tan, exp, log, sqrt,
 arctan, arcsinh, arctanh, tanh and log1p -- the network activations: tanh directly, sigmoid and
@@ -21,7 +21,7 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from roa.proof.interval import INTERVAL, LIBM_ULPS, TRIG_ARGUMENT_LIMIT, Interval
+from roa.proof._interval import INTERVAL, LIBM_ULPS, TRIG_ARGUMENT_LIMIT, Interval
 
 DIGITS = 50
 _MAX = np.finfo(float).max

@@ -5,7 +5,7 @@ The two-machine power system as a user writes it, ``x2' = -0.5 x2 - (sin(x1 + pi
 math.sin(pi/3))`` with ``math.pi``: 0 at the origin in floats, but with its constants taken as the
 exact rationals they are its zero is ``O(1e-16)`` away, so ``f(x_eq) = 0`` is not exact and the
 interval enclosure of ``f(0)`` is a small interval around 0. The local proof is then the
-contraction argument of :mod:`roa.proof.local` (3.), whose claim is convergence to the field's
+contraction argument of :mod:`roa.proof._local` (3.), whose claim is convergence to the field's
 unique zero near ``x_eq``: the tests check the certified and refuted levels around the optimum
 ``rho* = 1.0410816`` (an earlier release; recomputed here along rays, independently of the code
 under test) and that the true zero (50-digit mpmath) lies within the reported radius.
@@ -21,9 +21,9 @@ import pytest
 
 import roa
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.local import contraction_box, local_box
-from roa.proof.validate import validate_level
-from roa.search.rays import ray_box
+from roa.proof._local import contraction_box, local_box
+from roa.proof._validate import validate_level
+from roa.search._rays import ray_box
 
 P_POWER = [[2.0, 1.0], [1.0, 3.0]]
 RHO_POWER = 1.0410816  # the earlier release's optimum of V = x' P x for this field

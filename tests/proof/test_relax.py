@@ -1,4 +1,4 @@
-"""Linear relaxations and CROWN (roa.proof.relax): soundness against dense sampling and 50-digit
+"""Linear relaxations and CROWN (roa.proof._relax): soundness against dense sampling and 50-digit
 mpmath evaluations on random networks and boxes, tightness against plain intervals, outward
 rounding where float products cancel, and the hook into the branch and bound (fewer boxes, the
 same verdicts).
@@ -15,11 +15,11 @@ import mpmath as mp
 import numpy as np
 import pytest
 
-from roa.model.backend import namespace
+from roa.model._backend import namespace
 from roa.nn import MLP, Affine
-from roa.proof.interval import INTERVAL, Interval
-from roa.proof.relax import LINEAR, Lin, variables
-from roa.search.rays import ray_box
+from roa.proof._interval import INTERVAL, Interval
+from roa.proof._relax import LINEAR, Lin, variables
+from roa.search._rays import ray_box
 
 NP = namespace("numpy")
 ROOT = Path(__file__).resolve().parents[2]
@@ -206,8 +206,8 @@ def test_the_hook_decides_boxes_the_interval_forms_leave_and_keeps_the_verdicts(
     finally:
         sys.path.pop(0)
     import roa
-    import roa.proof.relax_vdot as rv
-    from roa.proof.validate import validate_level
+    import roa.proof._relax_vdot as rv
+    from roa.proof._validate import validate_level
 
     system = pendulum_nn.SYSTEM_RELU
     V = roa.default_lyapunov(system)
@@ -237,8 +237,8 @@ def test_quadrotor_networks_have_a_local_proof_down_to_the_equilibrium():
     finally:
         sys.path.pop(0)
     import roa
-    from roa.proof.interval import interval_affine
-    from roa.proof.local import local_box
+    from roa.proof._interval import interval_affine
+    from roa.proof._local import local_box
 
     for system, kind in ((quadrotor_nn.SYSTEM, "tanh"), (quadrotor_nn.SYSTEM_RELU, "relu")):
         V = roa.default_lyapunov(system)

@@ -1,6 +1,6 @@
-"""Adversarial soundness audit of the linear relaxations (roa.proof.relax) and CROWN.
+"""Adversarial soundness audit of the linear relaxations (roa.proof._relax) and CROWN.
 
-Each case is one an audit found or probed: a bound of :mod:`roa.proof.relax` checked against
+Each case is one an audit found or probed: a bound of :mod:`roa.proof._relax` checked against
 the exact value at the box's points, computed independently of the code under test (Python
 Fractions for piecewise-linear networks and affine expressions: exact; mpmath at 60 digits for
 the smooth functions). The affine bounds themselves are evaluated exactly (Fractions), so a
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 
 from roa.nn import MLP, Affine
-from roa.proof.relax import LINEAR, Lin, variables
-from roa.search.rays import ray_box
+from roa.proof._relax import LINEAR, Lin, variables
+from roa.search._rays import ray_box
 
 
 def _exact_affine(A: np.ndarray, c: float, d: list[Fraction]) -> Fraction | float:
@@ -283,7 +283,7 @@ def _fitted_pendulum(act, seed: int = 0):
     """A damped pendulum under a 2-8-1 network whose output layer is least squares on a
     stabilising law (random hidden layer), centred so that the origin is an equilibrium."""
     from roa import System
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
 
     rng = np.random.default_rng(seed)
     W0, b0 = rng.normal(size=(8, 2)) * 1.5, rng.normal(size=8)
@@ -302,7 +302,7 @@ def _fitted_pendulum(act, seed: int = 0):
 
 
 def _vdot_50(system, P: np.ndarray, x: np.ndarray):
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
 
     with mp.workdps(50):
         xm = [mp.mpf(float(v)) for v in x]
@@ -319,10 +319,10 @@ def test_relaxation_bounds_alone_hold_at_sampled_points_and_at_50_digits(act):
     per box (the extreme samples re-evaluated at 50 digits), and wherever it claims the
     multiplier bound F < 0, V' < 0 at every sample with V <= level."""
     from roa.lyapunov import QuadraticLyapunov
-    from roa.model.backend import namespace
-    from roa.model.linearisation import lyapunov_matrix
-    from roa.proof.interval import Interval
-    from roa.proof.relax_vdot import relaxation_bounds
+    from roa.model._backend import namespace
+    from roa.model._linearisation import lyapunov_matrix
+    from roa.proof._interval import Interval
+    from roa.proof._relax_vdot import relaxation_bounds
 
     system = _fitted_pendulum(act)
     P = lyapunov_matrix(system)
@@ -364,7 +364,7 @@ def _witness_at_50_digits(system, P: np.ndarray) -> np.ndarray:
     SLSQP), moved outward along its ray until V' >= 0 holds at 50 digits."""
     from scipy.optimize import minimize
 
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
 
     NP = namespace("numpy")
 
@@ -397,9 +397,9 @@ def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
     grid and SLSQP (independent of the branch and bound) bounds the optimum by ``V(w)``; the
     branch and bound, with the relaxation bounds deciding boxes, certifies 0.97 V(w) and does
     not certify 1.001 V(w)."""
-    import roa.proof.validate as validate
+    import roa.proof._validate as validate
     from roa.lyapunov import QuadraticLyapunov
-    from roa.model.linearisation import lyapunov_matrix
+    from roa.model._linearisation import lyapunov_matrix
 
     system = _fitted_pendulum(act)
     P = lyapunov_matrix(system)
@@ -428,9 +428,9 @@ def test_no_certificate_just_above_an_independent_optimum(act, monkeypatch):
 def test_an_identity_step_of_from_ops_is_no_activation_in_every_namespace():
     """``Activation("identity")`` passed to :meth:`MLP.from_ops` was kept as a step that the
     numpy and interval namespaces do not have (AttributeError); it is now dropped."""
-    from roa.model.backend import namespace
+    from roa.model._backend import namespace
     from roa.nn import Activation
-    from roa.proof.interval import INTERVAL, Interval
+    from roa.proof._interval import INTERVAL, Interval
 
     W, b = np.array([[2.0, -1.0]]), np.array([0.5])
     net = MLP.from_ops([Affine(W, b), Activation("identity")])
@@ -446,7 +446,7 @@ def test_a_complex_constant_is_refused_by_intervals_and_relaxations():
     constant with an imaginary part is now refused; one with zero imaginary part is its real
     part."""
     from roa.errors import RoaInputError
-    from roa.proof.interval import Interval
+    from roa.proof._interval import Interval
 
     x = Interval(np.array([1.0]), np.array([2.0]))
     with pytest.raises(RoaInputError, match="complex constant"):
@@ -534,10 +534,10 @@ def test_relaxation_bounds_on_the_quadrotor_networks_hold_at_samples_and_50_digi
     from pathlib import Path
 
     from roa.lyapunov import QuadraticLyapunov
-    from roa.model.backend import namespace
-    from roa.model.linearisation import lyapunov_matrix
-    from roa.proof.interval import Interval
-    from roa.proof.relax_vdot import relaxation_bounds
+    from roa.model._backend import namespace
+    from roa.model._linearisation import lyapunov_matrix
+    from roa.proof._interval import Interval
+    from roa.proof._relax_vdot import relaxation_bounds
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "examples" / "systems"))
     try:

@@ -1,4 +1,4 @@
-"""The exact SOS validator (``roa.SosValidator``, :mod:`roa.proof.sos_check`).
+"""The exact SOS validator (``roa.SosValidator``, :mod:`roa.proof._sos_check`).
 
 Van der Pol with the benchmark P has largest level 2.3045: the SOS certificate, checked in exact
 rationals, certifies 2.30 and can never certify 2.31 (a point of ``{V <= 2.31}`` has ``V' = 0``).
@@ -14,9 +14,9 @@ import pytest
 
 import roa
 from roa.lyapunov import QuadraticLyapunov
-from roa.proof.putinar import Certificate, check_level
-from roa.proof.sos_check import exact_data
-from roa.search.sos_certificate import propose_certificate
+from roa.proof._putinar import Certificate, check_level
+from roa.proof._sos_check import exact_data
+from roa.search._sos_certificate import propose_certificate
 from roa.systems.vanderpol import vanderpol
 
 
@@ -167,9 +167,9 @@ def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
     monomial) is accepted: the proof stands on the projected matrices, not on the file."""
     import json
 
-    import roa.search.sos_certificate as proposer
+    import roa.search._sos_certificate as proposer
     from roa.cli import main
-    from roa.montecarlo.certified_set import terminal_from_certificate
+    from roa.montecarlo._certified_set import terminal_from_certificate
 
     cert = roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator())
     assert cert.certified and cert.method == "sos-exact"
@@ -224,12 +224,12 @@ def test_review_findings_on_the_sos_route():
     v = roa.SosValidator().check(lin, roa.QuadraticLyapunov([[1.0]], [0.3]), 0.01)
     assert "SOS not applicable (f(x_eq) != 0" in v.message
     # the branch and bound behind it proves convergence to the field's zero x* = 0.03 / 0.1 in
-    # exact rationals, 1.67e-17 from x_eq (roa.proof.local, the contraction argument)
+    # exact rationals, 1.67e-17 from x_eq (roa.proof._local, the contraction argument)
     x_star = Fraction(0.03) / Fraction(0.1)
     assert v.status is roa.Verdict.CERTIFIED
     assert v.meta["local_proof"] == "contraction (f(x_eq) enclosed)"
     assert abs(x_star - Fraction(0.3)) <= Fraction(v.meta["equilibrium_radius"]) < 1e-12
-    from roa.proof.exact import exact_equilibrium
+    from roa.proof._exact import exact_equilibrium
 
     assert not exact_equilibrium(lin, lin.x_eq)  # the interval route's local proof sees it too
     assert exact_equilibrium(vanderpol(), vanderpol().x_eq)

@@ -17,8 +17,8 @@ from scipy import optimize
 import roa
 from roa.certification import Certificate
 from roa.lyapunov import PolynomialLyapunov
-from roa.proof.sos_check import exact_data
-from roa.search.sos_sparse import choose_route, plan
+from roa.proof._sos_check import exact_data
+from roa.search._sos_sparse import choose_route, plan
 
 N, A = 6, 0.5
 

@@ -1,4 +1,4 @@
-"""Exact recasts of non-polynomial fields for the SOS validator (:mod:`roa.proof.recast`).
+"""Exact recasts of non-polynomial fields for the SOS validator (:mod:`roa.proof._recast`).
 
 Optima are independent of roa: the pendulum's from a scipy multistart of min V s.t. V' = 0 in the
 test; the rational system's is 1 (its docstring: V' = 0 at (1, 0), V = 1).
@@ -18,9 +18,9 @@ from scipy.optimize import minimize
 
 import roa
 from roa.certification import Certificate
-from roa.proof.recast import angle_constraints, positive_everywhere, recast_exact
-from roa.proof.sos_check import NotPolynomial
-from roa.search.rays import ray_box
+from roa.proof._recast import angle_constraints, positive_everywhere, recast_exact
+from roa.proof._sos_check import NotPolynomial
+from roa.search._rays import ray_box
 
 
 def _pendulum():
@@ -73,7 +73,7 @@ def test_recast_agrees_with_the_field_at_points_of_the_level_set(name, level):
     """At 300 random points x of {V <= level} (and near x_eq): N(z(x)) / Den(z(x)) equals V'(x)
     of the original field (numpy), Den(z(x)) > 0, every equality vanishes and every inequality
     is >= 0 at z(x) (float tolerances relative to the terms' size)."""
-    from roa.proof.recast import evaluate, level_scale
+    from roa.proof._recast import evaluate, level_scale
 
     system = roa.load_system(name)
     V = roa.default_lyapunov(system)
@@ -193,10 +193,9 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     it proved, a multiplier of a Taylor band made indefinite, and an identity off by one
     coefficient. (Changing an equality multiplier is no tampering: ``mu h`` vanishes at every
     ``z(x)``, so any ``mu`` whose projected ``Q0`` stays positive definite is a valid proof.)"""
-    from roa.proof.putinar import Certificate as Putinar
-    from roa.proof.putinar import check_level as check_putinar
-    from roa.proof.recast import level_scale, recast_preconditions
-    from roa.search.sos_putinar import propose_putinar
+    from roa.proof._putinar import Certificate as Putinar, check_level as check_putinar
+    from roa.proof._recast import level_scale, recast_preconditions
+    from roa.search._sos_putinar import propose_putinar
 
     system = roa.load_system("examples/systems/quadrotor2d.py:SYSTEM")
     V = roa.default_lyapunov(system)
@@ -244,7 +243,7 @@ def test_one_field_certificate_is_not_one_for_a_box():
     (tests/proof/test_sos_robust.py) and cannot at 2.30 (below mu = 0.5's V' is indefinite at 0)."""
     import json
 
-    from roa.proof.sos_stored import recheck as recheck_stored
+    from roa.proof._sos_stored import recheck as recheck_stored
     from roa.systems.vanderpol import vanderpol
 
     cert = roa.certify(vanderpol(), level=2.30, validator=roa.SosValidator())

@@ -1,4 +1,4 @@
-"""Reductions of the exact SOS problem (:mod:`roa.proof.reductions`): accepts / apply / invert."""
+"""Reductions of the exact SOS problem (:mod:`roa.proof._reductions`): accepts / apply / invert."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ import pytest
 from sos_systems import poly3d_block as _poly3d
 
 import roa
-from roa.proof.reductions import IndependentBlocks, Rescale
-from roa.proof.sos_check import exact_data
+from roa.proof._reductions import IndependentBlocks, Rescale
+from roa.proof._sos_check import exact_data
 
 
 def _data(field, n):

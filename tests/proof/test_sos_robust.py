@@ -1,4 +1,4 @@
-"""Exact SOS certificates for a parameter box (:class:`roa.proof.reductions.ParameterBox`).
+"""Exact SOS certificates for a parameter box (:class:`roa.proof.ParameterBox`).
 
 Optima are independent of roa: Van der Pol's from multistart SLSQP of min V s.t. V' = 0 at both
 ends of the box (V' is affine in mu, so for each state the largest V' over the box is at an end:
@@ -18,10 +18,10 @@ from scipy.optimize import minimize
 
 import roa
 from roa.certification import Certificate
-from roa.model.system import System
-from roa.proof.sos_stored import recheck as recheck_stored
-from roa.search.candidate import as_lyapunov
-from roa.search.rays import ray_box
+from roa.model._system import System
+from roa.proof._sos_stored import recheck as recheck_stored
+from roa.search._candidate import as_lyapunov
+from roa.search._rays import ray_box
 from roa.status import Verdict
 
 P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V

@@ -3,7 +3,7 @@
 ``tests/data/sos_certificates_old_forms.json`` holds certificate files written by the previous
 release (one per old form: ``basis0``/``Q0`` dense, ``blocks``, ``sum``, ``putinar`` for a recast
 field and for a parameter box, dense with a ``domain`` part), for the systems below. Each must
-still be re-checked exactly (converted on load into the one form, :func:`roa.proof.sos_stored.
+still be re-checked exactly (converted on load into the one form, :func:`roa.proof._sos_stored.
 parts_of`), and each tampered (a Gram block of the SOS part negated, or the level raised by 1 %
 where the level is within 1 % of the optimum) must be refused. Fresh certificates are written
 in the one form (``parts``) and convert to themselves.
@@ -15,12 +15,11 @@ import json
 from pathlib import Path
 
 import pytest
-from sos_systems import poly3d_block as _poly3d
-from sos_systems import ring as _ring
+from sos_systems import poly3d_block as _poly3d, ring as _ring
 
 import roa
-from roa.certification.result import Certificate
-from roa.proof.sos_stored import parts_of
+from roa.certification._result import Certificate
+from roa.proof._sos_stored import parts_of
 from roa.status import Verdict
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 

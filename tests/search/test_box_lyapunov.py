@@ -1,5 +1,5 @@
 """A quadratic V designed for a whole parameter box (issue 37, item 2): common Lyapunov LMIs at
-the box's points propose V (roa.search.box_lyapunov), the robust branch and bound decides."""
+the box's points propose V (roa.search._box_lyapunov), the robust branch and bound decides."""
 
 from __future__ import annotations
 
@@ -8,8 +8,8 @@ import pytest
 
 import roa
 from roa.cli import main
-from roa.search.box_lyapunov import box_lyapunov, is_affine
-from roa.search.candidate import as_lyapunov, worst_linearisation
+from roa.search._box_lyapunov import box_lyapunov, is_affine
+from roa.search._candidate import as_lyapunov, worst_linearisation
 from roa.status import Verdict
 
 P_BENCH = np.array([[1.5, -0.5], [-0.5, 1.0]])  # vanderpol's own V (designed at mu = 1)

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from roa.lyapunov import QuadraticLyapunov
-from roa.search.quadratic import optimise_quadratic, ray_level
+from roa.search._quadratic import optimise_quadratic, ray_level
 from roa.systems.vanderpol import P_BENCHMARK, RHO_BENCHMARK, vanderpol
 
 

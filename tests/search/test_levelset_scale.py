@@ -13,9 +13,9 @@ import pytest
 
 import roa
 from roa.lyapunov import QuadraticLyapunov
-from roa.model.system import System
-from roa.search.levelset import casadi_level, level_search
-from roa.search.levelset_core import finish, problem, vdot_order
+from roa.model._system import System
+from roa.search._levelset import casadi_level, level_search
+from roa.search._levelset_core import finish, problem, vdot_order
 from roa.status import LevelStatus
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples" / "systems"

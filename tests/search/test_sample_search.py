@@ -1,4 +1,4 @@
-"""The sampled cutting-plane search of a polynomial V (roa.search.cutting_planes) and its
+"""The sampled cutting-plane search of a polynomial V (roa.search._cutting_planes) and its
 certification (roa.certify with roa.CuttingPlanes, roa.certify(..., vs=VsOptions(method=
 "sampled"))), on Van der Pol (reversed, mu = 1), whose true region is bounded by its limit cycle."""
 
@@ -12,8 +12,8 @@ import pytest
 import roa
 from roa.errors import RoaInputError
 from roa.options import SampleSearchOptions, VsOptions
-from roa.proof.cover import gram_cover
-from roa.search.cutting_planes import monomials, sample_search
+from roa.proof._cover import gram_cover
+from roa.search._cutting_planes import monomials, sample_search
 
 FAST = SampleSearchOptions(rounds=6, directions=1500, radial=12, soft_points=600,
                            initial_cuts=600, outer_points=400, horizon=20.0)  # fmt: skip
@@ -146,7 +146,7 @@ def test_certify_sampled_retries_below_a_confirmed_witness(vdp):
     assert cert.above is not None and cert.above.status.value == "refuted"
     assert cert.above.level == pytest.approx(1.001 * cert.candidate, rel=1e-12)
     # the refutation's witness: V <= its level and V' >= 0, re-checked here at 50 digits
-    from roa.proof.witness import recheck_witness
+    from roa.proof._witness import recheck_witness
 
     w = np.asarray(cert.above.witness)
     assert recheck_witness(vdp, cert.V, w, cert.above.level)["confirmed"]

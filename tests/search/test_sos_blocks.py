@@ -1,4 +1,4 @@
-"""Independent blocks of variables in the exact SOS check (:mod:`roa.proof.sos_blocks`).
+"""Independent blocks of variables in the exact SOS check (:mod:`roa.proof._sos_blocks`).
 
 Two decoupled copies of poly3d (x' = -x + (x2 x3, x1 x3, x1 x2) per copy, V = |x|^2) have the
 largest level 3 exactly, as one copy (examples/systems/poly3d.py: AM-GM on the sphere; V' is the
@@ -16,9 +16,9 @@ from sos_systems import poly3d_block as _poly3d
 
 import roa
 from roa.certification import Certificate
-from roa.proof.sos_blocks import blocks, check_partition, restrict
-from roa.proof.sos_check import exact_data
-from roa.search.sdp import monomials
+from roa.proof._sos_blocks import blocks, check_partition, restrict
+from roa.proof._sos_check import exact_data
+from roa.search._sdp import monomials
 
 
 def _copies(k: int) -> roa.System:
@@ -81,7 +81,7 @@ def test_a_split_certificate_is_rechecked_and_tampering_is_refused(split_certifi
     """Re-checked without a solver; refused when the level is raised above the optimum 3, when a
     block's multiplier Gram matrix is negated (never projected, so no longer positive definite),
     or when the stored blocks are not independent (a monomial couples them)."""
-    import roa.search.sos_certificate as proposer
+    import roa.search._sos_certificate as proposer
 
     system, cert = split_certificate
     data = json.loads(roa.io.to_json(cert.to_dict()))
@@ -110,7 +110,7 @@ def test_the_sos_level_of_independent_blocks_is_the_least_block_level():
     levels are 3 (both copies, solved once) and unlimited, so the proposal is 3 (closed form), to
     the bisection's and the solver's tolerance; roa.certify (SosLevel, the default proposer for a
     quadratic V) then has the exact check prove 0.9999 x it."""
-    from roa.search.sos_bisection import block_levels
+    from roa.search._sos_bisection import block_levels
 
     def field(t, x, xp):
         return _poly3d(x, 0) + _poly3d(x, 3) + (-x[6],)

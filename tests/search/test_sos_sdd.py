@@ -1,8 +1,8 @@
 """Dense coupled systems: sign-symmetry Gram blocks and scaled diagonally dominant (SDSOS) ones.
 
-The SDSOS pattern (:func:`roa.search.sos_sparse.sdsos_plan`, ``cone="sdd"`` blocks of the one
-program :class:`roa.search.sdp.Program`) proposes; the one exact check
-(:func:`roa.proof.putinar.check_identity`) proves an SDD block by exact scaled diagonal
+The SDSOS pattern (:func:`roa.search._sos_sparse.sdsos_plan`, ``cone="sdd"`` blocks of the one
+program :class:`roa.search._sdp.Program`) proposes; the one exact check
+(:func:`roa.proof._putinar.check_identity`) proves an SDD block by exact scaled diagonal
 dominance; the one stored form flags it (``"cone": "sdd"`` with its scaling). The dense cubic
 example's closed-form optimum ``1 / lambda_max(B)`` is checked against SLSQP; tampered SDSOS
 certificates are refused.
@@ -21,11 +21,11 @@ import pytest
 
 import roa
 from roa.certification import Certificate
-from roa.proof.putinar import check_level, dd_scaling, dominance_margin
-from roa.proof.sos_check import exact_data
-from roa.search.sdp import monomials
-from roa.search.sos_sparse import SparseProgram, choose_route, sdsos_plan
-from roa.search.sos_symmetry import sign_symmetries, split
+from roa.proof._putinar import check_level, dd_scaling, dominance_margin
+from roa.proof._sos_check import exact_data
+from roa.search._sdp import monomials
+from roa.search._sos_sparse import SparseProgram, choose_route, sdsos_plan
+from roa.search._sos_symmetry import sign_symmetries, split
 from roa.status import Verdict
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -100,8 +100,8 @@ def test_dominance_check_is_exact():
 
 
 def test_sdsos_plan_makes_the_largest_blocks_sdd_until_the_estimate_fits(monkeypatch):
-    import roa.search.sos_sparse as sparse
-    from roa.search.sdp import sdd_bytes, sdp_bytes
+    import roa.search._sos_sparse as sparse
+    from roa.search._sdp import sdd_bytes, sdp_bytes
 
     data = exact_data(DC.dense_cubic(6), roa.default_lyapunov(DC.dense_cubic(6)))
     p, why = sdsos_plan(data)
@@ -226,8 +226,8 @@ def test_an_sdd_block_without_its_flag_is_proved_by_ldl():
 
 
 def test_auto_route_takes_sdsos_when_the_dense_program_is_over_budget(monkeypatch):
-    import roa.search.sos_sparse as sparse
-    from roa.search.sdp import sdd_bytes, sdp_bytes
+    import roa.search._sos_sparse as sparse
+    from roa.search._sdp import sdd_bytes, sdp_bytes
 
     # below the dense 27-monomial block's estimate, above the SDSOS pattern's
     monkeypatch.setattr(sparse, "MAX_SDP_BYTES", sdd_bytes(21) + 2 * sdp_bytes(6))
@@ -251,7 +251,7 @@ def test_dense_cubic_20_states_certified_at_099_of_the_optimum():
                                   "examples/systems/shifted.py:SYSTEM",
                                   "examples/systems/ring.py:SYSTEM", "vanderpol"])  # fmt: skip
 def test_ring_arithmetic_route_gives_the_generic_routes_polynomials(path, monkeypatch):
-    import roa.proof.fast_poly as fp
+    import roa.proof._fast_poly as fp
 
     system = roa.load_system(path if ":" not in path else f"{ROOT / path}")
     V = roa.default_lyapunov(system)
@@ -263,7 +263,7 @@ def test_ring_arithmetic_route_gives_the_generic_routes_polynomials(path, monkey
 def test_ring_arithmetic_route_declines_what_is_not_polynomial():
     import sympy as sp
 
-    from roa.proof.fast_poly import field_polys
+    from roa.proof._fast_poly import field_polys
 
     x, d = sp.symbols("x0"), sp.symbols("d0")
     with sp.evaluate(False):

@@ -1,4 +1,4 @@
-"""Correlative sparsity in the exact SOS check (:mod:`roa.search.sos_sparse`, :mod:`roa.proof.sos_sum`).
+"""Correlative sparsity in the exact SOS check (:mod:`roa.search._sos_sparse`, :mod:`roa.proof.sos_sum`).
 
 The system is a ring of 6 cells, ``x_i' = -x_i + x_{i+1} / 2 + x_i^3`` (indices mod 6), with
 ``V = |x|^2``: ``V' = 2 sum(-x_i^2 + x_i x_{i+1} / 2 + x_i^4)`` couples every cell to its
@@ -18,11 +18,10 @@ import pytest
 
 import roa
 from roa.certification import Certificate
-from roa.proof.putinar import Certificate as PutinarCertificate
-from roa.proof.putinar import check_level
-from roa.proof.sos_check import exact_data
-from roa.search.sos_certificate import default_eps
-from roa.search.sos_sparse import SosRoute, choose_route, cliques, interaction_graph, plan
+from roa.proof._putinar import Certificate as PutinarCertificate, check_level
+from roa.proof._sos_check import exact_data
+from roa.search._sos_certificate import default_eps
+from roa.search._sos_sparse import SosRoute, choose_route, cliques, interaction_graph, plan
 
 N, A = 6, 0.5
 
@@ -134,7 +133,7 @@ def test_above_the_branch_and_bounds_dimension_a_level_search_witness_refutes_ju
     """At 6 states the check above the certified level is refuted by a witness from the CasADi
     level search (V' >= 0 at 50 digits, V(x) at the independent optimum), without running the
     branch and bound over 6 dimensions; the search never refutes a level below the optimum."""
-    from roa.certification.pipeline import witness_by_search
+    from roa.certification._pipeline import witness_by_search
 
     system, _, opt = ring
     cert = roa.certify(system, check_above=1.001)
@@ -155,8 +154,8 @@ def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch)
     """The level proposer's bisection with the sparse program (forced by a small memory budget)
     is within 1 % below the dense program's and the optimum, never above the optimum; the
     pipeline then certifies 0.9999 x it with the sparse certificate."""
-    import roa.search.sos_sparse as sparse
-    from roa.search.sos_bisection import bisect_level
+    import roa.search._sos_sparse as sparse
+    from roa.search._sos_bisection import bisect_level
 
     system, data, opt = ring
     dense_level, _ = bisect_level(data, rel_tol=1e-5)
@@ -237,8 +236,8 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
     """The file's blocks are re-checked exactly with no solver; a block made indefinite, an
     identity off by one coefficient (a stored basis monomial changed) or a level raised to the
     witness's 1 is refused."""
-    import roa.search.sos_certificate as dense
-    import roa.search.sos_sparse as sparse
+    import roa.search._sos_certificate as dense
+    import roa.search._sos_sparse as sparse
 
     system, _, opt = ring
     cert = roa.certify(system, level=0.99 * opt, validator=roa.SosValidator(route="sparse"))
@@ -272,7 +271,7 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
 
 def test_decoupled_rings_get_one_sparse_certificate_per_block(ring):
     """Two decoupled copies of the ring (12 states): V and V' split into the two copies
-    (:mod:`roa.proof.sos_blocks`), each proved by its own sparse certificate at the same level
+    (:mod:`roa.proof._sos_blocks`), each proved by its own sparse certificate at the same level
     (the optimum is one copy's: the other copy at 0 gives the witness); the file is re-checked
     block by block and a copy's clique block negated is refused (one entry changed is not enough:
     the re-check projects the stored blocks again, which may well restore a valid certificate)."""

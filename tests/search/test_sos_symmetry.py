@@ -1,4 +1,4 @@
-"""Sign symmetry of the SOS programs (:mod:`roa.search.sos_symmetry`).
+"""Sign symmetry of the SOS programs (:mod:`roa.search._sos_symmetry`).
 
 The symmetries are checked against a brute-force enumeration of every 0/1 vector; the split
 program against the unsplit one: averaging a certificate over the group keeps ``Q >= t I`` (the
@@ -15,11 +15,11 @@ import numpy as np
 import pytest
 
 import roa
-from roa.proof.putinar import check_level
-from roa.proof.sos_check import exact_data
-from roa.search.sdp import monomials
-from roa.search.sos_certificate import degrees, gram_program, level_target, propose_certificate
-from roa.search.sos_symmetry import sign_symmetries, split
+from roa.proof._putinar import check_level
+from roa.proof._sos_check import exact_data
+from roa.search._sdp import monomials
+from roa.search._sos_certificate import degrees, gram_program, level_target, propose_certificate
+from roa.search._sos_symmetry import sign_symmetries, split
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 
@@ -87,9 +87,9 @@ def test_the_split_recast_program_has_the_unsplit_optimum(path, level, monkeypat
     check."""
     from pathlib import Path
 
-    import roa.search.sos_putinar as sp
-    from roa.proof.recast import level_scale, recast_preconditions
-    from roa.search.sos_certificate import default_eps
+    import roa.search._sos_putinar as sp
+    from roa.proof._recast import level_scale, recast_preconditions
+    from roa.search._sos_certificate import default_eps
 
     root = Path(__file__).resolve().parents[2]
     system = roa.load_system(f"{root / path}")

@@ -15,8 +15,8 @@ from scipy.optimize import minimize
 
 import roa
 from roa.cli import main
-from roa.search.candidate import as_lyapunov
-from roa.search.vs_iteration import parameter_points, vs_search
+from roa.search._candidate import as_lyapunov
+from roa.search._vs_iteration import parameter_points, vs_search
 from roa.status import SosStatus, Verdict
 
 P_BENCH = np.array([[1.5, -0.5], [-0.5, 1.0]])  # designed at mu = 1; not a Lyapunov P at mu = 0.5

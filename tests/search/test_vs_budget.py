@@ -1,7 +1,7 @@
 """The V-s iteration under a time budget (#25): progress lines with an estimate, and a clean stop
 with the best round so far, status ``stopped``; ``certify --time-limit`` bounds it too.
 
-The clock is a counter advanced 10 s by each SDP solve (``roa.search.vs_iteration._now``), so no
+The clock is a counter advanced 10 s by each SDP solve (``roa.search._vs_iteration._now``), so no
 test depends on speed: round 0 solves gamma, beta, V (t = 10, 20, 30), round 1 gamma, beta, ...
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 import pytest
 
 import roa
-import roa.search.vs_iteration as VS
+import roa.search._vs_iteration as VS
 from roa import progress
 from roa.cli import main
 from roa.status import SosStatus

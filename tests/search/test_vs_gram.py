@@ -1,5 +1,5 @@
-"""A positive definite Gram matrix for a searched polynomial V (roa.search.vs_gram), read by the
-exact cover (roa.proof.cover.gram_cover) that the exact SOS route needs."""
+"""A positive definite Gram matrix for a searched polynomial V (roa.search._vs_gram), read by the
+exact cover (roa.proof.gram_cover) that the exact SOS route needs."""
 
 from __future__ import annotations
 
@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 
 from roa.lyapunov import PolynomialLyapunov
-from roa.proof.cover import gram_cover
-from roa.search.vs_gram import attach_gram
+from roa.proof._cover import gram_cover
+from roa.search._vs_gram import attach_gram
 
 
 def _V(terms: dict[tuple[int, int], float]) -> PolynomialLyapunov:

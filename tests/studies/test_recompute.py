@@ -14,8 +14,8 @@ from pathlib import Path
 import pytest
 
 from roa.cli import main
-from roa.studies.experiment import verify_outputs
-from roa.studies.recompute import differences
+from roa.studies._experiment import verify_outputs
+from roa.studies._recompute import differences
 
 ROOT = Path(__file__).resolve().parents[2]
 

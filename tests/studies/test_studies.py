@@ -10,8 +10,9 @@ from pathlib import Path
 
 import pytest
 
-from roa import System, load_system, studies
+from roa import System, load_system
 from roa.errors import RoaInputError
+from roa.studies import _registry as studies
 from roa.systems import BUILTIN, builtin_names, describe_builtins
 
 

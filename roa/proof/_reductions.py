@@ -1,0 +1,189 @@
+"""Reductions of an exact SOS problem, each with ``accepts`` / ``apply`` / ``invert``.
+
+As in cvxpy's reduction chain, a reduction says whether it applies (``accepts``), maps a problem
+to one or more exact problems plus what its inverse needs (``apply``), and maps the certificates
+(stored parts, :mod:`roa.proof._sos_stored`) of those problems back to one of the original
+(``invert``). Every route (the exact check of a fresh certificate, the re-check of a stored one)
+applies the same reductions. Each states why a certificate of the reduced problems proves the
+original.
+
+Of the problem ``(system, V, level)``:
+
+* :class:`ParameterBox`: uncertain parameters become indeterminates (module claim below); its
+  inverse stores the box.
+* :class:`Recast`: the field made polynomial (:func:`roa.proof._recast.recast_exact`: sin/cos,
+  rational terms, half-integer powers; the one recast of every route), with the box when the
+  system has one; its inverse stores the Taylor order, the scale and the box.
+
+Of exact data (:class:`roa.proof._sos_check.ExactData`):
+
+* :class:`IndependentBlocks`: ``V`` and ``V'`` split over disjoint sets of variables
+  (:mod:`roa.proof._sos_blocks` proves that the blocks' certificates at one level prove the
+  whole); one part per block, naming its variables.
+* :class:`Rescale`: the variables ``d = diag(scale) y`` with positive rationals (a bijection;
+  ``eps |y|^2k > 0`` for ``d != 0``), only to balance the program; the stored certificate
+  carries ``scale``.
+
+Sign symmetry and correlative cliques are patterns of the programs that propose
+(:mod:`roa.search._sos_symmetry`, :mod:`roa.search._sos_sparse`): they change a certificate's
+blocks, never what is checked.
+
+**The parameter box.** For a system with uncertain parameters ``p_j`` in ``[low_j, high_j]``,
+:meth:`ParameterBox.apply` gives exact sympy substitutions ``p_j = mid_j + half_j w_j``
+(``mid_j``, ``half_j`` the exact rationals of ``(low_j + high_j) / 2`` and ``(high_j - low_j) /
+2`` computed from the doubles of the box, ``half_j > 0``), and :func:`box_constraints` the
+polynomials ``g_j(w) = 1 - w_j^2``. Every parameter value of the box is ``w_j = (p_j - mid_j) /
+half_j`` in ``[-1, 1]``, where ``g_j(w) >= 0``; ``g_j`` is ``(p_j - low_j)(high_j - p_j) /
+half_j^2``, the box constraint of Putinar's form up to a positive factor. So a polynomial
+identity in ``(z, w)``
+
+    -N(z, w) - eps |d|^2k - lambda(z, w) (c - V) - sum_i sigma_i g_i(z) - sum_j tau_j(z, w) g_j(w)
+        - sum_e mu_e h_e = sigma0(z, w)
+
+with every ``sigma``, ``tau``, ``lambda`` SOS and ``eps > 0`` a constant (the same for every
+parameter) proves ``-N(z(x), w(p)) >= eps |d|^2k > 0`` for every state ``x != x_eq`` of
+``{V <= c}`` and every ``p`` of the box, i.e. ``V' < 0`` there for every parameter of the box
+(:func:`roa.proof._putinar.check_level` checks the identity; the parameters are the last variables
+of ``z``, and nothing else about them is assumed). The field evaluated in sympy sees each
+uncertain parameter as a real symbol (:class:`roa.model._parameters.RangeField`); the fixed parameters
+are floats taken as their exact rationals. ``f(x_eq, p) = 0`` must hold identically in ``p``. The
+box is read from the system (never from a certificate file).
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from fractions import Fraction
+from typing import Any, Protocol
+
+from roa.proof._sos_blocks import Block, blocks, restrict
+from roa.proof._sos_check import ExactData, Mono, NotPolynomial, QPoly, scale_data
+
+
+class Reduction(Protocol):
+    """A reduction of exact SOS data (module docstring)."""
+
+    def accepts(self, data: ExactData) -> bool: ...
+
+    def apply(self, data: ExactData) -> tuple[list[ExactData], Any]: ...
+
+    def invert(self, parts: list[dict[str, Any]], inverse: Any) -> dict[str, Any]: ...
+
+
+#: Names of the recast's own variables: a parameter named like one of them is refused.
+_RESERVED = re.compile(r"[xdsqu]\d+")
+
+
+@dataclass(frozen=True)
+class BoxVariables:
+    """The system over its box (``system``: its sympy field sees real symbols), the normalised
+    variables ``w_j`` (sympy Dummies), the substitution ``p_j -> mid_j + half_j w_j`` and the
+    exact box ``(name, low, high)`` per parameter."""
+
+    system: Any
+    symbols: tuple[Any, ...]
+    subs: dict[Any, Any]
+    parameters: tuple[tuple[str, Fraction, Fraction], ...]
+
+
+@dataclass(frozen=True)
+class ParameterBox:
+    """Uncertain parameters as indeterminates of the certificate (module docstring)."""
+
+    def accepts(self, system: Any) -> bool:
+        return bool(getattr(system, "parameters", None))
+
+    def apply(self, system: Any) -> BoxVariables:
+        """The exact parameter variables of ``system``; raises :class:`NotPolynomial` for a
+        parameter name that clashes with the recast's variables (``x0``, ``d1``, ``s0``...) or
+        an empty box."""
+        import sympy as sp
+
+        from roa.model._parameters import ParameterBox as Box, over
+
+        box = Box.of(system)
+        clash = [k for k in box.names if _RESERVED.fullmatch(k)]
+        if clash:
+            raise NotPolynomial(f"parameter name {clash[0]!r} clashes with the recast's variables")
+        ws, subs, params = [], {}, []
+        for name, lo, hi in zip(box.names, box.lo, box.hi, strict=True):
+            low, high = Fraction(float(lo)), Fraction(float(hi))
+            if not low < high:
+                raise NotPolynomial(f"parameter {name!r}: empty box [{lo}, {hi}]")
+            mid, half = (low + high) / 2, (high - low) / 2
+            w = sp.Dummy(f"w_{name}", real=True)
+            ws.append(w)
+            subs[sp.Symbol(name, real=True)] = sp.Rational(mid.numerator, mid.denominator) + (
+                sp.Rational(half.numerator, half.denominator) * w
+            )
+            params.append((name, low, high))
+        return BoxVariables(over(system), tuple(ws), subs, tuple(params))
+
+    def invert(self, cert: dict[str, Any],
+               parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> dict[str, Any]:  # fmt: skip
+        return {**cert, "parameters": box_json(parameters)} if parameters else cert
+
+
+def box_constraints(nv: int, parameters: tuple[tuple[str, Fraction, Fraction], ...]
+                    ) -> list[tuple[str, QPoly]]:  # fmt: skip
+    """``1 - w_j^2 >= 0`` per parameter, ``w_j`` the ``j``-th of the last ``len(parameters)``
+    variables of ``nv``."""
+    out = []
+    first = nv - len(parameters)
+    for j, (name, low, high) in enumerate(parameters):
+        sq: Mono = tuple(2 if i == first + j else 0 for i in range(nv))
+        g: QPoly = {tuple([0] * nv): Fraction(1), sq: Fraction(-1)}
+        out.append((f"({name} - {low})({high} - {name}) >= 0 (box of {name}, normalised)", g))
+    return out
+
+
+def describe(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> str:
+    """``mu in [0.8, 1.2]``, ... (the doubles of the box, shortest repr)."""
+    return ", ".join(f"{k} in [{float(lo)!r}, {float(hi)!r}]" for k, lo, hi in parameters)
+
+
+def box_json(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> dict[str, list[str]]:
+    """The exact box as stored with a certificate (informational: a re-check reads the box from
+    the system and refuses a certificate whose stored box differs)."""
+    return {k: [str(lo), str(hi)] for k, lo, hi in parameters}
+
+
+@dataclass(frozen=True)
+class IndependentBlocks:
+    """One problem per block of variables (:func:`roa.proof._sos_blocks.blocks`), or the blocks
+    ``given`` (a stored partition: :func:`roa.proof._sos_blocks.restrict` refuses one that a
+    monomial couples)."""
+
+    given: tuple[Block, ...] | None = None
+
+    def accepts(self, data: ExactData) -> bool:
+        return len(self.blocks(data)) > 1
+
+    def blocks(self, data: ExactData) -> list[Block]:
+        return list(self.given) if self.given is not None else blocks(data)
+
+    def apply(self, data: ExactData) -> tuple[list[ExactData], list[Block]]:
+        parts = self.blocks(data)
+        if len(parts) == 1:
+            return [data], parts
+        return [restrict(data, b) for b in parts], parts
+
+    def invert(self, parts: list[dict[str, Any]], inverse: list[Block]) -> dict[str, Any]:
+        return {"parts": [{**p, "variables": list(b)} for p, b in zip(parts, inverse, strict=True)]}
+
+
+@dataclass(frozen=True)
+class Rescale:
+    """The variables ``d = diag(scale) y`` (any positive rationals)."""
+
+    scale: tuple[Fraction, ...]
+
+    def accepts(self, data: ExactData) -> bool:
+        return any(r != 1 for r in self.scale)
+
+    def apply(self, data: ExactData) -> tuple[list[ExactData], tuple[Fraction, ...]]:
+        return [scale_data(data, self.scale)], self.scale
+
+    def invert(self, parts: list[dict[str, Any]], inverse: tuple[Fraction, ...]) -> dict[str, Any]:
+        return {"parts": parts, "scale": [str(r) for r in inverse]}

@@ -1,0 +1,593 @@
+"""Search of a polynomial Lyapunov function by SOS V-s iteration (Jarvis-Wloszek, Tan-Packard).
+
+In whitened variables ``y`` (``x = x_eq + M y`` from a quadratic seed ``V0``), with the field made
+polynomial in ``(y, aux)`` by :func:`roa.search._sos.recast_field` (equalities ``h = 0``, ``g >= 0``),
+three semidefinite programs (cvxpy + Clarabel) alternate, each linear in its unknowns:
+
+* **gamma step** (V fixed): the largest ``gamma`` with ``(y'y)^k (V - gamma) + lambda V' + mu h -
+  sigma_g g`` SOS (``V' = 0`` away from the equilibrium only where ``V >= gamma``); V is rescaled
+  to ``V / gamma`` (level 1), ``lambda`` kept;
+* **beta step** (V fixed): the largest ``beta`` with ``(y'y)^k2 (p - beta) + lambda2 (V - 1)`` SOS,
+  i.e. ``{p < beta}`` inside ``{V < 1}`` for the shape function ``p`` (a positive definite
+  quadratic: the region to enlarge); ``lambda2`` kept;
+* **V step** (``lambda``, ``lambda2`` fixed): V free with ``V - eps y'y`` SOS, both identities
+  above at level 1, maximise ``beta``. The previous V is feasible, so ``beta`` never decreases.
+
+**Over a parameter box.** For a system with uncertain parameters, the decrease identity is imposed
+at each point of :func:`parameter_points` (the box's vertices when the field is affine in the
+parameters, since ``V'`` is then affine in them for a fixed ``V``; else the nominal values, the
+vertices and one interior point per axis), each with its own multiplier ``lambda_i`` and one common
+``V``: the gamma step takes the lowest level over the points, the V step keeps every identity. A
+seed that is not a Lyapunov function at the linearisation for some point is replaced by the box's
+common Lyapunov matrix (:func:`roa.search._box_lyapunov.box_lyapunov`). The candidates are proved
+for every parameter of the box by the caller's robust validator, never by this module.
+
+Odd fields (``f(x_eq - d) = -f(x_eq + d)``) keep V, ``lambda``, ``lambda2`` even and split the Gram
+matrices in even/odd blocks (same optimum). Each round's V is a *candidate*: :func:`vs_search`
+returns them all, and the caller (:func:`roa.certify`) finds its level by sampling and proves it by
+interval branch and bound; the SDPs are solved in floating point and prove nothing.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import sympy as sp
+
+from roa.errors import RoaInputError
+from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
+from roa.model._parameters import describe_point
+from roa.model._system import System
+from roa.progress import note, step
+from roa.search._polysdp import (
+    Poly,
+    add,
+    diff,
+    is_even,
+    monomial,
+    mul,
+    poly_of,
+    poly_sum,
+    power,
+    scale,
+    total_degree,
+)
+from roa.search._sdp import SOLVERS, Program, ProgramTooLarge, monomials
+from roa.search._seed import seed_level
+from roa.search._sos import recast_field
+from roa.status import SosStatus
+
+#: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
+#: bounded on their own by :data:`roa.search._sdp.MAX_GRAM_BLOCK` (roa.search._sdp.check_block).
+MAX_V_TERMS = 5000
+
+
+@dataclass(frozen=True)
+class VsRound:
+    """One round: ``gamma`` (level of the V it started from, before rescaling), ``beta`` (the
+    shape level reached by the V step), solver seconds and status."""
+
+    index: int
+    gamma: float | None
+    beta: float | None
+    seconds: float
+    status: str
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"round": self.index, "gamma": self.gamma, "beta": self.beta,
+                "seconds": round(self.seconds, 3), "status": self.status}  # fmt: skip
+
+
+@dataclass(frozen=True)
+class VsResult:
+    """Outcome of :func:`vs_search`: ``candidates`` are the V of each round (level 1 each, best
+    ``beta`` last); ``status`` is the solver's, never a certificate."""
+
+    status: SosStatus
+    degree: int
+    candidates: list[PolynomialLyapunov]
+    betas: list[float]
+    rounds: list[VsRound]
+    seconds: float
+    sizes: dict[str, Any] = field(default_factory=dict)
+    message: str = ""
+
+    @property
+    def best(self) -> PolynomialLyapunov | None:
+        return self.candidates[int(np.argmax(self.betas))] if self.candidates else None
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "status": self.status.value,
+            "degree": self.degree,
+            "betas": self.betas,
+            "rounds": [r.to_dict() for r in self.rounds],
+            "seconds": round(self.seconds, 3),
+            "sizes": self.sizes,
+            "message": self.message,
+        }
+
+
+class _Problem:
+    """The polynomial data of the three programs, in whitened variables."""
+
+    def __init__(self, system: System, V0: QuadraticLyapunov, shape: np.ndarray, degree: int,
+                 multiplier_degree: int | None, symmetry: bool | str, aux_degree: int | None,
+                 recast_mode: str, scale: float = 1.0) -> None:  # fmt: skip
+        # y'y = V0 / scale: the seed's level set {V0 <= scale} is the unit sphere in y, so that
+        # monomials up to the program's degree stay O(1) on the region of interest
+        self.M = np.linalg.inv(np.linalg.cholesky(V0.P).T) * np.sqrt(scale)
+        self.Minv = np.linalg.inv(self.M)
+        self.center = V0.center
+        rf = recast_field(system, self.M, V0.center, mode=recast_mode)
+        self.rf = rf
+        self.gens = rf.d + rf.aux
+        self.nd, self.nv = len(rf.d), len(self.gens)
+        fy = [sum(float(self.Minv[i, j]) * rf.f[j] for j in range(self.nd)) for i in range(self.nd)]
+        self.fy = [poly_of(sp.expand(e), self.gens) for e in fy]
+        self.eqs = [poly_of(h, self.gens) for h in rf.equalities]
+        self.nonneg = [poly_of(g, self.gens) for g in rf.nonnegative]
+        Mt = self.M.T @ shape @ self.M  # p(y) = (My)' S (My)
+        self.p = {
+            m: c
+            for m, c in (
+                (
+                    tuple(int(i == a) + int(i == b) for i in range(self.nv)),
+                    float(Mt[a, b]) * (1 if a == b else 2),
+                )  # fmt: skip
+                for a in range(self.nd)
+                for b in range(a, self.nd)
+            )
+            if c != 0.0
+        }
+        sym = is_even([*self.fy], self.nd, odd=True) and is_even([*self.eqs, *self.nonneg], self.nd)
+        if symmetry is True and not sym:
+            raise RoaInputError("symmetry=True needs an odd field and even recast constraints")
+        self.sym = sym and symmetry in ("auto", True)
+        self.aux_degree = aux_degree
+        self.D = degree // 2
+        self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
+        self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
+        if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
+            raise ProgramTooLarge(
+                f"a V of degree {degree} in {self.nd} states has {len(self.vbasis)} coefficients, "
+                f"more than the {MAX_V_TERMS} searched here (its SOS programs would not fit in "
+                "memory): not built; use a lower degree or fewer states"
+            )
+        efy = max(sum(m) for p in self.fy for m in p)
+        deg_vd = degree - 1 + efy
+        if multiplier_degree is None:
+            multiplier_degree = 2 if deg_vd % 2 == 0 else 1
+        self.mlam = multiplier_degree
+        total = max(deg_vd + multiplier_degree, degree)
+        self.total = total + (total % 2)
+        self.k = (self.total - degree) // 2
+        self.k2 = self.D  # (y'y)^k2 (p - beta) + lambda2 (V - 1): lambda2 quadratic
+        self.yy = {tuple(2 * int(i == a) for i in range(self.nv)): 1.0 for a in range(self.nd)}
+        self.yyk = power(self.yy, self.k, self.nv)
+        self.yyk2 = power(self.yy, self.k2, self.nv)
+        # V' of each basis monomial of V: sum_i d(y^a)/dy_i f_i
+        self.dmono = [
+            poly_sum([mul(diff(m, i), self.fy[i]) for i in range(self.nd)]) for m in self.vbasis
+        ]
+
+    def cap(self, basis: list[tuple]) -> list[tuple]:
+        if self.aux_degree is None:
+            return basis
+        return [m for m in basis if sum(m[self.nd :]) <= self.aux_degree]
+
+    def keep(self, basis: list[tuple]) -> list[tuple]:
+        basis = self.cap(basis)
+        return [m for m in basis if sum(m[: self.nd]) % 2 == 0] if self.sym else basis
+
+    def blocks(self, basis: list[tuple]) -> list[list[tuple]]:
+        basis = self.cap(basis)
+        if not self.sym:
+            return [basis]
+        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[: self.nd]) % 2 == p])]
+
+    def y_only(self, basis: list[tuple]) -> list[tuple]:
+        return [m for m in basis if sum(m[self.nd :]) == 0]
+
+    # -- the decrease identity: (y'y)^k (V - gamma) + lambda V' + mu h - sigma g - sigma0 ----------
+    def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> None:
+        """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
+        multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
+        cols = [mul(self.yyk, monomial(m)) for m in self.vbasis]
+        if lam is None:  # gamma step: V fixed (numbers), lambda free
+            Vpoly = poly_sum(
+                [scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]
+            )
+            Vd = poly_sum([scale(p, float(c)) for p, c in zip(self.dmono, Vc, strict=True)])
+            ident.const(mul(self.yyk, Vpoly))
+            ident.free(Vd, self.keep(monomials(self.nv, self.mlam)))
+        else:  # V step: V free (variable), lambda fixed
+            ident.linear([add(c, mul(lam, d)) for c, d in zip(cols, self.dmono, strict=True)], Vc)
+        ident.linear([scale(self.yyk, -1.0)], gamma)
+        for h in self.eqs:
+            ident.free(h, self.keep(monomials(self.nv, self.total - total_degree(h))))
+        half = self.total // 2
+        for b in self.blocks(monomials(self.nv, half)):
+            ident.gram(b, None)
+        for g in self.nonneg:
+            for b in self.blocks(monomials(self.nv, (self.total - total_degree(g)) // 2)):
+                ident.gram(b, g)
+
+    # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
+    def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
+        ident.const(mul(self.yyk2, self.p))
+        ident.linear([scale(self.yyk2, -1.0)], beta)
+        deg = 2 * self.D + 2
+        lam_basis = self.y_only(self.keep(monomials(self.nv, 2)))
+        if lam2 is None:
+            Vm1 = add(poly_sum([scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]),
+                       {tuple([0] * self.nv): -1.0})  # fmt: skip
+            ident.free(Vm1, lam_basis)
+        else:
+            ident.linear([mul(lam2, monomial(m)) for m in self.vbasis], Vc)
+            ident.const(scale(lam2, -1.0))
+        for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
+            ident.gram(b, None)
+
+    def positive(self, ident: Program, Vc: Any, eps: float) -> None:
+        """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
+        ident.linear([monomial(m) for m in self.vbasis], Vc)
+        ident.const(scale(self.yy, -eps))
+        basis = [m for m in self.y_only(monomials(self.nv, self.D)) if sum(m) >= 1]
+        for b in self.blocks(basis):
+            ident.gram(b, None)
+
+    def linear_decrease(self, ident: Program, Vc: Any, margin: float) -> None:
+        """Local decrease kept strict: ``-(A'Pv + Pv A) >= margin * mu0 I`` for the quadratic part
+        ``Pv`` of V (``A`` the field's Jacobian at the equilibrium, ``mu0`` the seed's value),
+        an LMI linear in V's coefficients. Without it the V step may drift to a V whose
+        linearisation only marginally decreases (the sampled search then finds no level)."""
+        import cvxpy as cp
+
+        n = self.nd
+        A = np.zeros((n, n))
+        for i, p in enumerate(self.fy):
+            for m, c in p.items():
+                if sum(m) == 1 and sum(m[:n]) == 1:
+                    A[i, m.index(1)] += c
+        mu0 = float(np.linalg.eigvalsh(-(A + A.T))[0])
+        if mu0 <= 0:
+            return
+        rows = []
+        for i in range(n):
+            row = []
+            for j in range(n):
+                e = [0] * self.nv
+                e[i] += 1
+                e[j] += 1
+                k = self.vbasis.index(tuple(e))
+                row.append(Vc[k] if i == j else 0.5 * Vc[k])
+            rows.append(cp.hstack(row))
+        Pv = cp.vstack(rows)
+        L = -(A.T @ Pv + Pv @ A)
+        ident.psd.append(0.5 * (L + L.T) - margin * mu0 * np.eye(n) >> 0)
+
+    def to_lyapunov(self, Vc: np.ndarray, name: str) -> PolynomialLyapunov:
+        """V(y(x)) with ``y = M^-1 (x - c)``, expanded in ``d = x - c``."""
+        d = sp.symbols(f"d0:{self.nd}", real=True)
+        y = [sum(float(self.Minv[i, j]) * d[j] for j in range(self.nd)) for i in range(self.nd)]
+        expr = 0
+        for m, c in zip(self.vbasis, Vc, strict=True):
+            if c != 0.0:
+                expr += float(c) * sp.Mul(*[y[i] ** m[i] for i in range(self.nd)])
+        poly = sp.Poly(sp.expand(expr), *d)
+        terms = [
+            (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
+        ]
+        V = PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+        from roa.search._vs_gram import attach_gram
+
+        attach_gram(V)  # a positive definite Gram matrix: the exact route's V >= mu |d|^2
+        return V
+
+
+def vs_search(
+    system: System,
+    V0: QuadraticLyapunov,
+    *,
+    degree: int = 4,
+    shape: Any = None,
+    rounds: int = 6,
+    multiplier_degree: int | None = None,
+    symmetry: bool | str = "auto",
+    aux_degree: int | None = None,
+    recast_mode: str = "exact",
+    eps: float = 1e-6,
+    tol: float = 1e-3,
+    solver_options: dict[str, Any] | None = None,
+    solver: str = "auto",
+    budget: float | None = None,
+) -> VsResult:
+    """Polynomial Lyapunov candidates of degree ``degree`` by V-s iteration (module docstring).
+
+    ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
+    shape function ``p(x) = (x - x_eq)' S (x - x_eq)`` (default ``V0.P``). Stops after ``rounds``
+    V steps or when ``beta`` grows by less than ``tol`` (relative). ``solver``: ``auto``,
+    ``clarabel`` or ``scs`` (:meth:`roa.search._sdp.Program.solve`). ``budget``: wall-clock
+    seconds for the whole search; no SDP starts past it and each gets the time left as its solver
+    time limit, so the search stops with the candidates of the rounds it completed: status
+    ``stopped``, ``message`` saying when. With progress on (:func:`roa.progress.enable`), each
+    round after the first starts with a line giving the last shape level and an estimate of the
+    time the rounds left take at the pace so far.
+    """
+    if solver not in SOLVERS:
+        raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
+    if degree not in (2, 4, 6, 8):
+        raise RoaInputError(f"degree must be 2, 4, 6 or 8, got {degree!r}")
+    if not (isinstance(rounds, int) and 1 <= rounds <= 50):
+        raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
+    t0 = _now()
+    # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
+    # level search, which alone takes a while in tens of states
+    even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
+    if even > MAX_V_TERMS:
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
+                        message=f"a V of degree {degree} in {system.n} states has at least {even} "
+                        f"coefficients, more than the {MAX_V_TERMS} searched here (its SOS "
+                        "programs would not fit in memory): not built; use a lower degree or "
+                        "fewer states")  # fmt: skip
+    S = V0.P if shape is None else np.asarray(shape, dtype=float)
+    points, how = parameter_points(system)
+    V0, reseeded = _box_seed(system, V0)
+    if reseeded and shape is None:
+        S = V0.P
+    at = [system] if not points else [system.at(**p) for p in points]
+    scale = min(seed_level(s, V0) for s in at)
+    try:
+        pbs = _problems(at, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
+                        scale)  # fmt: skip
+    except ProgramTooLarge as exc:
+        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
+                        message=str(exc))  # fmt: skip
+    except (RoaInputError, sp.PolynomialError) as exc:
+        return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], _now() - t0,
+                        message=str(exc))  # fmt: skip
+    pb = pbs[0]
+    base = dict(solver_options or {})
+
+    def left() -> float | None:
+        return None if budget is None else budget - (_now() - t0)
+
+    def options() -> dict[str, Any]:
+        rest = left()
+        if rest is None:
+            return base
+        # never below 1e-3 s (a solver refuses a negative limit): the budget may run out
+        # between the check before a step and its solve
+        limit = max(rest, 1e-3)
+        return {**base, "time_limit": min(base.get("time_limit") or limit, limit)}
+
+    def spent() -> bool:
+        rest = left()
+        return rest is not None and rest <= 0
+
+    # the seed in y: V0 = y'y
+    Vc = np.array([1.0 if sum(m) == 2 and max(m) == 2 else 0.0 for m in pb.vbasis])
+    sizes = {"variables": [str(g) for g in pb.gens], "degree_V": degree, "degree": pb.total,
+             "V_coefficients": len(pb.vbasis), "symmetry": "even/odd blocks" if pb.sym else "none",
+             "recast": pb.rf.description}  # fmt: skip
+    if points:
+        sizes["parameter_points"] = [dict(p) for p in points]
+        sizes["parameter_points_chosen"] = how
+        if reseeded:
+            sizes["seed"] = V0.name
+    cands: list[PolynomialLyapunov] = []
+    betas: list[float] = []
+    log: list[VsRound] = []
+    status, message = SosStatus.SOLVED, ""
+    for r in range(rounds + 1):
+        t1 = _now()
+        if spent():
+            message = (
+                f"time budget of {budget} s spent before round {r}: kept {len(cands)} candidates"
+            )
+            status = SosStatus.FAILED if not cands else SosStatus.STOPPED
+            break
+        if r:
+            _pace(r, rounds, t0, log, budget)
+        # gamma step: the level of the current V (the lowest over the parameter points, each
+        # with its own multiplier), then V / gamma (level 1)
+        lams: list[Poly] = []
+        gval: float | None = None
+        for k, pk in enumerate(pbs):
+            ident = Program(pk.nv)
+            gamma = ident.scalar()
+            pk.decrease(ident, Vc, None, gamma)
+            where = f" at {describe_point(points[k])}" if points else ""
+            with step(f"V-s round {r}: gamma step{where}"):
+                ok, gk, lam = ident.solve(gamma, options=options(), free_index=0, solver=solver)
+            if not ok or gk is None or gk <= 0 or lam is None:
+                gval = None
+                break
+            lams.append(lam)
+            gval = gk if gval is None else min(gval, gk)
+        if gval is None:
+            status, message = _failed(r, "gamma", ident.status, spent(), budget, len(cands))
+            if points:
+                message += f" at {describe_point(points[len(lams)])}"
+            log.append(VsRound(r, None, None, _now() - t1, ident.status))
+            break
+        Vc = Vc / gval
+        sizes.setdefault("gram_blocks_gamma_step", ident.sizes())
+        sizes.setdefault("solver", ident.solver)
+        # beta step: the shape level inside {V <= 1}
+        ident = Program(pb.nv)
+        beta = ident.scalar()
+        pb.contain(ident, Vc, None, beta)
+        with step(f"V-s round {r}: beta step"):
+            ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
+        if not ok or bval is None:
+            status, message = _failed(r, "beta", ident.status, spent(), budget, len(cands))
+            log.append(VsRound(r, gval, None, _now() - t1, ident.status))
+            break
+        cands.append(pb.to_lyapunov(Vc, f"V-s degree {degree}, round {r}"))
+        betas.append(float(bval))
+        if spent():
+            log.append(VsRound(r, float(gval), float(bval), _now() - t1, "budget"))
+            message = (f"time budget of {budget} s spent in round {r}: kept {len(cands)} "
+                       "candidates")  # fmt: skip
+            status = SosStatus.STOPPED
+            break
+        if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
+            log.append(VsRound(r, float(gval), float(bval), _now() - t1, "final"))
+            message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
+            if points:
+                where = "; ".join(describe_point(p) for p in points)
+                message += f"; V' < 0 imposed at {len(points)} parameter points ({where}): {how}"
+                if reseeded:
+                    message += f"; seed: {V0.name}"
+            break
+        # V step: V free, lambda and lambda2 fixed, maximise beta
+        ident = Program(pb.nv)
+        vvar = ident.vector(len(pb.vbasis))
+        beta = ident.scalar()
+        pb.decrease(ident, vvar, lams[0], 1.0)
+        others = []
+        for pk, lam_k in zip(pbs[1:], lams[1:], strict=True):  # the same V at every point
+            ik = ident.fork()
+            pk.decrease(ik, vvar, lam_k, 1.0)
+            others.append(ik)
+        ident2 = ident.fork()
+        pb.contain(ident2, vvar, lam2, beta)
+        ident3 = ident.fork()
+        pb.positive(ident3, vvar, eps)
+        for pk in pbs:
+            pk.linear_decrease(ident, vvar, 0.01)
+        with step(f"V-s round {r}: V step"):
+            ok, bnew, _ = ident.solve(beta, options=options(), also=[*others, ident2, ident3],
+                                      solver=solver)  # fmt: skip
+        log.append(VsRound(r, float(gval), float(bval), _now() - t1, ident.status))
+        if not ok or bnew is None or vvar.value is None:
+            message = f"round {r}: V step {ident.status}; kept the V of round {r}"
+            if spent():
+                status = SosStatus.STOPPED
+                message = f"time budget of {budget} s spent in the V step of {message}"
+            break
+        Vc = np.asarray(vvar.value, dtype=float)
+    if not cands:
+        return VsResult(status, degree, [], [], log, _now() - t0, sizes, message)
+    final = SosStatus.STOPPED if status is SosStatus.STOPPED else SosStatus.SOLVED
+    return VsResult(final, degree, cands, betas, log, _now() - t0, sizes,
+                    message)  # fmt: skip
+
+
+def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:
+    """The parameter values the V-s iteration imposes V's decrease at, and how they were chosen:
+    none for a system without uncertain parameters; the box's vertices when the field is affine
+    in the parameters (then ``V'(x, p)`` is affine in ``p`` for a fixed ``V``, and its decrease on
+    ``{V <= 1}`` at the vertices gives it on the whole box); else the nominal values, the vertices
+    and one interior point along each axis (nothing claimed between them). Either way a proposal:
+    the validator of :func:`roa.certify` decides for every parameter of the box."""
+    if not system.parameters:
+        return [], "none"
+    from roa.model._parameters import ParameterBox, sample_points
+
+    box = ParameterBox.of(system)
+    if _field_affine(system, box):
+        return [dict(v) for v in box.vertices()], "vertices (the field is affine in the parameters)"
+    return sample_points(system, per_axis=1), (
+        "nominal values, vertices and one interior point per axis (the field is not affine in the "
+        "parameters: nothing claimed between them)"
+    )
+
+
+def _field_affine(system: System, box: Any) -> bool:
+    """Whether ``f(x, p)`` is affine in ``p``: at seeded sample states, ``f`` at the centre and at
+    the midpoints of the edges through the lowest and highest vertex equals the mean of ``f`` at
+    the edge's (resp. all) vertices, to rounding (a check at those points: a proposal only)."""
+    rng = np.random.default_rng(0)
+    X = system.x_eq + rng.uniform(-1.0, 1.0, (16, system.n))
+    lo = dict(zip(box.names, box.lo, strict=True))
+    hi = dict(zip(box.names, box.hi, strict=True))
+    checks = [(box.midpoint, list(box.vertices()))]
+    for name in box.names:
+        for corner in (lo, hi):
+            a, b = {**corner, name: lo[name]}, {**corner, name: hi[name]}
+            checks.append(({**corner, name: 0.5 * (lo[name] + hi[name])}, [a, b]))
+    with np.errstate(all="ignore"):
+        for mid, ends in checks:
+            f_mid = system.at(**mid).f(X)
+            mean = sum(system.at(**e).f(X) for e in ends) / len(ends)
+            tol = 1e-9 * max(1.0, float(np.nanmax(np.abs(mean))))
+            if not np.all(np.abs(f_mid - mean) <= tol):
+                return False
+    return True
+
+
+def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov, bool]:
+    """``V0``, or, when it is not a Lyapunov function at the linearisation for some sample point
+    of the parameter box, the common quadratic V of the box's LMIs
+    (:func:`roa.search._box_lyapunov.box_lyapunov`, when feasible): a gamma step at a point where
+    ``V0'`` is positive near the equilibrium has no level, so the iteration could not start."""
+    if not system.parameters:
+        return V0, False
+    from roa.search._box_lyapunov import box_lyapunov
+    from roa.search._candidate import worst_linearisation
+
+    if worst_linearisation(system, V0) is None:
+        return V0, False
+    res = box_lyapunov(system)
+    P = res.P  # the LMIs' matrix (a result's field, not a V's representation)
+    if not res.feasible or P is None:
+        return V0, False
+    return QuadraticLyapunov.for_system(system, P, name="P of the box's common Lyapunov "
+                                        "LMIs"), True  # fmt: skip
+
+
+def _problems(systems: list[System], V0: QuadraticLyapunov, S: np.ndarray, degree: int,
+              multiplier_degree: int | None, symmetry: bool | str, aux_degree: int | None,
+              recast_mode: str, scale: float) -> list[_Problem]:  # fmt: skip
+    """One :class:`_Problem` per parameter point, sharing V's monomials: the even/odd split only
+    when every point allows it; the same recast variables at every point (else an error)."""
+    pbs = [_Problem(s, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode, scale)
+           for s in systems]  # fmt: skip
+    if len({pb.sym for pb in pbs}) > 1:
+        pbs = [_Problem(s, V0, S, degree, multiplier_degree, False, aux_degree, recast_mode, scale)
+               for s in systems]  # fmt: skip
+    if len({tuple(map(str, pb.gens)) for pb in pbs}) > 1 or len({pb.total for pb in pbs}) > 1:
+        raise RoaInputError(
+            "the recast field has other variables or degrees at other parameter values of the "
+            "box: the V-s iteration over the box needs one polynomial structure"
+        )
+    return pbs
+
+
+def _failed(r: int, what: str, solver: str, spent: bool, budget: float | None,
+            kept: int) -> tuple[SosStatus, str]:  # fmt: skip
+    """Status and message of a gamma or beta step that gave no answer: ``stopped`` when the
+    budget ran out (with candidates kept), else ``failed``."""
+    if spent:
+        return (SosStatus.STOPPED if kept else SosStatus.FAILED,
+                f"time budget of {budget} s spent in round {r} ({what} step: {solver}): kept "
+                f"{kept} candidates")  # fmt: skip
+    return SosStatus.FAILED, f"round {r}: {what} step {solver}"
+
+
+def _now() -> float:
+    """The clock of the budget and the progress lines (a counter in tests)."""
+    return time.perf_counter()
+
+
+def _pace(r: int, rounds: int, t0: float, log: list[VsRound], budget: float | None) -> None:
+    """Progress line before round ``r``: the last shape level and the time the rounds left
+    (``r .. rounds``) take at the mean pace of the rounds done, capped by the budget."""
+    spent = _now() - t0
+    per = spent / r
+    more = per * (rounds + 1 - r)
+    beta = log[-1].beta if log else None
+    cap = "" if budget is None else f", budget {budget:g} s"
+    if budget is not None and spent + more > budget:
+        more = max(0.0, budget - spent)
+        cap += " (stops there with the best round)"
+    note(f"V-s: {r} of at most {rounds + 1} rounds in {spent:.0f} s (beta "
+         f"{'none' if beta is None else f'{beta:.6g}'}); about {more:.0f} s more at this "
+         f"pace{cap}")  # fmt: skip

@@ -135,6 +135,13 @@ def _next_level(proposal: float, tried: list[tuple[float, bool, float | None]], 
     return min(hi, proposal) * (1 - frac) if step < len(STEPS) else 0.5 * hi
 
 
+def check_tries(tries: Any, field: str) -> int:
+    """``tries`` when it is an integer in [0, 20], else an input error naming ``field``."""
+    if isinstance(tries, bool) or not isinstance(tries, int) or not 0 <= tries <= 20:
+        raise RoaInputError(f"{field} must be an integer in [0, 20], got {tries!r}")
+    return tries
+
+
 def back_off(system: System, V: Lyapunov, sos: Any, proposal: float, *,
              first: Validation | None = None, tries: int = TRIES,
              seconds: float | None = None) -> Backoff:  # fmt: skip
@@ -142,8 +149,7 @@ def back_off(system: System, V: Lyapunov, sos: Any, proposal: float, *,
     ``tries`` lower levels (module docstring), within ``seconds`` (None: no limit; a try
     started before the limit runs to its end). ``first``: the proposal's own validation when
     it was already run."""
-    if isinstance(tries, bool) or not isinstance(tries, int) or not 0 <= tries <= 20:
-        raise RoaInputError(f"back-off tries must be an integer in [0, 20], got {tries!r}")
+    check_tries(tries, "back-off tries")
     t0 = time.perf_counter()
     log: list[BackoffTry] = []
     tried: list[tuple[float, bool, float | None]] = []

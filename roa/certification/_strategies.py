@@ -29,6 +29,7 @@ from typing import Any, Protocol, cast, runtime_checkable
 
 import numpy as np
 
+from roa.certification._backoff import check_tries
 from roa.errors import RoaInputError
 from roa.lyapunov import Lyapunov
 from roa.model._system import System
@@ -301,10 +302,7 @@ class SosValidator(ValidatorBase):
     def __post_init__(self) -> None:
         if self.route not in ROUTES:
             raise RoaInputError(f"SosValidator route must be one of {ROUTES}, got {self.route!r}")
-        if isinstance(self.backoff, bool) or not isinstance(self.backoff, int) or not (
-                0 <= self.backoff <= 20):  # fmt: skip
-            raise RoaInputError(f"SosValidator backoff must be an integer in [0, 20], got "
-                                f"{self.backoff!r}")  # fmt: skip
+        check_tries(self.backoff, "SosValidator backoff")
 
     def exact_route(self, system: System, V: Lyapunov) -> SosValidator | None:
         sos = dataclasses.replace(self, fallback=False)

@@ -44,7 +44,7 @@ Systems (all polynomial; ``V = (x - x_eq)' P (x - x_eq)``):
 * ``dense-cubic-20`` (20): ``examples/systems/dense_cubic.py``, every state coupled linearly and
   cubically, V = |x|^2, one dense Gram block of 230 monomials (16 GiB for the interior point):
   sign-symmetry blocks (210 + 20) with the 210 block scaled diagonally dominant
-  (``roa.search.sos_sparse.sdsos_plan``; ``"cone": "sdd"`` blocks, proved by exact dominance);
+  (``roa.search.sos_program.sdsos``; ``"cone": "sdd"`` blocks, proved by exact dominance);
   closed form ``1 / lambda_max(B)``;
 * ``ring-20``, ``ring-30`` (20, 30): ``examples/systems/ring.py``, ``x_i' = -x_i + x_{i+1} / 2 +
   x_i^3`` on a ring, V = |x|^2: every variable coupled to its neighbours (no independent blocks),

@@ -51,9 +51,7 @@ from roa.proof.validate import validate_level
 from roa.proof.validation import Validation
 from roa.search.levelset import LevelSearchResult, level_search
 from roa.search.rays import ray_box
-from roa.search.sos_certificate import default_eps
-from roa.search.sos_putinar import propose_putinar
-from roa.search.sos_sparse import ROUTES, route_for
+from roa.search.sos_program import ROUTES, default_eps, route_for
 from roa.status import LevelStatus, SosStatus, Verdict
 
 
@@ -241,7 +239,7 @@ class IntervalValidator(ValidatorBase):
 class SosValidator(ValidatorBase):
     """Exact SOS certificate of the level (:mod:`roa.proof.sos_check`): polynomial V.
 
-    The numerical SOS program (:func:`roa.search.sos_certificate.propose_certificate`) proposes
+    The numerical SOS program (:class:`roa.search.sos_program.FixedLevel`) proposes
     Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
     ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
     reason). It never refutes (the pipeline refutes above with the branch and bound or a
@@ -256,7 +254,7 @@ class SosValidator(ValidatorBase):
 
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof.recast`) and proved by a constrained certificate
-    (:func:`roa.proof.putinar.check_level`, proposed by :mod:`roa.search.sos_putinar`); a field that
+    (:func:`roa.proof.putinar.check_level`, proposed by the same program); a field that
     cannot be recast (the term is named), or one with a domain, is decided by the interval branch
     and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
     inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
@@ -265,13 +263,13 @@ class SosValidator(ValidatorBase):
     (:mod:`roa.proof.sos_blocks`: decoupled subsystems), each block gets its own certificate at the
     same level, which proves the whole. A coupled system whose dense program does not fit the
     memory budget (``route="auto"``; ``"sparse"`` forces it) gets the correlative-sparsity
-    program instead (:mod:`roa.search.sos_sparse`: one Gram block per maximal clique of a chordal
+    program instead (:func:`roa.search.sos_program.clique_pattern`: one Gram block per maximal clique of a chordal
     extension of the variables' interaction graph), proved by the same exact identity over the sum
     of its blocks (:func:`roa.proof.putinar.check_level`); its ``meta`` reports the cliques' and blocks' sizes,
     the solver's and the check's seconds and the process's peak memory (``peak_mib``). A dense
     coupled system with neither gets the sign-symmetry blocks and, for those too large for the
     interior point, scaled diagonally dominant blocks (``route="sdsos"``,
-    :func:`roa.search.sos_sparse.sdsos_plan`), proved by exact scaled diagonal dominance.
+    :func:`roa.search.sos_program.sdsos`), proved by exact scaled diagonal dominance.
 
     When the exact check fails at a proposed level (not one the caller gave), up to ``backoff``
     lower levels are tried on this route before any branch and bound
@@ -403,21 +401,23 @@ class SosValidator(ValidatorBase):
                                    message=f"{again.message} (in d = diag(scale) y, scale "
                                    f"{[str(r) for r in scale]}; unscaled: {first.message})")  # fmt: skip
 
-    def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables): one
-        part per independent block of variables (:func:`roa.proof.sos_blocks.blocks`), each
-        proposed by the program chosen once for it (:func:`roa.search.sos_sparse.route_for`)
-        and proved by :func:`roa.proof.putinar.check_level`."""
+    def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any,
+                    recast: Any = None) -> Validation:  # fmt: skip
+        """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables; a
+        recast's with ``recast`` its reduction and inverse): one part per independent block of
+        variables of a polynomial field (:func:`roa.proof.sos_blocks.blocks`), each proposed by
+        the program chosen once for it (:func:`roa.search.sos_program.route_for`) and proved by
+        :func:`roa.proof.putinar.check_level`."""
         import resource
 
         split = IndependentBlocks()
-        subs, parts = split.apply(data)
+        subs, parts = ([data], [tuple(range(V.n))]) if recast else split.apply(data)
         whole = len(parts) == 1
         stored: list[dict[str, Any]] = []
         statuses: list[str] = []
         margins: list[float | None] = []
         sizes: list[int] = []
-        figures: dict[str, Any] = {}
+        figures: dict[str, Any] = {"recast": data.description} if recast else {}
         sdp_seconds = 0.0
         res: Any = None
         plan: Any = None
@@ -430,11 +430,11 @@ class SosValidator(ValidatorBase):
                            route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
             cand = chosen.propose(level, eps)
-            if plan is not None:  # the clique or the SDSOS pattern
+            if route != "dense":  # the clique or the SDSOS pattern
                 figures.update(route=route, why_sparse=why, blocks=plan.sizes, **cand.sizes)
                 sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
             else:
-                sizes.append(max(cand.sizes["gram_sizes"]))
+                sizes.append(max(cand.sizes.get("gram_sizes", [0])))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
             sdp_seconds += cand.seconds
@@ -446,7 +446,7 @@ class SosValidator(ValidatorBase):
                            f"({cand.solver_status})", **figures)  # fmt: skip
             t0 = time.perf_counter()
             res = check_level(sub, level, eps, cand.certificate)
-            if plan is not None:
+            if route != "dense":
                 figures.update(check_seconds=round(time.perf_counter() - t0, 3),
                                peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
                                               / 1024))  # fmt: skip
@@ -460,14 +460,18 @@ class SosValidator(ValidatorBase):
                                     **extra))  # fmt: skip
         if whole:  # eps, digest, k, residual, min_pivot in the meta (eps read by a re-check)
             what = "SOS certificate"
-            if plan is not None and plan.kind == "sdsos":
+            if route == "sdsos":
                 what = (f"SDSOS certificate (sign blocks {[len(b) for b in plan.sigma]}, scaled "
                         f"diagonally dominant {plan.sizes['sdd_blocks']})")  # fmt: skip
-            elif plan is not None:
+            elif route == "sparse":
                 what = (f"sparse SOS certificate ({len(plan.cliques)} cliques of sizes <= "
                         f"{max(map(len, plan.cliques))})")  # fmt: skip
+            cert = {"parts": stored}
+            if recast:
+                what = f"{what} of the recast field ({data.description})"
+                cert = recast[0].invert(stored, recast[1])
             return out(Verdict.CERTIFIED, f"{what} checked exactly: {res.reason}",
-                       certificate={"parts": stored}, M=np.eye(V.n).tolist(), **figures,
+                       certificate=cert, M=np.eye(V.n).tolist(), **figures,
                        residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip
         # the whole of {V <= level} is proved (not one component): any frame bounds it
         reason = (f"{len(parts)} independent blocks of variables (sizes "
@@ -477,8 +481,8 @@ class SosValidator(ValidatorBase):
                    **figures)  # fmt: skip
 
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The recast field's (or parameter box's) constrained certificate
-        (:func:`roa.proof.putinar.check_level` with the recast's constraints)."""
+        """The recast field's (or parameter box's) constrained certificate, by the program of
+        :meth:`_prove_data` with the recast's constraints."""
         from roa.proof.sos_check import NotPolynomial
 
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
@@ -487,22 +491,7 @@ class SosValidator(ValidatorBase):
                 (data,), inverse = recast.apply(system, V, level)
             except NotPolynomial as exc:
                 return out(Verdict.INCONCLUSIVE, str(exc))
-            eps = default_eps(data, self.eps)
-            cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
-            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
-                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
-                       "sizes": cand.sizes, "recast": data.description}  # fmt: skip
-            if cand.certificate is None:
-                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
-                           **figures)  # fmt: skip
-            res = check_level(data, level, eps, cand.certificate)
-            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
-            if not res.ok or res.certificate is None:
-                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            cert = recast.invert([part_json(list(range(V.n)), res.certificate)], inverse)
-            return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
-                       f"checked exactly: {res.reason}", certificate=cert,
-                       M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+            return self._prove_data(data, V, level, out, (recast, inverse))
 
 
 @dataclass(frozen=True)

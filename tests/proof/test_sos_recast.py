@@ -196,7 +196,7 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     from roa.proof.putinar import Certificate as Putinar
     from roa.proof.putinar import check_level as check_putinar
     from roa.proof.recast import level_scale, recast_preconditions
-    from roa.search.sos_putinar import propose_putinar
+    from roa.search.sos_program import propose
 
     system = roa.load_system("examples/systems/quadrotor2d.py:SYSTEM")
     V = roa.default_lyapunov(system)
@@ -212,7 +212,7 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     assert cert.status is roa.Verdict.CERTIFIED and "sin/cos(d2)" in cert.message, cert.message
     data, why = recast_preconditions(system, V, level, None, level_scale(V, level))
     assert data is not None, why
-    cand = propose_putinar(data, level)
+    cand = propose(data, level)
     assert cand.certificate is not None
     good = check_putinar(data, level, cand.eps, cand.certificate)
     assert good.ok and good.certificate is not None

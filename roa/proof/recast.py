@@ -83,10 +83,10 @@ from roa.proof.sos_check import (
     Mono,
     NotPolynomial,
     QPoly,
-    bounded_and_even,
     exact_fraction,
     poly_lin,
     poly_mul,
+    preconditions,
     scaled,
 )
 
@@ -126,10 +126,6 @@ class RecastData:
     def nz(self) -> int:
         """Number of state variables of ``z`` (states and auxiliaries, not the parameters)."""
         return self.nv - len(self.parameters)
-
-    def state_degree(self, m: Mono) -> int:
-        """Degree of the monomial ``m`` in the state variables (the parameters not counted)."""
-        return sum(m[: self.nz])
 
     def aux(self, a: int) -> tuple[int, int]:
         """Variable indices of ``s`` and ``q`` of the ``a``-th angle."""
@@ -590,19 +586,13 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
 
 def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
                          scale: Any) -> tuple[RecastData | None, str]:  # fmt: skip
-    """The recast data at ``level``, or None and why the check does not apply: V not centred at
-    the equilibrium, a term that cannot be recast (named), ``{V <= level}`` not proved bounded
-    (:func:`roa.proof.cover.gram_cover`), V' starting at an odd degree."""
-    import numpy as np
+    """The recast data at ``level``, or None and why the check does not apply (the checks of
+    :func:`roa.proof.sos_check.preconditions`; a term that cannot be recast is named)."""
 
-    if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
-        return None, "V must be centred at the system's equilibrium"
-    try:
-        data = recast_exact(system, V, taylor=taylor, scale=scale, level=level)
-    except NotPolynomial as exc:
-        return None, f"no exact recast: {exc}"
-    why = bounded_and_even(V, level, data.low)
-    return (None, why) if why else (data, "")
+    def build(system: Any, V: Any) -> RecastData:
+        return recast_exact(system, V, taylor=taylor, scale=scale, level=level)
+
+    return preconditions(system, V, level, build, "no exact recast")
 
 
 @dataclass(frozen=True)

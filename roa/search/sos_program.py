@@ -35,16 +35,17 @@ every problem:
 
 * ``dense`` (:func:`dense`): one block per factor;
 * ``sparse`` (:func:`clique_pattern`, correlative sparsity: Waki, Kim, Kojima and Muramatsu
-  2006; CS-TSSOS): the **interaction graph** joins two variables of one monomial of ``N``,
-  ``V``, an inequality or an equality; a chordal extension's maximal cliques ``C_j`` get one
+  2006; CS-TSSOS): the **interaction graph** joins two variables of one monomial of ``N`` or
+  ``V``, and all the variables of an inequality or an equality; the maximal cliques ``C_j`` of a
+  chordal extension (an angle's ``s``, ``q`` contracted with its state, functions of it) get one
   ``sigma`` and one ``lambda`` block each (the dense bases restricted to the clique), each
   inequality one multiplier block per clique holding it, each equality a free multiplier over
-  the monomials of the cliques holding it (an angle's ``s``, ``q`` go with its state). ``lambda_j V`` has
-  monomials across cliques: ``V = sum_G V_G`` over the connected components ``G`` of V's own
-  graph, ``V_G = z_G' P_G z_G`` (:func:`V_groups`), so ``lambda_j V_G`` is a Gram form over
-  ``{m w : m in lambda_j's basis, w in z_G}``, one more ``sigma`` block per clique and group not
-  inside it (any V of any degree). Independent blocks of variables inside one problem (a recast
-  of decoupled subsystems) are cliques of a disconnected graph;
+  the monomials of the cliques holding it. ``lambda_j V`` has monomials across cliques:
+  ``V = sum_G V_G`` over the connected components ``G`` of V's own graph, ``V_G = z_G' P_G z_G``
+  (:func:`V_groups`), so ``lambda_j V_G`` is a Gram form over ``{m w : m in lambda_j's basis,
+  w in z_G}``, one more ``sigma`` block per clique and group not inside it (any V of any
+  degree). Independent blocks of variables inside one problem (a recast of decoupled
+  subsystems) are the cliques of a disconnected graph;
 * ``sdsos`` (:func:`sdsos`, Ahmadi and Majumdar 2019): the dense blocks, the largest ``sigma``
   blocks scaled diagonally dominant while the interior point's memory estimate exceeds the
   budget (proved by exact dominance); with ``"solver": "scs"`` every block stays PSD and SCS,
@@ -460,12 +461,13 @@ class FixedLevel:
         self.mus = [prog.free({m: float(c) for m, c in h.items()}, B)
                     for B, h in zip(pattern.free, equalities, strict=True)]  # fmt: skip
         self.Qs = [Q for _, Q in prog.grams]
+        self.cones = tuple(prog.cones) if "sdd" in prog.cones else ()  # as built
         self.problem = prog.problem(self.t, extra=[self.t <= 1])
-        self.figures: dict[str, Any] = {"rows": len(prog.rows), "gram_sizes": [len(b) for _, b, _ in pattern.blocks],
-                        "sign_symmetries": pattern.symmetries,
-                        "free": sum(len(B) for B in pattern.free),
-                        "build_seconds": round(time.perf_counter() - t0, 3),
-                        "estimated_gib": round(pattern.bytes / 2**30, 4)}  # fmt: skip
+        self.figures: dict[str, Any] = {
+            "rows": len(prog.rows), "gram_sizes": [len(b) for _, b, _ in pattern.blocks],
+            "sign_symmetries": pattern.symmetries, "free": sum(len(B) for B in pattern.free),
+            "build_seconds": round(time.perf_counter() - t0, 3),
+            "estimated_gib": round(pattern.bytes / 2**30, 4)}  # fmt: skip
 
     def solve(self, level: float) -> Candidate:
         """The program at ``level``: float blocks and the margin ``t`` (None when it failed)."""
@@ -477,11 +479,10 @@ class FixedLevel:
               and all(Q.value is not None for Q in self.Qs))  # fmt: skip
         cert = None
         if ok:
-            cones = tuple(c for _, _, c in p.blocks) if p.kind == "sdsos" else ()
             cert = Certificate(tuple((k, b, np.asarray(Q.value)) for (k, b, _), Q in
                                      zip(p.blocks, self.Qs, strict=True)),
                                tuple((B, np.asarray(mu.value)) for B, mu in
-                                     zip(p.free, self.mus, strict=True)), cones)  # fmt: skip
+                                     zip(p.free, self.mus, strict=True)), self.cones)  # fmt: skip
         t = self.t.value
         sizes = {**self.figures, "solve_seconds": round(time.perf_counter() - t0, 3)}
         return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,

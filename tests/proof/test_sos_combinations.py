@@ -222,8 +222,9 @@ def test_a_trig_field_on_the_sparse_route(field, n, cliques):
     assert "recast field" in cert.message
 
 
-@pytest.mark.parametrize("n, cliques", [(4, [4, 4]),
-                                        pytest.param(6, [4, 4, 4, 4], marks=pytest.mark.slow)])  # fmt: skip
+@pytest.mark.parametrize(
+    "n, cliques", [(4, [4, 4]), pytest.param(6, [4, 4, 4, 4], marks=pytest.mark.slow)]
+)
 def test_a_parameter_box_on_the_sparse_route(n, cliques):
     """A ring of ``n`` with its coupling ``a`` in ``[0.4, 0.6]``: ``V'`` is affine in ``a``, so
     the box's optimum is the lower of the two ends' (SLSQP at each); the parameter joins every

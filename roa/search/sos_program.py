@@ -373,7 +373,7 @@ def sdsos(data: Any, multiplier_degree: int | None = None,
 
     if str((solver_options or {}).get("solver", "clarabel")).lower() == "scs":
         nnz = sum(len(b) ** 2 * (len(data.V) if k else 1) for k, b, _ in d.blocks)
-        rows = len(monomials(data.nv, 2 * max(sum(m) for m in sigma[0][1]), 0))
+        rows = len(monomials(data.nv, 2 * degrees(data, multiplier_degree)[1], 0))
         choice = choose_solver([len(b) for _, b, _ in d.blocks], rows, nnz, "scs")
         return (pattern(0), "") if choice.solver is not None else (None, choice.reason)
     p = pattern(0)

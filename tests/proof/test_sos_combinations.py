@@ -273,3 +273,29 @@ def test_independent_blocks_of_a_recast_field():
     meta = cert.validation.meta
     assert meta["route"] == "sparse" and "independent blocks" in meta["why_sparse"]
     assert meta["certificate"]["parts"][0]["cliques"] == [[0, 1, 4, 5], [2, 3, 6, 7]]
+
+
+@pytest.mark.parametrize("route", [pytest.param("dense", marks=pytest.mark.slow), "sdsos"])
+def test_every_pattern_on_a_recast_field_and_a_parameter_box(route):
+    """The dense and the SDSOS patterns (the sparse one: above) on the trig path of 3 and on the
+    ring of 4 over its box: 0.99 x the optimum certified (SDSOS: the largest block scaled
+    diagonally dominant, proved by exact dominance), the stored certificate re-checked and
+    refused when tampered, refuted just above."""
+    n = 3
+    system = _system("trig-3", trig_path_field, n)
+    V = roa.QuadraticLyapunov(np.eye(n), np.zeros(n))
+    f, g = quad(np.eye(n))
+    opt, point = optimum(f, g, trig_path_field, n)
+    val = roa.SosValidator(route=route, fallback=False)
+    cert = _certify_and_refute(system, V, f, g, trig_path_field, opt, point, val)
+    grams = cert.validation.meta["certificate"]["parts"][0]["grams"]
+    assert any(g.get("cone") == "sdd" for g in grams) == (route == "sdsos")
+    n = 4
+    box = roa.System("ring-4-box", lambda t, x, xp, p: tuple(small_ring_field(x, p.a)),
+                     (0.0,) * n, tuple(f"x{i}" for i in range(n)),
+                     parameters={"a": (0.4, A, 0.6)})  # fmt: skip
+    V = roa.QuadraticLyapunov(np.eye(n), np.zeros(n))
+    f, g = quad(np.eye(n))
+    opt, point = optimum(f, g, lambda x: small_ring_field(x, 0.6), n)
+    val = roa.SosValidator(route=route, fallback=False, multiplier_degree=4)
+    _certify_and_refute(box, V, f, g, lambda x: small_ring_field(x, 0.6), opt, point, val)

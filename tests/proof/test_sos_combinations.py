@@ -157,29 +157,27 @@ def _sin(x):
     return mpmath.sin if isinstance(x[0], mpmath.mpf) else np.sin
 
 
-def trig_ring_field(x, a=A):
-    """``x_i' = -x_i + a sin x_{i+1} + x_i^3`` on a ring of ``len(x)`` cells."""
-    n, sin = len(x), _sin(x)
-    return [-x[i] + a * sin(x[(i + 1) % n]) + x[i] ** 3 for i in range(n)]
+def trig_field(x, sin, ring):
+    """``x_i' = -x_i + a sin x_{i+1} + x_i^3`` on a ring of ``len(x)`` cells, or on a path (the
+    last cell uncoupled)."""
+    n = len(x)
+    return [-x[i] + (A * sin(x[(i + 1) % n]) if ring or i + 1 < n else 0) + x[i] ** 3
+            for i in range(n)]  # fmt: skip
 
 
-def trig_path_field(x, a=A):
-    """The same cells on a path (the last one uncoupled)."""
-    n, sin = len(x), _sin(x)
-    return [-x[i] + (a * sin(x[i + 1]) if i + 1 < n else 0) + x[i] ** 3 for i in range(n)]
+def trig_ring_field(x):
+    return trig_field(x, _sin(x), True)
+
+
+def trig_path_field(x):
+    return trig_field(x, _sin(x), False)
 
 
 def _system(name, field, n):
-    """The system of ``field`` (its ``sin`` from the system's namespace)."""
-
-    def f(t, x, xp):
-        sin = xp.sin
-        if field is trig_ring_field:
-            return tuple(-x[i] + A * sin(x[(i + 1) % n]) + x[i] ** 3 for i in range(n))
-        return tuple(-x[i] + (A * sin(x[i + 1]) if i + 1 < n else 0) + x[i] ** 3
-                     for i in range(n))  # fmt: skip
-
-    return roa.System(name, f, (0.0,) * n, tuple(f"x{i}" for i in range(n)))
+    """The system of ``field`` (its ``sin`` from the system's namespace: sympy, intervals...)."""
+    ring = field is trig_ring_field
+    return roa.System(name, lambda t, x, xp: tuple(trig_field(x, xp.sin, ring)), (0.0,) * n,
+                      tuple(f"x{i}" for i in range(n)))  # fmt: skip
 
 
 def _certify_and_refute(system, V, f, g, field, opt, point, validator):

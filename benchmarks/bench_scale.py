@@ -3,7 +3,7 @@
 Run: ``python benchmarks/bench_scale.py [--quick] [--only NAME ...]``. Each system runs in its own
 process (its peak memory is that process's ``ru_maxrss``) and gets one row:
 
-* ``n``; the SOS level (roa's SOS proposal, ``roa.search.level_search``, or why
+* ``n``; the SOS level (roa's SOS proposal, ``roa.search._sos_bisection.level_search``, or why
   there is none);
 * the certified level and its route: ``roa.certify(system, validator=roa.SosValidator())`` (the
   proposer: the SOS level, else the sampled level search; the exact SOS check, block by block
@@ -44,7 +44,7 @@ Systems (all polynomial; ``V = (x - x_eq)' P (x - x_eq)``):
 * ``dense-cubic-20`` (20): ``examples/systems/dense_cubic.py``, every state coupled linearly and
   cubically, V = |x|^2, one dense Gram block of 230 monomials (16 GiB for the interior point):
   sign-symmetry blocks (210 + 20) with the 210 block scaled diagonally dominant
-  (``roa.search._sos_sparse.sdsos_plan``; ``"cone": "sdd"`` blocks, proved by exact dominance);
+  (``roa.search._sos_program.sdsos``; ``"cone": "sdd"`` blocks, proved by exact dominance);
   closed form ``1 / lambda_max(B)``;
 * ``ring-20``, ``ring-30`` (20, 30): ``examples/systems/ring.py``, ``x_i' = -x_i + x_{i+1} / 2 +
   x_i^3`` on a ring, V = |x|^2: every variable coupled to its neighbours (no independent blocks),
@@ -437,7 +437,7 @@ def measure_vs(name: str, budget: float = 600.0) -> dict[str, Any]:
 
 
 def _pd_exact(V: Any) -> bool:
-    """V >= mu |d|^2 proved by its Gram matrix (roa.proof.gram_cover, exact LDL')."""
+    """V >= mu |d|^2 proved by its Gram matrix (roa.proof._cover.gram_cover, exact LDL')."""
     from roa.proof._cover import gram_cover
 
     return gram_cover(V, 1.0) is not None

@@ -5,7 +5,7 @@
 ``V' = 2 sum(-x_i^2 + a x_i x_{i+1} + x_i^4)`` couples every cell to its neighbours: the
 variables' interaction graph is the n-cycle (one connected component, no decoupled blocks), and a
 dense degree-4 SOS program over all n variables has 465 + 30 monomials at n = 30. The sparse
-route (``roa.search._sos_sparse``) uses a chordal extension of the cycle (n - 2 triangles). At
+route (``roa.search._sos_program.clique_pattern``) uses a chordal extension of the cycle (n - 2 triangles). At
 ``x = e_1``, ``V' = 2 (-1 + 1) = 0`` with ``V = 1``: the largest level is below 1 (about 0.9323,
 the ladder's multistart SLSQP in ``benchmarks/bench_scale.py``).
 """

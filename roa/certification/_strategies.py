@@ -3,7 +3,7 @@
 Each is a small object with ``accepts(system, V)`` and one action, as cvxpy's reductions are:
 
 * **Validators** decide a level (:class:`Validator`): :class:`IntervalValidator`, the interval
-  branch and bound of :func:`roa.proof.validate_level`, and :class:`SosValidator`, an
+  branch and bound of :func:`roa.proof._validate.validate_level`, and :class:`SosValidator`, an
   SOS certificate checked in exact rationals (polynomial fields and V, any dimension).
 * **Level proposers** find a candidate level and own the safety factor it is validated at
   (:class:`LevelProposer`): :class:`GivenLevel`, :class:`CandidateLevel` (a level found
@@ -52,9 +52,7 @@ from roa.proof._validate import validate_level
 from roa.proof._validation import Validation
 from roa.search._levelset import LevelSearchResult, level_search
 from roa.search._rays import ray_box
-from roa.search._sos_certificate import default_eps
-from roa.search._sos_putinar import propose_putinar
-from roa.search._sos_sparse import ROUTES, route_for
+from roa.search._sos_program import ROUTES, default_eps, route_for
 from roa.status import LevelStatus, SosStatus, Verdict
 
 
@@ -192,7 +190,7 @@ SOS_ROUTE = Route("sos-exact", parameters=True)
 
 @dataclass(frozen=True)
 class IntervalValidator(ValidatorBase):
-    """Interval branch and bound with outward rounding (:func:`roa.proof.validate_level`).
+    """Interval branch and bound with outward rounding (:func:`roa.proof._validate.validate_level`).
 
     Accepts every autonomous system with an equilibrium and every V, continuous-time (``V' < 0``)
     or discrete-time (``V(F(x)) - V(x) < 0``, the whole sublevel set then proved invariant);
@@ -242,7 +240,7 @@ class IntervalValidator(ValidatorBase):
 class SosValidator(ValidatorBase):
     """Exact SOS certificate of the level (:mod:`roa.proof._sos_check`): polynomial V.
 
-    The numerical SOS program (:func:`roa.search._sos_certificate.propose_certificate`) proposes
+    The numerical SOS program (:class:`roa.search._sos_program.FixedLevel`) proposes
     Gram matrices; their rounding and exact projection (Peyrl-Parrilo, python-flint) proves
     ``V' < 0`` on ``{V <= level}`` minus the equilibrium, or the verdict is inconclusive (with the
     reason). It never refutes (the pipeline refutes above with the branch and bound or a
@@ -252,12 +250,12 @@ class SosValidator(ValidatorBase):
 
     A system with uncertain parameters is proved for every parameter of its box: the parameters
     are indeterminates of the certificate, constrained to the box by Putinar multipliers
-    (:class:`roa.proof.ParameterBox`, through the recast route even for a polynomial
+    (:class:`roa.proof._reductions.ParameterBox`, through the recast route even for a polynomial
     field).
 
     A non-polynomial field (sin/cos of states, rational terms, square roots) is recast exactly
     (:mod:`roa.proof._recast`) and proved by a constrained certificate
-    (:func:`roa.proof._putinar.check_level`, proposed by :mod:`roa.search._sos_putinar`); a field that
+    (:func:`roa.proof._putinar.check_level`, proposed by the same program); a field that
     cannot be recast (the term is named), or one with a domain, is decided by the interval branch
     and bound instead (``fallback=True``, the certificate's method is then ``interval``) or is
     inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
@@ -266,13 +264,13 @@ class SosValidator(ValidatorBase):
     (:mod:`roa.proof._sos_blocks`: decoupled subsystems), each block gets its own certificate at the
     same level, which proves the whole. A coupled system whose dense program does not fit the
     memory budget (``route="auto"``; ``"sparse"`` forces it) gets the correlative-sparsity
-    program instead (:mod:`roa.search._sos_sparse`: one Gram block per maximal clique of a chordal
+    program instead (:func:`roa.search._sos_program.clique_pattern`: one Gram block per maximal clique of a chordal
     extension of the variables' interaction graph), proved by the same exact identity over the sum
     of its blocks (:func:`roa.proof._putinar.check_level`); its ``meta`` reports the cliques' and blocks' sizes,
     the solver's and the check's seconds and the process's peak memory (``peak_mib``). A dense
     coupled system with neither gets the sign-symmetry blocks and, for those too large for the
     interior point, scaled diagonally dominant blocks (``route="sdsos"``,
-    :func:`roa.search._sos_sparse.sdsos_plan`), proved by exact scaled diagonal dominance.
+    :func:`roa.search._sos_program.sdsos`), proved by exact scaled diagonal dominance.
 
     When the exact check fails at a proposed level (not one the caller gave), up to ``backoff``
     lower levels are tried on this route before any branch and bound
@@ -401,21 +399,23 @@ class SosValidator(ValidatorBase):
                                    message=f"{again.message} (in d = diag(scale) y, scale "
                                    f"{[str(r) for r in scale]}; unscaled: {first.message})")  # fmt: skip
 
-    def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables): one
-        part per independent block of variables (:func:`roa.proof._sos_blocks.blocks`), each
-        proposed by the program chosen once for it (:func:`roa.search._sos_sparse.route_for`)
-        and proved by :func:`roa.proof._putinar.check_level`."""
+    def _prove_data(self, data: Any, V: Lyapunov, level: float, out: Any,
+                    recast: Any = None) -> Validation:  # fmt: skip
+        """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables; a
+        recast's with ``recast`` its reduction and inverse): one part per independent block of
+        variables of a polynomial field (:func:`roa.proof._sos_blocks.blocks`), each proposed by
+        the program chosen once for it (:func:`roa.search._sos_program.route_for`) and proved by
+        :func:`roa.proof._putinar.check_level`."""
         import resource
 
         split = IndependentBlocks()
-        subs, parts = split.apply(data)
+        subs, parts = ([data], [tuple(range(V.n))]) if recast else split.apply(data)
         whole = len(parts) == 1
         stored: list[dict[str, Any]] = []
         statuses: list[str] = []
         margins: list[float | None] = []
         sizes: list[int] = []
-        figures: dict[str, Any] = {}
+        figures: dict[str, Any] = {"recast": data.description} if recast else {}
         sdp_seconds = 0.0
         res: Any = None
         plan: Any = None
@@ -428,11 +428,11 @@ class SosValidator(ValidatorBase):
                            route=route)  # fmt: skip
             eps = default_eps(sub, self.eps)
             cand = chosen.propose(level, eps)
-            if plan is not None:  # the clique or the SDSOS pattern
+            if route != "dense":  # the clique or the SDSOS pattern
                 figures.update(route=route, why_sparse=why, blocks=plan.sizes, **cand.sizes)
                 sizes += [len(b) for b in plan.sigma] if whole else [plan.largest]
             else:
-                sizes.append(max(cand.sizes["gram_sizes"]))
+                sizes.append(max(cand.sizes.get("gram_sizes", [0])))
             statuses.append(cand.solver_status)
             margins.append(cand.margin)
             sdp_seconds += cand.seconds
@@ -444,7 +444,7 @@ class SosValidator(ValidatorBase):
                            f"({cand.solver_status})", **figures)  # fmt: skip
             t0 = time.perf_counter()
             res = check_level(sub, level, eps, cand.certificate)
-            if plan is not None:
+            if route != "dense":
                 figures.update(check_seconds=round(time.perf_counter() - t0, 3),
                                peak_mib=round(resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
                                               / 1024))  # fmt: skip
@@ -458,14 +458,18 @@ class SosValidator(ValidatorBase):
                                     **extra))  # fmt: skip
         if whole:  # eps, digest, k, residual, min_pivot in the meta (eps read by a re-check)
             what = "SOS certificate"
-            if plan is not None and plan.kind == "sdsos":
+            if route == "sdsos":
                 what = (f"SDSOS certificate (sign blocks {[len(b) for b in plan.sigma]}, scaled "
                         f"diagonally dominant {plan.sizes['sdd_blocks']})")  # fmt: skip
-            elif plan is not None:
+            elif route == "sparse":
                 what = (f"sparse SOS certificate ({len(plan.cliques)} cliques of sizes <= "
                         f"{max(map(len, plan.cliques))})")  # fmt: skip
+            cert = {"parts": stored}
+            if recast:
+                what = f"{what} of the recast field ({data.description})"
+                cert = recast[0].invert(stored, recast[1])
             return out(Verdict.CERTIFIED, f"{what} checked exactly: {res.reason}",
-                       certificate={"parts": stored}, M=np.eye(V.n).tolist(), **figures,
+                       certificate=cert, M=np.eye(V.n).tolist(), **figures,
                        residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip
         # the whole of {V <= level} is proved (not one component): any frame bounds it
         reason = (f"{len(parts)} independent blocks of variables (sizes "
@@ -475,8 +479,8 @@ class SosValidator(ValidatorBase):
                    **figures)  # fmt: skip
 
     def _check_recast(self, system: System, V: Lyapunov, level: float, out: Any) -> Validation:
-        """The recast field's (or parameter box's) constrained certificate
-        (:func:`roa.proof._putinar.check_level` with the recast's constraints)."""
+        """The recast field's (or parameter box's) constrained certificate, by the program of
+        :meth:`_prove_data` with the recast's constraints."""
         from roa.proof._sos_check import NotPolynomial
 
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
@@ -485,22 +489,7 @@ class SosValidator(ValidatorBase):
                 (data,), inverse = recast.apply(system, V, level)
             except NotPolynomial as exc:
                 return out(Verdict.INCONCLUSIVE, str(exc))
-            eps = default_eps(data, self.eps)
-            cand = propose_putinar(data, level, eps=eps, solver_options=self.solver_options)
-            figures = {"solver_status": cand.solver_status, "margin": cand.margin,
-                       "sdp_seconds": round(cand.seconds, 3), "eps": str(eps),
-                       "sizes": cand.sizes, "recast": data.description}  # fmt: skip
-            if cand.certificate is None:
-                return out(Verdict.INCONCLUSIVE, f"SOS solver failed ({cand.solver_status})",
-                           **figures)  # fmt: skip
-            res = check_level(data, level, eps, cand.certificate)
-            figures.update(residual=res.residual, min_pivot=res.min_pivot, **res.meta)
-            if not res.ok or res.certificate is None:
-                return out(Verdict.INCONCLUSIVE, f"SOS check failed: {res.reason}", **figures)
-            cert = recast.invert([part_json(list(range(V.n)), res.certificate)], inverse)
-            return out(Verdict.CERTIFIED, f"SOS certificate of the recast field ({data.description}) "
-                       f"checked exactly: {res.reason}", certificate=cert,
-                       M=np.eye(V.n).tolist(), **figures)  # fmt: skip
+            return self._prove_data(data, V, level, out, (recast, inverse))
 
 
 @dataclass(frozen=True)
@@ -750,7 +739,7 @@ class CandidateLevel(ProposerBase):
 
 @dataclass(frozen=True)
 class SosLevel(ProposerBase):
-    """The SOS level search's largest level (:func:`roa.search.level_search`: the
+    """The SOS level search's largest level (:func:`roa.search._sos_bisection.level_search`: the
     max-level program, quadratic V; bisection for independent blocks of variables or a patterned
     program, each block's route chosen once); validated at
     ``options.safety_factor`` x it. ``only=True``: the SOS level is the answer
@@ -907,7 +896,7 @@ def positive_level(value: Any) -> float:
 
 @dataclass(frozen=True)
 class VsIteration:
-    """SOS V-s iteration (:func:`roa.search.vs_search`): one candidate per round,
+    """SOS V-s iteration (:func:`roa.search._vs_iteration.vs_search`): one candidate per round,
     tried best shape level first; ``options.validate`` of them are validated at most."""
 
     degree: int = 4

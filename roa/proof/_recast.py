@@ -25,7 +25,7 @@ at ``z(x)``); the exact check (:func:`recast_exact`, the reduction
 :class:`Recast`) and the programs that propose a level or a V
 (:func:`roa.search._sos.recast_field`) all use it.
 
-**Uncertain parameters** (:class:`roa.proof.ParameterBox`): a system with a parameter
+**Uncertain parameters** (:class:`roa.proof._reductions.ParameterBox`): a system with a parameter
 box gets one more variable per parameter, last in ``z``, its normalised value ``w_j`` in
 ``[-1, 1]``, and the inequality ``1 - w_j^2 >= 0``; every polynomial above is then one in ``(z, w)`` and the claims
 hold at ``(z(x), w(p))`` for every state ``x`` and every parameter ``p`` of the box. ``low`` is
@@ -83,10 +83,10 @@ from roa.proof._sos_check import (
     Mono,
     NotPolynomial,
     QPoly,
-    bounded_and_even,
     exact_fraction,
     poly_lin,
     poly_mul,
+    preconditions,
     scaled,
 )
 
@@ -119,17 +119,13 @@ class RecastData:
     roots: tuple[tuple[int, Fraction, QPoly], ...]  # (index of u, t0, b in y): u = sqrt(b) - t0
     #: uncertain parameters ``(name, low, high)``, exact: the LAST variables of ``z`` are their
     #: normalised values ``w = (p - mid) / half`` in ``[-1, 1]``
-    #: (:class:`roa.proof.ParameterBox`)
+    #: (:class:`roa.proof._reductions.ParameterBox`)
     parameters: tuple[tuple[str, Fraction, Fraction], ...] = ()
 
     @property
     def nz(self) -> int:
         """Number of state variables of ``z`` (states and auxiliaries, not the parameters)."""
         return self.nv - len(self.parameters)
-
-    def state_degree(self, m: Mono) -> int:
-        """Degree of the monomial ``m`` in the state variables (the parameters not counted)."""
-        return sum(m[: self.nz])
 
     def aux(self, a: int) -> tuple[int, int]:
         """Variable indices of ``s`` and ``q`` of the ``a``-th angle."""
@@ -359,7 +355,7 @@ def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
     (its exact coefficients, ``P`` positive definite exactly): ``max d_i = sqrt(level
     (P^-1)_ii)`` (Cauchy-Schwarz in the P inner product), ``r`` a dyadic with ``r^2 >=
     level (P^-1)_ii`` checked exactly. Otherwise the global Gram cover
-    (:func:`roa.proof.gram_cover`)."""
+    (:func:`roa.proof._cover.gram_cover`)."""
     import numpy as np
 
     from roa.proof._cover import gram_cover
@@ -426,7 +422,7 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
     """The one recast (module docstring) of ``system``'s field around ``center``: sin/cos of
     states, tan, half-integer powers ``b^(k/2)`` (``u = sqrt(b) - t0``), rational terms (times
     their positive denominator), over the parameter box ``box``
-    (:class:`roa.proof.ParameterBox`, its values the last variables). Raises
+    (:class:`roa.proof._reductions.ParameterBox`, its values the last variables). Raises
     :class:`NotPolynomial` naming what cannot be recast."""
     import sympy as sp
 
@@ -514,7 +510,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     after the substitution, so the argument is unchanged, with ``eps |y|^2k > 0`` for ``d != 0``);
     raises :class:`NotPolynomial` naming the term that cannot be recast. ``taylor``: the order of
     the sin bounds (default from the angles' scale, :func:`taylor_order`). ``box``: the
-    system's parameter box (:class:`roa.proof.ParameterBox`; default: the system's
+    system's parameter box (:class:`roa.proof._reductions.ParameterBox`; default: the system's
     own, when it declares uncertain parameters)."""
     import sympy as sp
 
@@ -590,19 +586,13 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
 
 def recast_preconditions(system: Any, V: Any, level: float, taylor: int | None,
                          scale: Any) -> tuple[RecastData | None, str]:  # fmt: skip
-    """The recast data at ``level``, or None and why the check does not apply: V not centred at
-    the equilibrium, a term that cannot be recast (named), ``{V <= level}`` not proved bounded
-    (:func:`roa.proof.gram_cover`), V' starting at an odd degree."""
-    import numpy as np
+    """The recast data at ``level``, or None and why the check does not apply (the checks of
+    :func:`roa.proof._sos_check.preconditions`; a term that cannot be recast is named)."""
 
-    if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
-        return None, "V must be centred at the system's equilibrium"
-    try:
-        data = recast_exact(system, V, taylor=taylor, scale=scale, level=level)
-    except NotPolynomial as exc:
-        return None, f"no exact recast: {exc}"
-    why = bounded_and_even(V, level, data.low)
-    return (None, why) if why else (data, "")
+    def build(system: Any, V: Any) -> RecastData:
+        return recast_exact(system, V, taylor=taylor, scale=scale, level=level)
+
+    return preconditions(system, V, level, build, "no exact recast")
 
 
 @dataclass(frozen=True)

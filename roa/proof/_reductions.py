@@ -25,7 +25,7 @@ Of exact data (:class:`roa.proof._sos_check.ExactData`):
   carries ``scale``.
 
 Sign symmetry and correlative cliques are patterns of the programs that propose
-(:mod:`roa.search._sos_symmetry`, :mod:`roa.search._sos_sparse`): they change a certificate's
+(:mod:`roa.search._sos_program`): they change a certificate's
 blocks, never what is checked.
 
 **The parameter box.** For a system with uncertain parameters ``p_j`` in ``[low_j, high_j]``,

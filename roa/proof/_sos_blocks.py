@@ -14,7 +14,7 @@ The blocks are the connected components of the graph on the variables that joins
 when they occur in one monomial of ``V`` or ``V'`` (:func:`scipy.sparse.csgraph.connected_components`).
 Coupled systems have one block, and nothing changes; decoupled copies of a system have one per copy,
 so their Gram matrices are as small as one copy's. A connected but sparse graph is handled by
-the chordal cliques of :mod:`roa.search._sos_sparse` (checked by :mod:`roa.proof._putinar`), for the
+the chordal cliques of :func:`roa.search._sos_program.clique_pattern` (checked by :mod:`roa.proof._putinar`), for the
 whole or for a block.
 """
 

@@ -4,7 +4,7 @@
 ``d = x - x_eq``, ``x_eq = V.center``), ``V`` and ``V' = grad V . f`` exactly over the rationals
 (every float taken as the exact rational of its double; ``f(x_eq) = 0`` checked exactly), and
 :func:`preconditions` adds what every level needs: V centred at the equilibrium, ``{V <= c}``
-bounded (``V >= mu |d|^2`` from V's Gram matrix, :func:`roa.proof.gram_cover`) and ``V'``
+bounded (``V >= mu |d|^2`` from V's Gram matrix, :func:`roa.proof._cover.gram_cover`) and ``V'``
 starting at an even degree ``2k``. The identity itself is checked by
 :func:`roa.proof._putinar.check_level` (the one exact check: rounding, the projection of
 :func:`project_grams`, exact LDL'); then on ``{V <= c}``, ``V' < 0`` minus ``x_eq``, the set is
@@ -265,33 +265,27 @@ def project_grams(
     return Ps, residual, ""
 
 
-def preconditions(system: Any, V: Any, level: float) -> tuple[ExactData | None, str]:
-    """The exact data of the check, or None and why the check does not apply: the field or V
-    not polynomial, V's centre not an exact equilibrium, ``{V <= level}`` not proved bounded
-    (V >= mu |d|^2 from its Gram matrix, :func:`roa.proof.gram_cover`), or V' starting
-    at an odd degree."""
-    if getattr(system, "parameters", None):
+def preconditions(system: Any, V: Any, level: float, build: Any = None,
+                  what: str = "not polynomial") -> tuple[Any, str]:  # fmt: skip
+    """The exact data of the check (``build(system, V)``, default :func:`exact_data`; raising
+    :class:`NotPolynomial`, reported after ``what``), or None and why the check does not apply:
+    uncertain parameters (the default build proves one field), V's centre not an exact
+    equilibrium, ``{V <= level}`` not proved bounded (``V >= mu |d|^2`` from V's Gram matrix,
+    :func:`roa.proof._cover.gram_cover`), or V' starting at an odd degree."""
+    from roa.proof._cover import gram_cover
+
+    if build is None and getattr(system, "parameters", None):
         return None, "the system has uncertain parameters: the SOS check proves one field"
     if system.equilibrium is None or not np.array_equal(np.asarray(V.center, float), system.x_eq):
         return None, "V must be centred at the system's equilibrium"
     try:
-        data = exact_data(system, V)  # refuses f(x_eq) != 0 (exact constant terms)
+        data = (build or exact_data)(system, V)  # refuses f(x_eq) != 0 (exact constant terms)
     except NotPolynomial as exc:
-        return None, f"not polynomial: {exc}"
-    why = bounded_and_even(V, level, data.low)
-    return (None, why) if why else (data, "")
-
-
-def bounded_and_even(V: Any, level: float, low: int) -> str:
-    """Why the check does not apply to V at ``level`` whatever the field (``{V <= level}`` not
-    proved bounded by V's Gram matrix, :func:`roa.proof.gram_cover`; V' starting at an
-    odd degree ``low``), or "" when it does."""
-    from roa.proof._cover import gram_cover
-
+        return None, f"{what}: {exc}"
     if gram_cover(V, level) is None:
-        return ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the linear "
-                "monomials): {V <= level} may be unbounded")  # fmt: skip
-    return "the lowest degree of V' is odd" if low % 2 else ""
+        return None, ("V >= mu |d|^2 not proved (no positive definite Gram matrix over the linear "
+                      "monomials): {V <= level} may be unbounded")  # fmt: skip
+    return (None, "the lowest degree of V' is odd") if data.low % 2 else (data, "")
 
 
 #: Bounds on a stored certificate (beyond them it is refused before any arithmetic).

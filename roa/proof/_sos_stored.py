@@ -179,6 +179,7 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
     try:
         form = parts_of(meta.get("certificate"), n)
         parts = form["parts"]
+        what = "sparse " if "cliques" in parts[0] else ""
         if "taylor" in form:  # a recast field or a parameter box: one part, every state
             taylor, raw_scale = form.get("taylor"), form.get("scale")
             if type(taylor) is not int or not isinstance(raw_scale, list):
@@ -190,7 +191,6 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
                 raise ValueError("scale must be positive rationals like '1/4'")
             if len(parts) != 1 or parts[0].get("variables") != list(range(n)):
                 raise ValueError("a recast certificate has one part over every state")
-            eps = _eps(parts[0], meta.get("eps"))
             try:
                 (rdata,), _ = Recast(taylor, scale).apply(system, V, level)
             except NotPolynomial as exc:
@@ -200,26 +200,21 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
                 return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: the "
                            f"certificate was made for the parameter box {stored_box}, the "
                            f"system's is {box_json(rdata.parameters) or 'none'}")  # fmt: skip
-            res = check_level(rdata, level, eps, Certificate.parse(parts[0], rdata.nv),
-                              rounded=True)  # fmt: skip
-            fig = {"residual": res.residual, "min_pivot": res.min_pivot}
-            if not res.ok:
-                return out(Verdict.INCONCLUSIVE, f"stored SOS certificate refused: {res.reason}",
-                           **fig)  # fmt: skip
-            return out(Verdict.CERTIFIED, "stored SOS certificate (recast field) re-checked "
-                       f"exactly: {res.reason}", **fig, **res.meta)  # fmt: skip
-        data, why = preconditions(system, V, level)
-        if data is None:
-            return out(Verdict.INCONCLUSIVE, why)
-        scale_ = stored_scale(form, n)
-        if scale_ is not None:
-            (data,), _ = Rescale(scale_).apply(data)
-        blocks = check_partition([p.get("variables") for p in parts], n)
-        subs, _ = IndependentBlocks(tuple(blocks)).apply(data)
+            blocks, subs, what = [tuple(range(n))], [rdata], f"{what}SOS certificate (recast field)"
+        else:
+            data, why = preconditions(system, V, level)
+            if data is None:
+                return out(Verdict.INCONCLUSIVE, why)
+            scale_ = stored_scale(form, n)
+            if scale_ is not None:
+                (data,), _ = Rescale(scale_).apply(data)
+            blocks = check_partition([p.get("variables") for p in parts], n)
+            subs, _ = IndependentBlocks(tuple(blocks)).apply(data)
+            what = f"{what}SOS certificate"
         checks = []
         for block, sub, part in zip(blocks, subs, parts, strict=True):
             res = check_level(sub, level, _eps(part, meta.get("eps")),
-                              Certificate.parse(part, len(block)), rounded=True)  # fmt: skip
+                              Certificate.parse(part, sub.nv), rounded=True)  # fmt: skip
             if not res.ok:
                 where = "" if len(blocks) == 1 else f" of block {list(block)}"
                 return out(Verdict.INCONCLUSIVE, f"stored SOS certificate{where} refused: "
@@ -231,6 +226,5 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
         return out(Verdict.CERTIFIED, f"stored SOS certificates of {len(blocks)} independent "
                    "blocks re-checked exactly", blocks=[list(b) for b in blocks])  # fmt: skip
     res = checks[0]
-    sparse = "sparse " if "cliques" in parts[0] else ""
-    return out(Verdict.CERTIFIED, f"stored {sparse}SOS certificate re-checked exactly: {res.reason}",
+    return out(Verdict.CERTIFIED, f"stored {what} re-checked exactly: {res.reason}",
                residual=res.residual, min_pivot=res.min_pivot, **res.meta)  # fmt: skip

@@ -41,7 +41,7 @@ from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.model._system import System
 from roa.options import SampleSearchOptions
-from roa.search._sdp import solve
+from roa.search._sdp import monomials as sdp_monomials, solve
 from roa.search._seed import seed_level
 
 
@@ -91,15 +91,10 @@ class SampleSearchResult:
 
 
 def monomials(n: int, degrees: Any) -> np.ndarray:
-    """Exponent rows of all monomials in ``n`` variables of the given total degrees."""
-    out = []
-    for d in degrees:
-        for c in itertools.combinations_with_replacement(range(n), d):
-            e = [0] * n
-            for i in c:
-                e[i] += 1
-            out.append(e)
-    return np.array(out, dtype=int).reshape(-1, n)
+    """Exponent rows of all monomials in ``n`` variables of the given total degrees (each
+    degree's in the order of :func:`roa.search._sdp.monomials`)."""
+    rows = [m for d in degrees for m in sdp_monomials(n, d, d)]
+    return np.array(rows, dtype=int).reshape(-1, n)
 
 
 def _powers(Y: np.ndarray, dmax: int) -> np.ndarray:

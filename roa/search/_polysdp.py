@@ -62,13 +62,6 @@ def scale(a: Poly, c: float) -> Poly:
     return {m: v * c for m, v in a.items()}
 
 
-def sub(a: Poly, b: Poly) -> Poly:
-    out = dict(a)
-    for m, c in b.items():
-        out[m] = out.get(m, 0.0) - c
-    return out
-
-
 def diff(m: tuple[int, ...], i: int) -> Poly:
     """d(y^m)/dy_i."""
     if m[i] == 0:

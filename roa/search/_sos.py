@@ -45,7 +45,6 @@ from roa.search._sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, s
 from roa.status import SosStatus
 
 SYMMETRY = ("auto", True, False)
-SOS_STATUSES = ("solved", "inaccurate", "infeasible", "failed", "not_polynomial")
 
 
 @dataclass(frozen=True)

@@ -2,8 +2,8 @@
 
 :func:`level_search` is the entry of every route: for a polynomial field whose V and V' split over
 independent blocks of variables, or whose one block's program is patterned (cliques, SDSOS:
-:func:`roa.search._sos_sparse.route_for`, chosen once per block), bisection on the level (below);
-otherwise the max-level program of :func:`roa.search.sos_level` (quadratic V, the one recast).
+:func:`roa.search._sos_program.route_for`, chosen once per block), bisection on the level (below);
+otherwise the max-level program of :func:`roa.search._sos.sos_level` (quadratic V, the one recast).
 It proposes only: the pipeline validates ``(1 - 1e-4)`` x the level with the exact check and,
 when that check fails, backs off on the exact route (:mod:`roa.certification._backoff`, each try
 reported) before any branch and bound.
@@ -14,7 +14,7 @@ For exact data that split over independent blocks of variables (:mod:`roa.proof.
 largest level of the whole is the least of the blocks' largest levels (each block's ``V_j' < 0``
 on ``{V_j <= c}`` for every block gives the whole; a block's witness with the other blocks at 0
 is a witness of the whole). Each block's level is found by bisection on ``c`` with the fixed-level
-program of :func:`roa.search._sos_certificate.propose_certificate`: ``c`` counts as feasible when
+program of :class:`roa.search._sos_program.FixedLevel`: ``c`` counts as feasible when
 the solver reports an optimal solution with a positive margin ``t`` (both Gram matrices
 ``>= t I``). This proposes a level only: the exact check (:class:`roa.SosValidator`) decides it.
 
@@ -36,7 +36,7 @@ from roa.errors import RoaInputError
 from roa.proof._reductions import IndependentBlocks
 from roa.proof._sos_blocks import Block
 from roa.proof._sos_check import ExactData
-from roa.search._sos_sparse import SosRoute, route_for
+from roa.search._sos_program import SosRoute, route_for
 
 #: Doublings (and halvings) of the bracket from c = 1 before a block counts as unlimited.
 MAX_DOUBLINGS = 40
@@ -64,12 +64,13 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
                  route: SosRoute | None = None) -> tuple[float | None, int]:  # fmt: skip
     """Largest numerically feasible level of one block (``inf``: unlimited; None: not even at
     ``2^-MAX_DOUBLINGS``), and the number of programs solved, with the program of ``route``
-    (default: :func:`roa.search._sos_sparse.route_for`). A patterned program (cliques, SDSOS) is
+    (default: :func:`roa.search._sos_program.route_for`). A patterned program (cliques, SDSOS) is
     compiled once, ``rel_tol`` at least :data:`SPARSE_REL_TOL`, and each step at the zero of the
     margins' secant when both ends' margins are known, a halving after two moves of one end."""
     count = 0
     route = route_for(data, solver_options=solver_options) if route is None else route
-    if route.plan is not None:
+    patterned = route.kind != "dense"
+    if patterned:
         rel_tol = max(rel_tol, SPARSE_REL_TOL)
     margins: dict[float, float] = {}
 
@@ -77,7 +78,7 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
         nonlocal count
         count += 1
         cand = route.propose(c)
-        if route.plan is not None and cand.margin is not None:
+        if patterned and cand.margin is not None:
             margins[c] = cand.margin
         return cand.feasible
 
@@ -156,8 +157,8 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
                  aux_degree: int | None = None) -> Any:  # fmt: skip
     """The largest SOS level of ``V`` (module docstring) as a :class:`roa.search._sos.SOSResult`:
     bisection when the exact data split over independent blocks or the one block's route is
-    patterned (each block's route chosen once, :func:`roa.search._sos_sparse.route_for`), else
-    the max-level program (:func:`roa.search.sos_level`; quadratic V only)."""
+    patterned (each block's route chosen once, :func:`roa.search._sos_program.route_for`), else
+    the max-level program (:func:`roa.search._sos.sos_level`; quadratic V only)."""
     from roa.progress import step
     from roa.proof._sos_check import NotPolynomial, exact_data
     from roa.search._sos import SOSResult, sos_level
@@ -182,7 +183,7 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
                     data, solver_options=solver_options, routes=routes, split=(subs, parts)
                 )
             sizes: dict[str, Any] = {**bl.sizes, "programs": bl.programs}
-            if routes is not None and routes[0].plan is not None:
+            if routes is not None and routes[0].plan is not None and routes[0].kind != "dense":
                 sizes["sparse"] = routes[0].plan.sizes
             if bl.level is None:
                 return SOSResult(SosStatus.FAILED, None, "bisection", bl.seconds,

@@ -1,7 +1,8 @@
 """Numerical Putinar certificate that a sublevel set lies in the domain (proposes only).
 
-For a polynomial margin ``g`` and a polynomial ``V`` (``d = x - x_eq``), one semidefinite program
-(cvxpy, Clarabel) finds Gram matrices with, coefficient by coefficient::
+For a polynomial margin ``g`` and a polynomial ``V`` (``d = x - x_eq``), the one fixed-level
+program (:class:`roa.search._sos_program.FixedLevel`) finds Gram matrices with, coefficient by
+coefficient::
 
     g(d) - eps - lambda(d) (c - V(d)) = m0(d)' Q0 m0(d),   lambda = m1(d)' Q1 m1(d),
 
@@ -22,7 +23,7 @@ import numpy as np
 from roa.proof._domain import domain_target
 from roa.proof._sos_check import QPoly
 from roa.search._sdp import MAX_SDP_BYTES, monomials, sdp_bytes
-from roa.search._sos_certificate import Candidate, gram_program
+from roa.search._sos_program import Candidate, FixedLevel, Pattern
 
 
 def default_domain_eps(margin: QPoly, n: int) -> Fraction:
@@ -34,8 +35,7 @@ def default_domain_eps(margin: QPoly, n: int) -> Fraction:
 def propose_domain_certificate(
     margin: QPoly, Vq: QPoly, n: int, level: float, *, solver_options: dict[str, Any] | None = None
 ) -> Candidate:
-    """Solve the program of the module docstring for ``{V <= level}``
-    (:func:`roa.search._sos_certificate.gram_program`)."""
+    """Solve the program of the module docstring for ``{V <= level}``."""
     t0 = time.perf_counter()
     eps = default_domain_eps(margin, n)
     deg_g = max((sum(m) for m in margin), default=0)
@@ -43,11 +43,14 @@ def propose_domain_certificate(
     L = max(0, (deg_g - deg_V + 1) // 2)
     D = (max(deg_g, 2 * L + deg_V) + 1) // 2
     basis0, basis1 = monomials(n, D, 0), monomials(n, L, 0)
-    sizes = {"gram_sizes": [len(basis0), len(basis1)]}
     if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
         return Candidate(None, eps, None, f"too large: a Gram block of {len(basis0)} monomials; "
-                         "not built", time.perf_counter() - t0, sizes)  # fmt: skip
-    target = {m: float(c) for m, c in domain_target(margin, eps, n).items()}
-    cert, t, status = gram_program(target, [basis0], [basis1] if basis1 else [], Vq, level,
-                                   solver_options)  # fmt: skip
-    return Candidate(cert, eps, t, status, time.perf_counter() - t0, sizes)
+                         "not built", time.perf_counter() - t0,
+                         {"gram_sizes": [len(basis0), len(basis1)]})  # fmt: skip
+    times = [{tuple([0] * n): Fraction(1)}, {m: -c for m, c in Vq.items()}]
+    pattern = Pattern("dense", ((0, basis0, "psd"), (1, basis1, "psd")))
+    prog = FixedLevel(None, pattern, eps=eps, solver_options=solver_options,
+                      identity=(n, domain_target(margin, eps, n), times, []))  # fmt: skip
+    cand = prog.solve(level)
+    return Candidate(cand.certificate, eps, cand.margin, cand.solver_status,
+                     time.perf_counter() - t0, cand.sizes)  # fmt: skip

@@ -78,12 +78,12 @@ def test_the_backup_branch_and_bound_has_a_default_time_budget(monkeypatch):
 def test_an_overflowing_level_is_refused_before_any_program(capsys, monkeypatch):
     """Van der Pol's V' has a cubic term: at level 1e308 (|x| ~ 1e154 on the level set) and 1e200
     (|x| ~ 1e100, x1^2 x2 ~ 1e300 times P's entries and x) it overflows; at 1e150 it does not."""
-    from roa.search import _sos_certificate as sos_certificate
+    from roa.search import _sos_program as sos_program
 
     def never(*a, **k):
         raise AssertionError("an SOS program was built")
 
-    monkeypatch.setattr(sos_certificate, "propose_certificate", never)
+    monkeypatch.setattr(sos_program.FixedLevel, "__init__", never)
     for level in ("1e308", "1e200"):  # the command line refuses them when parsing --level
         try:
             code = main(["certify", "--system", "vanderpol", "--level", level])

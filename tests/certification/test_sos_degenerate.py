@@ -18,7 +18,7 @@ from scipy.optimize import minimize_scalar
 import roa
 from roa.certification._result import Certificate
 from roa.proof._sos_check import exact_data
-from roa.search._sos_certificate import degrees, propose_certificate
+from roa.search._sos_program import degrees, propose
 from roa.status import Verdict
 
 EXAMPLE = Path(__file__).resolve().parents[2] / "examples" / "systems" / "drake_nonconvex.py"
@@ -60,7 +60,7 @@ def test_the_multiplier_basis_starts_where_the_identity_allows():
     assert data.low == 4
     k, _, L = degrees(data)
     assert k == 2 and L >= k
-    cand = propose_certificate(data, 0.4)
+    cand = propose(data, 0.4)
     for factor in (0, 1):  # the SOS part and the level's multiplier, over all their blocks
         assert min(sum(m) for b, _ in cand.certificate.blocks(factor) for m in b) == 2
 

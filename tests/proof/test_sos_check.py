@@ -16,7 +16,7 @@ import roa
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof._putinar import Certificate, check_level
 from roa.proof._sos_check import exact_data
-from roa.search._sos_certificate import propose_certificate
+from roa.search._sos_program import propose
 from roa.systems.vanderpol import vanderpol
 
 
@@ -92,7 +92,7 @@ def _vdp_certificate(level: float = 2.3):
     system = vanderpol()
     V = QuadraticLyapunov.for_system(system, system.lyapunov)
     data = exact_data(system, V)
-    cand = propose_certificate(data, level)
+    cand = propose(data, level)
     res = check_level(data, level, cand.eps, cand.certificate)
     assert res.ok
     return data, cand, res
@@ -167,7 +167,7 @@ def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
     monomial) is accepted: the proof stands on the projected matrices, not on the file."""
     import json
 
-    import roa.search._sos_certificate as proposer
+    import roa.search._sos_program as proposer
     from roa.cli import main
     from roa.montecarlo._certified_set import terminal_from_certificate
 
@@ -180,7 +180,7 @@ def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
     def no_solver(*a, **k):
         raise AssertionError("the re-check must not solve anything")
 
-    monkeypatch.setattr(proposer, "propose_certificate", no_solver)
+    monkeypatch.setattr(proposer.FixedLevel, "solve", no_solver)
     good = tmp_path / "good.json"
     good.write_text(json.dumps(data))
     assert main(["verify", str(good), "--system", "vanderpol", "--json"]) == 0

@@ -195,7 +195,7 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     ``z(x)``, so any ``mu`` whose projected ``Q0`` stays positive definite is a valid proof.)"""
     from roa.proof._putinar import Certificate as Putinar, check_level as check_putinar
     from roa.proof._recast import level_scale, recast_preconditions
-    from roa.search._sos_putinar import propose_putinar
+    from roa.search._sos_program import propose
 
     system = roa.load_system("examples/systems/quadrotor2d.py:SYSTEM")
     V = roa.default_lyapunov(system)
@@ -211,7 +211,7 @@ def test_quadrotor_certified_at_095_of_a_point_with_zero_derivative():
     assert cert.status is roa.Verdict.CERTIFIED and "sin/cos(d2)" in cert.message, cert.message
     data, why = recast_preconditions(system, V, level, None, level_scale(V, level))
     assert data is not None, why
-    cand = propose_putinar(data, level)
+    cand = propose(data, level)
     assert cand.certificate is not None
     good = check_putinar(data, level, cand.eps, cand.certificate)
     assert good.ok and good.certificate is not None

@@ -81,7 +81,7 @@ def test_a_split_certificate_is_rechecked_and_tampering_is_refused(split_certifi
     """Re-checked without a solver; refused when the level is raised above the optimum 3, when a
     block's multiplier Gram matrix is negated (never projected, so no longer positive definite),
     or when the stored blocks are not independent (a monomial couples them)."""
-    import roa.search._sos_certificate as proposer
+    import roa.search._sos_program as proposer
 
     system, cert = split_certificate
     data = json.loads(roa.io.to_json(cert.to_dict()))
@@ -89,7 +89,7 @@ def test_a_split_certificate_is_rechecked_and_tampering_is_refused(split_certifi
     def no_solver(*a, **k):
         raise AssertionError("the re-check must not solve anything")
 
-    monkeypatch.setattr(proposer, "propose_certificate", no_solver)
+    monkeypatch.setattr(proposer.FixedLevel, "solve", no_solver)
     again = Certificate.from_dict(data, system).reverify()
     assert again.certified and "2 independent blocks" in again.message
     raised = {**data, "level": 3.03}

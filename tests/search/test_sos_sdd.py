@@ -1,6 +1,6 @@
 """Dense coupled systems: sign-symmetry Gram blocks and scaled diagonally dominant (SDSOS) ones.
 
-The SDSOS pattern (:func:`roa.search._sos_sparse.sdsos_plan`, ``cone="sdd"`` blocks of the one
+The SDSOS pattern (:func:`roa.search._sos_program.sdsos`, ``cone="sdd"`` blocks of the one
 program :class:`roa.search._sdp.Program`) proposes; the one exact check
 (:func:`roa.proof._putinar.check_identity`) proves an SDD block by exact scaled diagonal
 dominance; the one stored form flags it (``"cone": "sdd"`` with its scaling). The dense cubic
@@ -24,7 +24,7 @@ from roa.certification import Certificate
 from roa.proof._putinar import check_level, dd_scaling, dominance_margin
 from roa.proof._sos_check import exact_data
 from roa.search._sdp import monomials
-from roa.search._sos_sparse import SparseProgram, choose_route, sdsos_plan
+from roa.search._sos_program import FixedLevel, choose_route, sdsos
 from roa.search._sos_symmetry import sign_symmetries, split
 from roa.status import Verdict
 
@@ -100,22 +100,22 @@ def test_dominance_check_is_exact():
 
 
 def test_sdsos_plan_makes_the_largest_blocks_sdd_until_the_estimate_fits(monkeypatch):
-    import roa.search._sos_sparse as sparse
+    import roa.search._sos_program as sparse
     from roa.search._sdp import sdd_bytes, sdp_bytes
 
     data = exact_data(DC.dense_cubic(6), roa.default_lyapunov(DC.dense_cubic(6)))
-    p, why = sdsos_plan(data)
+    p, why = sdsos(data)
     assert p is not None and not any(p.sdd), why  # the dense program fits: nothing SDD
     assert [len(b) for b in p.sigma] == [21, 6] and [len(b) for b in p.lam] == [6]
     # a budget between the SDD and the PSD estimate of the 21 block: that block only is SDD
     budget = sdd_bytes(21) + 2 * sdp_bytes(6)
     assert budget < sdp_bytes(21) + 2 * sdp_bytes(6)
     monkeypatch.setattr(sparse, "MAX_SDP_BYTES", budget)
-    p, why = sdsos_plan(data)
+    p, why = sdsos(data)
     assert p is not None and p.sdd == (True, False), why
     assert p.bytes == sdd_bytes(21) + 2 * sdp_bytes(6)
     monkeypatch.setattr(sparse, "MAX_SDP_BYTES", sdd_bytes(21))
-    p, why = sdsos_plan(data)
+    p, why = sdsos(data)
     assert p is None and "even with" in why
     route, _, why = choose_route(data)
     assert route == "too_large" and "SDSOS" in why
@@ -125,10 +125,10 @@ def test_sdsos_plan_makes_the_largest_blocks_sdd_until_the_estimate_fits(monkeyp
 def test_sdd_program_certifies_below_the_optimum_only(factor, ok):
     system = DC.dense_cubic(6)
     data = exact_data(system, roa.default_lyapunov(system))
-    p, why = sdsos_plan(data, force=True)
+    p, why = sdsos(data, force=True)
     assert p is not None, why
     assert p.sdd == (True, False) and [len(b) for b in p.sigma] == [21, 6]
-    prog = SparseProgram(data, p)
+    prog = FixedLevel(data, p)
     level = factor * DC.optimum(6)
     cand = prog.solve(level)
     assert cand.margin is not None and (cand.margin > 0) == ok
@@ -226,7 +226,7 @@ def test_an_sdd_block_without_its_flag_is_proved_by_ldl():
 
 
 def test_auto_route_takes_sdsos_when_the_dense_program_is_over_budget(monkeypatch):
-    import roa.search._sos_sparse as sparse
+    import roa.search._sos_program as sparse
     from roa.search._sdp import sdd_bytes, sdp_bytes
 
     # below the dense 27-monomial block's estimate, above the SDSOS pattern's

@@ -1,4 +1,4 @@
-"""Correlative sparsity in the exact SOS check (:mod:`roa.search._sos_sparse`, :mod:`roa.proof.sos_sum`).
+"""Correlative sparsity in the exact SOS check (:func:`roa.search._sos_program.clique_pattern`, :mod:`roa.proof._putinar`).
 
 The system is a ring of 6 cells, ``x_i' = -x_i + x_{i+1} / 2 + x_i^3`` (indices mod 6), with
 ``V = |x|^2``: ``V' = 2 sum(-x_i^2 + x_i x_{i+1} / 2 + x_i^4)`` couples every cell to its
@@ -20,8 +20,14 @@ import roa
 from roa.certification import Certificate
 from roa.proof._putinar import Certificate as PutinarCertificate, check_level
 from roa.proof._sos_check import exact_data
-from roa.search._sos_certificate import default_eps
-from roa.search._sos_sparse import SosRoute, choose_route, cliques, interaction_graph, plan
+from roa.search._sos_program import (
+    SosRoute,
+    choose_route,
+    clique_pattern,
+    cliques,
+    default_eps,
+    interaction_graph,
+)
 
 N, A = 6, 0.5
 
@@ -71,7 +77,7 @@ def test_the_ring_structure_is_found():
     assert all(any({i, j} <= set(c) for c in cl) for i, j in G.edges())
     H = nx.Graph([e for c in cl for e in zip(c, c[1:] + c[:1], strict=True)])
     assert nx.is_chordal(H)
-    p, why = plan(data)
+    p, why = clique_pattern(data, symmetry=False)
     assert p is not None and why == ""
     assert p.sizes == {"cliques": [3, 3, 3, 3], "sigma_clique_blocks": [9, 9, 9, 9],
                        "sigma_cross_blocks": 4 * 3, "lambda_blocks": [3, 3, 3, 3]}  # fmt: skip
@@ -81,7 +87,7 @@ def test_the_ring_structure_is_found():
     # of two monomials of one cross block of clique j (lambda_j V is a Gram form over it)
     P = np.eye(N) + 0.1 * (np.eye(N, k=1) + np.eye(N, k=-1))
     dense_V = exact_data(system, roa.QuadraticLyapunov(P, np.zeros(N)))
-    p2, why2 = plan(dense_V)
+    p2, why2 = clique_pattern(dense_V, symmetry=False)
     assert p2 is not None and why2 == ""
     K = len(p2.cliques)
     cross = p2.sigma[K:]
@@ -154,7 +160,7 @@ def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch)
     """The level proposer's bisection with the sparse program (forced by a small memory budget)
     is within 1 % below the dense program's and the optimum, never above the optimum; the
     pipeline then certifies 0.9999 x it with the sparse certificate."""
-    import roa.search._sos_sparse as sparse
+    import roa.search._sos_program as sparse
     from roa.search._sos_bisection import bisect_level
 
     system, data, opt = ring
@@ -171,7 +177,7 @@ def test_the_sparse_bisection_level_agrees_with_the_dense_one(ring, monkeypatch)
 
 
 def _sparse_certificate(data, level):
-    p, _ = plan(data)
+    p, _ = clique_pattern(data)
     eps = default_eps(data)
     cand = SosRoute(data, "sparse", p, "").propose(level, eps)
     res = check_level(data, level, eps, cand.certificate)
@@ -236,8 +242,7 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
     """The file's blocks are re-checked exactly with no solver; a block made indefinite, an
     identity off by one coefficient (a stored basis monomial changed) or a level raised to the
     witness's 1 is refused."""
-    import roa.search._sos_certificate as dense
-    import roa.search._sos_sparse as sparse
+    import roa.search._sos_program as sparse
 
     system, _, opt = ring
     cert = roa.certify(system, level=0.99 * opt, validator=roa.SosValidator(route="sparse"))
@@ -248,9 +253,8 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
     def no_solver(*a, **k):
         raise AssertionError("the re-check must not solve anything")
 
-    monkeypatch.setattr(dense, "propose_certificate", no_solver)
     monkeypatch.setattr(sparse.SosRoute, "propose", no_solver)
-    monkeypatch.setattr(sparse.SparseProgram, "solve", no_solver)
+    monkeypatch.setattr(sparse.FixedLevel, "solve", no_solver)
     again = Certificate.from_dict(data, system).reverify()
     assert again.certified and "sparse SOS certificate re-checked exactly" in again.message
     negated = json.loads(json.dumps(data))

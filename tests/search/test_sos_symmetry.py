@@ -18,7 +18,7 @@ import roa
 from roa.proof._putinar import check_level
 from roa.proof._sos_check import exact_data
 from roa.search._sdp import monomials
-from roa.search._sos_certificate import degrees, gram_program, level_target, propose_certificate
+from roa.search._sos_program import FixedLevel, dense, propose
 from roa.search._sos_symmetry import sign_symmetries, split
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
@@ -67,29 +67,27 @@ def test_the_split_program_has_the_unsplit_optimum_and_passes_the_exact_check():
     system = vanderpol()
     V = roa.QuadraticLyapunov(P_BENCHMARK, np.zeros(2))
     data = exact_data(system, V)
-    cand = propose_certificate(data, 2.0)
+    cand = propose(data, 2.0)
     assert cand.sizes["sign_symmetries"] == 1 and len(cand.certificate.blocks(0)) == 2
-    low, D, L = degrees(data)
-    basis0, basis1 = monomials(2, D, low), monomials(2, L, low)
-    whole, t_whole, _ = gram_program(level_target(data, cand.eps), [basis0], [basis1], data.V, 2.0)
-    assert whole is not None and t_whole is not None and cand.margin is not None
-    assert cand.margin == pytest.approx(t_whole, rel=1e-4)
+    whole = FixedLevel(data, dense(data, symmetry=False), eps=cand.eps).solve(2.0)
+    assert len(whole.certificate.blocks(0)) == 1
+    assert whole.margin is not None and cand.margin is not None
+    assert cand.margin == pytest.approx(whole.margin, rel=1e-4)
     assert check_level(data, 2.0, cand.eps, cand.certificate).ok
-    assert check_level(data, 2.0, cand.eps, whole).ok
+    assert check_level(data, 2.0, cand.eps, whole.certificate).ok
 
 
 @pytest.mark.parametrize("path, level", [("examples/systems/pendulum.py:SYSTEM", 9.0),
                                          ("examples/systems/quadrotor2d.py:SYSTEM", 0.12)])  # fmt: skip
-def test_the_split_recast_program_has_the_unsplit_optimum(path, level, monkeypatch):
+def test_the_split_recast_program_has_the_unsplit_optimum(path, level):
     """Recast fields (sin/cos): the program split by the flips that fix every polynomial of the
     identity (its Gram blocks by parity class, its equality multipliers over the invariant
     monomials only) has the unsplit program's margin, and both certificates pass the exact
     check."""
     from pathlib import Path
 
-    import roa.search._sos_putinar as sp
     from roa.proof._recast import level_scale, recast_preconditions
-    from roa.search._sos_certificate import default_eps
+    from roa.search._sos_program import default_eps
 
     root = Path(__file__).resolve().parents[2]
     system = roa.load_system(f"{root / path}")
@@ -97,10 +95,9 @@ def test_the_split_recast_program_has_the_unsplit_optimum(path, level, monkeypat
     data, why = recast_preconditions(system, V, level, None, level_scale(V, level))
     assert data is not None, why
     eps = default_eps(data)
-    cand = sp.propose_putinar(data, level, eps=eps)
+    cand = propose(data, level, eps=eps)
     assert cand.sizes["sign_symmetries"] >= 1 and cand.certificate is not None
-    monkeypatch.setattr(sp, "sign_symmetries", lambda polys, nv: [])
-    whole = sp.propose_putinar(data, level, eps=eps)
+    whole = FixedLevel(data, dense(data, symmetry=False), eps=eps).solve(level)
     assert whole.certificate is not None
     assert len(whole.certificate.grams) < len(cand.certificate.grams)
     assert sum(len(b) for b, _ in whole.certificate.free) > sum(

@@ -28,6 +28,7 @@ extensions = [
     "sphinx.ext.viewcode",
     "sphinxarg.ext",
     "roa_docs",  # _ext/roa_docs.py: the examples' numbers as tables
+    "roa_api",  # _ext/roa_api.py: docstrings of constants and cfuncs of the lazy packages
 ]
 autosummary_generate = True
 autodoc_default_options = {"members": True, "undoc-members": False, "show-inheritance": False}
@@ -40,10 +41,12 @@ napoleon_use_param = False  # a definition list: no cross-reference made of each
 napoleon_use_ivar = True  # "Attributes" as fields, not a second description of each member
 napoleon_attr_annotations = False
 nitpicky = False
-# CLI help texts (rendered as reST by sphinx-argparse) write |theta| and |u| for absolute values
+# CLI help texts (rendered as reST by sphinx-argparse) write |theta| and |u| for absolute values,
+# the docstrings of roa.lyapunov.symmetric_extent and roa.search.sector |s|
 rst_prolog = """
 .. |theta| replace:: \\|theta\\|
 .. |u| replace:: \\|u\\|
+.. |s| replace:: \\|s\\|
 """
 exclude_patterns = ["_build"]
 # option names such as --t-final stay two hyphens (smart quotes would make them an en dash)

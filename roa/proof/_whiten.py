@@ -251,7 +251,7 @@ def _scalar(g: Any) -> Any:
 
 
 class Whitened(Lyapunov):
-    """``W(y) = V(c + M y)`` with ``W' = grad V . f`` evaluated at ``x = c + M y``."""
+    """``W(y) = V(c + M y)`` with ``W' = grad V · f`` evaluated at ``x = c + M y``."""
 
     def __init__(self, base: Lyapunov, system: System, M: np.ndarray) -> None:
 

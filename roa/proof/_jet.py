@@ -103,6 +103,13 @@ def _m(a: Any, b: Any) -> Any:
     return a * b
 
 
+def _sq(a: Any) -> Any:
+    """The square of a coefficient (an enclosure: a float's square is rounded outward)."""
+    if type(a) is float:
+        return 0.0 if a == 0.0 else (1.0 if abs(a) == 1.0 else Interval(a).square())
+    return Interval.of(a).square()
+
+
 def _a(a: Any, b: Any) -> Any:
     """Sum of coefficients; exact zeros skipped, float + float only when exact."""
     if type(a) is float:
@@ -156,7 +163,10 @@ class Jet:
     intersected with the centred form ``c + sum_i g_i d_i`` (:meth:`range`): the natural extension
     alone puts many boxes across a kink that their argument never reaches (on the saturated IPC,
     most undecided boxes). ``c`` costs more per evaluation and changes nothing for smooth
-    expressions, so callers centre the jets of an expression that :func:`nonsmooth` finds kinked.
+    expressions evaluated here, so callers centre the jets of an expression that
+    :func:`nonsmooth` finds kinked, and of one that calls a network: the layer jets of
+    :mod:`roa.proof._jet_net` take every unit's range (the argument of ``tanh``, ``tanh'``,
+    ``tanh''``) from the centred form, much tighter than the natural extension after a layer.
     """
 
     __slots__ = ("v", "g", "h", "c", "d")
@@ -304,13 +314,15 @@ class Jet:
         if self.h is not None:
             d2 = f2(self.v)
             n = len(self.g)
+            # f'' g_i g_j + f' h_ij, with g_i^2 as a square on the diagonal (never negative)
             h = [
                 [
-                    _a(_m(_m(d2, self.g[i]), self.g[j]), _m(d1, self.h[i][j])) if j >= i else 0.0
+                    _a(_m(d2, _sq(self.g[i]) if j == i else _m(self.g[i], self.g[j])),
+                       _m(d1, self.h[i][j])) if j >= i else 0.0
                     for j in range(n)
                 ]
                 for i in range(n)
-            ]
+            ]  # fmt: skip
         c = None if self.c is None else f0(self.c)
         return Jet(f0(self.v), g, h, c, self.d)
 

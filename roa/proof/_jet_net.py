@@ -130,14 +130,13 @@ def _step(s: _State, op: Any, d: Interval | None, iu: np.ndarray, ju: np.ndarray
     if name in _SMOOTH:
         f0, f1, f2 = _derivatives(name)
         d1 = f1(r)
-        g = Interval(d1.lo[:, :, None], d1.hi[:, :, None]) * s.g
+        d1x = Interval(d1.lo[:, :, None], d1.hi[:, :, None])
+        g = _times_nonneg(d1x, s.g)
         h = None
         if s.h is not None:
             d2 = f2(r)
-            gg = Interval(s.g.lo[:, :, iu], s.g.hi[:, :, iu]) * Interval(s.g.lo[:, :, ju],
-                                                                         s.g.hi[:, :, ju])  # fmt: skip
-            h = Interval(d2.lo[:, :, None], d2.hi[:, :, None]) * gg + Interval(
-                d1.lo[:, :, None], d1.hi[:, :, None]) * s.h  # fmt: skip
+            h = Interval(d2.lo[:, :, None], d2.hi[:, :, None]) * _pair_products(s.g, iu, ju)
+            h = h + _times_nonneg(d1x, s.h)
         c = None if s.c is None else f0(s.c)
         zh = None if s.zh is None else s.zh & (s.zg[:, iu] | s.zg[:, ju])
         return _State(f0(r), _zg(g, s.zg), _zeroed(h, zh), c, s.zg, zh)
@@ -180,6 +179,39 @@ def _step(s: _State, op: Any, d: Interval | None, iu: np.ndarray, ju: np.ndarray
     h = None if h is None else _widen(h, smin, smax)
     zh = None if s.zh is None else s.zh & (s.zg[:, iu] | s.zg[:, ju])
     return _State(v, _zg(g, s.zg), _zeroed(h, zh), c, s.zg, zh)
+
+
+def _times_nonneg(a: Interval, X: Interval) -> Interval:
+    """``a X`` for ``a >= 0`` (the derivative of a monotone activation), two products instead of
+    four: the lower end is ``a_lo X_lo`` where ``X_lo >= 0``, else ``a_hi X_lo``; the upper
+    ``a_hi X_hi`` where ``X_hi >= 0``, else ``a_lo X_hi``. ``0 x inf`` (NaN) is 0, as in
+    :meth:`Interval.__mul__` (the factor is then exactly 0, or 0 is the bound). The general
+    product where some ``a_lo < 0``."""
+    if not np.all(a.lo >= 0):
+        return a * X
+    from roa.proof._interval import round_down, round_up
+
+    with np.errstate(invalid="ignore"):
+        lo = np.where(X.lo >= 0, a.lo, a.hi) * X.lo
+        hi = np.where(X.hi >= 0, a.hi, a.lo) * X.hi
+    lo = np.where(np.isnan(lo), 0.0, lo)
+    hi = np.where(np.isnan(hi), 0.0, hi)
+    return Interval(round_down(lo), round_up(hi))
+
+
+def _pair_products(g: Interval, iu: np.ndarray, ju: np.ndarray) -> Interval:
+    """``g_p g_q`` for the pairs ``(iu, ju)`` (last axis): squares on the diagonal (never
+    negative, tighter than the product of two equal intervals), products elsewhere."""
+    diag = iu == ju
+    lo = np.empty(g.lo.shape[:-1] + (len(iu),))
+    hi = np.empty_like(lo)
+    sq = Interval(g.lo[..., iu[diag]], g.hi[..., iu[diag]]).square()
+    off = Interval(g.lo[..., iu[~diag]], g.hi[..., iu[~diag]]) * Interval(
+        g.lo[..., ju[~diag]], g.hi[..., ju[~diag]]
+    )
+    lo[..., diag], hi[..., diag] = sq.lo, sq.hi
+    lo[..., ~diag], hi[..., ~diag] = off.lo, off.hi
+    return Interval(lo, hi)
 
 
 def _widen(X: Interval, smin: float, smax: float) -> Interval:

@@ -135,7 +135,9 @@ def local_box_proof(
         exact = hessian_preconditions(system, lyap)
     if not exact:
         return False
-    vd = lyap.vdot_expr(system, Jet.variables(lo[None, :], hi[None, :], order=2), JET)
+    # centred: a network's units take their ranges from the centred form (roa.proof._jet_net)
+    X = Jet.variables(lo[None, :], hi[None, :], order=2, centred=True)
+    vd = lyap.vdot_expr(system, X, JET)
     return hessian_negative_definite(vd, lyap.n)
 
 

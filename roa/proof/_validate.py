@@ -99,7 +99,7 @@ from roa.proof._jet import Jet, nonsmooth
 from roa.proof._jet_net import JET
 from roa.proof._local import local_box
 from roa.proof._parallel_boxes import box_workers, evaluate_batch
-from roa.proof._relax_vdot import relaxation_bounds
+from roa.proof._relax_vdot import has_network, relaxation_bounds
 from roa.proof._validation import Reason, Validation
 from roa.proof._whiten import Whitened, whitened_system, whitening_for
 from roa.proof._witness import recheck_domain_witness, recheck_witness
@@ -263,7 +263,9 @@ def evaluate_boxes(
             return lyap.vdot_expr(system, X[:n], JET)
 
     kinked = nonsmooth(lambda: vdot(Jet.variables(lo[:1], hi[:1])))
-    vd = vdot(Jet.variables(lo, hi, order=2, centred=kinked))
+    # a network's layer jets take each unit's range from the centred form (roa.proof._jet_net):
+    # through tanh layers several times tighter Hessians than the natural extension
+    vd = vdot(Jet.variables(lo, hi, order=2, centred=kinked or has_network(system)))
     at = vdot(Jet.variables(mid, mid, order=1, centred=kinked))
     cen, tay = _forms(at.v, at.g, vd.g, vd.h, delta, m)
     vdot_box = _meet(_full(vd.v, m), cen, tay)

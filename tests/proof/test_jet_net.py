@@ -178,3 +178,71 @@ def test_exact_zero_structure_and_kink_detection():
     assert type(out[0].g[0]) is not float
     assert nonsmooth(lambda: net(X, JET))
     assert not nonsmooth(lambda: _net("tanh", 1)(X, JET))
+
+
+def _holds(lo: float, hi: float, exact) -> bool:
+    """``lo <= exact <= hi`` with infinite ends (``exact`` a Fraction)."""
+    from fractions import Fraction
+
+    return (lo == -np.inf or Fraction(float(lo)) <= exact) and (
+        hi == np.inf or exact <= Fraction(float(hi))
+    )
+
+
+def test_two_product_multiplication_and_squares_enclose_exact_products():
+    """The products of the smooth layers (``_times_nonneg``: a factor ``>= 0``; ``_pair_products``:
+    squares on the diagonal) enclose every exact product of points of the factors (Fractions),
+    with infinite ends and exact zeros among the factors, and are never wider than the general
+    interval product."""
+    from fractions import Fraction
+
+    from roa.proof._jet_net import _pair_products, _times_nonneg
+
+    rng = np.random.default_rng(11)
+    shape = (4, 50, 3)
+    a_lo = np.abs(rng.standard_normal(shape)) * rng.choice([0.0, 1.0], shape)
+    a = Interval(a_lo, a_lo + np.abs(rng.standard_normal(shape)) * rng.choice([0.0, 1.0], shape))
+    x_lo = rng.standard_normal(shape) * 3
+    x_hi = x_lo + np.abs(rng.standard_normal(shape)) * rng.choice([0.0, 1.0], shape)
+    x_lo[0, :5], x_hi[1, :5] = -np.inf, np.inf
+    X = Interval(x_lo, x_hi)
+    fast, general = _times_nonneg(a, X), a * X
+    assert np.all(fast.lo >= general.lo) and np.all(fast.hi <= general.hi)
+    P = _pair_products(X, *np.triu_indices(3))
+    iu, ju = np.triu_indices(3)
+    for _ in range(20):
+        ta, tx, ty = rng.uniform(size=(3, *shape))
+        pa = np.where(a.hi > a.lo, a.lo + ta * (a.hi - a.lo), a.lo)
+        px = np.clip(np.where(np.isfinite(x_lo), x_lo, x_hi - 5) + tx * 5, x_lo, x_hi)
+        for idx in map(tuple, rng.integers(0, [4, 50, 3], (40, 3))):
+            exact = Fraction(float(pa[idx])) * Fraction(float(px[idx]))
+            assert _holds(fast.lo[idx], fast.hi[idx], exact)
+        py = np.clip(np.where(np.isfinite(x_lo), x_lo, x_hi - 5) + ty * 5, x_lo, x_hi)
+        for k, (p, q) in enumerate(zip(iu, ju, strict=True)):
+            other = px if p == q else py  # a square is g_p g_p: the same point twice
+            i, j = rng.integers(0, 4), rng.integers(0, 50)
+            exact = Fraction(float(px[i, j, p])) * Fraction(float(other[i, j, q]))
+            if p != q and not (x_lo[i, j, q] <= py[i, j, q] <= x_hi[i, j, q]):
+                continue
+            assert _holds(P.lo[i, j, k], P.hi[i, j, k], exact)
+    assert np.all(P.lo[..., iu == ju] >= 0)
+
+
+def test_interval_affine_encloses_exact_affine_maps():
+    """``W x + b`` at points of the boxes, in exact rationals, lies in the enclosure."""
+    from fractions import Fraction
+
+    from roa.proof._interval import interval_affine
+
+    rng = np.random.default_rng(12)
+    W, b = rng.standard_normal((5, 7)) * 10.0 ** rng.integers(-3, 3, (5, 7)), rng.standard_normal(5)
+    lo = rng.standard_normal((7, 30))
+    hi = lo + np.abs(rng.standard_normal((7, 30)))
+    out = interval_affine(W, b, lo, hi)
+    for _ in range(10):
+        x = lo + rng.uniform(size=lo.shape) * (hi - lo)
+        for j in range(30):
+            for i in range(5):
+                exact = sum(Fraction(float(W[i, k])) * Fraction(float(x[k, j])) for k in range(7))
+                exact += Fraction(float(b[i]))
+                assert Fraction(float(out.lo[i, j])) <= exact <= Fraction(float(out.hi[i, j]))

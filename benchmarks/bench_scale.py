@@ -403,37 +403,131 @@ def volume_shares(Vs: list[tuple[Any, float]], half: np.ndarray, *, samples: int
     return out
 
 
-def measure_vs(name: str, budget: float = 600.0) -> dict[str, Any]:
-    """The quadratic V's certified set against the degree-4 V-s iteration's (``roa.certify(system,
-    degree=4)``: the search within ``budget`` seconds, the level proved by the validator), with
-    their volume shares of a box twice the quadratic set's bounding box (a lower bound of the
-    volume ratio when the degree-4 set leaves the box)."""
+def measure_vs(name: str, budget: float = 600.0, *, objective: str = "volume", reach: float = 1.5,
+               rounds: int = 8) -> dict[str, Any]:  # fmt: skip
+    """The quadratic V's certified set against the degree-4 V-s iteration's, both proved by the
+    exact SOS route (``roa.SosValidator()``): ``roa.certify(system, degree=4,
+    vs=VsOptions(objective=..., budget=...))``, the search within ``budget`` seconds. Their volume
+    shares of a box twice the quadratic set's bounding box (a lower bound of the volume ratio
+    when the degree-4 set leaves the box), the degree-4 V's positive definiteness proved exactly
+    (its Gram matrix, exact LDL'), and a refutation just above its level: the least V at the
+    first ``V' >= 0`` along random rays, the point moved out to ``V = (1 + r) x`` it (``r =
+    2e-4 .. 1e-2``) with ``V' >= 0`` re-checked at 50 digits, V and V' from V's monomials and this
+    file's field."""
     import roa
     from roa.options import VsOptions
 
-    system, _, P = case(name)
+    system, field, P = case(name)
     row: dict[str, Any] = {"system": name, "n": len(P)}
     t0, c0 = time.perf_counter(), time.process_time()
-    quad = roa.certify(system)
+    quad = roa.certify(system, validator=roa.SosValidator())
     row["quadratic"] = {"status": quad.status.value, "level": quad.level, "method": quad.method,
-                        "seconds": time.perf_counter() - t0}  # fmt: skip
+                        "seconds": time.perf_counter() - t0,
+                        "cpu_seconds": time.process_time() - c0}  # fmt: skip
     t0, c0 = time.perf_counter(), time.process_time()
-    four = roa.certify(system, degree=4, vs=VsOptions(budget=budget))
+    vs = VsOptions(budget=budget, objective=objective, reach=reach, rounds=rounds)
+    four = roa.certify(system, degree=4, vs=vs, validator=roa.SosValidator())
     row["quartic"] = {"status": four.status.value, "level": four.level, "method": four.method,
                       "seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
                       "vs": None if four.vs is None else four.vs.to_dict(),
+                      "V": four.V.name if four.V is not None else None,
                       "message": four.message[:300]}  # fmt: skip
     row["peak_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     if quad.level is None or four.level is None or four.status.value != "certified":
         return row
     half = 2 * np.sqrt(quad.level * np.diag(np.linalg.inv(P)))
-    (pq, eq), (p4, e4) = volume_shares([(quad.V, quad.level), (four.V, four.level)], half)
+    (pq, eq), (p4, e4) = volume_shares([(quad.V, quad.level), (four.V, four.level)], half,
+                                       samples=2_000_000)  # fmt: skip
     row["box_half_widths"] = half.tolist()
     row["shares"] = {"quadratic": [pq, eq], "quartic": [p4, e4]}
     row["volume_ratio"] = p4 / pq if pq > 0 else None
-    V4 = four.V
-    row["quartic_pd_exact"] = _pd_exact(V4)
+    row["volume_ratio_error"] = (p4 / pq) * float(np.hypot(eq / pq, e4 / p4)) if pq > 0 else None
+    row["quartic_pd_exact"] = _pd_exact(four.V)
+    row["quartic_refutation"] = poly_refutation(field, four.V, float(four.level))
     return row
+
+
+def _poly_terms(V: Any) -> list[tuple[tuple[int, ...], float]]:
+    return [(tuple(int(k) for k in m), float(c)) for m, c in (V.polynomial_view() or {}).items()]
+
+
+def _poly_eval(terms: list, field: Callable, X: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """V and V' = grad V . f at the rows of X (V's monomials, this file's field)."""
+    F = np.stack([np.broadcast_to(v, X.shape[:1]) for v in field(list(X.T))], axis=1)
+    val, der = np.zeros(len(X)), np.zeros(len(X))
+    for m, c in terms:
+        e = np.asarray(m)
+        val += c * np.prod(X**e, axis=1)
+        for i in np.nonzero(e)[0]:
+            e2 = e.copy()
+            e2[i] -= 1
+            der += c * e[i] * np.prod(X**e2, axis=1) * F[:, i]
+    return val, der
+
+
+def poly_refutation(field: Callable, V: Any, level: float, *, rays: int = 3000,
+                    seed: int = 0) -> dict[str, Any]:  # fmt: skip
+    """The least V at the first ``V' >= 0`` along random rays (bisected), and that point moved
+    out along its ray to ``V = (1 + r) x level`` for the first ``r`` in 2e-4 .. 1e-2 where
+    ``V' >= 0`` holds at 50 digits (mpmath): a point of ``{V <= (1 + r) level}`` where V does not
+    decrease. ``x_eq = 0``."""
+    import mpmath as mp
+
+    terms = _poly_terms(V)
+    n = V.n
+    U = np.random.default_rng(seed).standard_normal((rays, n))
+    t = np.geomspace(1e-2, 1e2, 300)
+    out: dict[str, Any] = {"confirmed": False, "ratio": None, "digits": 50}
+    lo_all = []
+    for chunk in np.array_split(np.arange(rays), 10):
+        X = (t[None, :, None] * U[chunk, None, :]).reshape(-1, n)
+        der = _poly_eval(terms, field, X)[1].reshape(len(chunk), len(t))
+        hit = der >= 0
+        ok = hit.any(axis=1) & ~hit[:, 0]
+        k = np.argmax(hit, axis=1)
+        lo_all += [(chunk[i], t[k[i] - 1], t[k[i]]) for i in np.nonzero(ok)[0]]
+    if not lo_all:
+        return out
+    idx = np.array([a for a, _, _ in lo_all])
+    lo, hi = np.array([b for _, b, _ in lo_all]), np.array([c for _, _, c in lo_all])
+    Ui = U[idx]
+    for _ in range(50):
+        mid = 0.5 * (lo + hi)
+        up = _poly_eval(terms, field, mid[:, None] * Ui)[1] >= 0
+        lo, hi = np.where(up, lo, mid), np.where(up, mid, hi)
+    vals = _poly_eval(terms, field, hi[:, None] * Ui)[0]
+    best = int(np.argmin(vals))
+    out["crossing_V"], out["crossing_over_level"] = float(vals[best]), float(vals[best] / level)
+    u = Ui[best]
+    with mp.workdps(50):
+        um = [mp.mpf(float(v)) for v in u]
+
+        def at(s: Any) -> tuple[Any, Any]:
+            x = [s * v for v in um]
+            fx = field(x)
+            val, der = mp.mpf(0), mp.mpf(0)
+            for m, c in terms:
+                cm = mp.mpf(c)
+                val += cm * mp.fprod(x[i] ** m[i] for i in range(n))
+                for i in range(n):
+                    if m[i]:
+                        e = list(m)
+                        e[i] -= 1
+                        der += cm * m[i] * mp.fprod(x[j] ** e[j] for j in range(n)) * fx[i]
+            return val, der
+
+        for r in ("0.0002", "0.0005", "0.001", "0.0015", "0.002", "0.003", "0.005", "0.01"):
+            target = (1 + mp.mpf(r)) * mp.mpf(level)
+            a, b = mp.mpf(0), mp.mpf(float(hi[best])) * 4
+            for _ in range(200):  # V(s u) = target on the ray (V grows along it up there)
+                m_ = (a + b) / 2
+                a, b = (m_, b) if at(m_)[0] < target else (a, m_)
+            val, der = at(b)
+            if der >= 0:
+                out.update(confirmed=True, ratio=float(val / mp.mpf(level)), V=float(val),
+                           vdot=mp.nstr(der, 8))  # fmt: skip
+                break
+    return out
 
 
 def _pd_exact(V: Any) -> bool:
@@ -453,14 +547,29 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--from-json", default=None, help="print the table of rows written by --json")
     ap.add_argument("--vs", default=None, help="the degree-4 V-s rung of this system instead")
     ap.add_argument("--vs-budget", type=float, default=600.0, help="its search budget, seconds")
+    ap.add_argument(
+        "--vs-objective",
+        default="volume",
+        choices=("volume", "shape"),
+        help="the V-s iteration's objective (VsOptions.objective)",
+    )
+    ap.add_argument("--vs-reach", type=float, default=1.5, help="VsOptions.reach")
+    ap.add_argument("--vs-rounds", type=int, default=8, help="VsOptions.rounds")
     args = ap.parse_args(argv)
     if args.vs:
-        r = measure_vs(args.vs, args.vs_budget)
+        r = measure_vs(args.vs, args.vs_budget, objective=args.vs_objective,
+                       reach=args.vs_reach, rounds=args.vs_rounds)  # fmt: skip
         print(json.dumps(r, indent=1, default=float))
-        ok = r.get("volume_ratio") is not None and r["volume_ratio"] >= 2 and r["quartic_pd_exact"]
-        print(f"{args.vs}: quadratic {r['quadratic']['level']}, degree 4 {r['quartic']['level']} "
-              f"({r['quartic']['status']}, {r['quartic']['seconds']:.0f} s), volume ratio "
-              f"{r.get('volume_ratio')}: {'holds' if ok else 'FAILS'} (>= 2)")  # fmt: skip
+        ratio, err = r.get("volume_ratio"), r.get("volume_ratio_error")
+        ref = r.get("quartic_refutation") or {}
+        ok = (ratio is not None and ratio - 2 * err >= 2 and r["quartic_pd_exact"]
+              and r["quartic"]["method"] == "sos-exact" and ref.get("confirmed"))  # fmt: skip
+        q, f = r["quadratic"], r["quartic"]
+        print(f"{args.vs}: quadratic {q['level']} ({q['method']}, {q['seconds']:.0f} s, CPU "
+              f"{q['cpu_seconds']:.0f} s), degree 4 {f['level']} ({f['status']}, {f['method']}, "
+              f"{f['seconds']:.0f} s, CPU {f['cpu_seconds']:.0f} s), volume ratio {ratio} +- "
+              f"{err}, V positive definite (exact) {r.get('quartic_pd_exact')}, refuted at "
+              f"{ref.get('ratio')} x the level: {'holds' if ok else 'FAILS'} (>= 2)")  # fmt: skip
         return 0 if ok else 1
     if args.from_json:
         print(table(json.loads(Path(args.from_json).read_text())))

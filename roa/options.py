@@ -242,6 +242,13 @@ class VsOptions(Options):
         ``sos``: the V-s iteration; ``sampled``: the sampled cutting-plane search
         (``roa.certify`` with :class:`roa.CuttingPlanes`, no SDP over the field), with ``sampled``
         its options (:class:`SampleSearchOptions`; ``degree`` is taken from ``roa.certify``).
+    objective : {"shape", "volume"}
+        What each V step enlarges: ``shape`` the level of ``{p <= beta}`` inside ``{V <= 1}``;
+        ``volume`` the set ``{V <= 1}`` itself, by minimising V's mean over a cube (a proxy of
+        its volume; no shape containment kept).
+    reach : float
+        Half-width of that cube in the seed's whitened coordinates (the seed's certified set is
+        their unit ball), > 0.
     """
 
     rounds: int = 8
@@ -258,6 +265,8 @@ class VsOptions(Options):
     budget: float | None = 600.0
     method: str = "sos"
     sampled: Any = None
+    objective: str = "shape"
+    reach: float = 1.5
 
     def __post_init__(self) -> None:
         _int(self, "rounds", 1, 50)
@@ -271,6 +280,10 @@ class VsOptions(Options):
                 f"got {type(self.sampled).__name__}"
             )
         _int(self, "validate", 1, 20)
+        if self.objective not in ("shape", "volume"):
+            raise RoaInputError(f"VsOptions.objective must be 'shape' or 'volume', got "
+                                f"{self.objective!r}")  # fmt: skip
+        _pos(self, "reach")
         if self.budget is not None:
             _pos(self, "budget")
         if self.max_iters is not None:

@@ -917,11 +917,12 @@ class VsIteration:
                             rounds=vs.rounds, multiplier_degree=vs.multiplier_degree,
                             symmetry=vs.symmetry, aux_degree=vs.aux_degree, recast_mode=vs.recast,
                             tol=vs.tol, solver_options=vs.solver_options(),
-                            solver=vs.solver, budget=vs.budget)  # fmt: skip
+                            solver=vs.solver, budget=vs.budget, objective=vs.objective,
+                            reach=vs.reach)  # fmt: skip
         if not res.candidates:
             return Candidates((), res, vs.validate,
                               f"V-s iteration found no candidate: {res.message}", "sos")  # fmt: skip
-        order = [res.candidates[int(i)] for i in np.argsort(res.betas)[::-1]]  # best level first
+        order = res.ranked()  # best first (the objective's score)
         return Candidates(tuple(Candidate(V, proposer, label=f"validation of {V.name}")
                                 for V in order), res, vs.validate)  # fmt: skip
 

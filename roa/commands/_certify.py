@@ -64,6 +64,10 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--budget", type=numparse.arg(), default=VsOptions().budget, metavar="SEC",
                    help="wall-clock seconds of the V-s iteration with --degree (> 0, default "
                    f"{VsOptions().budget:g}): it then stops with the rounds it completed")  # fmt: skip
+    p.add_argument("--objective", choices=("shape", "volume"), default=VsOptions().objective,
+                   help="what each V step of --degree enlarges: shape (the level of the seed's "
+                   "ellipsoid inside the set) or volume (the set itself, by V's mean over a cube)"
+                   f" (default {VsOptions().objective})")  # fmt: skip
     p.add_argument("--time-limit", type=numparse.arg(), default=None, metavar="SEC",
                    help="wall-clock budget of each interval validation, in (0, 1e9] seconds: "
                    "when it runs out the verdict is inconclusive, saying so; with --degree also "
@@ -111,7 +115,8 @@ def compute(args: argparse.Namespace):  # noqa: ANN201 - the API's result
             raise RoaInputError("--degree searches V and its level: drop --level and --method")
         # --time-limit bounds the V-s iteration too: it stops with the best round so far
         budget = args.budget if args.time_limit is None else min(args.budget, args.time_limit)
-        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds, budget=budget),
+        vs = C.options(lambda: roa.VsOptions(rounds=args.rounds, budget=budget,
+                                             objective=args.objective),
                        {"VsOptions.rounds": "--rounds", "VsOptions.budget": "--budget"})  # fmt: skip
         return roa.certify(system, V, degree=args.degree, vs=vs, interval=interval,
                            check_above=args.check_above, validator=args.validator)  # fmt: skip

@@ -13,6 +13,15 @@ three semidefinite programs (cvxpy + Clarabel) alternate, each linear in its unk
 * **V step** (``lambda``, ``lambda2`` fixed): V free with ``V - eps y'y`` SOS, both identities
   above at level 1, maximise ``beta``. The previous V is feasible, so ``beta`` never decreases.
 
+That is the ``shape`` objective: it enlarges an ellipsoid inside ``{V <= 1}``, which cannot grow
+past the nearest point where the region of attraction ends in the shape's metric (e.g. saddle
+equilibria on the ellipsoid of the quadratic's optimum: then beta stays put whatever V). The
+``volume`` objective enlarges the set itself: the V step minimises V's mean over the cube
+``[-reach, reach]^n`` in y (linear in V's coefficients: exact monomial moments), keeping the
+decrease identity at level 1 and ``V - eps y'y`` SOS; there is no beta step and no containment.
+The previous V is feasible, so the mean never increases, and where V falls ``{V <= 1}`` grows (a
+proxy for its volume: the caller measures it). Candidates rank by beta, resp. by the mean.
+
 **Over a parameter box.** For a system with uncertain parameters, the decrease identity is imposed
 at each point of :func:`parameter_points` (the box's vertices when the field is affine in the
 parameters, since ``V'`` is then affine in them for a fixed ``V``; else the nominal values, the
@@ -64,6 +73,9 @@ from roa.status import SosStatus
 #: Most coefficients of a searched V (its monomials of degree 2..degree); the Gram blocks are
 #: bounded on their own by :data:`roa.search._sdp.MAX_GRAM_BLOCK` (roa.search._sdp.check_block).
 MAX_V_TERMS = 5000
+#: What the V step enlarges: ``shape`` the level ``beta`` of ``{p <= beta}`` inside ``{V <= 1}``;
+#: ``volume`` V's mean over a cube (``{V <= 1}`` grows where V falls), ``{p <= beta}`` kept inside.
+OBJECTIVES = ("shape", "volume")
 
 
 @dataclass(frozen=True)
@@ -90,21 +102,29 @@ class VsResult:
     status: SosStatus
     degree: int
     candidates: list[PolynomialLyapunov]
-    betas: list[float]
+    betas: list[float | None]
     rounds: list[VsRound]
     seconds: float
     sizes: dict[str, Any] = field(default_factory=dict)
     message: str = ""
+    means: list[float] = field(default_factory=list)
+    scores: list[float] = field(default_factory=list)
 
     @property
     def best(self) -> PolynomialLyapunov | None:
-        return self.candidates[int(np.argmax(self.betas))] if self.candidates else None
+        return self.ranked()[0] if self.candidates else None
+
+    def ranked(self) -> list[PolynomialLyapunov]:
+        """The candidates, best first: by the objective's score (``beta``, or minus V's mean)."""
+        scores = self.scores or [float(b or 0.0) for b in self.betas]
+        return [self.candidates[int(i)] for i in np.argsort(scores, kind="stable")[::-1]]
 
     def to_dict(self) -> dict[str, Any]:
         return {
             "status": self.status.value,
             "degree": self.degree,
             "betas": self.betas,
+            "means": self.means,
             "rounds": [r.to_dict() for r in self.rounds],
             "seconds": round(self.seconds, 3),
             "sizes": self.sizes,
@@ -271,6 +291,14 @@ class _Problem:
         L = -(A.T @ Pv + Pv @ A)
         ident.psd.append(0.5 * (L + L.T) - margin * mu0 * np.eye(n) >> 0)
 
+    def box_means(self, reach: float) -> np.ndarray:
+        """Mean of each monomial of V over the cube ``[-reach, reach]^n`` in y (exact:
+        ``prod_i reach^a_i / (a_i + 1)`` for even exponents ``a_i``, else 0)."""
+        return np.array([
+            math.prod(reach ** a / (a + 1) if a % 2 == 0 else 0.0 for a in m[: self.nd])
+            for m in self.vbasis
+        ])  # fmt: skip
+
     def to_lyapunov(self, Vc: np.ndarray, name: str) -> PolynomialLyapunov:
         """V(y(x)) with ``y = M^-1 (x - c)``, expanded in ``d = x - c``."""
         d = sp.symbols(f"d0:{self.nd}", real=True)
@@ -306,6 +334,8 @@ def vs_search(
     solver_options: dict[str, Any] | None = None,
     solver: str = "auto",
     budget: float | None = None,
+    objective: str = "shape",
+    reach: float = 1.5,
 ) -> VsResult:
     """Polynomial Lyapunov candidates of degree ``degree`` by V-s iteration (module docstring).
 
@@ -317,7 +347,10 @@ def vs_search(
     time limit, so the search stops with the candidates of the rounds it completed: status
     ``stopped``, ``message`` saying when. With progress on (:func:`roa.progress.enable`), each
     round after the first starts with a line giving the last shape level and an estimate of the
-    time the rounds left take at the pace so far.
+    time the rounds left take at the pace so far. ``objective``: ``shape`` (maximise ``beta``) or
+    ``volume`` (minimise V's mean over the cube ``[-reach, reach]^n`` in the whitened ``y``, where
+    the seed's level set is the unit sphere; module docstring); the volume objective stops when
+    the mean falls by less than ``tol`` (relative).
     """
     if solver not in SOLVERS:
         raise RoaInputError(f"solver must be one of {SOLVERS}, got {solver!r}")
@@ -325,6 +358,10 @@ def vs_search(
         raise RoaInputError(f"degree must be 2, 4, 6 or 8, got {degree!r}")
     if not (isinstance(rounds, int) and 1 <= rounds <= 50):
         raise RoaInputError(f"rounds must be an integer in [1, 50], got {rounds!r}")
+    if objective not in OBJECTIVES:
+        raise RoaInputError(f"objective must be one of {OBJECTIVES}, got {objective!r}")
+    if not (isinstance(reach, int | float) and math.isfinite(reach) and reach > 0):
+        raise RoaInputError(f"reach must be a finite number > 0, got {reach!r}")
     t0 = _now()
     # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
     # level search, which alone takes a while in tens of states
@@ -381,7 +418,11 @@ def vs_search(
         if reseeded:
             sizes["seed"] = V0.name
     cands: list[PolynomialLyapunov] = []
-    betas: list[float] = []
+    betas: list[float | None] = []
+    means: list[float] = []  # V's mean over the cube [-reach, reach]^n in y, V at level 1
+    weights = pb.box_means(float(reach))
+    if objective == "volume":
+        sizes["objective"] = f"mean of V over the cube [-{reach:g}, {reach:g}]^{pb.nd} in y"
     log: list[VsRound] = []
     status, message = SosStatus.SOLVED, ""
     for r in range(rounds + 1):
@@ -419,27 +460,40 @@ def vs_search(
         Vc = Vc / gval
         sizes.setdefault("gram_blocks_gamma_step", ident.sizes())
         sizes.setdefault("solver", ident.solver)
-        # beta step: the shape level inside {V <= 1}
-        ident = Program(pb.nv)
-        beta = ident.scalar()
-        pb.contain(ident, Vc, None, beta)
-        with step(f"V-s round {r}: beta step"):
-            ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
-        if not ok or bval is None:
-            status, message = _failed(r, "beta", ident.status, spent(), budget, len(cands))
-            log.append(VsRound(r, gval, None, _now() - t1, ident.status))
-            break
+        # beta step: the shape level inside {V <= 1} (the shape objective's only)
+        bval: float | None = None
+        lam2: Poly | None = None
+        if objective == "shape":
+            ident = Program(pb.nv)
+            beta = ident.scalar()
+            pb.contain(ident, Vc, None, beta)
+            with step(f"V-s round {r}: beta step"):
+                ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
+            if not ok or bval is None:
+                status, message = _failed(r, "beta", ident.status, spent(), budget, len(cands))
+                log.append(VsRound(r, gval, None, _now() - t1, ident.status))
+                break
         cands.append(pb.to_lyapunov(Vc, f"V-s degree {degree}, round {r}"))
-        betas.append(float(bval))
+        betas.append(bval)
+        means.append(float(weights @ Vc))
         if spent():
-            log.append(VsRound(r, float(gval), float(bval), _now() - t1, "budget"))
+            log.append(VsRound(r, float(gval), bval, _now() - t1, "budget"))
             message = (f"time budget of {budget} s spent in round {r}: kept {len(cands)} "
                        "candidates")  # fmt: skip
             status = SosStatus.STOPPED
             break
-        if r == rounds or (r > 1 and betas[-1] < betas[-2] * (1 + tol)):
-            log.append(VsRound(r, float(gval), float(bval), _now() - t1, "final"))
-            message = f"{len(cands)} candidates; beta {betas[0]:.6g} -> {max(betas):.6g}"
+        if bval is None:
+            stalled = r >= 1 and means[-1] > means[-2] * (1 - tol)
+        else:
+            stalled = r > 1 and bval < float(betas[-2] or 0.0) * (1 + tol)
+        if r == rounds or stalled:
+            log.append(VsRound(r, float(gval), bval, _now() - t1, "final"))
+            if bval is None:
+                message = (f"{len(cands)} candidates; mean of V over the cube {means[0]:.6g} -> "
+                           f"{min(means):.6g}")  # fmt: skip
+            else:
+                shown = [b for b in betas if b is not None]
+                message = f"{len(cands)} candidates; beta {shown[0]:.6g} -> {max(shown):.6g}"
             if points:
                 where = "; ".join(describe_point(p) for p in points)
                 message += f"; V' < 0 imposed at {len(points)} parameter points ({where}): {how}"
@@ -456,16 +510,22 @@ def vs_search(
             ik = ident.fork()
             pk.decrease(ik, vvar, lam_k, 1.0)
             others.append(ik)
-        ident2 = ident.fork()
-        pb.contain(ident2, vvar, lam2, beta)
+        extra: list[Program] = []
+        if objective == "volume":  # V's mean over the cube decreases: {V <= 1} grows
+            goal, sense = weights @ vvar, False
+        else:  # {p <= beta} inside {V <= 1}, beta increases
+            ident2 = ident.fork()
+            pb.contain(ident2, vvar, lam2, beta)
+            extra.append(ident2)
+            goal, sense = beta, True
         ident3 = ident.fork()
         pb.positive(ident3, vvar, eps)
         for pk in pbs:
             pk.linear_decrease(ident, vvar, 0.01)
         with step(f"V-s round {r}: V step"):
-            ok, bnew, _ = ident.solve(beta, options=options(), also=[*others, ident2, ident3],
-                                      solver=solver)  # fmt: skip
-        log.append(VsRound(r, float(gval), float(bval), _now() - t1, ident.status))
+            ok, bnew, _ = ident.solve(goal, maximise=sense, options=options(),
+                                      also=[*others, *extra, ident3], solver=solver)  # fmt: skip
+        log.append(VsRound(r, float(gval), bval, _now() - t1, ident.status))
         if not ok or bnew is None or vvar.value is None:
             message = f"round {r}: V step {ident.status}; kept the V of round {r}"
             if spent():
@@ -476,8 +536,9 @@ def vs_search(
     if not cands:
         return VsResult(status, degree, [], [], log, _now() - t0, sizes, message)
     final = SosStatus.STOPPED if status is SosStatus.STOPPED else SosStatus.SOLVED
-    return VsResult(final, degree, cands, betas, log, _now() - t0, sizes,
-                    message)  # fmt: skip
+    scores = [-m for m in means] if objective == "volume" else [float(b or 0.0) for b in betas]
+    return VsResult(final, degree, cands, betas, log, _now() - t0, sizes, message, means,
+                    scores)  # fmt: skip
 
 
 def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:

@@ -1,4 +1,4 @@
-"""The V-s iteration's volume objective (roa.search.vs_iteration, ``objective="volume"``): a
+"""The V-s iteration's volume objective (roa.search._vs_iteration, ``objective="volume"``): a
 degree-4 V certified by the exact SOS route on a set larger than the best quadratic's.
 
 poly3d (``examples/systems/poly3d.py``): with ``V = |x|^2`` the largest level is 3 exactly (AM-GM:
@@ -18,8 +18,8 @@ import pytest
 import roa
 from roa.errors import RoaInputError
 from roa.options import VsOptions
-from roa.proof.cover import gram_cover
-from roa.search.vs_iteration import vs_search
+from roa.proof._cover import gram_cover
+from roa.search._vs_iteration import vs_search
 from roa.status import SosStatus
 
 ROOT = __import__("pathlib").Path(__file__).resolve().parents[2]

@@ -11,8 +11,8 @@ import pytest
 os.environ.setdefault("ROA_CACHE_DIR", tempfile.mkdtemp(prefix="roa-test-cache-"))
 
 
-#: Cases of parametrised tests that run only with ``-m slow`` (the test's other cases stay in the
-#: default suite; each is covered there by a faster case or by a benchmark).
+#: Tests and cases of parametrised tests that run only with ``-m slow`` (each is covered in the
+#: default suite by a faster test or case, by a benchmark, or by the README's main command).
 SLOW_CASES = {
     "tests/proof/test_certificate_trust.py::test_tampered_certificates_are_refused[level 1e308]",
     "tests/nn/test_nn.py::test_pendulum_nn_certified_at_099_of_the_optimum_down_to_the_equilibrium"
@@ -21,6 +21,22 @@ SLOW_CASES = {
     "[basin --grid]",
     "tests/commands/test_cli_numbers_fuzz.py::test_a_numeric_option_gives_a_result_or_exit_2_naming_it"
     "[certify --param]",
+    "tests/commands/test_cli_numbers_fuzz.py::test_a_numeric_option_gives_a_result_or_exit_2_naming_it"
+    "[basin --samples]",
+    "tests/proof/test_sos_combinations.py::test_every_pattern_on_a_recast_field_and_a_parameter_box"
+    "[sdsos]",
+    "tests/certification/test_robust.py::test_wide_box_certified_below_and_refuted_above_the_worst_case",
+    "tests/search/test_sos_symmetry.py::test_the_split_recast_program_has_the_unsplit_optimum"
+    "[examples/systems/quadrotor2d.py:SYSTEM-0.12]",
+    # the study's three longest quick experiments (the README's `roa reproduce --quick` runs them;
+    # their values are recomputed by ipc_paper/tests/test_reference.py)
+    "ipc_paper/tests/test_report.py::test_experiment_runs_in_quick_mode[certify]",
+    "ipc_paper/tests/test_report.py::test_experiment_runs_in_quick_mode[degrees]",
+    "ipc_paper/tests/test_report.py::test_experiment_runs_in_quick_mode[robust]",
+    "tests/integration/test_generated_kernels.py::test_vanderpol_generated_kernel_matches_numpy",
+    "tests/montecarlo/test_certified_share.py::"
+    "test_box_share_counts_independently_and_estimates_the_area_ratio",
+    "tests/search/test_box_lyapunov.py::test_cli_robust_vanderpol_without_v",
 }
 
 

@@ -28,11 +28,6 @@ SLOW_CASES = {
     "tests/certification/test_robust.py::test_wide_box_certified_below_and_refuted_above_the_worst_case",
     "tests/search/test_sos_symmetry.py::test_the_split_recast_program_has_the_unsplit_optimum"
     "[examples/systems/quadrotor2d.py:SYSTEM-0.12]",
-    # the study's three longest quick experiments (the README's `roa reproduce --quick` runs them;
-    # their values are recomputed by ipc_paper/tests/test_reference.py)
-    "ipc_paper/tests/test_report.py::test_experiment_runs_in_quick_mode[certify]",
-    "ipc_paper/tests/test_report.py::test_experiment_runs_in_quick_mode[degrees]",
-    "ipc_paper/tests/test_report.py::test_experiment_runs_in_quick_mode[robust]",
     "tests/integration/test_generated_kernels.py::test_vanderpol_generated_kernel_matches_numpy",
     "tests/montecarlo/test_certified_share.py::"
     "test_box_share_counts_independently_and_estimates_the_area_ratio",

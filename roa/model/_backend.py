@@ -65,86 +65,53 @@ def _numpy() -> SimpleNamespace:
     return SimpleNamespace(**ns)
 
 
+#: The attribute of each of :data:`FUNCTIONS` but ``abs`` in CasADi, sympy and mpmath (their
+#: inverse functions are spelt ``atan``, numpy's ``arctan``).
+_SPELLING = {"sin": "sin", "cos": "cos", "tan": "tan", "sqrt": "sqrt", "arctan": "atan",
+             "arcsinh": "asinh", "arctanh": "atanh", "exp": "exp", "log": "log"}  # fmt: skip
+
+
+def _symbolic(
+    name: str, mod: Any, *, abs_: Any, minimum: Any, maximum: Any, softplus: Any, zero: Any
+) -> SimpleNamespace:
+    """The namespace of a scalar or symbolic module ``mod``: :data:`FUNCTIONS` from ``mod``, the
+    piecewise functions and the activations written from its ``minimum``, ``maximum``, ``exp``."""
+    ns: dict[str, Any] = {key: getattr(mod, attr) for key, attr in _SPELLING.items()}
+    ns.update(
+        abs=abs_,
+        minimum=minimum,
+        maximum=maximum,
+        clip=lambda x, lo, hi: minimum(maximum(x, lo), hi),
+        tanh=mod.tanh,
+        sigmoid=lambda x: 1 / (1 + mod.exp(-x)),
+        relu=lambda x: maximum(x, zero),
+        leaky_relu=lambda x, alpha=LEAKY_SLOPE: maximum(x, zero) + alpha * minimum(x, zero),
+        softplus=softplus,
+        name=name,
+    )
+    return SimpleNamespace(**ns)
+
+
 def _casadi() -> SimpleNamespace:
     import casadi as ca
 
-    ns = {
-        "sin": ca.sin,
-        "cos": ca.cos,
-        "tan": ca.tan,
-        "sqrt": ca.sqrt,
-        "arctan": ca.atan,
-        "arcsinh": ca.asinh,
-        "arctanh": ca.atanh,
-        "exp": ca.exp,
-        "log": ca.log,
-        "abs": ca.fabs,
-        "minimum": ca.fmin,
-        "maximum": ca.fmax,
-        "clip": lambda x, lo, hi: ca.fmin(ca.fmax(x, lo), hi),
-        "tanh": ca.tanh,
-        "sigmoid": lambda x: 1.0 / (1.0 + ca.exp(-x)),
-        "relu": lambda x: ca.fmax(x, 0.0),
-        "leaky_relu": lambda x, alpha=LEAKY_SLOPE: ca.fmax(x, 0.0) + alpha * ca.fmin(x, 0.0),
-        "softplus": lambda x: ca.fmax(x, 0.0) + ca.log1p(ca.exp(-ca.fabs(x))),
-        "name": "casadi",
-    }
-    return SimpleNamespace(**ns)
+    return _symbolic("casadi", ca, abs_=ca.fabs, minimum=ca.fmin, maximum=ca.fmax, zero=0.0,
+                     softplus=lambda x: ca.fmax(x, 0.0) + ca.log1p(ca.exp(-ca.fabs(x))))  # fmt: skip
 
 
 def _sympy() -> SimpleNamespace:
     import sympy as sp
 
-    ns = {
-        "sin": sp.sin,
-        "cos": sp.cos,
-        "tan": sp.tan,
-        "sqrt": sp.sqrt,
-        "arctan": sp.atan,
-        "arcsinh": sp.asinh,
-        "arctanh": sp.atanh,
-        "exp": sp.exp,
-        "log": sp.log,
-        "abs": sp.Abs,
-        "minimum": sp.Min,
-        "maximum": sp.Max,
-        "clip": lambda x, lo, hi: sp.Min(sp.Max(x, lo), hi),
-        "tanh": sp.tanh,
-        "sigmoid": lambda x: 1 / (1 + sp.exp(-x)),
-        "relu": lambda x: sp.Max(x, 0),
-        "leaky_relu": lambda x, alpha=LEAKY_SLOPE: sp.Max(x, 0) + alpha * sp.Min(x, 0),
-        "softplus": lambda x: sp.log(1 + sp.exp(x)),
-        "name": "sympy",
-    }
-    return SimpleNamespace(**ns)
+    return _symbolic("sympy", sp, abs_=sp.Abs, minimum=sp.Min, maximum=sp.Max, zero=0,
+                     softplus=lambda x: sp.log(1 + sp.exp(x)))  # fmt: skip
 
 
 def _mpmath() -> SimpleNamespace:
     """Scalar mpmath numbers (the 50-digit re-checks of witnesses); precision from ``mp.workdps``."""
     import mpmath as mp
 
-    ns = {
-        "sin": mp.sin,
-        "cos": mp.cos,
-        "tan": mp.tan,
-        "sqrt": mp.sqrt,
-        "arctan": mp.atan,
-        "arcsinh": mp.asinh,
-        "arctanh": mp.atanh,
-        "exp": mp.exp,
-        "log": mp.log,
-        "abs": mp.fabs,
-        "minimum": min,
-        "maximum": max,
-        "clip": lambda x, lo, hi: min(max(x, lo), hi),
-        "tanh": mp.tanh,
-        "sigmoid": lambda x: 1 / (1 + mp.exp(-x)),
-        "relu": lambda x: max(x, 0),
-        "leaky_relu": lambda x, alpha=LEAKY_SLOPE: max(x, 0) + mp.mpf(alpha) * min(x, 0),
-        "softplus": lambda x: mp.log1p(mp.exp(x)),
-        "name": "mpmath",
-    }
-    return SimpleNamespace(**ns)
+    return _symbolic("mpmath", mp, abs_=mp.fabs, minimum=min, maximum=max, zero=0,
+                     softplus=lambda x: mp.log1p(mp.exp(x)))  # fmt: skip
 
 
 _CACHE: dict[str, SimpleNamespace] = {}

@@ -130,19 +130,10 @@ def confirmed_outside(
     50 digits (``check``), ``x`` proved to lie in the equilibrium's component of
     ``{V <= V(x) (1 + 1e-12)}``; else None. Where ``x`` comes from
     (:func:`roa.search._outside.domain_witness`) does not matter."""
-    from roa.proof._cover import connected_to_center
-    from roa.proof._witness import WITNESS_SLACK, recheck_domain_witness
+    from roa.proof._witness import confirmed_point, recheck_domain_witness
 
     x = np.asarray(x, dtype=float)
-    with np.errstate(all="ignore"):
-        v = float(V.value(x[None])[0])
-    if not (np.isfinite(v) and v > 0):
-        return None
-    top = v * WITNESS_SLACK
-    check = recheck_domain_witness(system, V, x, top)
-    if check["confirmed"] and connected_to_center(V, x, top):
-        return v, check
-    return None
+    return confirmed_point(V, x, lambda top: recheck_domain_witness(system, V, x, top))
 
 
 # -- interval containment ----------------------------------------------------------------------------

@@ -456,24 +456,27 @@ def _as_jets(a: Any, b: Any) -> tuple[Jet, Jet]:
     return b._const(a), b
 
 
-def jminimum(a: Any, b: Any) -> Any:
-    """``min(a, b)`` for jets (or an interval if neither argument is a jet)."""
+def _extreme(a: Any, b: Any, fn: Any, lower: bool) -> Any:
+    """``fn(a, b)`` for ``fn`` the interval minimum (``lower``) or maximum, on jets: the jet of
+    the argument that is the extreme on the whole box, else the range of ``fn``."""
     if not (isinstance(a, Jet) or isinstance(b, Jet)):
-        return iminimum(a, b)
+        return fn(a, b)
     a, b = _as_jets(a, b)
     ra, rb = a.range(), b.range()
-    c = None if a.c is None or b.c is None else iminimum(a.c, b.c)
-    return _branch(a, b, ra.hi <= rb.lo, rb.hi <= ra.lo, iminimum(ra, rb), c)
+    c = None if a.c is None or b.c is None else fn(a.c, b.c)
+    if lower:
+        return _branch(a, b, ra.hi <= rb.lo, rb.hi <= ra.lo, fn(ra, rb), c)
+    return _branch(a, b, ra.lo >= rb.hi, rb.lo >= ra.hi, fn(ra, rb), c)
+
+
+def jminimum(a: Any, b: Any) -> Any:
+    """``min(a, b)`` for jets (or an interval if neither argument is a jet)."""
+    return _extreme(a, b, iminimum, True)
 
 
 def jmaximum(a: Any, b: Any) -> Any:
     """``max(a, b)`` for jets (or an interval if neither argument is a jet)."""
-    if not (isinstance(a, Jet) or isinstance(b, Jet)):
-        return imaximum(a, b)
-    a, b = _as_jets(a, b)
-    ra, rb = a.range(), b.range()
-    c = None if a.c is None or b.c is None else imaximum(a.c, b.c)
-    return _branch(a, b, ra.lo >= rb.hi, rb.lo >= ra.hi, imaximum(ra, rb), c)
+    return _extreme(a, b, imaximum, False)
 
 
 def jclip(x: Any, lo: Any, hi: Any) -> Any:

@@ -15,6 +15,7 @@ or samples.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -86,14 +87,23 @@ def confirmed_bound(
     else None. Where ``x`` comes from (a local minimum of V on ``{V' >= 0}``,
     :func:`roa.search._witness.lowest_confirmed_witness`) does not matter."""
     x = np.asarray(x, dtype=float)
+    if system.margin is not None and not system.inside(x[None])[0]:
+        return None
+    return confirmed_point(V, x, lambda top: recheck_witness(system, V, x, top))
+
+
+def confirmed_point(
+    V: Lyapunov, x: np.ndarray, recheck: Callable[[float], dict[str, Any]]
+) -> tuple[float, dict[str, Any]] | None:
+    """``(V(x), check)`` when ``V(x)`` is finite and > 0, ``check = recheck(top)`` confirms ``x``
+    at ``top = V(x) WITNESS_SLACK`` and ``x`` is proved to lie in the equilibrium's component of
+    ``{V <= top}``; else None."""
     with np.errstate(all="ignore"):
         v = float(V.value(x[None])[0])
     if not (np.isfinite(v) and v > 0):
         return None
-    if system.margin is not None and not system.inside(x[None])[0]:
-        return None
     top = v * WITNESS_SLACK
-    check = recheck_witness(system, V, x, top)
+    check = recheck(top)
     if check["confirmed"] and connected_to_center(V, x, top):
         return v, check
     return None

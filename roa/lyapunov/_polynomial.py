@@ -197,13 +197,19 @@ class PolynomialLyapunov(Lyapunov):
         return H
 
     def describe(self) -> dict[str, Any]:
-        return {
+        """V's JSON form; with its Gram matrix, when it has one (so that a stored certificate's V
+        is proved bounded again, :func:`roa.proof.gram_cover`, without a solver)."""
+        out: dict[str, Any] = {
             "lyapunov": self.name,
             "kind": "PolynomialLyapunov",
             "degree": self.degree,
             "monomials": [list(a) for a in self.terms],
             "coefficients": self.coefficients,
         }
+        if self.gram is not None:
+            basis, Q = self.gram
+            out["gram"] = {"basis": [list(b) for b in basis], "Q": np.asarray(Q).tolist()}
+        return out
 
     def __repr__(self) -> str:
         return f"PolynomialLyapunov({self.name!r}, degree {self.degree}, {len(self.terms)} terms)"

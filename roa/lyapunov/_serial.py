@@ -54,9 +54,28 @@ def from_json(data: Mapping[str, Any], center: Any, *, name: str = "V") -> Lyapu
     if "monomials" in data and "coefficients" in data:
         mono = data["monomials"]
         n = len(mono[0]) if isinstance(mono, list) and mono and isinstance(mono[0], list) else 0
-        return PolynomialLyapunov(mono, data["coefficients"], c if c.size else np.zeros(n), name)
+        V = PolynomialLyapunov(mono, data["coefficients"], c if c.size else np.zeros(n), name)
+        if "gram" in data:
+            V.with_gram(_gram(data["gram"], V.n))
+        return V
     kind = data.get("kind")
     raise RoaInputError(
         "V: the JSON holds neither P nor polynomial monomials and coefficients"
         + (f" (a {kind} cannot be rebuilt from JSON: give it as file.py:NAME)" if kind else "")
     )
+
+
+def _gram(raw: Any, n: int) -> tuple[list[tuple[int, ...]], np.ndarray]:
+    """A stored Gram matrix ``{"basis": [[exponents]...], "Q": rows}`` of a polynomial V in ``n``
+    variables (only its shapes are checked here: :func:`roa.proof.gram_cover` proves it)."""
+    try:
+        basis = [tuple(int(e) for e in b) for b in raw["basis"]]
+        Q = np.asarray(raw["Q"], dtype=float)
+    except (TypeError, ValueError, KeyError):
+        raise RoaInputError("V: gram must be {'basis': [[exponents]...], 'Q': rows}") from None
+    m = len(basis)
+    if any(len(b) != n or min(b, default=0) < 0 for b in basis):
+        raise RoaInputError(f"V: gram basis must hold {n} non-negative exponents per monomial")
+    if Q.shape != (m, m) or not np.all(np.isfinite(Q)):
+        raise RoaInputError(f"V: gram Q must be a finite {m}x{m} matrix, got shape {Q.shape}")
+    return basis, Q

@@ -16,6 +16,7 @@ import pytest
 from scipy.optimize import minimize_scalar
 
 import roa
+import roa.io
 from roa.certification._result import Certificate
 from roa.proof._sos_check import exact_data
 from roa.search._sos_program import degrees, propose
@@ -65,11 +66,27 @@ def test_the_multiplier_basis_starts_where_the_identity_allows():
         assert min(sum(m) for b, _ in cand.certificate.blocks(factor) for m in b) == 2
 
 
-def test_a_rescaled_certificate_is_refused_with_another_scale_or_none():
+def test_a_rescaled_certificate_is_refused_with_another_scale_or_none(monkeypatch):
+    """The check in rescaled variables ``d = diag(scale) y`` (taken when the unscaled check
+    fails; made to fail here, since whether it does depends on the solver's version): its stored
+    certificate holds the scale, and another scale, a negated one or none is refused."""
+    from roa.certification._strategies import SosValidator
+
+    prove, calls = SosValidator._prove_data, []
+
+    def unscaled_fails(self, data, V, level, out, recast=None):
+        calls.append(data)
+        if len(calls) == 1:
+            return out(Verdict.INCONCLUSIVE, "the unscaled check is made to fail")
+        return prove(self, data, V, level, out, recast)
+
+    monkeypatch.setattr(SosValidator, "_prove_data", unscaled_fails)
     cert = roa.certify(dn.D1, level=0.995 * 0.05, validator=roa.SosValidator(fallback=False))
+    monkeypatch.undo()
     assert cert.certified, cert.message
+    assert len(calls) == 2 and "diag(scale)" in cert.message
     data = json.loads(roa.io.to_json(cert.to_dict()))
-    assert data["certificate"]["scale"] == ["1/4", "1/4"]  # the unscaled program fails here
+    assert data["certificate"]["scale"] == ["1/4", "1/4"]
     for bad in (["1/2", "1/4"], ["-1/4", "1/4"], None, ["1/4"]):
         forged = json.loads(json.dumps(data))
         if bad is None:

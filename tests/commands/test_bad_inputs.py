@@ -13,6 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings, strategies as st
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.cli import main
 from roa.errors import RoaInputError

@@ -184,6 +184,7 @@ def test_new_options_reject_bad_input_in_one_line(args, message, capsys):
 def test_basin_json_is_the_result_to_dict(capsys):
     """The CLI prints the API result's to_dict() and nothing else (the same keys and counts)."""
     import roa
+    import roa.io
     from roa.cli import main
 
     argv = ["basin", "--system", "vanderpol", "--slice", "x1,x2", "--grid", "6x5",

@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.integration import _kernel_cache as kc
 from roa.integration._integrator import CONVERGED, integrate_batch
 from roa.integration._trace import Untraceable

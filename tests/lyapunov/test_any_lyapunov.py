@@ -183,3 +183,27 @@ def test_cli_accepts_polynomial_json_and_python_object(tmp_path, capsys):
     bad.write_text(json.dumps({"monomials": [[2], [4]]}))
     code, out, err = _cli(capsys, ["certify", "--system", ONE_STATE, "--lyapunov", str(bad)])
     assert code != 0 and "coefficients" in out + err
+
+
+def test_a_polynomial_V_keeps_its_gram_matrix_in_json():
+    """A quartic V built from its Gram matrix is proved bounded (``V >= mu |d|^2``) again after a
+    JSON round trip; a stored Gram matrix that is not positive definite proves nothing."""
+    import json
+
+    from roa.lyapunov import PolynomialLyapunov, from_json
+    from roa.proof import gram_cover
+
+    basis = [(1, 0), (0, 1), (2, 0), (0, 2), (1, 1)]
+    V = PolynomialLyapunov.from_gram(basis, np.diag([1.0, 1.0, 0.5, 0.5, 0.25]), np.zeros(2))
+    W = from_json(json.loads(json.dumps(V.describe())), np.zeros(2))
+    assert W.gram is not None and gram_cover(W, 2.0) is not None
+    assert (
+        from_json({k: v for k, v in V.describe().items() if k != "gram"}, np.zeros(2)).gram is None
+    )
+    bad = V.describe()  # the same polynomial (x0^2 x1^2: -2 + 2 x 1.125 = 0.25), Q indefinite
+    bad["gram"]["Q"][4][4] = -2.0
+    bad["gram"]["Q"][2][3] = bad["gram"]["Q"][3][2] = 1.125
+    assert gram_cover(from_json(bad, np.zeros(2)), 2.0) is None
+    bad["gram"]["Q"] = [[1.0]]
+    with pytest.raises(RoaInputError, match="gram Q"):
+        from_json(bad, np.zeros(2))

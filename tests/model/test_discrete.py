@@ -18,6 +18,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.errors import RoaInputError
 from roa.search._rays import ray_box
 from roa.status import Verdict

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.cli import main
 from roa.errors import RoaInputError
 from roa.integration import _budget as budget

@@ -20,6 +20,7 @@ from hypothesis import HealthCheck, given, settings, strategies as st
 from sos_systems import poly3d_block as _poly3d, ring as _ring
 
 import roa
+import roa.io
 from roa.certification._result import Certificate
 from roa.errors import RoaInputError
 from roa.proof._sos_check import parse_rational

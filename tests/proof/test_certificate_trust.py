@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.cli import main
 from roa.errors import RoaInputError
 from roa.model._fingerprint import system_fingerprint

@@ -17,6 +17,7 @@ import pytest
 import sympy as sp
 
 import roa
+import roa.io
 from roa.certification._result import Certificate
 from roa.cli import main
 from roa.errors import RoaInputError

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.lyapunov import QuadraticLyapunov
 from roa.proof._putinar import Certificate, check_level
 from roa.proof._sos_check import exact_data

@@ -15,6 +15,7 @@ import pytest
 from scipy import optimize
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.lyapunov import PolynomialLyapunov
 from roa.proof._sos_check import exact_data
@@ -197,6 +198,21 @@ def _certify_and_refute(system, V, f, g, field, opt, point, validator):
     assert ok and at == pytest.approx(1.001 * opt, rel=1e-9)
     assert not roa.certify(system, V, level=1.001 * opt, validator=validator).certified
     return cert
+
+
+@pytest.mark.parametrize("route", ["dense", "sdsos"])
+def test_degree_4_V_on_a_recast_field(route):
+    """``V = |x|^2 + 0.5 sum x_i^4`` with a sin coupling (``x0' = -x0 + 0.5 sin x1 + x0^3``):
+    the recast identity (``s``, ``q`` of the angle, the circle, the Taylor bounds) with the quartic
+    V and a multiplier of its degree, dense and SDSOS: 0.99 x the SLSQP optimum certified and its
+    stored certificate re-checked (a negated Gram block refused); just above, a point refutes."""
+    n = 2
+    system = _system("trig-path-2", trig_path_field, n)
+    f, g, V = quartic(n, 0.5)
+    opt, point = optimum(f, g, trig_path_field, n)
+    cert = _certify_and_refute(system, V, f, g, trig_path_field, opt, point,
+                               roa.SosValidator(route=route, fallback=False))  # fmt: skip
+    assert "recast field" in cert.message
 
 
 @pytest.mark.parametrize(

@@ -17,6 +17,7 @@ import pytest
 from scipy.optimize import minimize
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.proof._recast import angle_constraints, positive_everywhere, recast_exact
 from roa.proof._sos_check import NotPolynomial

@@ -17,6 +17,7 @@ import pytest
 from scipy.optimize import minimize
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.model._system import System
 from roa.proof._sos_stored import recheck as recheck_stored

@@ -18,6 +18,7 @@ import pytest
 from sos_systems import poly3d_block as _poly3d, ring as _ring
 
 import roa
+import roa.io
 from roa.certification._result import Certificate
 from roa.proof._sos_stored import parts_of
 from roa.status import Verdict

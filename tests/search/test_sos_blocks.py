@@ -15,6 +15,7 @@ import pytest
 from sos_systems import poly3d_block as _poly3d
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.proof._sos_blocks import blocks, check_partition, restrict
 from roa.proof._sos_check import exact_data

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.proof._putinar import check_level, dd_scaling, dominance_margin
 from roa.proof._sos_check import exact_data

@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 import roa
+import roa.io
 from roa.certification import Certificate
 from roa.proof._putinar import Certificate as PutinarCertificate, check_level
 from roa.proof._sos_check import exact_data

@@ -411,7 +411,8 @@ def measure_vs(name: str, budget: float = 600.0, *, objective: str = "volume", r
     shares of a box twice the quadratic set's bounding box (a lower bound of the volume ratio
     when the degree-4 set leaves the box), the degree-4 V's positive definiteness proved exactly
     (its Gram matrix, exact LDL'), and a refutation just above its level: the least V at the
-    first ``V' >= 0`` along random rays, the point moved out to ``V = (1 + r) x`` it (``r =
+    first ``V' >= 0`` along random rays, polished by SLSQP (``min V s.t. V' = 0``), the point
+    moved out along its ray to ``V = (1 + r) x`` the level (``r =
     2e-4 .. 1e-2``) with ``V' >= 0`` re-checked at 50 digits, V and V' from V's monomials and this
     file's field."""
     import roa

@@ -83,7 +83,8 @@ def gram_cover(lyap: Lyapunov, level: float) -> tuple[np.ndarray, dict[str, Any]
     else:
         return None
     half = float(round_up(np.sqrt(float(Fraction(level) / lam)), 4))
-    return np.full(n, half), {"cover": "global (Gram lower bound)", "lambda": float(lam)}
+    return np.full(n, half), {"cover": "global (Gram lower bound)", "component": False,
+                              "lambda": float(lam)}  # fmt: skip
 
 
 def bisect_widest(lo: np.ndarray, hi: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -156,7 +157,8 @@ def prove_cover(
     budget: int = 400_000,
     estimate: Callable[[Lyapunov, float], np.ndarray | None] | None = None,
 ) -> tuple[Any, dict[str, Any], str]:
-    """(lo, hi) of a proved cover, its description, or (None, info, why not); ``budget``: boxes
+    """(lo, hi) of a proved cover, its description (``info["component"]``: whether it holds only
+    the equilibrium's component of ``{V <= level}``), or (None, info, why not); ``budget``: boxes
     of the face proofs (:func:`roa.proof._cover.prove_boundary`) over all the boxes tried;
     ``estimate(V, level)``: half-widths of a box reached by the level set (a proposal, e.g.
     :func:`roa.search.ray_box`; None when V stays below the level along some ray), grown
@@ -179,7 +181,8 @@ def prove_cover(
         if not (np.all(np.isfinite(b)) and np.all(lo < c) and np.all(c < hi)):
             raise RoaInputError("bounding_box must be finite and hold the equilibrium inside")
         ok, nb = prove_boundary(lyap, lo, hi, level, budget=budget)
-        info = {"cover": "given box, V > level on its faces (component of x_eq)", "cover_boxes": nb}
+        info = {"cover": "given box, V > level on its faces (component of x_eq)", "component": True,
+                "cover_boxes": nb}  # fmt: skip
         return ((lo, hi), info, "") if ok else (None, info, "V > level not proved on its faces")
     if estimate is None:
         return None, {}, "no Gram cover, no bounding box and no estimate of one (rays) given"
@@ -193,7 +196,7 @@ def prove_cover(
         total += nb
         if ok:
             info = {"cover": "box from rays, V > level on its faces (component of x_eq)",
-                    "cover_boxes": total}  # fmt: skip
+                    "component": True, "cover_boxes": total}  # fmt: skip
             return (c - half, c + half), info, ""
         if total >= budget:
             break

@@ -166,7 +166,7 @@ def interval_containment(
     box, info, why = prove_cover(V, level, None, budget=max_boxes, estimate=cover_estimate)
     if box is None:
         return Containment("inconclusive", f"no proved cover of the level set: {why}", 0, info)
-    scope = "the equilibrium's component of " if "component" in str(info.get("cover", "")) else ""
+    scope = "the equilibrium's component of " if info.get("component", True) else ""
     lo, hi = box[0][None, :], box[1][None, :]
     boxes = 0
     while len(lo):

@@ -516,7 +516,7 @@ def _branch_and_bound(
     lo0, hi0 = box
     c = lyap.center
     n = lyap.n
-    component = "component" in str(info.get("cover", ""))
+    component = bool(info.get("component", True))  # unknown: the stricter reading
     if component and system.time == "discrete":  # module doc: invariance under a map
         return out(Verdict.INCONCLUSIVE, info.get("cover_boxes", 0),
                    "precondition 'invariant' not met: the cover holds only the equilibrium's "

@@ -46,6 +46,23 @@ REPRESENTATION = {"terms", "gram", "as_quadratic"}
 DECLARED = {"P", "terms", "gram", "whitened", "refutes", "max_bnb_dim", "backoff"}
 
 
+#: Keys of a record whose value is a description for people (read its declared flags instead).
+DESCRIPTIONS = {"cover", "message"}
+
+
+def _reads_key(node: ast.AST, keys: set[str]) -> bool:
+    """Whether ``node`` reads ``d[key]`` or ``d.get(key...)`` for a key in ``keys``."""
+    for m in ast.walk(node):
+        if isinstance(m, ast.Subscript) and isinstance(m.slice, ast.Constant):
+            if m.slice.value in keys:
+                return True
+        if (isinstance(m, ast.Call) and isinstance(m.func, ast.Attribute)
+                and m.func.attr == "get" and m.args and isinstance(m.args[0], ast.Constant)
+                and m.args[0].value in keys):  # fmt: skip
+            return True
+    return False
+
+
 def violations(source: str) -> list[tuple[int, str]]:
     """Representation tests of V and branches on message text in ``source`` (an object reading
     its own fields, ``self.x``, is not one; a call ``poly.terms()`` is sympy's, not V's)."""
@@ -68,6 +85,10 @@ def violations(source: str) -> list[tuple[int, str]]:
                 isinstance(o, ast.In | ast.NotIn | ast.Eq | ast.NotEq) for o in n.ops
             ):
                 out.append((n.lineno, "message text"))
+            if any(isinstance(o, ast.In | ast.NotIn) for o in n.ops) and any(
+                _reads_key(c, DESCRIPTIONS) for c in n.comparators
+            ):
+                out.append((n.lineno, "description text"))
         if isinstance(n, ast.Attribute) and isinstance(n.ctx, ast.Load):
             if n.attr == "as_quadratic":
                 out.append((n.lineno, "as_quadratic"))
@@ -100,6 +121,8 @@ def violations(source: str) -> list[tuple[int, str]]:
         "if 'box cover' in v.message: pass",
         "if v.message == 'x': pass",
         "if res.message.startswith('no'): pass",
+        "c = 'component' in str(info.get('cover', ''))",
+        "c = 'component' in info['cover']",
     ],
 )
 def test_the_scan_flags_each_kind_of_violation(snippet):

@@ -5,7 +5,8 @@ Run: ``python benchmarks/bench_nn.py [--systems pendulum-tanh,quadrotor-relu] [-
 
 Systems (``examples/systems/``): the pendulum under 2-16-1 tanh and ReLU controllers
 (``pendulum_nn.py``) and the planar quadrotor (6 states, sin/cos) under 6-16-16-2 tanh and ReLU
-controllers (``quadrotor_nn.py``), every V the quadratic form from ``A'P + PA = -I``. Per system,
+controllers (``quadrotor_nn.py``), every V the quadratic form from ``A'P + PA = -I`` (or, with
+``--lyapunov conditioned``, :func:`roa.search.conditioned_lyapunov`'s). Per system,
 each in a fresh process:
 
 * ``optimum``: an independent estimate of the largest level ``c*`` with ``V' < 0`` on
@@ -191,7 +192,8 @@ def _cpu() -> float:
     return a.ru_utime + a.ru_stime + b.ru_utime + b.ru_stime
 
 
-def run(name: str, baseline: bool, time_limit: float, workers: int = 2) -> dict[str, Any]:
+def run(name: str, baseline: bool, time_limit: float, workers: int = 2,
+        lyapunov: str = "lyapunov") -> dict[str, Any]:  # fmt: skip
     import roa
     import roa.proof._relax_vdot as rv
     from roa.model._linearisation import lyapunov_matrix
@@ -200,12 +202,18 @@ def run(name: str, baseline: bool, time_limit: float, workers: int = 2) -> dict[
 
     system = _load(name)
     ratio, horizon = SYSTEMS[name][2], SYSTEMS[name][3]
-    P = lyapunov_matrix(system)
-    V = roa.QuadraticLyapunov(P, np.zeros(system.n))
+    if lyapunov == "conditioned":  # the best-conditioned decrease (roa.search._conditioned)
+        from roa.search import conditioned_lyapunov
+
+        V = conditioned_lyapunov(system)
+        P = np.asarray(V.P)
+    else:
+        P = lyapunov_matrix(system)
+        V = roa.QuadraticLyapunov(P, np.zeros(system.n))
     t0 = time.perf_counter()
     opt, point = independent_optimum(system, P)
     opt, point, witness = confirmed_optimum(system, V, opt, point)
-    out: dict[str, Any] = {"system": name, "n": system.n, "optimum": opt,
+    out: dict[str, Any] = {"system": name, "n": system.n, "V": V.name, "optimum": opt,
                            "optimum_s": round(time.perf_counter() - t0, 1), "ratio": ratio,
                            "optimum_point": point.tolist(), "optimum_50_digits": witness}  # fmt: skip
     t0, c0 = time.perf_counter(), _cpu()
@@ -243,16 +251,20 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--baseline", action="store_true")
     ap.add_argument("--time-limit", type=float, default=600.0)
     ap.add_argument("--workers", type=int, default=2)
+    ap.add_argument("--lyapunov", choices=("lyapunov", "conditioned"), default="lyapunov",
+                    help="V: A'P + PA = -I, or the best-conditioned decrease "
+                    "(roa.search.conditioned_lyapunov)")  # fmt: skip
     args = ap.parse_args(argv)
     ok = True
     ctx = mp.get_context("spawn")
     for name in args.systems.split(","):
         # a fresh (non-daemonic) process per system: its own peak memory, and it may fork workers
         with ProcessPoolExecutor(1, mp_context=ctx) as pool:
-            r = pool.submit(run, name, args.baseline, args.time_limit, args.workers).result()
+            r = pool.submit(run, name, args.baseline, args.time_limit, args.workers,
+                            args.lyapunov).result()  # fmt: skip
         print(json.dumps(r), flush=True)
         s = r["share"]
-        print(f"{name}: certified {r['level']:.6g} / optimum {r['optimum']:.6g} = {r['ratio']} "
+        print(f"{name} ({r['V']}): certified {r['level']:.6g} / optimum {r['optimum']:.6g} = {r['ratio']} "
               f"(optimum point V' >= 0 at 50 digits: {r['optimum_50_digits']['confirmed']}) "
               f"[{r['status']}, local proof {r['local']}], {r['boxes']} boxes, {r['seconds']} s "
               f"({r['cpu_s']} s CPU, {r['workers']} workers), "

@@ -1,5 +1,6 @@
 from ._cache import SearchCache as SearchCache
 from ._candidate import as_lyapunov as as_lyapunov, default_lyapunov as default_lyapunov
+from ._conditioned import conditioned_lyapunov as conditioned_lyapunov
 from ._levelset import LevelSearchResult as LevelSearchResult, level_search as level_search
 from ._levelset_casadi import casadi_level as casadi_level
 from ._levelset_core import inner_level as inner_level

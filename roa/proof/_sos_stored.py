@@ -9,7 +9,7 @@
 Each part is a Putinar certificate (:class:`roa.proof._putinar.Certificate`) of the variables it
 names: one part over every variable (dense: one block per factor; correlative cliques: several
 blocks per factor), or several parts partitioning the variables (independent blocks,
-:mod:`roa.proof._sos_blocks`). ``eps`` may sit at the top level of the validation instead (one
+:mod:`roa.proof._reductions`). ``eps`` may sit at the top level of the validation instead (one
 value for every part; both present must agree). ``scale`` (optional): the identity is in ``y``
 with ``d = diag(scale) y``. ``taylor`` marks a recast field or a parameter box: the recast
 (:func:`roa.proof._recast.recast_exact`) is recomputed from the system with this Taylor order and
@@ -36,8 +36,7 @@ import numpy as np
 from roa.proof._preconditions import Route, check_preconditions
 from roa.proof._putinar import Certificate, check_level
 from roa.proof._recast import Recast
-from roa.proof._reductions import IndependentBlocks, Rescale, box_json
-from roa.proof._sos_blocks import check_partition
+from roa.proof._reductions import IndependentBlocks, Rescale, box_json, check_partition
 from roa.proof._sos_check import (
     MAX_BASIS,
     NotPolynomial,

@@ -268,6 +268,49 @@ def _madd(a: tuple[int, ...], b: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(x + y for x, y in zip(a, b, strict=True))
 
 
+# -- sparse float polynomials ``{exponent tuple: float}``: the arithmetic of the programs --------
+def poly_of(expr: Any, gens: list[Any]) -> Poly:
+    import sympy as sp
+
+    poly = sp.Poly(sp.expand(expr), *gens)
+    return {m: float(c) for m, c in poly.terms() if c != 0}
+
+
+def mul(a: Poly, b: Poly) -> Poly:
+    out: Poly = {}
+    for (ma, ca), (mb, cb) in itertools.product(a.items(), b.items()):
+        m = _madd(ma, mb)
+        out[m] = out.get(m, 0.0) + ca * cb
+    return out
+
+
+def lin(*pairs: tuple[float, Poly]) -> Poly:
+    """``sum_k w_k p_k``."""
+    out: Poly = {}
+    for w, p in pairs:
+        for m, c in p.items():
+            out[m] = out.get(m, 0.0) + c * w
+    return out
+
+
+def power(p: Poly, k: int, nv: int) -> Poly:
+    """``p^k`` in ``nv`` variables."""
+    out: Poly = {tuple([0] * nv): 1.0}
+    for _ in range(k):
+        out = mul(out, p)
+    return out
+
+
+def diff(m: tuple[int, ...], i: int) -> Poly:
+    """d(y^m)/dy_i."""
+    return {tuple(k - (j == i) for j, k in enumerate(m)): float(m[i])} if m[i] else {}
+
+
+def is_even(polys: list[Poly], nd: int, *, odd: bool = False) -> bool:
+    """Every monomial has even (``odd=True``: odd) total degree in the first ``nd`` variables."""
+    return all(sum(m[:nd]) % 2 == int(odd) for p in polys for m in p)
+
+
 class Program:
     """``sum of terms == 0``, coefficient by coefficient (module docstring)."""
 

@@ -40,8 +40,16 @@ from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
 from roa.model._backend import namespace
 from roa.model._system import System
-from roa.search._polysdp import is_even, poly_of
-from roa.search._sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search._sdp import (
+    MAX_GRAM_BLOCK,
+    MAX_SDP_BYTES,
+    Program,
+    is_even,
+    monomials,
+    poly_of,
+    sdp_bytes,
+    solve,
+)
 from roa.status import SosStatus
 
 SYMMETRY = ("auto", True, False)

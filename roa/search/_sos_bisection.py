@@ -10,7 +10,7 @@ reported) before any branch and bound.
 
 **Bisection, block by block.**
 
-For exact data that split over independent blocks of variables (:mod:`roa.proof._sos_blocks`), the
+For exact data that split over independent blocks of variables (:mod:`roa.proof._reductions`), the
 largest level of the whole is the least of the blocks' largest levels (each block's ``V_j' < 0``
 on ``{V_j <= c}`` for every block gives the whole; a block's witness with the other blocks at 0
 is a witness of the whole). Each block's level is found by bisection on ``c`` with the fixed-level
@@ -33,8 +33,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from roa.errors import RoaInputError
-from roa.proof._reductions import IndependentBlocks
-from roa.proof._sos_blocks import Block
+from roa.proof._reductions import Block, IndependentBlocks
 from roa.proof._sos_check import ExactData
 from roa.search._sos_program import SosRoute, route_for
 

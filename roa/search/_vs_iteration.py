@@ -52,20 +52,20 @@ from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.model._parameters import describe_point
 from roa.model._system import System
 from roa.progress import note, step
-from roa.search._polysdp import (
+from roa.search._sdp import (
+    SOLVERS,
     Poly,
-    add,
+    Program,
+    ProgramTooLarge,
     diff,
     is_even,
-    monomial,
+    lin,
+    monomials,
     mul,
     poly_of,
-    poly_sum,
     power,
-    scale,
-    total_degree,
+    solve,
 )
-from roa.search._sdp import SOLVERS, Program, ProgramTooLarge, monomials
 from roa.search._seed import seed_level
 from roa.search._sos import recast_field
 from roa.status import SosStatus
@@ -192,7 +192,7 @@ class _Problem:
         self.yyk2 = power(self.yy, self.k2, self.nv)
         # V' of each basis monomial of V: sum_i d(y^a)/dy_i f_i
         self.dmono = [
-            poly_sum([mul(diff(m, i), self.fy[i]) for i in range(self.nd)]) for m in self.vbasis
+            lin(*((1.0, mul(diff(m, i), self.fy[i])) for i in range(self.nd))) for m in self.vbasis
         ]
 
     def cap(self, basis: list[tuple]) -> list[tuple]:
@@ -217,46 +217,45 @@ class _Problem:
     def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> None:
         """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
         multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
-        cols = [mul(self.yyk, monomial(m)) for m in self.vbasis]
+        cols = [mul(self.yyk, {m: 1.0}) for m in self.vbasis]
         if lam is None:  # gamma step: V fixed (numbers), lambda free
-            Vpoly = poly_sum(
-                [scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]
-            )
-            Vd = poly_sum([scale(p, float(c)) for p, c in zip(self.dmono, Vc, strict=True)])
+            Vpoly = lin(*((float(c), {m: 1.0}) for m, c in zip(self.vbasis, Vc, strict=True)))
+            Vd = lin(*((float(c), p) for p, c in zip(self.dmono, Vc, strict=True)))
             ident.const(mul(self.yyk, Vpoly))
             ident.free(Vd, self.keep(monomials(self.nv, self.mlam)))
         else:  # V step: V free (variable), lambda fixed
-            ident.linear([add(c, mul(lam, d)) for c, d in zip(cols, self.dmono, strict=True)], Vc)
-        ident.linear([scale(self.yyk, -1.0)], gamma)
+            ident.linear([lin((1.0, c), (1.0, mul(lam, d)))
+                          for c, d in zip(cols, self.dmono, strict=True)], Vc)  # fmt: skip
+        ident.linear([lin((-1.0, self.yyk))], gamma)
         for h in self.eqs:
-            ident.free(h, self.keep(monomials(self.nv, self.total - total_degree(h))))
+            ident.free(h, self.keep(monomials(self.nv, self.total - max(map(sum, h)))))
         half = self.total // 2
         for b in self.blocks(monomials(self.nv, half)):
             ident.gram(b, None)
         for g in self.nonneg:
-            for b in self.blocks(monomials(self.nv, (self.total - total_degree(g)) // 2)):
+            for b in self.blocks(monomials(self.nv, (self.total - max(map(sum, g))) // 2)):
                 ident.gram(b, g)
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
     def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
         ident.const(mul(self.yyk2, self.p))
-        ident.linear([scale(self.yyk2, -1.0)], beta)
+        ident.linear([lin((-1.0, self.yyk2))], beta)
         deg = 2 * self.D + 2
         lam_basis = self.y_only(self.keep(monomials(self.nv, 2)))
         if lam2 is None:
-            Vm1 = add(poly_sum([scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]),
-                       {tuple([0] * self.nv): -1.0})  # fmt: skip
+            Vm1 = lin(*((float(c), {m: 1.0}) for m, c in zip(self.vbasis, Vc, strict=True)),
+                      (1.0, {tuple([0] * self.nv): -1.0}))  # fmt: skip
             ident.free(Vm1, lam_basis)
         else:
-            ident.linear([mul(lam2, monomial(m)) for m in self.vbasis], Vc)
-            ident.const(scale(lam2, -1.0))
+            ident.linear([mul(lam2, {m: 1.0}) for m in self.vbasis], Vc)
+            ident.const(lin((-1.0, lam2)))
         for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
             ident.gram(b, None)
 
     def positive(self, ident: Program, Vc: Any, eps: float) -> None:
         """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
-        ident.linear([monomial(m) for m in self.vbasis], Vc)
-        ident.const(scale(self.yy, -eps))
+        ident.linear([{m: 1.0} for m in self.vbasis], Vc)
+        ident.const(lin((-eps, self.yy)))
         basis = [m for m in self.y_only(monomials(self.nv, self.D)) if sum(m) >= 1]
         for b in self.blocks(basis):
             ident.gram(b, None)
@@ -312,8 +311,6 @@ class _Problem:
             (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
         ]
         V = PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
-        from roa.search._vs_gram import attach_gram
-
         attach_gram(V)  # a positive definite Gram matrix: the exact route's V >= mu |d|^2
         return V
 
@@ -652,3 +649,36 @@ def _pace(r: int, rounds: int, t0: float, log: list[VsRound], budget: float | No
     note(f"V-s: {r} of at most {rounds + 1} rounds in {spent:.0f} s (beta "
          f"{'none' if beta is None else f'{beta:.6g}'}); about {more:.0f} s more at this "
          f"pace{cap}")  # fmt: skip
+
+
+def attach_gram(V: Any, solver_options: dict[str, Any] | None = None) -> bool:
+    """Attach a positive definite Gram matrix to the polynomial ``V`` (``V.gram``) when the
+    program finds one that the exact cover (:func:`roa.proof.gram_cover`) proves positive
+    definite; whether it did. The exact SOS route proves ``{V <= c}`` bounded from
+    ``V >= mu |d|^2`` by that cover; a V of the iteration has coefficients only, so one small
+    program (``V = m' Q m`` coefficient by coefficient, ``m`` the monomials of degree
+    ``1..deg V / 2``, ``Q >= t s I`` with ``s`` V's largest coefficient and ``t <= 1``
+    maximised) proposes ``Q``. Only the exact cover decides; otherwise V keeps no Gram matrix."""
+    poly = V.polynomial_view() or {}
+    terms = {tuple(int(k) for k in m): float(c) for m, c in poly.items() if c}
+    if not terms or V.gram_view() is not None:
+        return V.gram_view() is not None
+    n = int(V.n)
+    deg = max(sum(m) for m in terms)
+    if deg % 2 or min(sum(m) for m in terms) < 2:
+        return False
+    basis = monomials(n, deg // 2, 1)
+    prog = Program(n)
+    prog.const({m: -c for m, c in terms.items()})
+    t = prog.scalar()
+    Q = prog.gram(basis, None, sign=1.0, margin=t * max(abs(c) for c in terms.values()))
+    res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
+    if not res.usable or t.value is None or not float(t.value) > 0 or Q.value is None:
+        return False
+    from roa.proof._cover import gram_cover
+
+    V.with_gram((basis, 0.5 * (np.asarray(Q.value) + np.asarray(Q.value).T)))
+    if gram_cover(V, 1.0) is None:  # not proved positive definite exactly: none attached
+        V.with_gram(None)
+        return False
+    return True

@@ -238,24 +238,29 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
             round_matrix([[float(v)]])[0][0] for v in coeffs]  # fmt: skip
         free.append((list(basis), cs))
     count = {k: sum(1 for g in grams if g[0] == k) for k, _, _ in grams}
-    index = {i: sum(1 for g in grams[:i] if g[0] == grams[i][0]) for i in range(len(grams))}
     pivots: list[Fraction] = []
     proved: dict[int, Any] = {}  # block -> its cone as proved (an SDD block: its scaling)
+
+    def refused(i: int, R: Matrix, what: str, residual: Fraction | None = None
+                ) -> ExactCheck | None:  # fmt: skip
+        """None when block ``i`` (as ``R``) is proved definite, else the refusal."""
+        ok, piv, proved[i] = _definite(R, cert.cone(i))
+        pivots.extend(piv)
+        k = grams[i][0]
+        name = block_name(k, sum(1 for g in grams[:i] if g[0] == k), count[k], names)
+        return None if ok else ExactCheck(
+            False, f"{what} {name} is not {_what(cert.cone(i))} (exact)",
+            None if residual is None else as_float(residual), as_float(min(piv)) if piv else None)  # fmt: skip
+
     for i, (k, basis, R) in enumerate(grams):  # the multipliers: kept as rounded
         if k == 0:
             continue
-        ok, piv, proved[i] = _definite(R, cert.cone(i))
-        pivots += piv
-        if not ok:
-            return ExactCheck(False, f"the Gram matrix of {block_name(k, index[i], count[k], names)}"
-                              f" is not {_what(cert.cone(i))} (exact)",
-                              min_pivot=as_float(min(piv)) if piv else None)  # fmt: skip
-        target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(gram_poly(basis, R),
-                                                                         times[k])))  # fmt: skip
+        if (no := refused(i, R, "the Gram matrix of")) is not None:
+            return no
+        target = poly_lin((Fraction(1), target),
+                          (Fraction(-1), poly_mul(gram_poly(basis, R), times[k])))  # fmt: skip
     for (basis, cs), h in zip(free, equalities, strict=True):
-        mu: QPoly = {}
-        for b, v in zip(basis, cs, strict=True):
-            mu[b] = mu.get(b, Fraction(0)) + v
+        mu = poly_lin(*((v, {b: Fraction(1)}) for b, v in zip(basis, cs, strict=True)))
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(mu, h)))
     zero = tuple([0] * nv)
     for e, (basis, cs) in enumerate(free if not rounded else []):  # fresh: a circle's linear
@@ -275,13 +280,9 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
         return ExactCheck(False, why, None if residual is None else as_float(residual))
     assert residual is not None
     zeros = [i for i, g in enumerate(grams) if g[0] == 0]
-    for j, (i, Pb) in enumerate(zip(zeros, P, strict=True)):
-        ok, piv, proved[i] = _definite(Pb, cert.cone(i))
-        pivots += piv
-        if not ok:
-            return ExactCheck(False, f"the projected Gram matrix {block_name(0, j, len(P), names)}"
-                              f" is not {_what(cert.cone(i))} (exact)", as_float(residual),
-                              as_float(min(piv)) if piv else None)  # fmt: skip
+    for i, Pb in zip(zeros, P, strict=True):
+        if (no := refused(i, Pb, "the projected Gram matrix", residual)) is not None:
+            return no
     it = iter(P)
     cones = tuple(proved[i] for i in range(len(grams)))
     final = Certificate(tuple((k, basis, next(it) if k == 0 else R) for k, basis, R in grams),

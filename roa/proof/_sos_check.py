@@ -370,14 +370,15 @@ def scale_data(data: ExactData, scale: tuple[Fraction, ...]) -> ExactData:
                      data.low)  # fmt: skip
 
 
-def stored_scale(cert: Any, n: int) -> tuple[Fraction, ...] | None:
-    """The ``scale`` of a stored certificate (``n`` positive rationals), None when absent;
-    ValueError when malformed."""
+def stored_scale(cert: Any, n: int, *, chars: int = MAX_DIGITS) -> tuple[Fraction, ...] | None:
+    """The ``scale`` of a stored certificate (``n`` positive rationals of at most ``chars``
+    characters), None when absent; ValueError when malformed."""
     raw = cert.get("scale") if isinstance(cert, dict) else None
     if raw is None:
         return None
-    if not isinstance(raw, list) or len(raw) != n:
-        raise ValueError(f"scale must be a list of {n} positive rationals")
+    if not isinstance(raw, list) or len(raw) != n or any(len(str(r)) > chars for r in raw):
+        raise ValueError(f"scale must be a list of {n} positive rationals (at most {chars} "
+                         "characters each)")  # fmt: skip
     scale = tuple(parse_rational(r, f"scale[{i}]") for i, r in enumerate(raw))
     if not all(r > 0 for r in scale):
         raise ValueError("scale must be positive rationals")

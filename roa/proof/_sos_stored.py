@@ -41,7 +41,6 @@ from roa.proof._sos_check import (
     MAX_BASIS,
     NotPolynomial,
     parse_eps,
-    parse_rational,
     preconditions,
     stored_scale,
 )
@@ -61,19 +60,14 @@ def part_json(variables: list[int], cert: Certificate, eps: Fraction | None = No
     return {**out, **cert.to_json(), **extra}
 
 
-def _grams(items: Any, factor: int, what: str) -> list[dict[str, Any]]:
+def _grams(items: Any, what: str, factor: int | None = None) -> list[dict[str, Any]]:
+    """Old-form Gram blocks as ``grams`` entries, each multiplying ``factor`` (None: its index)."""
     if not isinstance(items, list) or len(items) > MAX_BASIS:
         raise ValueError(f"{what} must be a list of at most {MAX_BASIS} blocks")
     if not all(isinstance(g, dict) for g in items):
         raise ValueError(f"{what}: every block must be an object with 'basis' and 'Q'")
-    return [{"multiplies": factor, "basis": g.get("basis"), "Q": g.get("Q")} for g in items]
-
-
-def _dense(raw: dict[str, Any]) -> list[dict[str, Any]]:
-    grams = [{"multiplies": 0, "basis": raw.get("basis0"), "Q": raw.get("Q0")}]
-    if raw.get("basis1"):
-        grams.append({"multiplies": 1, "basis": raw.get("basis1"), "Q": raw.get("Q1") or []})
-    return grams
+    return [{"multiplies": k if factor is None else factor, "basis": g.get("basis"),
+             "Q": g.get("Q")} for k, g in enumerate(items)]  # fmt: skip
 
 
 def _old_part(raw: dict[str, Any], variables: Any) -> dict[str, Any]:
@@ -82,9 +76,11 @@ def _old_part(raw: dict[str, Any], variables: Any) -> dict[str, Any]:
         s = raw["sum"]
         if not isinstance(s, dict):
             raise ValueError("the sum certificate must be an object with 'sigma' and 'lambda'")
-        grams = _grams(s.get("sigma"), 0, "sigma") + _grams(s.get("lambda"), 1, "lambda")
-    else:
-        grams = _dense(raw)
+        grams = _grams(s.get("sigma"), "sigma", 0) + _grams(s.get("lambda"), "lambda", 1)
+    else:  # dense: basis0/Q0, basis1/Q1
+        grams = [{"multiplies": 0, "basis": raw.get("basis0"), "Q": raw.get("Q0")}]
+        if raw.get("basis1"):
+            grams.append({"multiplies": 1, "basis": raw.get("basis1"), "Q": raw.get("Q1") or []})
     part: dict[str, Any] = {"variables": variables, "grams": grams, "free": []}
     if "eps" in raw:
         part["eps"] = raw["eps"]
@@ -104,14 +100,8 @@ def parts_of(cert: Any, n: int) -> dict[str, Any]:
         p = cert["putinar"]
         if not isinstance(p, dict):
             raise ValueError("no constrained certificate in the file")
-        grams = p.get("grams", [])
-        if not isinstance(grams, list) or len(grams) > MAX_BASIS:
-            raise ValueError(f"putinar.grams must be a list of at most {MAX_BASIS} objects")
-        if not all(isinstance(g, dict) for g in grams):
-            raise ValueError("putinar.grams: every entry must be an object")
         out["parts"] = [{"variables": everything, "free": p.get("free", []),
-                         "grams": [{"multiplies": k, "basis": g.get("basis"), "Q": g.get("Q")}
-                                   for k, g in enumerate(grams)]}]  # fmt: skip
+                         "grams": _grams(p.get("grams", []), "putinar.grams")}]  # fmt: skip
         if "taylor" not in out:
             raise ValueError("taylor (an odd integer) and scale (rationals) are required")
     elif "blocks" in cert:  # independent blocks of variables
@@ -180,14 +170,9 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
         parts = form["parts"]
         what = "sparse " if "cliques" in parts[0] else ""
         if "taylor" in form:  # a recast field or a parameter box: one part, every state
-            taylor, raw_scale = form.get("taylor"), form.get("scale")
-            if type(taylor) is not int or not isinstance(raw_scale, list):
+            taylor, scale = form.get("taylor"), stored_scale(form, n, chars=100)
+            if type(taylor) is not int or scale is None:
                 raise ValueError("taylor (an odd integer) and scale (rationals) are required")
-            if len(raw_scale) != n or any(len(str(r)) > 100 for r in raw_scale):
-                raise ValueError(f"scale must hold {n} rationals of at most 100 characters")
-            scale = tuple(parse_rational(r, f"scale[{i}]") for i, r in enumerate(raw_scale))
-            if not all(s > 0 for s in scale):
-                raise ValueError("scale must be positive rationals like '1/4'")
             if len(parts) != 1 or parts[0].get("variables") != list(range(n)):
                 raise ValueError("a recast certificate has one part over every state")
             try:

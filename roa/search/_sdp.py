@@ -311,6 +311,17 @@ def is_even(polys: list[Poly], nd: int, *, odd: bool = False) -> bool:
     return all(sum(m[:nd]) % 2 == int(odd) for p in polys for m in p)
 
 
+def sym_blocks(basis: list[tuple[int, ...]], nd: int, sym: bool, aux_degree: int | None = None
+               ) -> list[list[tuple[int, ...]]]:  # fmt: skip
+    """The Gram blocks of ``basis`` (capped at degree ``aux_degree`` in the variables past
+    ``nd``): its even and odd monomials in the first ``nd`` variables when ``sym`` (the
+    reflection ``d -> -d``; empty ones dropped), else one block."""
+    basis = basis if aux_degree is None else [m for m in basis if sum(m[nd:]) <= aux_degree]
+    if not sym:
+        return [basis]
+    return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
+
+
 class Program:
     """``sum of terms == 0``, coefficient by coefficient (module docstring)."""
 

@@ -49,6 +49,7 @@ from roa.search._sdp import (
     poly_of,
     sdp_bytes,
     solve,
+    sym_blocks,
 )
 from roa.status import SosStatus
 
@@ -136,13 +137,6 @@ NO_TRIG = ("the SOS level proposer takes fields without sin/cos (the level progr
            "validator recasts sin, cos and rational terms itself)")  # fmt: skip
 
 
-def _whitened(n: int, M: np.ndarray, center: np.ndarray) -> tuple[list[sp.Symbol], list[sp.Expr]]:
-    d = list(sp.symbols(f"y0:{n}", real=True))
-    dx = [sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0)
-          for i in range(n)]  # fmt: skip
-    return d, dx
-
-
 def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str = "exact"
                  ) -> RecastField:  # fmt: skip
     """``f(c + M y)`` made polynomial: ``exact`` by the one recast of
@@ -155,7 +149,9 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
     if mode not in RECASTS:
         raise RoaInputError(f"recast mode {mode!r}: allowed {', '.join(RECASTS)}")
     n = len(center)
-    d, dx = _whitened(n, M, center)
+    d = list(sp.symbols(f"y0:{n}", real=True))
+    dx = [sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0)
+          for i in range(n)]  # fmt: skip
     x = [dx[i] + sp.Float(float(center[i]), 17) if center[i] != 0 else dx[i] for i in range(n)]
     f = system.field(0.0, x, namespace("sympy"))
     f = [sp.powsimp(sp.sympify(fi)) for fi in f]
@@ -286,22 +282,14 @@ def sos_level(
     t0 = time.perf_counter()
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
-    least = math.comb(
-        system.n + 2, 2
-    )  # V' has degree >= 2: the Gram basis holds all of degree <= 2
+    least = math.comb(system.n + 2, 2)  # V' has degree >= 2: the Gram basis holds degree <= 2
     if least > MAX_GRAM_BLOCK or sdp_bytes(least) > MAX_SDP_BYTES:
         return _too_large(least, system.n, t0)
     try:
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
-        return SOSResult(
-            SosStatus.NOT_POLYNOMIAL,
-            None,
-            "not run",
-            time.perf_counter() - t0,
-            "",
-            message=str(exc),
-        )
+        return SOSResult(SosStatus.NOT_POLYNOMIAL, None, "not run", time.perf_counter() - t0, "",
+                         message=str(exc))  # fmt: skip
     gens = rc.d + rc.aux
     nv = len(gens)
     nd = len(rc.d)
@@ -325,20 +313,13 @@ def sos_level(
         raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)
 
-    def cap(basis: list[tuple]) -> list[tuple]:
-        return basis if aux_degree is None else [m for m in basis if sum(m[nd:]) <= aux_degree]
+    def blocks(basis: list[tuple]) -> list[list[tuple]]:
+        """Gram blocks: even and odd monomials in d (y -> -y invariance), or one block."""
+        return sym_blocks(basis, nd, use_sym, aux_degree)
 
     def keep(basis: list[tuple]) -> list[tuple]:
         """Free multipliers: only even monomials in d when the program is symmetric."""
-        basis = cap(basis)
-        return [m for m in basis if sum(m[:nd]) % 2 == 0] if use_sym else basis
-
-    def blocks(basis: list[tuple]) -> list[list[tuple]]:
-        """Gram blocks: even and odd monomials in d (y -> -y invariance), or one block."""
-        basis = cap(basis)
-        if not use_sym:
-            return [basis]
-        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
+        return [m for b in blocks(basis) for m in b if not use_sym or sum(m[:nd]) % 2 == 0]
 
     biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
     if biggest > MAX_GRAM_BLOCK or sdp_bytes(biggest) > MAX_SDP_BYTES:
@@ -371,14 +352,12 @@ def sos_level(
     if res.status.startswith("solver error"):
         return SOSResult(SosStatus.FAILED, None, res.status, time.perf_counter() - t0,
                          rc.description, sizes, "the solver failed: no certificate")  # fmt: skip
-    status = {"optimal": "solved", "inaccurate": "inaccurate", "infeasible": "infeasible",
-              "error": "failed"}[res.group]  # fmt: skip
+    status, msg = {
+        "optimal": ("solved", "SOS candidate level; certified only after interval validation"),
+        "inaccurate": ("inaccurate", "solver reported an inaccurate solution: not a certificate"),
+        "infeasible": ("infeasible", "no certificate at this degree"),
+        "error": ("failed", f"solver status {res.status}: no certificate"),
+    }[res.group]
     value = float(rho.value) if res.usable and rho.value is not None else None
-    msg = {
-        "solved": "SOS candidate level; certified only after interval validation",
-        "inaccurate": "solver reported an inaccurate solution: not a certificate",
-        "infeasible": "no certificate at this degree",
-        "failed": f"solver status {res.status}: no certificate",
-    }[status]
     return SOSResult(SosStatus(status), value, res.status, time.perf_counter() - t0,
                      rc.description, sizes, msg)  # fmt: skip

@@ -65,6 +65,7 @@ from roa.search._sdp import (
     poly_of,
     power,
     solve,
+    sym_blocks,
 )
 from roa.search._seed import seed_level
 from roa.search._sos import recast_field
@@ -152,18 +153,9 @@ class _Problem:
         self.eqs = [poly_of(h, self.gens) for h in rf.equalities]
         self.nonneg = [poly_of(g, self.gens) for g in rf.nonnegative]
         Mt = self.M.T @ shape @ self.M  # p(y) = (My)' S (My)
-        self.p = {
-            m: c
-            for m, c in (
-                (
-                    tuple(int(i == a) + int(i == b) for i in range(self.nv)),
-                    float(Mt[a, b]) * (1 if a == b else 2),
-                )  # fmt: skip
-                for a in range(self.nd)
-                for b in range(a, self.nd)
-            )
-            if c != 0.0
-        }
+        pairs = [(a, b) for a in range(self.nd) for b in range(a, self.nd) if Mt[a, b] != 0.0]
+        self.p = {tuple(int(i == a) + int(i == b) for i in range(self.nv)):
+                  float(Mt[a, b]) * (1 if a == b else 2) for a, b in pairs}  # fmt: skip
         sym = is_even([*self.fy], self.nd, odd=True) and is_even([*self.eqs, *self.nonneg], self.nd)
         if symmetry is True and not sym:
             raise RoaInputError("symmetry=True needs an odd field and even recast constraints")
@@ -195,20 +187,14 @@ class _Problem:
             lin(*((1.0, mul(diff(m, i), self.fy[i])) for i in range(self.nd))) for m in self.vbasis
         ]
 
-    def cap(self, basis: list[tuple]) -> list[tuple]:
-        if self.aux_degree is None:
-            return basis
-        return [m for m in basis if sum(m[self.nd :]) <= self.aux_degree]
-
     def keep(self, basis: list[tuple]) -> list[tuple]:
-        basis = self.cap(basis)
-        return [m for m in basis if sum(m[: self.nd]) % 2 == 0] if self.sym else basis
+        """Free multipliers: the even monomials only when the program is symmetric."""
+        return [
+            m for b in self.blocks(basis) for m in b if not self.sym or sum(m[: self.nd]) % 2 == 0
+        ]
 
     def blocks(self, basis: list[tuple]) -> list[list[tuple]]:
-        basis = self.cap(basis)
-        if not self.sym:
-            return [basis]
-        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[: self.nd]) % 2 == p])]
+        return sym_blocks(basis, self.nd, self.sym, self.aux_degree)
 
     def y_only(self, basis: list[tuple]) -> list[tuple]:
         return [m for m in basis if sum(m[self.nd :]) == 0]
@@ -360,15 +346,18 @@ def vs_search(
     if not (isinstance(reach, int | float) and math.isfinite(reach) and reach > 0):
         raise RoaInputError(f"reach must be a finite number > 0, got {reach!r}")
     t0 = _now()
+
+    def none(status: SosStatus, message: str) -> VsResult:
+        return VsResult(status, degree, [], [], [], _now() - t0, message=message)
+
     # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
     # level search, which alone takes a while in tens of states
     even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
     if even > MAX_V_TERMS:
-        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
-                        message=f"a V of degree {degree} in {system.n} states has at least {even} "
-                        f"coefficients, more than the {MAX_V_TERMS} searched here (its SOS "
-                        "programs would not fit in memory): not built; use a lower degree or "
-                        "fewer states")  # fmt: skip
+        return none(SosStatus.TOO_LARGE, f"a V of degree {degree} in {system.n} states has at "
+                    f"least {even} coefficients, more than the {MAX_V_TERMS} searched here (its "
+                    "SOS programs would not fit in memory): not built; use a lower degree or "
+                    "fewer states")  # fmt: skip
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
     points, how = parameter_points(system)
     V0, reseeded = _box_seed(system, V0)
@@ -380,11 +369,9 @@ def vs_search(
         pbs = _problems(at, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
                         scale)  # fmt: skip
     except ProgramTooLarge as exc:
-        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
-                        message=str(exc))  # fmt: skip
+        return none(SosStatus.TOO_LARGE, str(exc))
     except (RoaInputError, sp.PolynomialError) as exc:
-        return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], _now() - t0,
-                        message=str(exc))  # fmt: skip
+        return none(SosStatus.NOT_POLYNOMIAL, str(exc))
     pb = pbs[0]
     base = dict(solver_options or {})
 

@@ -288,13 +288,9 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
     final = Certificate(tuple((k, basis, next(it) if k == 0 else R) for k, basis, R in grams),
                         tuple(free), cones if any(c != "psd" for c in cones) else ())  # fmt: skip
     scalings = [list(c) for c in cones if c != "psd"]
-    meta = {
-        "digest": matrix_digest(
-            *[R for _, _, R in final.grams],
-            *([[[v] for _, cs in free for v in cs]] if free else []),
-            *([scalings] if scalings else []),
-        )
-    }
+    meta = {"digest": matrix_digest(*[R for _, _, R in final.grams],
+                                    *([[[v] for _, cs in free for v in cs]] if free else []),
+                                    *([scalings] if scalings else []))}  # fmt: skip
     dd = len(scalings)
     how = (f"{len(grams) - dd} positive definite, {dd} strictly scaled diagonally dominant"
            if dd else "positive definite")  # fmt: skip

@@ -216,12 +216,11 @@ def _options(solver: str, options: dict[str, Any] | None) -> dict[str, Any]:
     return opts
 
 
-def psd_sizes(problem: Any) -> list[int]:
-    """The sizes of a cvxpy problem's positive semidefinite constraints."""
+def psd_sizes(constraints: list[Any]) -> list[int]:
+    """The sizes of the positive semidefinite ones of cvxpy ``constraints``."""
     import cvxpy as cp
 
-    return [int(c.args[0].shape[0]) for c in problem.constraints
-            if isinstance(c, cp.constraints.PSD)]  # fmt: skip
+    return [int(c.args[0].shape[0]) for c in constraints if isinstance(c, cp.constraints.PSD)]
 
 
 def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | None = None
@@ -235,8 +234,7 @@ def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | N
     solver = str(options.pop("solver", solver)).lower()
     if solver == "auto":  # SCS when its keywords were given or the blocks are large
         scs_keys = any(k.startswith(("eps_", "acceleration")) for k in options)
-        sizes = psd_sizes(problem)
-        choice = choose_solver(sizes)
+        choice = choose_solver(psd_sizes(problem.constraints))
         solver = "scs" if scs_keys or choice.solver != "clarabel" else "clarabel"
     name = solver.upper()
     t0 = time.perf_counter()
@@ -388,13 +386,7 @@ class Program:
     def free(self, poly: Poly, basis: list[tuple[int, ...]]) -> Any:
         """A free multiplier ``sum_k q_k b_k`` times ``poly``; returns its variable."""
         q = self.vector(len(basis))
-        r, c, v = [], [], []
-        for k, b in enumerate(basis):
-            for m, coef in poly.items():
-                r.append(self.row(_madd(m, b)))
-                c.append(k)
-                v.append(coef)
-        self.parts.append((r, c, v, q, len(basis), None))
+        self.linear([{_madd(m, b): coef for m, coef in poly.items()} for b in basis], q)
         self.frees.append((basis, q))
         return q
 
@@ -482,10 +474,7 @@ class Program:
 
     def sizes(self) -> list[int]:
         """Sizes of the Gram blocks of this identity and those sharing its constraints."""
-        import cvxpy as cp
-
-        return sorted((int(c.args[0].shape[0]) for c in self.psd
-                       if isinstance(c, cp.constraints.PSD)), reverse=True)  # fmt: skip
+        return sorted(psd_sizes(self.psd), reverse=True)
 
     def problem(self, objective: Any, *, maximise: bool = True, also: list[Program] | None = None,
                 extra: list[Any] | None = None) -> Any:  # fmt: skip

@@ -30,7 +30,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -69,30 +69,9 @@ class SOSResult:
     message: str = ""
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "status": self.status.value,
-            "level": self.level,
-            "method": "sos",
-            "solver_status": self.solver_status,
-            "seconds": round(self.seconds, 3),
-            "recast": self.recast,
-            "sizes": self.sizes,
-            "message": self.message,
-        }
-
-
-@dataclass
-class Recast:
-    """Polynomial form of ``V'``: variables, ``V'``, equality constraints, nonnegative variables."""
-
-    d: list[sp.Symbol]
-    aux: list[sp.Symbol]
-    V: sp.Expr
-    Vdot: sp.Expr
-    equalities: list[sp.Expr]
-    nonnegative: list[sp.Expr]
-    description: str
-    positive: sp.Expr = sp.Integer(1)  # Vdot is this (> 0 on the recast variety) x V'
+        return {"status": self.status.value, "level": self.level, "method": "sos",
+                "solver_status": self.solver_status, "seconds": round(self.seconds, 3),
+                "recast": self.recast, "sizes": self.sizes, "message": self.message}  # fmt: skip
 
 
 RECASTS = ("exact", "enclosure")
@@ -129,6 +108,8 @@ class RecastField:
     nonnegative: list[sp.Expr]
     description: str
     positive: sp.Expr = sp.Integer(1)
+    V: sp.Expr = sp.Integer(0)  # V and Vdot = positive x V' in y (:func:`recast` only)
+    Vdot: sp.Expr = sp.Integer(0)
 
 
 NONSMOOTH = (sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside)
@@ -221,7 +202,7 @@ def _exact_field(system: System, d: list[sp.Symbol], dx: list[sp.Expr], center: 
                        "; ".join(notes) or "polynomial (no recast)", fl(pf.Lpos))  # fmt: skip
 
 
-def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> Recast:
+def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> RecastField:
     """Symbolic ``V'`` in whitened variables ``y`` (``x = x_eq + M y``, ``V = y' (M'PM) y ~ |y|^2``),
     made polynomial by :func:`recast_field` (times its positive factor: the sign of ``V'``)."""
     n = lyap.n
@@ -231,8 +212,7 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     P = [[sp.Float(float(lyap.P[i, j]), 17) for j in range(n)] for i in range(n)]
     V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
-    return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description,
-                  rf.positive)  # fmt: skip
+    return replace(rf, V=V, Vdot=Vdot)
 
 
 def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
@@ -245,16 +225,9 @@ def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
                      "comes from the sampled search instead")  # fmt: skip
 
 
-def sos_level(
-    system: System,
-    lyap: QuadraticLyapunov,
-    *,
-    recast_mode: str = "exact",
-    multiplier_degree: int | None = None,
-    solver_options: dict[str, Any] | None = None,
-    symmetry: str | bool = "auto",
-    aux_degree: int | None = None,
-) -> SOSResult:
+def sos_level(system: System, lyap: QuadraticLyapunov, *, recast_mode: str = "exact",
+              multiplier_degree: int | None = None, solver_options: dict[str, Any] | None = None,
+              symmetry: str | bool = "auto", aux_degree: int | None = None) -> SOSResult:  # fmt: skip
     """Largest rho certified by the SOS program of the module docstring (status-carrying value).
 
     Parameters
@@ -339,15 +312,10 @@ def sos_level(
         prog.gram(b, times)
     prog.const(A)
     prog.linear([{m: -c for m, c in B.items()}], rho)
-    sizes = {
-        "variables": [str(g) for g in gens],
-        "degree": total,
-        "gram_sizes": [len(b) for b, _ in grams],
-        "symmetry": "even/odd blocks in x - x_eq" if use_sym else "none",
-        "equality_rows": len(prog.rows),
-        "multiplier_degree": multiplier_degree,
-        "k": k,
-    }
+    sizes = {"variables": [str(g) for g in gens], "degree": total,
+             "gram_sizes": [len(b) for b, _ in grams],
+             "symmetry": "even/odd blocks in x - x_eq" if use_sym else "none",
+             "equality_rows": len(prog.rows), "multiplier_degree": multiplier_degree, "k": k}  # fmt: skip
     res = solve(prog.problem(rho), options=solver_options)
     if res.status.startswith("solver error"):
         return SOSResult(SosStatus.FAILED, None, res.status, time.perf_counter() - t0,

@@ -71,7 +71,7 @@ from __future__ import annotations
 import itertools
 import time
 from collections.abc import Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any
 
@@ -572,8 +572,7 @@ class SosRoute:
                                             solver_options=self.solver_options)  # fmt: skip
             build = self.compiled[eps].figures["build_seconds"]
         cand = self.compiled[eps].solve(level)
-        return Candidate(cand.certificate, cand.eps, cand.margin, cand.solver_status,
-                         cand.seconds + build, cand.sizes)  # fmt: skip
+        return replace(cand, seconds=cand.seconds + build)
 
 
 def route_for(data: Any, multiplier_degree: int | None = None, route: str = "auto",
@@ -625,6 +624,4 @@ def propose_domain_certificate(
     pattern = Pattern("dense", ((0, basis0, "psd"), (1, basis1, "psd")))
     prog = FixedLevel(None, pattern, eps=eps, solver_options=solver_options,
                       identity=(n, domain_target(margin, eps, n), times, []))  # fmt: skip
-    cand = prog.solve(level)
-    return Candidate(cand.certificate, eps, cand.margin, cand.solver_status,
-                     time.perf_counter() - t0, cand.sizes)  # fmt: skip
+    return replace(prog.solve(level), seconds=time.perf_counter() - t0)

@@ -121,16 +121,10 @@ class VsResult:
         return [self.candidates[int(i)] for i in np.argsort(scores, kind="stable")[::-1]]
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "status": self.status.value,
-            "degree": self.degree,
-            "betas": self.betas,
-            "means": self.means,
-            "rounds": [r.to_dict() for r in self.rounds],
-            "seconds": round(self.seconds, 3),
-            "sizes": self.sizes,
-            "message": self.message,
-        }
+        return {"status": self.status.value, "degree": self.degree, "betas": self.betas,
+                "means": self.means, "rounds": [r.to_dict() for r in self.rounds],
+                "seconds": round(self.seconds, 3), "sizes": self.sizes,
+                "message": self.message}  # fmt: skip
 
 
 class _Problem:
@@ -262,17 +256,12 @@ class _Problem:
         mu0 = float(np.linalg.eigvalsh(-(A + A.T))[0])
         if mu0 <= 0:
             return
-        rows = []
-        for i in range(n):
-            row = []
-            for j in range(n):
-                e = [0] * self.nv
-                e[i] += 1
-                e[j] += 1
-                k = self.vbasis.index(tuple(e))
-                row.append(Vc[k] if i == j else 0.5 * Vc[k])
-            rows.append(cp.hstack(row))
-        Pv = cp.vstack(rows)
+
+        def entry(i: int, j: int) -> Any:
+            k = self.vbasis.index(tuple(int(a == i) + int(a == j) for a in range(self.nv)))
+            return Vc[k] if i == j else 0.5 * Vc[k]
+
+        Pv = cp.bmat([[entry(i, j) for j in range(n)] for i in range(n)])
         L = -(A.T @ Pv + Pv @ A)
         ident.psd.append(0.5 * (L + L.T) - margin * mu0 * np.eye(n) >> 0)
 
@@ -301,25 +290,12 @@ class _Problem:
         return V
 
 
-def vs_search(
-    system: System,
-    V0: QuadraticLyapunov,
-    *,
-    degree: int = 4,
-    shape: Any = None,
-    rounds: int = 6,
-    multiplier_degree: int | None = None,
-    symmetry: bool | str = "auto",
-    aux_degree: int | None = None,
-    recast_mode: str = "exact",
-    eps: float = 1e-6,
-    tol: float = 1e-3,
-    solver_options: dict[str, Any] | None = None,
-    solver: str = "auto",
-    budget: float | None = None,
-    objective: str = "shape",
-    reach: float = 1.5,
-) -> VsResult:
+def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: Any = None,
+              rounds: int = 6, multiplier_degree: int | None = None, symmetry: bool | str = "auto",
+              aux_degree: int | None = None, recast_mode: str = "exact", eps: float = 1e-6,
+              tol: float = 1e-3, solver_options: dict[str, Any] | None = None,
+              solver: str = "auto", budget: float | None = None, objective: str = "shape",
+              reach: float = 1.5) -> VsResult:  # fmt: skip
     """Polynomial Lyapunov candidates of degree ``degree`` by V-s iteration (module docstring).
 
     ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the

@@ -61,7 +61,7 @@ one ``I_j``, and neither has a constant term. Then ``V = sum_j V_j(d_j)`` and
 ``d_j != 0``. ``W_j`` need not be ``V_j``'s own derivative: the argument uses only the split.
 
 The blocks are the connected components of the graph on the variables that joins two variables
-when they occur in one monomial of ``V`` or ``V'`` (:func:`scipy.sparse.csgraph.connected_components`).
+when they occur in one monomial of ``V`` or ``V'``.
 Coupled systems have one block, and nothing changes; decoupled copies of a system have one per copy,
 so their Gram matrices are as small as one copy's. A connected but sparse graph is handled by
 the chordal cliques of :func:`roa.search._sos_program.clique_pattern` (checked by :mod:`roa.proof._putinar`), for the
@@ -70,14 +70,11 @@ whole or for a block.
 
 from __future__ import annotations
 
+import itertools
 import re
 from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
-
-import numpy as np
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import connected_components
 
 from roa.proof._sos_check import ExactData, Mono, NotPolynomial, QPoly, scale_data
 
@@ -165,22 +162,31 @@ Block = tuple[int, ...]
 def blocks(data: ExactData) -> list[Block]:
     """The variable blocks of ``data`` (sorted, covering ``range(n)``); one block when coupled or
     when ``V`` or ``V'`` has a constant term."""
-    n = data.n
-    zero = tuple([0] * n)
+    zero = tuple([0] * data.n)
     if data.V.get(zero, 0) or data.Vdot.get(zero, 0):
-        return [tuple(range(n))]
-    rows: list[int] = []
-    cols: list[int] = []
-    for poly in (data.V, data.Vdot):
+        return [tuple(range(data.n))]
+    return components(graph(range(data.n), (data.V, data.Vdot)))
+
+
+def graph(nodes: Any, polys: Any) -> Any:
+    """The graph (networkx) on ``nodes`` joining two variables of one monomial (nonzero
+    coefficient) of ``polys``."""
+    import networkx as nx
+
+    G = nx.Graph()
+    G.add_nodes_from(nodes)
+    for poly in polys:
         for m, c in poly.items():
-            if not c:
-                continue
-            support = [i for i, k in enumerate(m) if k]
-            rows += support[:-1]
-            cols += support[1:]  # a path through the monomial's variables joins them all
-    graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(n, n))
-    count, label = connected_components(graph, directed=False)
-    return [tuple(int(i) for i in np.flatnonzero(label == b)) for b in range(count)]
+            if c:
+                G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
+    return G
+
+
+def components(G: Any) -> list[Block]:
+    """The connected components of the graph ``G``, each sorted, in order of least variable."""
+    import networkx as nx
+
+    return sorted(tuple(sorted(int(i) for i in c)) for c in nx.connected_components(G))
 
 
 def restrict(data: ExactData, block: Block) -> ExactData:

@@ -10,17 +10,11 @@ in the variables ``y = (d, u)`` (``d`` whitened: ``x = x_eq + M d`` with ``M'PM 
 ``V'(y) = 0`` at some ``d != 0`` of the recast variety ``{h_j = 0, u >= 0}`` then ``(d'd)^k (V - rho) >= 0``, i.e. ``V >= rho``; since ``V' < 0`` near the
 equilibrium (negative-definite linear part, checked), ``V' < 0`` on ``{V < rho} \\ {x_eq}``.
 
-**Recasting** (:func:`recast_field`, the one recast of :func:`roa.proof.polynomial_field`):
-every factor ``b(x)^(k/2)`` with ``k`` odd, ``b`` a polynomial with ``b >= b(0) = t0^2 > 0``,
-gets an auxiliary variable ``u = sqrt(b) - t0`` with ``(t0 + u)^2 - b = 0`` and ``u >= 0``; then
-``b^(k/2) = (t0 + u)^k``, and the field is multiplied by its denominator (positive where the
-constraints hold: ``V'`` keeps its sign). For the IPC, ``phi0(w) = w (1 + w^2)^(-3/2)`` is
+**Recasting** (:func:`recast_field`): the one recast of :func:`roa.proof.polynomial_field`
+(``b^(k/2) = (t0 + u)^k`` with ``u = sqrt(b) - t0 >= 0``, the field times its positive
+denominator: :mod:`roa.proof._recast`). For the IPC, ``phi0(w) = w (1 + w^2)^(-3/2)`` is
 ``w / (1 + u)^3`` exactly, so the recast costs nothing in rho; only the degree of the relaxation
-does (reported by the gap to the sampled optimum).
-
-**Symmetry**: for odd fields (Van der Pol, the IPC's flat loop) every polynomial of the program is
-even in ``d``; the program is then solved with even multipliers and Gram matrices split into even and
-odd monomial blocks (same optimum, see :func:`sos_level`).
+does. Odd fields split the program by the symmetry ``d -> -d`` (:func:`sos_level`).
 
 The result is a value with the solver's status; ``rho`` is a *candidate* until checked by
 :func:`roa.proof.validate_level` (the SDP is solved in floating point).

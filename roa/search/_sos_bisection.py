@@ -164,12 +164,11 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
     from roa.status import SosStatus
 
     data = None
-    if not (system.equilibrium is None or system.time_varying
-            or getattr(system, "parameters", None)):  # fmt: skip
+    if not getattr(system, "parameters", None):  # exact_data refuses the rest
         try:
             data = exact_data(system, V)
         except NotPolynomial:
-            data = None
+            pass
     if data is not None:
         subs, parts = IndependentBlocks().apply(data)
         routes = [route_for(subs[0], solver_options=solver_options)] if len(parts) == 1 else None

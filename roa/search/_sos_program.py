@@ -79,6 +79,7 @@ import numpy as np
 
 from roa.proof._domain import domain_target
 from roa.proof._putinar import Certificate, level_identity
+from roa.proof._reductions import components, graph
 from roa.proof._sos_check import Mono, QPoly, mono_add
 from roa.search._sdp import (
     MAX_SDP_BYTES,
@@ -202,14 +203,7 @@ def interaction_graph(data: Any) -> Any:
     """The variables' interaction graph (networkx): an edge for two variables of one monomial of
     ``N`` or ``V``, or of one inequality or equality (a multiplier times it mixes all its
     variables)."""
-    import networkx as nx
-
-    G = nx.Graph()
-    G.add_nodes_from(range(data.nv))
-    for poly in (data.N, data.V):
-        for m, c in poly.items():
-            if c:
-                G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
+    G = graph(range(data.nv), (data.N, data.V))
     for _, p in (*data.inequalities, *data.equalities):
         G.add_edges_from(itertools.combinations(sorted(support(p)), 2))
     return G
@@ -236,17 +230,9 @@ def V_groups(data: Any) -> list[tuple[tuple[int, ...], list[Mono]]]:
     """V's variables split into the connected components of its own interaction graph, each with
     the monomials ``z_G`` in its variables of degree ``ceil(low / 2) .. ceil(deg / 2)`` (``low``,
     ``deg``: V's least and largest degrees), over which its part ``V_G`` is a Gram form."""
-    import networkx as nx
-
-    G = nx.Graph()
-    G.add_nodes_from(support(data.V))
-    for m in data.V:
-        G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
     low, top = min(sum(m) for m in data.V), max(sum(m) for m in data.V)
-    out = []
-    for comp in sorted(tuple(sorted(int(i) for i in c)) for c in nx.connected_components(G)):
-        out.append((comp, _inside(monomials(data.nv, (top + 1) // 2, (low + 1) // 2), comp)))
-    return out
+    basis = monomials(data.nv, (top + 1) // 2, (low + 1) // 2)
+    return [(c, _inside(basis, c)) for c in components(graph(support(data.V), [data.V]))]
 
 
 def _inside(basis: list[Mono], clique: tuple[int, ...] | set[int]) -> list[Mono]:

@@ -52,6 +52,7 @@ from roa.proof._sos_check import (
     is_symmetric,
     matrix_digest,
     norm_power,
+    objects,
     parse_basis,
     parse_matrix,
     parse_rational,
@@ -148,14 +149,12 @@ class Certificate:
         naming what is malformed."""
         if not isinstance(raw, dict):
             raise ValueError("the certificate must be an object with 'grams' and 'free'")
-        for key in ("grams", "free"):
-            items = raw.get(key, [])
-            if not isinstance(items, list) or len(items) > MAX_BASIS:
-                raise ValueError(f"{key} must be a list of at most {MAX_BASIS} objects")
-            if not all(isinstance(item, dict) for item in items):
-                raise ValueError(f"{key}: every entry must be an object")
+        raw_grams, raw_free = (
+            objects(raw.get("grams", []), "grams"),
+            objects(raw.get("free", []), "free"),
+        )
         grams, cones = [], []
-        for i, g in enumerate(raw.get("grams", [])):
+        for i, g in enumerate(raw_grams):
             k = g.get("multiplies", 0)
             if type(k) is not int or not 0 <= k <= MAX_BASIS:
                 raise ValueError(f"grams[{i}].multiplies must be a factor index >= 0")
@@ -170,7 +169,7 @@ class Certificate:
             cones.append("psd" if w is None else tuple(
                 parse_rational(v, f"grams[{i}].scaling[{j}]") for j, v in enumerate(w)))  # fmt: skip
         free = []
-        for i, f in enumerate(raw.get("free", [])):
+        for i, f in enumerate(raw_free):
             basis = parse_basis(f.get("basis"), nv, f"free[{i}].basis")
             coeffs = f.get("coeffs")
             if not isinstance(coeffs, list) or len(coeffs) != len(basis):

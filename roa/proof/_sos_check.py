@@ -332,6 +332,17 @@ def as_float(x: Fraction) -> float:
         return float("inf") if x > 0 else float("-inf")
 
 
+def objects(raw: Any, what: str, limit: int = MAX_BASIS, *, empty: bool = True) -> list[Any]:
+    """``raw`` as a stored list of at most ``limit`` objects (non-empty unless ``empty``);
+    ValueError naming ``what`` otherwise."""
+    if not isinstance(raw, list) or len(raw) > limit or not (raw or empty):
+        raise ValueError(f"{what} must be a {'' if empty else 'non-empty '}list of at most {limit} "
+                         "objects")  # fmt: skip
+    if not all(isinstance(item, dict) for item in raw):
+        raise ValueError(f"{what}: every entry must be an object")
+    return raw
+
+
 def parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
     if not isinstance(raw, list) or len(raw) > MAX_BASIS:
         raise ValueError(f"{what} must be a list of at most {MAX_BASIS} exponent lists")

@@ -38,8 +38,8 @@ from roa.proof._putinar import Certificate, check_level
 from roa.proof._recast import Recast
 from roa.proof._reductions import IndependentBlocks, Rescale, box_json, check_partition
 from roa.proof._sos_check import (
-    MAX_BASIS,
     NotPolynomial,
+    objects,
     parse_eps,
     preconditions,
     stored_scale,
@@ -62,12 +62,8 @@ def part_json(variables: list[int], cert: Certificate, eps: Fraction | None = No
 
 def _grams(items: Any, what: str, factor: int | None = None) -> list[dict[str, Any]]:
     """Old-form Gram blocks as ``grams`` entries, each multiplying ``factor`` (None: its index)."""
-    if not isinstance(items, list) or len(items) > MAX_BASIS:
-        raise ValueError(f"{what} must be a list of at most {MAX_BASIS} blocks")
-    if not all(isinstance(g, dict) for g in items):
-        raise ValueError(f"{what}: every block must be an object with 'basis' and 'Q'")
     return [{"multiplies": k if factor is None else factor, "basis": g.get("basis"),
-             "Q": g.get("Q")} for k, g in enumerate(items)]  # fmt: skip
+             "Q": g.get("Q")} for k, g in enumerate(objects(items, what))]  # fmt: skip
 
 
 def _old_part(raw: dict[str, Any], variables: Any) -> dict[str, Any]:
@@ -112,11 +108,7 @@ def parts_of(cert: Any, n: int) -> dict[str, Any]:
                         for b in blocks]  # fmt: skip
     else:
         out["parts"] = [_old_part(cert, everything)]
-    parts = out["parts"]
-    if not isinstance(parts, list) or not parts or len(parts) > MAX_PARTS:
-        raise ValueError(f"parts must be a non-empty list of at most {MAX_PARTS} objects")
-    if not all(isinstance(p, dict) for p in parts):
-        raise ValueError("every part must be an object with 'variables' and 'grams'")
+    objects(out["parts"], "parts", MAX_PARTS, empty=False)
     return out
 
 

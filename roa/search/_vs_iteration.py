@@ -22,14 +22,11 @@ decrease identity at level 1 and ``V - eps y'y`` SOS; there is no beta step and 
 The previous V is feasible, so the mean never increases, and where V falls ``{V <= 1}`` grows (a
 proxy for its volume: the caller measures it). Candidates rank by beta, resp. by the mean.
 
-**Over a parameter box.** For a system with uncertain parameters, the decrease identity is imposed
-at each point of :func:`parameter_points` (the box's vertices when the field is affine in the
-parameters, since ``V'`` is then affine in them for a fixed ``V``; else the nominal values, the
-vertices and one interior point per axis), each with its own multiplier ``lambda_i`` and one common
-``V``: the gamma step takes the lowest level over the points, the V step keeps every identity. A
-seed that is not a Lyapunov function at the linearisation for some point is replaced by the box's
-common Lyapunov matrix (:func:`roa.search._box_lyapunov.box_lyapunov`). The candidates are proved
-for every parameter of the box by the caller's robust validator, never by this module.
+**Over a parameter box.** The decrease identity is imposed at each point of
+:func:`parameter_points`, each with its own multiplier ``lambda_i`` and one common ``V``: the gamma
+step takes the lowest level over the points, the V step keeps every identity; a seed that is not a
+Lyapunov function at some point's linearisation is replaced (:func:`_box_seed`). The caller's
+robust validator proves the candidates for every parameter of the box, never this module.
 
 Odd fields (``f(x_eq - d) = -f(x_eq + d)``) keep V, ``lambda``, ``lambda2`` even and split the Gram
 matrices in even/odd blocks (same optimum). Each round's V is a *candidate*: :func:`vs_search`
@@ -159,11 +156,7 @@ class _Problem:
         self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
         self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
         if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
-            raise ProgramTooLarge(
-                f"a V of degree {degree} in {self.nd} states has {len(self.vbasis)} coefficients, "
-                f"more than the {MAX_V_TERMS} searched here (its SOS programs would not fit in "
-                "memory): not built; use a lower degree or fewer states"
-            )
+            raise ProgramTooLarge(_too_many(degree, self.nd, f"{len(self.vbasis)}"))
         efy = max(sum(m) for p in self.fy for m in p)
         deg_vd = degree - 1 + efy
         if multiplier_degree is None:
@@ -330,10 +323,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
     # level search, which alone takes a while in tens of states
     even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
     if even > MAX_V_TERMS:
-        return none(SosStatus.TOO_LARGE, f"a V of degree {degree} in {system.n} states has at "
-                    f"least {even} coefficients, more than the {MAX_V_TERMS} searched here (its "
-                    "SOS programs would not fit in memory): not built; use a lower degree or "
-                    "fewer states")  # fmt: skip
+        return none(SosStatus.TOO_LARGE, _too_many(degree, system.n, f"at least {even}"))
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
     points, how = parameter_points(system)
     V0, reseeded = _box_seed(system, V0)
@@ -580,6 +570,12 @@ def _problems(systems: list[System], V0: QuadraticLyapunov, S: np.ndarray, degre
             "box: the V-s iteration over the box needs one polynomial structure"
         )
     return pbs
+
+
+def _too_many(degree: int, n: int, count: str) -> str:
+    return (f"a V of degree {degree} in {n} states has {count} coefficients, more than the "
+            f"{MAX_V_TERMS} searched here (its SOS programs would not fit in memory): not built; "
+            "use a lower degree or fewer states")  # fmt: skip
 
 
 def _failed(r: int, what: str, solver: str, spent: bool, budget: float | None,

@@ -177,8 +177,8 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         NotPolynomial,
         exact_terms,
         parse_basis,
-        parse_eps,
         parse_matrix,
+        parse_rational,
     )
 
     where = system.domain_description
@@ -208,7 +208,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             b1 = parse_basis(stored.get("basis1"), n, "domain basis1")
             Q0 = parse_matrix(stored.get("Q0"), len(b0), "domain Q0")
             Q1 = parse_matrix(stored.get("Q1"), len(b1), "domain Q1")
-            eps = parse_eps(stored.get("eps"))
+            eps = parse_rational(stored.get("eps"), "eps")
             grams = ((0, b0, Q0), (1, b1, Q1)) if b1 else ((0, b0, Q0),)
             res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps,
                                            Certificate(grams), stored=True)  # fmt: skip

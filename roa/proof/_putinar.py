@@ -149,10 +149,8 @@ class Certificate:
         naming what is malformed."""
         if not isinstance(raw, dict):
             raise ValueError("the certificate must be an object with 'grams' and 'free'")
-        raw_grams, raw_free = (
-            objects(raw.get("grams", []), "grams"),
-            objects(raw.get("free", []), "free"),
-        )
+        raw_grams = objects(raw.get("grams", []), "grams")
+        raw_free = objects(raw.get("free", []), "free")
         grams, cones = [], []
         for i, g in enumerate(raw_grams):
             k = g.get("multiplies", 0)
@@ -247,8 +245,11 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
         pivots.extend(piv)
         k = grams[i][0]
         name = block_name(k, sum(1 for g in grams[:i] if g[0] == k), count[k], names)
+        cone = (
+            "positive definite" if cert.cone(i) == "psd" else "strictly scaled diagonally dominant"
+        )
         return None if ok else ExactCheck(
-            False, f"{what} {name} is not {_what(cert.cone(i))} (exact)",
+            False, f"{what} {name} is not {cone} (exact)",
             None if residual is None else as_float(residual), as_float(min(piv)) if piv else None)  # fmt: skip
 
     for i, (k, basis, R) in enumerate(grams):  # the multipliers: kept as rounded
@@ -296,10 +297,6 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
     return ExactCheck(True, f"identity exact, {len(grams)} Gram blocks {how} (exact)",
                       as_float(residual), as_float(min(pivots)) if pivots else None, final,
                       meta)  # fmt: skip
-
-
-def _what(cone: Any) -> str:
-    return "positive definite" if cone == "psd" else "strictly scaled diagonally dominant"
 
 
 def check_level(data: Any, level: Any, eps: Any, cert: Certificate, *, rounded: bool = False

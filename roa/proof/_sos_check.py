@@ -319,11 +319,6 @@ def parse_rational(raw: Any, what: str) -> Fraction:
     return Fraction(int(num), int(den) if den else 1)
 
 
-def parse_eps(raw: Any) -> Fraction:
-    """The ``eps`` of a stored certificate (:func:`parse_rational`); ValueError otherwise."""
-    return parse_rational(raw, "eps")
-
-
 def as_float(x: Fraction) -> float:
     """``x`` as a float for reports (+-inf beyond the float range)."""
     try:

@@ -40,7 +40,7 @@ from roa.proof._reductions import IndependentBlocks, Rescale, box_json, check_pa
 from roa.proof._sos_check import (
     NotPolynomial,
     objects,
-    parse_eps,
+    parse_rational,
     preconditions,
     stored_scale,
 )
@@ -116,9 +116,9 @@ def _eps(part: dict[str, Any], top: Any) -> Fraction:
     """A part's ``eps``: its own or the top level's (both present: they must agree)."""
     own = part.get("eps")
     if own is None:
-        return parse_eps(top)
-    eps = parse_eps(own)
-    if top is not None and parse_eps(top) != eps:
+        return parse_rational(top, "eps")
+    eps = parse_rational(own, "eps")
+    if top is not None and parse_rational(top, "eps") != eps:
         raise ValueError("eps differs between the certificate and its part")
     return eps
 

@@ -121,9 +121,8 @@ class ParameterBox:
             mid, half = (low + high) / 2, (high - low) / 2
             w = sp.Dummy(f"w_{name}", real=True)
             ws.append(w)
-            subs[sp.Symbol(name, real=True)] = sp.Rational(mid.numerator, mid.denominator) + (
-                sp.Rational(half.numerator, half.denominator) * w
-            )
+            subs[sp.Symbol(name, real=True)] = (sp.Rational(mid.numerator, mid.denominator)
+                                                + sp.Rational(half.numerator, half.denominator) * w)  # fmt: skip
             params.append((name, low, high))
         return BoxVariables(over(system), tuple(ws), subs, tuple(params))
 

@@ -489,11 +489,9 @@ class Program:
     def solve(self, objective: Any, *, maximise: bool = True, options: dict[str, Any] | None = None,
               free_index: int | None = None, also: list[Program] | None = None,
               solver: str = "clarabel") -> tuple[bool, float | None, Poly | None]:  # fmt: skip
-        """Solve (:func:`solve`); ``(ok, objective value, free multiplier free_index as a
-        Poly)``. ``solver="auto"``: Clarabel when the largest block is at most
-        :data:`AUTO_SCS_BLOCK` (and fits the memory budget), else SCS (first-order, to 1e-6:
-        much faster on blocks of ~100 monomials; Clarabel's KKT systems grow with the cube of a
-        block's triangle)."""
+        """Solve (:func:`solve`, ``solver="auto"`` as there: SCS, first order, is much faster on
+        blocks of ~100 monomials, Clarabel's KKT systems growing with the cube of a block's
+        triangle); ``(ok, objective value, free multiplier free_index as a Poly)``."""
         res = solve(self.problem(objective, maximise=maximise, also=also), solver=solver,
                     options=options)  # fmt: skip
         self.solver, self.status = res.solver, res.status

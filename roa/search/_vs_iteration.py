@@ -274,11 +274,9 @@ class _Problem:
         for m, c in zip(self.vbasis, Vc, strict=True):
             if c != 0.0:
                 expr += float(c) * sp.Mul(*[y[i] ** m[i] for i in range(self.nd)])
-        poly = sp.Poly(sp.expand(expr), *d)
-        terms = [
-            (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
-        ]
-        V = PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
+        terms = [(m, float(c)) for m, c in sp.Poly(sp.expand(expr), *d).terms()
+                 if abs(float(c)) > 0 and sum(m) >= 2]  # fmt: skip
+        V = PolynomialLyapunov([m for m, _ in terms], [c for _, c in terms], self.center, name)
         attach_gram(V)  # a positive definite Gram matrix: the exact route's V >= mu |d|^2
         return V
 

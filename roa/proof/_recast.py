@@ -545,16 +545,11 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     order = taylor_order(radius) if taylor is None else int(taylor)
     if order % 2 == 0 or not 1 <= order <= MAX_TAYLOR:
         raise NotPolynomial(f"taylor must be odd, 1..{MAX_TAYLOR}, got {order}")
-    eqs: list[tuple[str, QPoly]] = []
-    ineqs: list[tuple[str, QPoly]] = []
-    for a, i in enumerate(angles):
-        r = None if bounds is None else bounds[a]
-        e, g = angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order, r)
-        eqs += e
-        ineqs += g
-    e, g = pf.root_constraints()
-    eqs += e
-    ineqs += g
+    pairs = [angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order,
+                               None if bounds is None else bounds[a])
+             for a, i in enumerate(angles)] + [pf.root_constraints()]  # fmt: skip
+    eqs = [h for e, _ in pairs for h in e]
+    ineqs = [g for _, gs in pairs for g in gs]
     params = pf.parameters
     ineqs += box_constraints(nv, params)
     pad = sc + (Fraction(1),) * (nv - n)

@@ -264,9 +264,7 @@ def sos_level(system: System, lyap: QuadraticLyapunov, *, recast_mode: str = "ex
     deg_vd = max(sum(m) for m in Vd)
     if multiplier_degree is None:
         multiplier_degree = 2 if deg_vd % 2 == 0 else 1
-    total = deg_vd + multiplier_degree
-    if total % 2:
-        total += 1
+    total = deg_vd + multiplier_degree + (deg_vd + multiplier_degree) % 2
     k = (total - 2) // 2
     dd = sum(x**2 for x in rc.d)  # whitened: d'd ~ V
     A = poly_of(sp.expand(dd**k * rc.V), gens)

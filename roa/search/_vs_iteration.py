@@ -157,12 +157,11 @@ class _Problem:
         self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
         if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
             raise ProgramTooLarge(_too_many(degree, self.nd, f"{len(self.vbasis)}"))
-        efy = max(sum(m) for p in self.fy for m in p)
-        deg_vd = degree - 1 + efy
-        if multiplier_degree is None:
-            multiplier_degree = 2 if deg_vd % 2 == 0 else 1
-        self.mlam = multiplier_degree
-        total = max(deg_vd + multiplier_degree, degree)
+        deg_vd = degree - 1 + max(sum(m) for p in self.fy for m in p)
+        self.mlam = (
+            (2 if deg_vd % 2 == 0 else 1) if multiplier_degree is None else multiplier_degree
+        )
+        total = max(deg_vd + self.mlam, degree)
         self.total = total + (total % 2)
         self.k = (self.total - degree) // 2
         self.k2 = self.D  # (y'y)^k2 (p - beta) + lambda2 (V - 1): lambda2 quadratic

@@ -157,9 +157,9 @@ def as_validator(obj: Any) -> Validator:
 
 def _preconditions(system: System, V: Lyapunov, level: float, route: Route) -> Preconditions:
     """:func:`roa.proof._preconditions.check_preconditions` for a fresh certificate (a Putinar
-    candidate of the domain containment proposed by :mod:`roa.search._sos_domain`)."""
+    candidate of the domain containment proposed by :mod:`roa.search._sos_program`)."""
     from roa.search._outside import domain_witness
-    from roa.search._sos_domain import propose_domain_certificate
+    from roa.search._sos_program import propose_domain_certificate
 
     with step(f"preconditions of level {level:.6g} ({route.name})"):
         return check_preconditions(system, V, level, route, propose=propose_domain_certificate,
@@ -261,7 +261,7 @@ class SosValidator(ValidatorBase):
     inconclusive (``fallback=False``, and :meth:`accepts` refuses it).
 
     When ``V`` and ``V'`` of a polynomial field split over independent blocks of variables
-    (:mod:`roa.proof._sos_blocks`: decoupled subsystems), each block gets its own certificate at the
+    (:mod:`roa.proof._reductions`: decoupled subsystems), each block gets its own certificate at the
     same level, which proves the whole. A coupled system whose dense program does not fit the
     memory budget (``route="auto"``; ``"sparse"`` forces it) gets the correlative-sparsity
     program instead (:func:`roa.search._sos_program.clique_pattern`: one Gram block per maximal clique of a chordal
@@ -403,7 +403,7 @@ class SosValidator(ValidatorBase):
                     recast: Any = None) -> Validation:  # fmt: skip
         """The certificate of the exact data ``data`` (in ``d`` or in rescaled variables; a
         recast's with ``recast`` its reduction and inverse): one part per independent block of
-        variables of a polynomial field (:func:`roa.proof._sos_blocks.blocks`), each proposed by
+        variables of a polynomial field (:func:`roa.proof._reductions.blocks`), each proposed by
         the program chosen once for it (:func:`roa.search._sos_program.route_for`) and proved by
         :func:`roa.proof._putinar.check_level`."""
         import resource

@@ -10,7 +10,7 @@ lie inside ``{margin > 0}``. Three tools, each independent of any solver:
 
   ``d = x - x_eq``, ``eps > 0``, ``Q0`` and ``Q1`` positive definite in exact rationals. Then on
   ``{V <= c}``: ``margin >= eps + lambda (c - V) >= eps > 0``. A fresh candidate (float Gram
-  matrices of :mod:`roa.search._sos_domain`) is rounded and ``Q0`` projected onto the identity
+  matrices of :mod:`roa.search._sos_program`) is rounded and ``Q0`` projected onto the identity
   (Peyrl-Parrilo: :func:`roa.proof._putinar.check_identity`, the one exact check); a stored one is checked exactly as stored.
 * :func:`interval_containment`: an interval branch and bound over a proved cover of the set
   (:func:`roa.proof.prove_cover`): every box has ``V > c`` or ``margin > 0`` (outward

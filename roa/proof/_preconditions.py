@@ -34,7 +34,7 @@ of the region of attraction only when, in addition (:data:`PRECONDITIONS`):
   without this proof.
 
 :func:`check_preconditions` is called by every validator (:mod:`roa.certification._strategies`)
-and every re-check of a stored certificate (:func:`roa.proof._sos_blocks.recheck`). It proves
+and every re-check of a stored certificate (:func:`roa.proof._sos_stored.recheck`). It proves
 nothing numerical itself beyond the domain; the search of a Putinar candidate is injected
 (``propose``) so that this module, like all of :mod:`roa.proof`, calls no solver.
 """
@@ -115,7 +115,7 @@ def check_preconditions(
     re-checked exactly as stored); ``recheck``: a stored certificate is being re-checked (no
     solver: without a stored domain certificate the containment is proved by intervals);
     ``propose(margin, Vq, n, level)``: the search of a Putinar candidate
-    (:func:`roa.search._sos_domain.propose_domain_certificate`) for a fresh certificate;
+    (:func:`roa.search._sos_program.propose_domain_certificate`) for a fresh certificate;
     ``find_outside(system, V) -> (value, x, check) | None``: the search of a point of the set
     outside the domain (:func:`roa.search._outside.domain_witness`), whose ``x`` refutes the
     levels from ``V(x)`` up once proved here (:func:`roa.proof._domain.confirmed_outside`);
@@ -177,8 +177,8 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
         NotPolynomial,
         exact_terms,
         parse_basis,
-        parse_eps,
         parse_matrix,
+        parse_rational,
     )
 
     where = system.domain_description
@@ -208,7 +208,7 @@ def _domain(system: System, V: Lyapunov, level: float, route: Route, stored: Any
             b1 = parse_basis(stored.get("basis1"), n, "domain basis1")
             Q0 = parse_matrix(stored.get("Q0"), len(b0), "domain Q0")
             Q1 = parse_matrix(stored.get("Q1"), len(b1), "domain Q1")
-            eps = parse_eps(stored.get("eps"))
+            eps = parse_rational(stored.get("eps"), "eps")
             grams = ((0, b0, Q0), (1, b1, Q1)) if b1 else ((0, b0, Q0),)
             res = check_domain_certificate(margin_poly(system, V), exact_terms(V), n, level, eps,
                                            Certificate(grams), stored=True)  # fmt: skip

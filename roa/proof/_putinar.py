@@ -52,6 +52,7 @@ from roa.proof._sos_check import (
     is_symmetric,
     matrix_digest,
     norm_power,
+    objects,
     parse_basis,
     parse_matrix,
     parse_rational,
@@ -148,14 +149,10 @@ class Certificate:
         naming what is malformed."""
         if not isinstance(raw, dict):
             raise ValueError("the certificate must be an object with 'grams' and 'free'")
-        for key in ("grams", "free"):
-            items = raw.get(key, [])
-            if not isinstance(items, list) or len(items) > MAX_BASIS:
-                raise ValueError(f"{key} must be a list of at most {MAX_BASIS} objects")
-            if not all(isinstance(item, dict) for item in items):
-                raise ValueError(f"{key}: every entry must be an object")
+        raw_grams = objects(raw.get("grams", []), "grams")
+        raw_free = objects(raw.get("free", []), "free")
         grams, cones = [], []
-        for i, g in enumerate(raw.get("grams", [])):
+        for i, g in enumerate(raw_grams):
             k = g.get("multiplies", 0)
             if type(k) is not int or not 0 <= k <= MAX_BASIS:
                 raise ValueError(f"grams[{i}].multiplies must be a factor index >= 0")
@@ -170,7 +167,7 @@ class Certificate:
             cones.append("psd" if w is None else tuple(
                 parse_rational(v, f"grams[{i}].scaling[{j}]") for j, v in enumerate(w)))  # fmt: skip
         free = []
-        for i, f in enumerate(raw.get("free", [])):
+        for i, f in enumerate(raw_free):
             basis = parse_basis(f.get("basis"), nv, f"free[{i}].basis")
             coeffs = f.get("coeffs")
             if not isinstance(coeffs, list) or len(coeffs) != len(basis):
@@ -238,24 +235,32 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
             round_matrix([[float(v)]])[0][0] for v in coeffs]  # fmt: skip
         free.append((list(basis), cs))
     count = {k: sum(1 for g in grams if g[0] == k) for k, _, _ in grams}
-    index = {i: sum(1 for g in grams[:i] if g[0] == grams[i][0]) for i in range(len(grams))}
     pivots: list[Fraction] = []
     proved: dict[int, Any] = {}  # block -> its cone as proved (an SDD block: its scaling)
+
+    def refused(i: int, R: Matrix, what: str, residual: Fraction | None = None
+                ) -> ExactCheck | None:  # fmt: skip
+        """None when block ``i`` (as ``R``) is proved definite, else the refusal."""
+        ok, piv, proved[i] = _definite(R, cert.cone(i))
+        pivots.extend(piv)
+        k = grams[i][0]
+        name = block_name(k, sum(1 for g in grams[:i] if g[0] == k), count[k], names)
+        cone = (
+            "positive definite" if cert.cone(i) == "psd" else "strictly scaled diagonally dominant"
+        )
+        return None if ok else ExactCheck(
+            False, f"{what} {name} is not {cone} (exact)",
+            None if residual is None else as_float(residual), as_float(min(piv)) if piv else None)  # fmt: skip
+
     for i, (k, basis, R) in enumerate(grams):  # the multipliers: kept as rounded
         if k == 0:
             continue
-        ok, piv, proved[i] = _definite(R, cert.cone(i))
-        pivots += piv
-        if not ok:
-            return ExactCheck(False, f"the Gram matrix of {block_name(k, index[i], count[k], names)}"
-                              f" is not {_what(cert.cone(i))} (exact)",
-                              min_pivot=as_float(min(piv)) if piv else None)  # fmt: skip
-        target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(gram_poly(basis, R),
-                                                                         times[k])))  # fmt: skip
+        if (no := refused(i, R, "the Gram matrix of")) is not None:
+            return no
+        target = poly_lin((Fraction(1), target),
+                          (Fraction(-1), poly_mul(gram_poly(basis, R), times[k])))  # fmt: skip
     for (basis, cs), h in zip(free, equalities, strict=True):
-        mu: QPoly = {}
-        for b, v in zip(basis, cs, strict=True):
-            mu[b] = mu.get(b, Fraction(0)) + v
+        mu = poly_lin(*((v, {b: Fraction(1)}) for b, v in zip(basis, cs, strict=True)))
         target = poly_lin((Fraction(1), target), (Fraction(-1), poly_mul(mu, h)))
     zero = tuple([0] * nv)
     for e, (basis, cs) in enumerate(free if not rounded else []):  # fresh: a circle's linear
@@ -275,35 +280,23 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
         return ExactCheck(False, why, None if residual is None else as_float(residual))
     assert residual is not None
     zeros = [i for i, g in enumerate(grams) if g[0] == 0]
-    for j, (i, Pb) in enumerate(zip(zeros, P, strict=True)):
-        ok, piv, proved[i] = _definite(Pb, cert.cone(i))
-        pivots += piv
-        if not ok:
-            return ExactCheck(False, f"the projected Gram matrix {block_name(0, j, len(P), names)}"
-                              f" is not {_what(cert.cone(i))} (exact)", as_float(residual),
-                              as_float(min(piv)) if piv else None)  # fmt: skip
+    for i, Pb in zip(zeros, P, strict=True):
+        if (no := refused(i, Pb, "the projected Gram matrix", residual)) is not None:
+            return no
     it = iter(P)
     cones = tuple(proved[i] for i in range(len(grams)))
     final = Certificate(tuple((k, basis, next(it) if k == 0 else R) for k, basis, R in grams),
                         tuple(free), cones if any(c != "psd" for c in cones) else ())  # fmt: skip
     scalings = [list(c) for c in cones if c != "psd"]
-    meta = {
-        "digest": matrix_digest(
-            *[R for _, _, R in final.grams],
-            *([[[v] for _, cs in free for v in cs]] if free else []),
-            *([scalings] if scalings else []),
-        )
-    }
+    meta = {"digest": matrix_digest(*[R for _, _, R in final.grams],
+                                    *([[[v] for _, cs in free for v in cs]] if free else []),
+                                    *([scalings] if scalings else []))}  # fmt: skip
     dd = len(scalings)
     how = (f"{len(grams) - dd} positive definite, {dd} strictly scaled diagonally dominant"
            if dd else "positive definite")  # fmt: skip
     return ExactCheck(True, f"identity exact, {len(grams)} Gram blocks {how} (exact)",
                       as_float(residual), as_float(min(pivots)) if pivots else None, final,
                       meta)  # fmt: skip
-
-
-def _what(cone: Any) -> str:
-    return "positive definite" if cone == "psd" else "strictly scaled diagonally dominant"
 
 
 def check_level(data: Any, level: Any, eps: Any, cert: Certificate, *, rounded: bool = False

@@ -84,6 +84,7 @@ from roa.proof._sos_check import (
     NotPolynomial,
     QPoly,
     exact_fraction,
+    exact_terms,
     poly_lin,
     poly_mul,
     preconditions,
@@ -335,19 +336,24 @@ def level_scale(V: Any, level: float) -> tuple[Fraction, ...]:
     import numpy as np
 
     n = int(V.n)
-    P = np.zeros((n, n))
-    for m, c in (V.polynomial_view() or {}).items():
-        if sum(m) == 2:
-            idx = [i for i in range(n) for _ in range(m[i])]
-            P[idx[0], idx[1]] += float(c) / (1 if idx[0] == idx[1] else 2)
-            if idx[0] != idx[1]:
-                P[idx[1], idx[0]] += float(c) / 2
+    P = np.array(_quadratic_part(exact_terms(V), n), dtype=float)
     try:
         ext = np.sqrt(np.maximum(level * np.diag(np.linalg.inv(P)), 1e-12))
     except np.linalg.LinAlgError:
         return tuple([Fraction(1)] * n)
     return tuple(Fraction(2) ** int(np.ceil(np.log2(e))) if np.isfinite(e) else Fraction(1)
                  for e in ext)  # fmt: skip
+
+
+def _quadratic_part(terms: QPoly, n: int) -> list[list[Fraction]]:
+    """The symmetric ``P`` of the quadratic terms of ``terms`` (``d'Pd``)."""
+    P = [[Fraction(0)] * n for _ in range(n)]
+    for m, v in terms.items():
+        if sum(m) == 2:
+            i, j = [k for k in range(n) for _ in range(m[k])]
+            P[i][j] += v if i == j else v / 2
+            P[j][i] += 0 if i == j else v / 2
+    return P
 
 
 def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
@@ -362,15 +368,9 @@ def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
     from roa.proof._exact import exact_positive_definite
 
     n, c = int(V.n), Fraction(level)
-    poly = V.polynomial_view() or {}
-    terms = {tuple(int(k) for k in m): exact_fraction(v) for m, v in poly.items() if v != 0}
+    terms = exact_terms(V)
     if all(sum(m) == 2 for m in terms):
-        P = [[Fraction(0)] * n for _ in range(n)]
-        for m, v in terms.items():
-            idx = [j for j in range(n) for _ in range(m[j])]
-            P[idx[0]][idx[1]] += v if idx[0] == idx[1] else v / 2
-            if idx[0] != idx[1]:
-                P[idx[1]][idx[0]] += v / 2
+        P = _quadratic_part(terms, n)
         if exact_positive_definite(P)[0]:
             import sympy as sp
 
@@ -523,8 +523,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
         box = ParameterBox().apply(system)
     pf = polynomial_field(system, center, box=box)
     gens, nv, nz, angles = pf.gens, len(pf.gens), pf.nz, pf.angles
-    Vq: QPoly = {tuple(int(k) for k in a) + (0,) * (nv - n): exact_fraction(c)
-                 for a, c in terms.items() if c != 0}  # fmt: skip
+    Vq: QPoly = {m + (0,) * (nv - n): c for m, c in exact_terms(V).items()}
     Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
                            *gens, domain="QQ")  # fmt: skip
     Np = sp.Poly(0, *gens, domain="QQ")
@@ -546,16 +545,11 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     order = taylor_order(radius) if taylor is None else int(taylor)
     if order % 2 == 0 or not 1 <= order <= MAX_TAYLOR:
         raise NotPolynomial(f"taylor must be odd, 1..{MAX_TAYLOR}, got {order}")
-    eqs: list[tuple[str, QPoly]] = []
-    ineqs: list[tuple[str, QPoly]] = []
-    for a, i in enumerate(angles):
-        r = None if bounds is None else bounds[a]
-        e, g = angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order, r)
-        eqs += e
-        ineqs += g
-    e, g = pf.root_constraints()
-    eqs += e
-    ineqs += g
+    pairs = [angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order,
+                               None if bounds is None else bounds[a])
+             for a, i in enumerate(angles)] + [pf.root_constraints()]  # fmt: skip
+    eqs = [h for e, _ in pairs for h in e]
+    ineqs = [g for _, gs in pairs for g in gs]
     params = pf.parameters
     ineqs += box_constraints(nv, params)
     pad = sc + (Fraction(1),) * (nv - n)
@@ -565,19 +559,11 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     Lq = scaled({tuple(m): exact_fraction(c) for m, c in pf.Lpos.terms() if c != 0}, pad)
     root_data = tuple((gens.index(u), t0, scaled(b, pad)) for u, t0, b, _ in pf.roots)
     den = pf.denominator
-    desc = ", ".join(
-        [f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]
-        + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in pf.roots]
-    ) or ("polynomial (no recast)" if params else "")
-    desc = "; ".join(
-        x
-        for x in (
-            desc,
-            f"V' multiplied by {den} > 0" if den != "1" else "",
-            f"for every {describe(params)}" if params else "",
-        )
-        if x
-    )
+    desc = ", ".join([f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]
+                     + [f"sqrt({_pretty(b, gens)}) -> {t0} + {u}" for u, t0, b, _ in pf.roots]
+                     ) or ("polynomial (no recast)" if params else "")  # fmt: skip
+    desc = "; ".join(x for x in (desc, f"V' multiplied by {den} > 0" if den != "1" else "",
+                                 f"for every {describe(params)}" if params else "") if x)  # fmt: skip
     return RecastData(n, nv, tuple(str(g) for g in gens), center, Vq, Nq, low, tuple(angles),
                       order, sc, None if bounds is None else Fraction(level), tuple(eqs),
                       tuple(ineqs), den, desc or "polynomial (no recast)", Lq,

@@ -17,9 +17,9 @@ Of the problem ``(system, V, level)``:
 
 Of exact data (:class:`roa.proof._sos_check.ExactData`):
 
-* :class:`IndependentBlocks`: ``V`` and ``V'`` split over disjoint sets of variables
-  (:mod:`roa.proof._sos_blocks` proves that the blocks' certificates at one level prove the
-  whole); one part per block, naming its variables.
+* :class:`IndependentBlocks`: ``V`` and ``V'`` split over disjoint sets of variables (the
+  claim below: the blocks' certificates at one level prove the whole); one part per block,
+  naming its variables.
 * :class:`Rescale`: the variables ``d = diag(scale) y`` with positive rationals (a bijection;
   ``eps |y|^2k > 0`` for ``d != 0``), only to balance the program; the stored certificate
   carries ``scale``.
@@ -48,28 +48,35 @@ of ``z``, and nothing else about them is assumed). The field evaluated in sympy 
 uncertain parameter as a real symbol (:class:`roa.model._parameters.RangeField`); the fixed parameters
 are floats taken as their exact rationals. ``f(x_eq, p) = 0`` must hold identically in ``p``. The
 box is read from the system (never from a certificate file).
+
+**Independent blocks** (:func:`blocks`, :func:`restrict`; correlative sparsity, decoupled case).
+Let the exact data of :mod:`roa.proof._sos_check` split over disjoint sets of variables
+``I_1, ..., I_m`` (in ``d = x - x_eq``): every monomial of ``V`` and of ``V'`` has its variables in
+one ``I_j``, and neither has a constant term. Then ``V = sum_j V_j(d_j)`` and
+``V' = sum_j W_j(d_j)``. If ``V >= mu |d|^2`` (the caller's Gram cover), each ``V_j >= mu |d_j|^2``
+(the other blocks set to 0). If, for every ``j``, ``W_j < 0`` on ``{V_j <= c}`` minus ``d_j = 0``
+(the block's own SOS certificate, checked exactly), then ``V' < 0`` on ``{V <= c}`` minus
+``d = 0``: on ``{V <= c}`` each ``V_j(d_j) <= V(d) <= c`` since the others are ``>= 0``, each
+``W_j(d_j) < 0`` where ``d_j != 0`` and ``W_j(0) = 0``, and ``d != 0`` has a block with
+``d_j != 0``. ``W_j`` need not be ``V_j``'s own derivative: the argument uses only the split.
+
+The blocks are the connected components of the graph on the variables that joins two variables
+when they occur in one monomial of ``V`` or ``V'``.
+Coupled systems have one block, and nothing changes; decoupled copies of a system have one per copy,
+so their Gram matrices are as small as one copy's. A connected but sparse graph is handled by
+the chordal cliques of :func:`roa.search._sos_program.clique_pattern` (checked by :mod:`roa.proof._putinar`), for the
+whole or for a block.
 """
 
 from __future__ import annotations
 
+import itertools
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from fractions import Fraction
-from typing import Any, Protocol
+from typing import Any
 
-from roa.proof._sos_blocks import Block, blocks, restrict
 from roa.proof._sos_check import ExactData, Mono, NotPolynomial, QPoly, scale_data
-
-
-class Reduction(Protocol):
-    """A reduction of exact SOS data (module docstring)."""
-
-    def accepts(self, data: ExactData) -> bool: ...
-
-    def apply(self, data: ExactData) -> tuple[list[ExactData], Any]: ...
-
-    def invert(self, parts: list[dict[str, Any]], inverse: Any) -> dict[str, Any]: ...
-
 
 #: Names of the recast's own variables: a parameter named like one of them is refused.
 _RESERVED = re.compile(r"[xdsqu]\d+")
@@ -114,9 +121,8 @@ class ParameterBox:
             mid, half = (low + high) / 2, (high - low) / 2
             w = sp.Dummy(f"w_{name}", real=True)
             ws.append(w)
-            subs[sp.Symbol(name, real=True)] = sp.Rational(mid.numerator, mid.denominator) + (
-                sp.Rational(half.numerator, half.denominator) * w
-            )
+            subs[sp.Symbol(name, real=True)] = (sp.Rational(mid.numerator, mid.denominator)
+                                                + sp.Rational(half.numerator, half.denominator) * w)  # fmt: skip
             params.append((name, low, high))
         return BoxVariables(over(system), tuple(ws), subs, tuple(params))
 
@@ -149,10 +155,82 @@ def box_json(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> dict[str
     return {k: [str(lo), str(hi)] for k, lo, hi in parameters}
 
 
+Block = tuple[int, ...]
+
+
+def blocks(data: ExactData) -> list[Block]:
+    """The variable blocks of ``data`` (sorted, covering ``range(n)``); one block when coupled or
+    when ``V`` or ``V'`` has a constant term."""
+    zero = tuple([0] * data.n)
+    if data.V.get(zero, 0) or data.Vdot.get(zero, 0):
+        return [tuple(range(data.n))]
+    return components(graph(range(data.n), (data.V, data.Vdot)))
+
+
+def graph(nodes: Any, polys: Any) -> Any:
+    """The graph (networkx) on ``nodes`` joining two variables of one monomial (nonzero
+    coefficient) of ``polys``."""
+    import networkx as nx
+
+    G = nx.Graph()
+    G.add_nodes_from(nodes)
+    for poly in polys:
+        for m, c in poly.items():
+            if c:
+                G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
+    return G
+
+
+def components(G: Any) -> list[Block]:
+    """The connected components of the graph ``G``, each sorted, in order of least variable."""
+    import networkx as nx
+
+    return sorted(tuple(sorted(int(i) for i in c)) for c in nx.connected_components(G))
+
+
+def restrict(data: ExactData, block: Block) -> ExactData:
+    """The data of one block: ``V_j`` and ``W_j`` in the block's variables (in its order).
+
+    Raises ``ValueError`` if a monomial of ``V`` or ``V'`` touches the block and another variable
+    (``block`` is then not a union of blocks)."""
+    inside = set(block)
+
+    def part(poly: QPoly) -> QPoly:
+        out: QPoly = {}
+        for m, c in poly.items():
+            support = {i for i, k in enumerate(m) if k}
+            if not c or not support & inside:
+                continue
+            if not support <= inside:
+                raise ValueError(f"monomial {m} couples block {list(block)} to other variables")
+            out[tuple(m[i] for i in block)] = c
+        return out
+
+    V, W = part(data.V), part(data.Vdot)
+    low = min((sum(m) for m in W), default=0)
+    center = tuple(data.center[i] for i in block)
+    return replace(data, n=len(block), center=center, V=V, Vdot=W, low=low)
+
+
+def check_partition(parts: Any, n: int) -> list[Block]:
+    """Stored blocks as a partition of ``range(n)`` (``ValueError`` unless disjoint and covering)."""
+    if not isinstance(parts, list) or not parts:
+        raise ValueError("blocks must be a non-empty list of variable lists")
+    out: list[Block] = []
+    for p in parts:
+        if not (isinstance(p, list) and p and all(type(i) is int and 0 <= i < n for i in p)):
+            raise ValueError(f"every block must be a non-empty list of variable indices < {n}")
+        out.append(tuple(p))
+    flat = sorted(i for p in out for i in p)
+    if flat != list(range(n)):
+        raise ValueError("blocks must cover every variable exactly once")
+    return out
+
+
 @dataclass(frozen=True)
 class IndependentBlocks:
-    """One problem per block of variables (:func:`roa.proof._sos_blocks.blocks`), or the blocks
-    ``given`` (a stored partition: :func:`roa.proof._sos_blocks.restrict` refuses one that a
+    """One problem per block of variables (:func:`blocks`), or the blocks
+    ``given`` (a stored partition: :func:`restrict` refuses one that a
     monomial couples)."""
 
     given: tuple[Block, ...] | None = None

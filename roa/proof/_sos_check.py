@@ -319,17 +319,23 @@ def parse_rational(raw: Any, what: str) -> Fraction:
     return Fraction(int(num), int(den) if den else 1)
 
 
-def parse_eps(raw: Any) -> Fraction:
-    """The ``eps`` of a stored certificate (:func:`parse_rational`); ValueError otherwise."""
-    return parse_rational(raw, "eps")
-
-
 def as_float(x: Fraction) -> float:
     """``x`` as a float for reports (+-inf beyond the float range)."""
     try:
         return float(x)
     except OverflowError:
         return float("inf") if x > 0 else float("-inf")
+
+
+def objects(raw: Any, what: str, limit: int = MAX_BASIS, *, empty: bool = True) -> list[Any]:
+    """``raw`` as a stored list of at most ``limit`` objects (non-empty unless ``empty``);
+    ValueError naming ``what`` otherwise."""
+    if not isinstance(raw, list) or len(raw) > limit or not (raw or empty):
+        raise ValueError(f"{what} must be a {'' if empty else 'non-empty '}list of at most {limit} "
+                         "objects")  # fmt: skip
+    if not all(isinstance(item, dict) for item in raw):
+        raise ValueError(f"{what}: every entry must be an object")
+    return raw
 
 
 def parse_basis(raw: Any, n: int, what: str) -> list[Mono]:
@@ -370,14 +376,15 @@ def scale_data(data: ExactData, scale: tuple[Fraction, ...]) -> ExactData:
                      data.low)  # fmt: skip
 
 
-def stored_scale(cert: Any, n: int) -> tuple[Fraction, ...] | None:
-    """The ``scale`` of a stored certificate (``n`` positive rationals), None when absent;
-    ValueError when malformed."""
+def stored_scale(cert: Any, n: int, *, chars: int = MAX_DIGITS) -> tuple[Fraction, ...] | None:
+    """The ``scale`` of a stored certificate (``n`` positive rationals of at most ``chars``
+    characters), None when absent; ValueError when malformed."""
     raw = cert.get("scale") if isinstance(cert, dict) else None
     if raw is None:
         return None
-    if not isinstance(raw, list) or len(raw) != n:
-        raise ValueError(f"scale must be a list of {n} positive rationals")
+    if not isinstance(raw, list) or len(raw) != n or any(len(str(r)) > chars for r in raw):
+        raise ValueError(f"scale must be a list of {n} positive rationals (at most {chars} "
+                         "characters each)")  # fmt: skip
     scale = tuple(parse_rational(r, f"scale[{i}]") for i, r in enumerate(raw))
     if not all(r > 0 for r in scale):
         raise ValueError("scale must be positive rationals")

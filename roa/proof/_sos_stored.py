@@ -9,7 +9,7 @@
 Each part is a Putinar certificate (:class:`roa.proof._putinar.Certificate`) of the variables it
 names: one part over every variable (dense: one block per factor; correlative cliques: several
 blocks per factor), or several parts partitioning the variables (independent blocks,
-:mod:`roa.proof._sos_blocks`). ``eps`` may sit at the top level of the validation instead (one
+:mod:`roa.proof._reductions`). ``eps`` may sit at the top level of the validation instead (one
 value for every part; both present must agree). ``scale`` (optional): the identity is in ``y``
 with ``d = diag(scale) y``. ``taylor`` marks a recast field or a parameter box: the recast
 (:func:`roa.proof._recast.recast_exact`) is recomputed from the system with this Taylor order and
@@ -36,12 +36,10 @@ import numpy as np
 from roa.proof._preconditions import Route, check_preconditions
 from roa.proof._putinar import Certificate, check_level
 from roa.proof._recast import Recast
-from roa.proof._reductions import IndependentBlocks, Rescale, box_json
-from roa.proof._sos_blocks import check_partition
+from roa.proof._reductions import IndependentBlocks, Rescale, box_json, check_partition
 from roa.proof._sos_check import (
-    MAX_BASIS,
     NotPolynomial,
-    parse_eps,
+    objects,
     parse_rational,
     preconditions,
     stored_scale,
@@ -62,19 +60,10 @@ def part_json(variables: list[int], cert: Certificate, eps: Fraction | None = No
     return {**out, **cert.to_json(), **extra}
 
 
-def _grams(items: Any, factor: int, what: str) -> list[dict[str, Any]]:
-    if not isinstance(items, list) or len(items) > MAX_BASIS:
-        raise ValueError(f"{what} must be a list of at most {MAX_BASIS} blocks")
-    if not all(isinstance(g, dict) for g in items):
-        raise ValueError(f"{what}: every block must be an object with 'basis' and 'Q'")
-    return [{"multiplies": factor, "basis": g.get("basis"), "Q": g.get("Q")} for g in items]
-
-
-def _dense(raw: dict[str, Any]) -> list[dict[str, Any]]:
-    grams = [{"multiplies": 0, "basis": raw.get("basis0"), "Q": raw.get("Q0")}]
-    if raw.get("basis1"):
-        grams.append({"multiplies": 1, "basis": raw.get("basis1"), "Q": raw.get("Q1") or []})
-    return grams
+def _grams(items: Any, what: str, factor: int | None = None) -> list[dict[str, Any]]:
+    """Old-form Gram blocks as ``grams`` entries, each multiplying ``factor`` (None: its index)."""
+    return [{"multiplies": k if factor is None else factor, "basis": g.get("basis"),
+             "Q": g.get("Q")} for k, g in enumerate(objects(items, what))]  # fmt: skip
 
 
 def _old_part(raw: dict[str, Any], variables: Any) -> dict[str, Any]:
@@ -83,9 +72,11 @@ def _old_part(raw: dict[str, Any], variables: Any) -> dict[str, Any]:
         s = raw["sum"]
         if not isinstance(s, dict):
             raise ValueError("the sum certificate must be an object with 'sigma' and 'lambda'")
-        grams = _grams(s.get("sigma"), 0, "sigma") + _grams(s.get("lambda"), 1, "lambda")
-    else:
-        grams = _dense(raw)
+        grams = _grams(s.get("sigma"), "sigma", 0) + _grams(s.get("lambda"), "lambda", 1)
+    else:  # dense: basis0/Q0, basis1/Q1
+        grams = [{"multiplies": 0, "basis": raw.get("basis0"), "Q": raw.get("Q0")}]
+        if raw.get("basis1"):
+            grams.append({"multiplies": 1, "basis": raw.get("basis1"), "Q": raw.get("Q1") or []})
     part: dict[str, Any] = {"variables": variables, "grams": grams, "free": []}
     if "eps" in raw:
         part["eps"] = raw["eps"]
@@ -105,14 +96,8 @@ def parts_of(cert: Any, n: int) -> dict[str, Any]:
         p = cert["putinar"]
         if not isinstance(p, dict):
             raise ValueError("no constrained certificate in the file")
-        grams = p.get("grams", [])
-        if not isinstance(grams, list) or len(grams) > MAX_BASIS:
-            raise ValueError(f"putinar.grams must be a list of at most {MAX_BASIS} objects")
-        if not all(isinstance(g, dict) for g in grams):
-            raise ValueError("putinar.grams: every entry must be an object")
         out["parts"] = [{"variables": everything, "free": p.get("free", []),
-                         "grams": [{"multiplies": k, "basis": g.get("basis"), "Q": g.get("Q")}
-                                   for k, g in enumerate(grams)]}]  # fmt: skip
+                         "grams": _grams(p.get("grams", []), "putinar.grams")}]  # fmt: skip
         if "taylor" not in out:
             raise ValueError("taylor (an odd integer) and scale (rationals) are required")
     elif "blocks" in cert:  # independent blocks of variables
@@ -123,11 +108,7 @@ def parts_of(cert: Any, n: int) -> dict[str, Any]:
                         for b in blocks]  # fmt: skip
     else:
         out["parts"] = [_old_part(cert, everything)]
-    parts = out["parts"]
-    if not isinstance(parts, list) or not parts or len(parts) > MAX_PARTS:
-        raise ValueError(f"parts must be a non-empty list of at most {MAX_PARTS} objects")
-    if not all(isinstance(p, dict) for p in parts):
-        raise ValueError("every part must be an object with 'variables' and 'grams'")
+    objects(out["parts"], "parts", MAX_PARTS, empty=False)
     return out
 
 
@@ -135,9 +116,9 @@ def _eps(part: dict[str, Any], top: Any) -> Fraction:
     """A part's ``eps``: its own or the top level's (both present: they must agree)."""
     own = part.get("eps")
     if own is None:
-        return parse_eps(top)
-    eps = parse_eps(own)
-    if top is not None and parse_eps(top) != eps:
+        return parse_rational(top, "eps")
+    eps = parse_rational(own, "eps")
+    if top is not None and parse_rational(top, "eps") != eps:
         raise ValueError("eps differs between the certificate and its part")
     return eps
 
@@ -181,14 +162,9 @@ def _recheck(system: Any, V: Any, level: float, meta: dict[str, Any]) -> Validat
         parts = form["parts"]
         what = "sparse " if "cliques" in parts[0] else ""
         if "taylor" in form:  # a recast field or a parameter box: one part, every state
-            taylor, raw_scale = form.get("taylor"), form.get("scale")
-            if type(taylor) is not int or not isinstance(raw_scale, list):
+            taylor, scale = form.get("taylor"), stored_scale(form, n, chars=100)
+            if type(taylor) is not int or scale is None:
                 raise ValueError("taylor (an odd integer) and scale (rationals) are required")
-            if len(raw_scale) != n or any(len(str(r)) > 100 for r in raw_scale):
-                raise ValueError(f"scale must hold {n} rationals of at most 100 characters")
-            scale = tuple(parse_rational(r, f"scale[{i}]") for i, r in enumerate(raw_scale))
-            if not all(s > 0 for s in scale):
-                raise ValueError("scale must be positive rationals like '1/4'")
             if len(parts) != 1 or parts[0].get("variables") != list(range(n)):
                 raise ValueError("a recast certificate has one part over every state")
             try:

@@ -79,15 +79,10 @@ class SampleSearchResult:
     message: str = ""
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "method": "sampled cutting planes (cvxpy + Clarabel)",
-            "degree": self.degree,
-            "converged": self.converged,
-            "rounds": [r.to_dict() for r in self.rounds],
-            "seconds": round(self.seconds, 3),
-            "sizes": self.sizes,
-            "message": self.message,
-        }
+        return {"method": "sampled cutting planes (cvxpy + Clarabel)", "degree": self.degree,
+                "converged": self.converged, "rounds": [r.to_dict() for r in self.rounds],
+                "seconds": round(self.seconds, 3), "sizes": self.sizes,
+                "message": self.message}  # fmt: skip
 
 
 def monomials(n: int, degrees: Any) -> np.ndarray:
@@ -347,14 +342,8 @@ def _odd(system: System, center: np.ndarray, M: np.ndarray) -> bool:
     return bool(ok.any() and np.allclose(a[ok], -b[ok], rtol=1e-9, atol=1e-12))
 
 
-def sample_search(
-    system: System,
-    V0: QuadraticLyapunov,
-    *,
-    hard: Any = None,
-    soft: Any = None,
-    options: SampleSearchOptions | None = None,
-) -> SampleSearchResult:
+def sample_search(system: System, V0: QuadraticLyapunov, *, hard: Any = None, soft: Any = None,
+                  options: SampleSearchOptions | None = None) -> SampleSearchResult:  # fmt: skip
     """A polynomial Lyapunov candidate of degree ``options.degree`` by sampled cutting planes.
 
     Parameters
@@ -388,15 +377,11 @@ def sample_search(
     n = pb.n
     H = _points(pb, hard, "hard")
     if soft is None:
-        g = rng.standard_normal((o.soft_points, n))
-        g *= (rng.random(o.soft_points) ** (1 / n) / np.linalg.norm(g, axis=1))[:, None]
-        Sy = o.grow * g
+        Sy = o.grow * _ball(rng, o.soft_points, n)
     else:
         Sy = _points(pb, soft, "soft")
     # first cut points: the hard targets and the seed's unit ball
-    g = rng.standard_normal((o.initial_cuts, n))
-    g *= (rng.random(o.initial_cuts) ** (1 / n) / np.linalg.norm(g, axis=1))[:, None]
-    S = np.vstack([H, g])
+    S = np.vstack([H, _ball(rng, o.initial_cuts, n)])
     S = S[np.sum(S * S, axis=1) > 1e-10]
     S = S[np.all(np.isfinite(pb.rows(S)), axis=1)]
     sizes = {"variables": n, "degree": o.degree, "coefficients": len(pb.basis.E),
@@ -437,6 +422,12 @@ def sample_search(
         message = f"{o.rounds} rounds; violators remain (the validation decides)"
     return SampleSearchResult(o.degree, V, converged, rounds, time.perf_counter() - t0, sizes,
                               message)  # fmt: skip
+
+
+def _ball(rng: np.random.Generator, k: int, n: int) -> np.ndarray:
+    """``k`` uniform points of the unit ball in ``n`` dimensions."""
+    g = rng.standard_normal((k, n))
+    return np.asarray(g * (rng.random(k) ** (1 / n) / np.linalg.norm(g, axis=1))[:, None])
 
 
 def _points(pb: _Problem, X: Any, name: str) -> np.ndarray:

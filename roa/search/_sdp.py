@@ -216,12 +216,11 @@ def _options(solver: str, options: dict[str, Any] | None) -> dict[str, Any]:
     return opts
 
 
-def psd_sizes(problem: Any) -> list[int]:
-    """The sizes of a cvxpy problem's positive semidefinite constraints."""
+def psd_sizes(constraints: list[Any]) -> list[int]:
+    """The sizes of the positive semidefinite ones of cvxpy ``constraints``."""
     import cvxpy as cp
 
-    return [int(c.args[0].shape[0]) for c in problem.constraints
-            if isinstance(c, cp.constraints.PSD)]  # fmt: skip
+    return [int(c.args[0].shape[0]) for c in constraints if isinstance(c, cp.constraints.PSD)]
 
 
 def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | None = None
@@ -235,8 +234,7 @@ def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | N
     solver = str(options.pop("solver", solver)).lower()
     if solver == "auto":  # SCS when its keywords were given or the blocks are large
         scs_keys = any(k.startswith(("eps_", "acceleration")) for k in options)
-        sizes = psd_sizes(problem)
-        choice = choose_solver(sizes)
+        choice = choose_solver(psd_sizes(problem.constraints))
         solver = "scs" if scs_keys or choice.solver != "clarabel" else "clarabel"
     name = solver.upper()
     t0 = time.perf_counter()
@@ -266,6 +264,60 @@ def monomials(nvars: int, max_deg: int, min_deg: int = 0) -> list[tuple[int, ...
 
 def _madd(a: tuple[int, ...], b: tuple[int, ...]) -> tuple[int, ...]:
     return tuple(x + y for x, y in zip(a, b, strict=True))
+
+
+# -- sparse float polynomials ``{exponent tuple: float}``: the arithmetic of the programs --------
+def poly_of(expr: Any, gens: list[Any]) -> Poly:
+    import sympy as sp
+
+    poly = sp.Poly(sp.expand(expr), *gens)
+    return {m: float(c) for m, c in poly.terms() if c != 0}
+
+
+def mul(a: Poly, b: Poly) -> Poly:
+    out: Poly = {}
+    for (ma, ca), (mb, cb) in itertools.product(a.items(), b.items()):
+        m = _madd(ma, mb)
+        out[m] = out.get(m, 0.0) + ca * cb
+    return out
+
+
+def lin(*pairs: tuple[float, Poly]) -> Poly:
+    """``sum_k w_k p_k``."""
+    out: Poly = {}
+    for w, p in pairs:
+        for m, c in p.items():
+            out[m] = out.get(m, 0.0) + c * w
+    return out
+
+
+def power(p: Poly, k: int, nv: int) -> Poly:
+    """``p^k`` in ``nv`` variables."""
+    out: Poly = {tuple([0] * nv): 1.0}
+    for _ in range(k):
+        out = mul(out, p)
+    return out
+
+
+def diff(m: tuple[int, ...], i: int) -> Poly:
+    """d(y^m)/dy_i."""
+    return {tuple(k - (j == i) for j, k in enumerate(m)): float(m[i])} if m[i] else {}
+
+
+def is_even(polys: list[Poly], nd: int, *, odd: bool = False) -> bool:
+    """Every monomial has even (``odd=True``: odd) total degree in the first ``nd`` variables."""
+    return all(sum(m[:nd]) % 2 == int(odd) for p in polys for m in p)
+
+
+def sym_blocks(basis: list[tuple[int, ...]], nd: int, sym: bool, aux_degree: int | None = None
+               ) -> list[list[tuple[int, ...]]]:  # fmt: skip
+    """The Gram blocks of ``basis`` (capped at degree ``aux_degree`` in the variables past
+    ``nd``): its even and odd monomials in the first ``nd`` variables when ``sym`` (the
+    reflection ``d -> -d``; empty ones dropped), else one block."""
+    basis = basis if aux_degree is None else [m for m in basis if sum(m[nd:]) <= aux_degree]
+    if not sym:
+        return [basis]
+    return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
 
 
 class Program:
@@ -334,13 +386,7 @@ class Program:
     def free(self, poly: Poly, basis: list[tuple[int, ...]]) -> Any:
         """A free multiplier ``sum_k q_k b_k`` times ``poly``; returns its variable."""
         q = self.vector(len(basis))
-        r, c, v = [], [], []
-        for k, b in enumerate(basis):
-            for m, coef in poly.items():
-                r.append(self.row(_madd(m, b)))
-                c.append(k)
-                v.append(coef)
-        self.parts.append((r, c, v, q, len(basis), None))
+        self.linear([{_madd(m, b): coef for m, coef in poly.items()} for b in basis], q)
         self.frees.append((basis, q))
         return q
 
@@ -428,10 +474,7 @@ class Program:
 
     def sizes(self) -> list[int]:
         """Sizes of the Gram blocks of this identity and those sharing its constraints."""
-        import cvxpy as cp
-
-        return sorted((int(c.args[0].shape[0]) for c in self.psd
-                       if isinstance(c, cp.constraints.PSD)), reverse=True)  # fmt: skip
+        return sorted(psd_sizes(self.psd), reverse=True)
 
     def problem(self, objective: Any, *, maximise: bool = True, also: list[Program] | None = None,
                 extra: list[Any] | None = None) -> Any:  # fmt: skip
@@ -446,11 +489,9 @@ class Program:
     def solve(self, objective: Any, *, maximise: bool = True, options: dict[str, Any] | None = None,
               free_index: int | None = None, also: list[Program] | None = None,
               solver: str = "clarabel") -> tuple[bool, float | None, Poly | None]:  # fmt: skip
-        """Solve (:func:`solve`); ``(ok, objective value, free multiplier free_index as a
-        Poly)``. ``solver="auto"``: Clarabel when the largest block is at most
-        :data:`AUTO_SCS_BLOCK` (and fits the memory budget), else SCS (first-order, to 1e-6:
-        much faster on blocks of ~100 monomials; Clarabel's KKT systems grow with the cube of a
-        block's triangle)."""
+        """Solve (:func:`solve`, ``solver="auto"`` as there: SCS, first order, is much faster on
+        blocks of ~100 monomials, Clarabel's KKT systems growing with the cube of a block's
+        triangle); ``(ok, objective value, free multiplier free_index as a Poly)``."""
         res = solve(self.problem(objective, maximise=maximise, also=also), solver=solver,
                     options=options)  # fmt: skip
         self.solver, self.status = res.solver, res.status

@@ -10,17 +10,11 @@ in the variables ``y = (d, u)`` (``d`` whitened: ``x = x_eq + M d`` with ``M'PM 
 ``V'(y) = 0`` at some ``d != 0`` of the recast variety ``{h_j = 0, u >= 0}`` then ``(d'd)^k (V - rho) >= 0``, i.e. ``V >= rho``; since ``V' < 0`` near the
 equilibrium (negative-definite linear part, checked), ``V' < 0`` on ``{V < rho} \\ {x_eq}``.
 
-**Recasting** (:func:`recast_field`, the one recast of :func:`roa.proof.polynomial_field`):
-every factor ``b(x)^(k/2)`` with ``k`` odd, ``b`` a polynomial with ``b >= b(0) = t0^2 > 0``,
-gets an auxiliary variable ``u = sqrt(b) - t0`` with ``(t0 + u)^2 - b = 0`` and ``u >= 0``; then
-``b^(k/2) = (t0 + u)^k``, and the field is multiplied by its denominator (positive where the
-constraints hold: ``V'`` keeps its sign). For the IPC, ``phi0(w) = w (1 + w^2)^(-3/2)`` is
+**Recasting** (:func:`recast_field`): the one recast of :func:`roa.proof.polynomial_field`
+(``b^(k/2) = (t0 + u)^k`` with ``u = sqrt(b) - t0 >= 0``, the field times its positive
+denominator: :mod:`roa.proof._recast`). For the IPC, ``phi0(w) = w (1 + w^2)^(-3/2)`` is
 ``w / (1 + u)^3`` exactly, so the recast costs nothing in rho; only the degree of the relaxation
-does (reported by the gap to the sampled optimum).
-
-**Symmetry**: for odd fields (Van der Pol, the IPC's flat loop) every polynomial of the program is
-even in ``d``; the program is then solved with even multipliers and Gram matrices split into even and
-odd monomial blocks (same optimum, see :func:`sos_level`).
+does. Odd fields split the program by the symmetry ``d -> -d`` (:func:`sos_level`).
 
 The result is a value with the solver's status; ``rho`` is a *candidate* until checked by
 :func:`roa.proof.validate_level` (the SDP is solved in floating point).
@@ -30,7 +24,7 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -40,8 +34,17 @@ from roa.errors import RoaInputError
 from roa.lyapunov import QuadraticLyapunov
 from roa.model._backend import namespace
 from roa.model._system import System
-from roa.search._polysdp import is_even, poly_of
-from roa.search._sdp import MAX_GRAM_BLOCK, MAX_SDP_BYTES, Program, monomials, sdp_bytes, solve
+from roa.search._sdp import (
+    MAX_GRAM_BLOCK,
+    MAX_SDP_BYTES,
+    Program,
+    is_even,
+    monomials,
+    poly_of,
+    sdp_bytes,
+    solve,
+    sym_blocks,
+)
 from roa.status import SosStatus
 
 SYMMETRY = ("auto", True, False)
@@ -60,30 +63,9 @@ class SOSResult:
     message: str = ""
 
     def to_json(self) -> dict[str, Any]:
-        return {
-            "status": self.status.value,
-            "level": self.level,
-            "method": "sos",
-            "solver_status": self.solver_status,
-            "seconds": round(self.seconds, 3),
-            "recast": self.recast,
-            "sizes": self.sizes,
-            "message": self.message,
-        }
-
-
-@dataclass
-class Recast:
-    """Polynomial form of ``V'``: variables, ``V'``, equality constraints, nonnegative variables."""
-
-    d: list[sp.Symbol]
-    aux: list[sp.Symbol]
-    V: sp.Expr
-    Vdot: sp.Expr
-    equalities: list[sp.Expr]
-    nonnegative: list[sp.Expr]
-    description: str
-    positive: sp.Expr = sp.Integer(1)  # Vdot is this (> 0 on the recast variety) x V'
+        return {"status": self.status.value, "level": self.level, "method": "sos",
+                "solver_status": self.solver_status, "seconds": round(self.seconds, 3),
+                "recast": self.recast, "sizes": self.sizes, "message": self.message}  # fmt: skip
 
 
 RECASTS = ("exact", "enclosure")
@@ -120,19 +102,14 @@ class RecastField:
     nonnegative: list[sp.Expr]
     description: str
     positive: sp.Expr = sp.Integer(1)
+    V: sp.Expr = sp.Integer(0)  # V and Vdot = positive x V' in y (:func:`recast` only)
+    Vdot: sp.Expr = sp.Integer(0)
 
 
 NONSMOOTH = (sp.Min, sp.Max, sp.Abs, sp.Piecewise, sp.sign, sp.Heaviside)
 NO_TRIG = ("the SOS level proposer takes fields without sin/cos (the level program has no Taylor "
            "bounds): no SOS candidate here, the sampled search proposes the level (the exact SOS "
            "validator recasts sin, cos and rational terms itself)")  # fmt: skip
-
-
-def _whitened(n: int, M: np.ndarray, center: np.ndarray) -> tuple[list[sp.Symbol], list[sp.Expr]]:
-    d = list(sp.symbols(f"y0:{n}", real=True))
-    dx = [sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0)
-          for i in range(n)]  # fmt: skip
-    return d, dx
 
 
 def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str = "exact"
@@ -147,7 +124,9 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
     if mode not in RECASTS:
         raise RoaInputError(f"recast mode {mode!r}: allowed {', '.join(RECASTS)}")
     n = len(center)
-    d, dx = _whitened(n, M, center)
+    d = list(sp.symbols(f"y0:{n}", real=True))
+    dx = [sum(sp.Float(float(M[i, j]), 17) * d[j] for j in range(n) if M[i, j] != 0)
+          for i in range(n)]  # fmt: skip
     x = [dx[i] + sp.Float(float(center[i]), 17) if center[i] != 0 else dx[i] for i in range(n)]
     f = system.field(0.0, x, namespace("sympy"))
     f = [sp.powsimp(sp.sympify(fi)) for fi in f]
@@ -217,7 +196,7 @@ def _exact_field(system: System, d: list[sp.Symbol], dx: list[sp.Expr], center: 
                        "; ".join(notes) or "polynomial (no recast)", fl(pf.Lpos))  # fmt: skip
 
 
-def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> Recast:
+def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> RecastField:
     """Symbolic ``V'`` in whitened variables ``y`` (``x = x_eq + M y``, ``V = y' (M'PM) y ~ |y|^2``),
     made polynomial by :func:`recast_field` (times its positive factor: the sign of ``V'``)."""
     n = lyap.n
@@ -227,8 +206,7 @@ def recast(system: System, lyap: QuadraticLyapunov, *, mode: str = "exact") -> R
     P = [[sp.Float(float(lyap.P[i, j]), 17) for j in range(n)] for i in range(n)]
     V = sp.expand(sum(dx[i] * P[i][j] * dx[j] for i in range(n) for j in range(n)))
     Vdot = sp.expand(2 * sum(dx[i] * P[i][j] * f[j] for i in range(n) for j in range(n)))
-    return Recast(rf.d, rf.aux, V, Vdot, rf.equalities, rf.nonnegative, rf.description,
-                  rf.positive)  # fmt: skip
+    return replace(rf, V=V, Vdot=Vdot)
 
 
 def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
@@ -241,16 +219,9 @@ def _too_large(block: int, nvars: int, t0: float) -> SOSResult:
                      "comes from the sampled search instead")  # fmt: skip
 
 
-def sos_level(
-    system: System,
-    lyap: QuadraticLyapunov,
-    *,
-    recast_mode: str = "exact",
-    multiplier_degree: int | None = None,
-    solver_options: dict[str, Any] | None = None,
-    symmetry: str | bool = "auto",
-    aux_degree: int | None = None,
-) -> SOSResult:
+def sos_level(system: System, lyap: QuadraticLyapunov, *, recast_mode: str = "exact",
+              multiplier_degree: int | None = None, solver_options: dict[str, Any] | None = None,
+              symmetry: str | bool = "auto", aux_degree: int | None = None) -> SOSResult:  # fmt: skip
     """Largest rho certified by the SOS program of the module docstring (status-carrying value).
 
     Parameters
@@ -278,22 +249,14 @@ def sos_level(
     t0 = time.perf_counter()
     if system.time_varying:
         raise RoaInputError(f"system {system.name!r} is time-varying: no equilibrium to certify")
-    least = math.comb(
-        system.n + 2, 2
-    )  # V' has degree >= 2: the Gram basis holds all of degree <= 2
+    least = math.comb(system.n + 2, 2)  # V' has degree >= 2: the Gram basis holds degree <= 2
     if least > MAX_GRAM_BLOCK or sdp_bytes(least) > MAX_SDP_BYTES:
         return _too_large(least, system.n, t0)
     try:
         rc = recast(system, lyap, mode=recast_mode)
     except (ValueError, sp.PolynomialError) as exc:
-        return SOSResult(
-            SosStatus.NOT_POLYNOMIAL,
-            None,
-            "not run",
-            time.perf_counter() - t0,
-            "",
-            message=str(exc),
-        )
+        return SOSResult(SosStatus.NOT_POLYNOMIAL, None, "not run", time.perf_counter() - t0, "",
+                         message=str(exc))  # fmt: skip
     gens = rc.d + rc.aux
     nv = len(gens)
     nd = len(rc.d)
@@ -301,9 +264,7 @@ def sos_level(
     deg_vd = max(sum(m) for m in Vd)
     if multiplier_degree is None:
         multiplier_degree = 2 if deg_vd % 2 == 0 else 1
-    total = deg_vd + multiplier_degree
-    if total % 2:
-        total += 1
+    total = deg_vd + multiplier_degree + (deg_vd + multiplier_degree) % 2
     k = (total - 2) // 2
     dd = sum(x**2 for x in rc.d)  # whitened: d'd ~ V
     A = poly_of(sp.expand(dd**k * rc.V), gens)
@@ -317,20 +278,13 @@ def sos_level(
         raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)
 
-    def cap(basis: list[tuple]) -> list[tuple]:
-        return basis if aux_degree is None else [m for m in basis if sum(m[nd:]) <= aux_degree]
+    def blocks(basis: list[tuple]) -> list[list[tuple]]:
+        """Gram blocks: even and odd monomials in d (y -> -y invariance), or one block."""
+        return sym_blocks(basis, nd, use_sym, aux_degree)
 
     def keep(basis: list[tuple]) -> list[tuple]:
         """Free multipliers: only even monomials in d when the program is symmetric."""
-        basis = cap(basis)
-        return [m for m in basis if sum(m[:nd]) % 2 == 0] if use_sym else basis
-
-    def blocks(basis: list[tuple]) -> list[list[tuple]]:
-        """Gram blocks: even and odd monomials in d (y -> -y invariance), or one block."""
-        basis = cap(basis)
-        if not use_sym:
-            return [basis]
-        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
+        return [m for b in blocks(basis) for m in b if not use_sym or sum(m[:nd]) % 2 == 0]
 
     biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
     if biggest > MAX_GRAM_BLOCK or sdp_bytes(biggest) > MAX_SDP_BYTES:
@@ -350,27 +304,20 @@ def sos_level(
         prog.gram(b, times)
     prog.const(A)
     prog.linear([{m: -c for m, c in B.items()}], rho)
-    sizes = {
-        "variables": [str(g) for g in gens],
-        "degree": total,
-        "gram_sizes": [len(b) for b, _ in grams],
-        "symmetry": "even/odd blocks in x - x_eq" if use_sym else "none",
-        "equality_rows": len(prog.rows),
-        "multiplier_degree": multiplier_degree,
-        "k": k,
-    }
+    sizes = {"variables": [str(g) for g in gens], "degree": total,
+             "gram_sizes": [len(b) for b, _ in grams],
+             "symmetry": "even/odd blocks in x - x_eq" if use_sym else "none",
+             "equality_rows": len(prog.rows), "multiplier_degree": multiplier_degree, "k": k}  # fmt: skip
     res = solve(prog.problem(rho), options=solver_options)
     if res.status.startswith("solver error"):
         return SOSResult(SosStatus.FAILED, None, res.status, time.perf_counter() - t0,
                          rc.description, sizes, "the solver failed: no certificate")  # fmt: skip
-    status = {"optimal": "solved", "inaccurate": "inaccurate", "infeasible": "infeasible",
-              "error": "failed"}[res.group]  # fmt: skip
+    status, msg = {
+        "optimal": ("solved", "SOS candidate level; certified only after interval validation"),
+        "inaccurate": ("inaccurate", "solver reported an inaccurate solution: not a certificate"),
+        "infeasible": ("infeasible", "no certificate at this degree"),
+        "error": ("failed", f"solver status {res.status}: no certificate"),
+    }[res.group]
     value = float(rho.value) if res.usable and rho.value is not None else None
-    msg = {
-        "solved": "SOS candidate level; certified only after interval validation",
-        "inaccurate": "solver reported an inaccurate solution: not a certificate",
-        "infeasible": "no certificate at this degree",
-        "failed": f"solver status {res.status}: no certificate",
-    }[status]
     return SOSResult(SosStatus(status), value, res.status, time.perf_counter() - t0,
                      rc.description, sizes, msg)  # fmt: skip

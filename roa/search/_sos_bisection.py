@@ -8,15 +8,12 @@ It proposes only: the pipeline validates ``(1 - 1e-4)`` x the level with the exa
 when that check fails, backs off on the exact route (:mod:`roa.certification._backoff`, each try
 reported) before any branch and bound.
 
-**Bisection, block by block.**
-
-For exact data that split over independent blocks of variables (:mod:`roa.proof._sos_blocks`), the
-largest level of the whole is the least of the blocks' largest levels (each block's ``V_j' < 0``
-on ``{V_j <= c}`` for every block gives the whole; a block's witness with the other blocks at 0
-is a witness of the whole). Each block's level is found by bisection on ``c`` with the fixed-level
-program of :class:`roa.search._sos_program.FixedLevel`: ``c`` counts as feasible when
-the solver reports an optimal solution with a positive margin ``t`` (both Gram matrices
-``>= t I``). This proposes a level only: the exact check (:class:`roa.SosValidator`) decides it.
+**Bisection, block by block.** For exact data that split over independent blocks of variables
+(:mod:`roa.proof._reductions`), the largest level of the whole is the least of the blocks' largest
+levels (each block's ``V_j' < 0`` on ``{V_j <= c}`` for every block gives the whole; a block's
+witness with the other blocks at 0 is a witness of the whole). Each block's level is found by
+bisection on ``c`` with :class:`roa.search._sos_program.FixedLevel`: ``c`` counts as feasible
+when the solver gives a solution with a positive margin ``t`` (every Gram block ``>= t I``).
 
 The bracket starts at ``c = 1`` and doubles (or halves) until feasibility changes; a block that is
 still feasible at ``2^MAX_DOUBLINGS`` imposes no limit (``inf``). A block without a limit may also
@@ -33,8 +30,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from roa.errors import RoaInputError
-from roa.proof._reductions import IndependentBlocks
-from roa.proof._sos_blocks import Block
+from roa.proof._reductions import Block, IndependentBlocks
 from roa.proof._sos_check import ExactData
 from roa.search._sos_program import SosRoute, route_for
 
@@ -110,10 +106,7 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
         good = ok(mid)
         moved = "lo" if good else "hi"
         side = "same" if side == moved else moved  # after two moves of one end: a halving
-        if good:
-            lo = mid
-        else:
-            hi = mid
+        lo, hi = (mid, hi) if good else (lo, mid)
     return lo, count
 
 
@@ -138,17 +131,13 @@ def block_levels(data: ExactData, *, rel_tol: float = 1e-7,
             seen[key], k = bisect_level(sub, rel_tol=rel_tol, route=route)
             programs += k
         per.append((block, seen[key]))
-    levels = [lv for _, lv in per]
     sizes = {"blocks": [len(b) for b in parts], "distinct_blocks": len(seen), "routes": kinds}
-    if any(lv is None for lv in levels):
-        bad = [list(b) for b, lv in per if lv is None]
-        return BlockLevels(None, per, programs, time.perf_counter() - t0,
-                           f"no feasible level for block(s) {bad}", sizes)  # fmt: skip
-    least = min(levels)  # type: ignore[type-var]
-    if least is None or math.isinf(least):
-        return BlockLevels(None, per, programs, time.perf_counter() - t0,
-                           "no block limits the level (feasible up to 2^40 in each)", sizes)  # fmt: skip
-    return BlockLevels(float(least), per, programs, time.perf_counter() - t0, "", sizes)
+    bad = [list(b) for b, lv in per if lv is None]
+    least = math.inf if bad else min(lv for _, lv in per if lv is not None)
+    why = (f"no feasible level for block(s) {bad}" if bad else
+           "no block limits the level (feasible up to 2^40 in each)" if math.isinf(least) else "")  # fmt: skip
+    return BlockLevels(None if why else float(least), per, programs, time.perf_counter() - t0,
+                       why, sizes)  # fmt: skip
 
 
 def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
@@ -165,12 +154,11 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
     from roa.status import SosStatus
 
     data = None
-    if not (system.equilibrium is None or system.time_varying
-            or getattr(system, "parameters", None)):  # fmt: skip
+    if not getattr(system, "parameters", None):  # exact_data refuses the rest
         try:
             data = exact_data(system, V)
         except NotPolynomial:
-            data = None
+            pass
     if data is not None:
         subs, parts = IndependentBlocks().apply(data)
         routes = [route_for(subs[0], solver_options=solver_options)] if len(parts) == 1 else None

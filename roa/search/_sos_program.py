@@ -50,28 +50,37 @@ every problem:
   blocks scaled diagonally dominant while the interior point's memory estimate exceeds the
   budget (proved by exact dominance); with ``"solver": "scs"`` every block stays PSD and SCS,
   whose memory grows with the program's size only, solves it;
-* **sign symmetry**, on every pattern (:mod:`roa.search._sos_symmetry`): each block split by the
-  parity classes of the flips that fix every polynomial of the identity, the equality
+* **sign symmetry**, on every pattern (:func:`sign_symmetries`, :func:`split`): each block split
+  by the parity classes of the flips that fix every polynomial of the identity, the equality
   multipliers kept to the invariant monomials (the same optimum).
 
 **Route** (:func:`choose_route`, :func:`route_for`): chosen once per problem; ``auto`` takes the
 dense pattern when its ``sigma`` block fits :data:`MAX_SDP_BYTES` (and the interaction graph is
 connected), else the clique one when it applies and fits, else the SDSOS one when it fits, else
 none (``too_large``).
+
+**Domain containment** (:func:`propose_domain_certificate`): for a polynomial margin ``g``, the
+same program with ``T = g - eps``, ``t_1 = c - V``, ``m_1`` of degree ``0..L`` (``2L`` the least
+even degree with ``2L + deg V >= deg g``) and ``m_0`` of degree ``0..D`` (``2D`` the least even
+degree >= ``deg g`` and ``2L + deg V``); only :func:`roa.proof._domain.check_domain_certificate`
+decides.
 """
 
 from __future__ import annotations
 
 import itertools
 import time
-from dataclasses import dataclass, field
+from collections.abc import Iterable
+from dataclasses import dataclass, field, replace
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 
+from roa.proof._domain import domain_target
 from roa.proof._putinar import Certificate, level_identity
-from roa.proof._sos_check import Mono, mono_add
+from roa.proof._reductions import components, graph
+from roa.proof._sos_check import Mono, QPoly, mono_add
 from roa.search._sdp import (
     MAX_SDP_BYTES,
     Program,
@@ -81,7 +90,6 @@ from roa.search._sdp import (
     sdp_bytes,
     solve,
 )
-from roa.search._sos_symmetry import sign_symmetries, split
 
 ROUTES = ("auto", "dense", "sparse", "sdsos")
 
@@ -195,14 +203,7 @@ def interaction_graph(data: Any) -> Any:
     """The variables' interaction graph (networkx): an edge for two variables of one monomial of
     ``N`` or ``V``, or of one inequality or equality (a multiplier times it mixes all its
     variables)."""
-    import networkx as nx
-
-    G = nx.Graph()
-    G.add_nodes_from(range(data.nv))
-    for poly in (data.N, data.V):
-        for m, c in poly.items():
-            if c:
-                G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
+    G = graph(range(data.nv), (data.N, data.V))
     for _, p in (*data.inequalities, *data.equalities):
         G.add_edges_from(itertools.combinations(sorted(support(p)), 2))
     return G
@@ -229,23 +230,62 @@ def V_groups(data: Any) -> list[tuple[tuple[int, ...], list[Mono]]]:
     """V's variables split into the connected components of its own interaction graph, each with
     the monomials ``z_G`` in its variables of degree ``ceil(low / 2) .. ceil(deg / 2)`` (``low``,
     ``deg``: V's least and largest degrees), over which its part ``V_G`` is a Gram form."""
-    import networkx as nx
-
-    G = nx.Graph()
-    G.add_nodes_from(support(data.V))
-    for m in data.V:
-        G.add_edges_from(itertools.combinations([i for i, e in enumerate(m) if e], 2))
     low, top = min(sum(m) for m in data.V), max(sum(m) for m in data.V)
-    out = []
-    for comp in sorted(tuple(sorted(int(i) for i in c)) for c in nx.connected_components(G)):
-        out.append((comp, _inside(monomials(data.nv, (top + 1) // 2, (low + 1) // 2), comp)))
-    return out
+    basis = monomials(data.nv, (top + 1) // 2, (low + 1) // 2)
+    return [(c, _inside(basis, c)) for c in components(graph(support(data.V), [data.V]))]
 
 
 def _inside(basis: list[Mono], clique: tuple[int, ...] | set[int]) -> list[Mono]:
     """The monomials of ``basis`` in the variables of ``clique`` only."""
     inside = set(clique)
     return [m for m in basis if all(i in inside for i, e in enumerate(m) if e)]
+
+
+def sign_symmetries(polys: Iterable[dict[Mono, Any]], nv: int) -> list[Mono]:
+    """A basis of the sign symmetries of ``polys`` in ``nv`` variables: the sets ``S`` of variables
+    whose joint sign flip fixes every polynomial (0/1 vectors ``s`` with ``s . m`` even for every
+    monomial ``m``; a GF(2) vector space, this is the null space of the exponents mod 2; empty
+    when none but 0). The group acts on ``m' Q m`` by diagonal +-1 matrices, so averaging any
+    certificate over it keeps the identity and positive definiteness and zeroes every entry of
+    ``Q`` between monomials of different parities: an invariant certificate's Gram matrix is
+    block-diagonal by parity class (Gatermann and Parrilo 2004; TSSOS's sign symmetries)."""
+    pivots: dict[int, int] = {}  # pivot column -> reduced row (bit masks, bit i = variable i)
+    for p in polys:
+        for m in p:
+            row = sum(1 << i for i, e in enumerate(m) if e % 2)
+            for col, prow in pivots.items():
+                if row >> col & 1:
+                    row ^= prow
+            if row:
+                col = (row & -row).bit_length() - 1
+                for c in list(pivots):  # keep the rows reduced: clear the new pivot elsewhere
+                    if pivots[c] >> col & 1:
+                        pivots[c] ^= row
+                pivots[col] = row
+    out = []
+    for free in range(nv):  # one null vector per free column
+        if free in pivots:
+            continue
+        s = [0] * nv
+        s[free] = 1
+        for col, row in pivots.items():
+            if row >> free & 1:
+                s[col] = 1
+        out.append(tuple(s))
+    return out
+
+
+def split(basis: list[Mono], symmetries: list[Mono]) -> list[list[Mono]]:
+    """``basis`` split into its parity classes under ``symmetries`` (in order of first
+    appearance; the whole basis when there is no symmetry): the same optimum with smaller
+    blocks, for any pattern; the exact check proves whatever blocks it is given."""
+    if not symmetries:
+        return [basis] if basis else []
+    classes: dict[tuple[int, ...], list[Mono]] = {}
+    for m in basis:
+        key = tuple(sum(a * b for a, b in zip(s, m, strict=True)) % 2 for s in symmetries)
+        classes.setdefault(key, []).append(m)
+    return list(classes.values())
 
 
 @dataclass(frozen=True)
@@ -518,8 +558,7 @@ class SosRoute:
                                             solver_options=self.solver_options)  # fmt: skip
             build = self.compiled[eps].figures["build_seconds"]
         cand = self.compiled[eps].solve(level)
-        return Candidate(cand.certificate, cand.eps, cand.margin, cand.solver_status,
-                         cand.seconds + build, cand.sizes)  # fmt: skip
+        return replace(cand, seconds=cand.seconds + build)
 
 
 def route_for(data: Any, multiplier_degree: int | None = None, route: str = "auto",
@@ -543,3 +582,32 @@ def propose(data: Any, level: float, *, eps: Fraction | None = None, route: str 
     """A candidate certificate of ``level`` for ``data`` with the pattern of ``route``
     (:func:`route_for`)."""
     return route_for(data, multiplier_degree, route, solver_options).propose(level, eps)
+
+
+def default_domain_eps(margin: QPoly, n: int) -> Fraction:
+    """``1e-6`` x ``g(x_eq)`` (the margin at the equilibrium), as a dyadic."""
+    g0 = float(margin.get(tuple([0] * n), Fraction(0)))
+    return Fraction(2.0 ** round(np.log2(1e-6 * g0))) if g0 > 0 else Fraction(1, 2**40)
+
+
+def propose_domain_certificate(
+    margin: QPoly, Vq: QPoly, n: int, level: float, *, solver_options: dict[str, Any] | None = None
+) -> Candidate:
+    """The domain containment program (module docstring) for ``{V <= level}``: ``g - eps -
+    lambda (c - V) = m0' Q0 m0``, ``lambda = m1' Q1 m1`` (``eps``: :func:`default_domain_eps`)."""
+    t0 = time.perf_counter()
+    eps = default_domain_eps(margin, n)
+    deg_g = max((sum(m) for m in margin), default=0)
+    deg_V = max(sum(m) for m in Vq)
+    L = max(0, (deg_g - deg_V + 1) // 2)
+    D = (max(deg_g, 2 * L + deg_V) + 1) // 2
+    basis0, basis1 = monomials(n, D, 0), monomials(n, L, 0)
+    if sdp_bytes(len(basis0)) > MAX_SDP_BYTES:
+        return Candidate(None, eps, None, f"too large: a Gram block of {len(basis0)} monomials; "
+                         "not built", time.perf_counter() - t0,
+                         {"gram_sizes": [len(basis0), len(basis1)]})  # fmt: skip
+    times = [{tuple([0] * n): Fraction(1)}, {m: -c for m, c in Vq.items()}]
+    pattern = Pattern("dense", ((0, basis0, "psd"), (1, basis1, "psd")))
+    prog = FixedLevel(None, pattern, eps=eps, solver_options=solver_options,
+                      identity=(n, domain_target(margin, eps, n), times, []))  # fmt: skip
+    return replace(prog.solve(level), seconds=time.perf_counter() - t0)

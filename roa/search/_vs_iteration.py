@@ -22,14 +22,11 @@ decrease identity at level 1 and ``V - eps y'y`` SOS; there is no beta step and 
 The previous V is feasible, so the mean never increases, and where V falls ``{V <= 1}`` grows (a
 proxy for its volume: the caller measures it). Candidates rank by beta, resp. by the mean.
 
-**Over a parameter box.** For a system with uncertain parameters, the decrease identity is imposed
-at each point of :func:`parameter_points` (the box's vertices when the field is affine in the
-parameters, since ``V'`` is then affine in them for a fixed ``V``; else the nominal values, the
-vertices and one interior point per axis), each with its own multiplier ``lambda_i`` and one common
-``V``: the gamma step takes the lowest level over the points, the V step keeps every identity. A
-seed that is not a Lyapunov function at the linearisation for some point is replaced by the box's
-common Lyapunov matrix (:func:`roa.search._box_lyapunov.box_lyapunov`). The candidates are proved
-for every parameter of the box by the caller's robust validator, never by this module.
+**Over a parameter box.** The decrease identity is imposed at each point of
+:func:`parameter_points`, each with its own multiplier ``lambda_i`` and one common ``V``: the gamma
+step takes the lowest level over the points, the V step keeps every identity; a seed that is not a
+Lyapunov function at some point's linearisation is replaced (:func:`_box_seed`). The caller's
+robust validator proves the candidates for every parameter of the box, never this module.
 
 Odd fields (``f(x_eq - d) = -f(x_eq + d)``) keep V, ``lambda``, ``lambda2`` even and split the Gram
 matrices in even/odd blocks (same optimum). Each round's V is a *candidate*: :func:`vs_search`
@@ -52,20 +49,21 @@ from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.model._parameters import describe_point
 from roa.model._system import System
 from roa.progress import note, step
-from roa.search._polysdp import (
+from roa.search._sdp import (
+    SOLVERS,
     Poly,
-    add,
+    Program,
+    ProgramTooLarge,
     diff,
     is_even,
-    monomial,
+    lin,
+    monomials,
     mul,
     poly_of,
-    poly_sum,
     power,
-    scale,
-    total_degree,
+    solve,
+    sym_blocks,
 )
-from roa.search._sdp import SOLVERS, Program, ProgramTooLarge, monomials
 from roa.search._seed import seed_level
 from roa.search._sos import recast_field
 from roa.status import SosStatus
@@ -120,16 +118,10 @@ class VsResult:
         return [self.candidates[int(i)] for i in np.argsort(scores, kind="stable")[::-1]]
 
     def to_dict(self) -> dict[str, Any]:
-        return {
-            "status": self.status.value,
-            "degree": self.degree,
-            "betas": self.betas,
-            "means": self.means,
-            "rounds": [r.to_dict() for r in self.rounds],
-            "seconds": round(self.seconds, 3),
-            "sizes": self.sizes,
-            "message": self.message,
-        }
+        return {"status": self.status.value, "degree": self.degree, "betas": self.betas,
+                "means": self.means, "rounds": [r.to_dict() for r in self.rounds],
+                "seconds": round(self.seconds, 3), "sizes": self.sizes,
+                "message": self.message}  # fmt: skip
 
 
 class _Problem:
@@ -152,18 +144,9 @@ class _Problem:
         self.eqs = [poly_of(h, self.gens) for h in rf.equalities]
         self.nonneg = [poly_of(g, self.gens) for g in rf.nonnegative]
         Mt = self.M.T @ shape @ self.M  # p(y) = (My)' S (My)
-        self.p = {
-            m: c
-            for m, c in (
-                (
-                    tuple(int(i == a) + int(i == b) for i in range(self.nv)),
-                    float(Mt[a, b]) * (1 if a == b else 2),
-                )  # fmt: skip
-                for a in range(self.nd)
-                for b in range(a, self.nd)
-            )
-            if c != 0.0
-        }
+        pairs = [(a, b) for a in range(self.nd) for b in range(a, self.nd) if Mt[a, b] != 0.0]
+        self.p = {tuple(int(i == a) + int(i == b) for i in range(self.nv)):
+                  float(Mt[a, b]) * (1 if a == b else 2) for a, b in pairs}  # fmt: skip
         sym = is_even([*self.fy], self.nd, odd=True) and is_even([*self.eqs, *self.nonneg], self.nd)
         if symmetry is True and not sym:
             raise RoaInputError("symmetry=True needs an odd field and even recast constraints")
@@ -173,17 +156,12 @@ class _Problem:
         self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
         self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
         if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
-            raise ProgramTooLarge(
-                f"a V of degree {degree} in {self.nd} states has {len(self.vbasis)} coefficients, "
-                f"more than the {MAX_V_TERMS} searched here (its SOS programs would not fit in "
-                "memory): not built; use a lower degree or fewer states"
-            )
-        efy = max(sum(m) for p in self.fy for m in p)
-        deg_vd = degree - 1 + efy
-        if multiplier_degree is None:
-            multiplier_degree = 2 if deg_vd % 2 == 0 else 1
-        self.mlam = multiplier_degree
-        total = max(deg_vd + multiplier_degree, degree)
+            raise ProgramTooLarge(_too_many(degree, self.nd, f"{len(self.vbasis)}"))
+        deg_vd = degree - 1 + max(sum(m) for p in self.fy for m in p)
+        self.mlam = (
+            (2 if deg_vd % 2 == 0 else 1) if multiplier_degree is None else multiplier_degree
+        )
+        total = max(deg_vd + self.mlam, degree)
         self.total = total + (total % 2)
         self.k = (self.total - degree) // 2
         self.k2 = self.D  # (y'y)^k2 (p - beta) + lambda2 (V - 1): lambda2 quadratic
@@ -192,23 +170,17 @@ class _Problem:
         self.yyk2 = power(self.yy, self.k2, self.nv)
         # V' of each basis monomial of V: sum_i d(y^a)/dy_i f_i
         self.dmono = [
-            poly_sum([mul(diff(m, i), self.fy[i]) for i in range(self.nd)]) for m in self.vbasis
+            lin(*((1.0, mul(diff(m, i), self.fy[i])) for i in range(self.nd))) for m in self.vbasis
         ]
 
-    def cap(self, basis: list[tuple]) -> list[tuple]:
-        if self.aux_degree is None:
-            return basis
-        return [m for m in basis if sum(m[self.nd :]) <= self.aux_degree]
-
     def keep(self, basis: list[tuple]) -> list[tuple]:
-        basis = self.cap(basis)
-        return [m for m in basis if sum(m[: self.nd]) % 2 == 0] if self.sym else basis
+        """Free multipliers: the even monomials only when the program is symmetric."""
+        return [
+            m for b in self.blocks(basis) for m in b if not self.sym or sum(m[: self.nd]) % 2 == 0
+        ]
 
     def blocks(self, basis: list[tuple]) -> list[list[tuple]]:
-        basis = self.cap(basis)
-        if not self.sym:
-            return [basis]
-        return [b for p in (0, 1) if (b := [m for m in basis if sum(m[: self.nd]) % 2 == p])]
+        return sym_blocks(basis, self.nd, self.sym, self.aux_degree)
 
     def y_only(self, basis: list[tuple]) -> list[tuple]:
         return [m for m in basis if sum(m[self.nd :]) == 0]
@@ -217,46 +189,45 @@ class _Problem:
     def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> None:
         """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
         multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
-        cols = [mul(self.yyk, monomial(m)) for m in self.vbasis]
+        cols = [mul(self.yyk, {m: 1.0}) for m in self.vbasis]
         if lam is None:  # gamma step: V fixed (numbers), lambda free
-            Vpoly = poly_sum(
-                [scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]
-            )
-            Vd = poly_sum([scale(p, float(c)) for p, c in zip(self.dmono, Vc, strict=True)])
+            Vpoly = lin(*((float(c), {m: 1.0}) for m, c in zip(self.vbasis, Vc, strict=True)))
+            Vd = lin(*((float(c), p) for p, c in zip(self.dmono, Vc, strict=True)))
             ident.const(mul(self.yyk, Vpoly))
             ident.free(Vd, self.keep(monomials(self.nv, self.mlam)))
         else:  # V step: V free (variable), lambda fixed
-            ident.linear([add(c, mul(lam, d)) for c, d in zip(cols, self.dmono, strict=True)], Vc)
-        ident.linear([scale(self.yyk, -1.0)], gamma)
+            ident.linear([lin((1.0, c), (1.0, mul(lam, d)))
+                          for c, d in zip(cols, self.dmono, strict=True)], Vc)  # fmt: skip
+        ident.linear([lin((-1.0, self.yyk))], gamma)
         for h in self.eqs:
-            ident.free(h, self.keep(monomials(self.nv, self.total - total_degree(h))))
+            ident.free(h, self.keep(monomials(self.nv, self.total - max(map(sum, h)))))
         half = self.total // 2
         for b in self.blocks(monomials(self.nv, half)):
             ident.gram(b, None)
         for g in self.nonneg:
-            for b in self.blocks(monomials(self.nv, (self.total - total_degree(g)) // 2)):
+            for b in self.blocks(monomials(self.nv, (self.total - max(map(sum, g))) // 2)):
                 ident.gram(b, g)
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
     def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
         ident.const(mul(self.yyk2, self.p))
-        ident.linear([scale(self.yyk2, -1.0)], beta)
+        ident.linear([lin((-1.0, self.yyk2))], beta)
         deg = 2 * self.D + 2
         lam_basis = self.y_only(self.keep(monomials(self.nv, 2)))
         if lam2 is None:
-            Vm1 = add(poly_sum([scale(monomial(m), float(c)) for m, c in zip(self.vbasis, Vc, strict=True)]),
-                       {tuple([0] * self.nv): -1.0})  # fmt: skip
+            Vm1 = lin(*((float(c), {m: 1.0}) for m, c in zip(self.vbasis, Vc, strict=True)),
+                      (1.0, {tuple([0] * self.nv): -1.0}))  # fmt: skip
             ident.free(Vm1, lam_basis)
         else:
-            ident.linear([mul(lam2, monomial(m)) for m in self.vbasis], Vc)
-            ident.const(scale(lam2, -1.0))
+            ident.linear([mul(lam2, {m: 1.0}) for m in self.vbasis], Vc)
+            ident.const(lin((-1.0, lam2)))
         for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
             ident.gram(b, None)
 
     def positive(self, ident: Program, Vc: Any, eps: float) -> None:
         """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
-        ident.linear([monomial(m) for m in self.vbasis], Vc)
-        ident.const(scale(self.yy, -eps))
+        ident.linear([{m: 1.0} for m in self.vbasis], Vc)
+        ident.const(lin((-eps, self.yy)))
         basis = [m for m in self.y_only(monomials(self.nv, self.D)) if sum(m) >= 1]
         for b in self.blocks(basis):
             ident.gram(b, None)
@@ -277,17 +248,12 @@ class _Problem:
         mu0 = float(np.linalg.eigvalsh(-(A + A.T))[0])
         if mu0 <= 0:
             return
-        rows = []
-        for i in range(n):
-            row = []
-            for j in range(n):
-                e = [0] * self.nv
-                e[i] += 1
-                e[j] += 1
-                k = self.vbasis.index(tuple(e))
-                row.append(Vc[k] if i == j else 0.5 * Vc[k])
-            rows.append(cp.hstack(row))
-        Pv = cp.vstack(rows)
+
+        def entry(i: int, j: int) -> Any:
+            k = self.vbasis.index(tuple(int(a == i) + int(a == j) for a in range(self.nv)))
+            return Vc[k] if i == j else 0.5 * Vc[k]
+
+        Pv = cp.bmat([[entry(i, j) for j in range(n)] for i in range(n)])
         L = -(A.T @ Pv + Pv @ A)
         ident.psd.append(0.5 * (L + L.T) - margin * mu0 * np.eye(n) >> 0)
 
@@ -307,36 +273,19 @@ class _Problem:
         for m, c in zip(self.vbasis, Vc, strict=True):
             if c != 0.0:
                 expr += float(c) * sp.Mul(*[y[i] ** m[i] for i in range(self.nd)])
-        poly = sp.Poly(sp.expand(expr), *d)
-        terms = [
-            (mono, float(c)) for mono, c in poly.terms() if abs(float(c)) > 0 and sum(mono) >= 2
-        ]
-        V = PolynomialLyapunov([t[0] for t in terms], [t[1] for t in terms], self.center, name)
-        from roa.search._vs_gram import attach_gram
-
+        terms = [(m, float(c)) for m, c in sp.Poly(sp.expand(expr), *d).terms()
+                 if abs(float(c)) > 0 and sum(m) >= 2]  # fmt: skip
+        V = PolynomialLyapunov([m for m, _ in terms], [c for _, c in terms], self.center, name)
         attach_gram(V)  # a positive definite Gram matrix: the exact route's V >= mu |d|^2
         return V
 
 
-def vs_search(
-    system: System,
-    V0: QuadraticLyapunov,
-    *,
-    degree: int = 4,
-    shape: Any = None,
-    rounds: int = 6,
-    multiplier_degree: int | None = None,
-    symmetry: bool | str = "auto",
-    aux_degree: int | None = None,
-    recast_mode: str = "exact",
-    eps: float = 1e-6,
-    tol: float = 1e-3,
-    solver_options: dict[str, Any] | None = None,
-    solver: str = "auto",
-    budget: float | None = None,
-    objective: str = "shape",
-    reach: float = 1.5,
-) -> VsResult:
+def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: Any = None,
+              rounds: int = 6, multiplier_degree: int | None = None, symmetry: bool | str = "auto",
+              aux_degree: int | None = None, recast_mode: str = "exact", eps: float = 1e-6,
+              tol: float = 1e-3, solver_options: dict[str, Any] | None = None,
+              solver: str = "auto", budget: float | None = None, objective: str = "shape",
+              reach: float = 1.5) -> VsResult:  # fmt: skip
     """Polynomial Lyapunov candidates of degree ``degree`` by V-s iteration (module docstring).
 
     ``V0`` seeds the iteration (and fixes the whitening); ``shape`` is the matrix ``S`` of the
@@ -363,15 +312,15 @@ def vs_search(
     if not (isinstance(reach, int | float) and math.isfinite(reach) and reach > 0):
         raise RoaInputError(f"reach must be a finite number > 0, got {reach!r}")
     t0 = _now()
+
+    def none(status: SosStatus, message: str) -> VsResult:
+        return VsResult(status, degree, [], [], [], _now() - t0, message=message)
+
     # V's even monomials alone (fewest it can have) over MAX_V_TERMS: refused before the seed's
     # level search, which alone takes a while in tens of states
     even = sum(math.comb(system.n + d - 1, d) for d in range(2, degree + 1, 2))
     if even > MAX_V_TERMS:
-        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
-                        message=f"a V of degree {degree} in {system.n} states has at least {even} "
-                        f"coefficients, more than the {MAX_V_TERMS} searched here (its SOS "
-                        "programs would not fit in memory): not built; use a lower degree or "
-                        "fewer states")  # fmt: skip
+        return none(SosStatus.TOO_LARGE, _too_many(degree, system.n, f"at least {even}"))
     S = V0.P if shape is None else np.asarray(shape, dtype=float)
     points, how = parameter_points(system)
     V0, reseeded = _box_seed(system, V0)
@@ -383,11 +332,9 @@ def vs_search(
         pbs = _problems(at, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
                         scale)  # fmt: skip
     except ProgramTooLarge as exc:
-        return VsResult(SosStatus.TOO_LARGE, degree, [], [], [], _now() - t0,
-                        message=str(exc))  # fmt: skip
+        return none(SosStatus.TOO_LARGE, str(exc))
     except (RoaInputError, sp.PolynomialError) as exc:
-        return VsResult(SosStatus.NOT_POLYNOMIAL, degree, [], [], [], _now() - t0,
-                        message=str(exc))  # fmt: skip
+        return none(SosStatus.NOT_POLYNOMIAL, str(exc))
     pb = pbs[0]
     base = dict(solver_options or {})
 
@@ -622,6 +569,12 @@ def _problems(systems: list[System], V0: QuadraticLyapunov, S: np.ndarray, degre
     return pbs
 
 
+def _too_many(degree: int, n: int, count: str) -> str:
+    return (f"a V of degree {degree} in {n} states has {count} coefficients, more than the "
+            f"{MAX_V_TERMS} searched here (its SOS programs would not fit in memory): not built; "
+            "use a lower degree or fewer states")  # fmt: skip
+
+
 def _failed(r: int, what: str, solver: str, spent: bool, budget: float | None,
             kept: int) -> tuple[SosStatus, str]:  # fmt: skip
     """Status and message of a gamma or beta step that gave no answer: ``stopped`` when the
@@ -652,3 +605,36 @@ def _pace(r: int, rounds: int, t0: float, log: list[VsRound], budget: float | No
     note(f"V-s: {r} of at most {rounds + 1} rounds in {spent:.0f} s (beta "
          f"{'none' if beta is None else f'{beta:.6g}'}); about {more:.0f} s more at this "
          f"pace{cap}")  # fmt: skip
+
+
+def attach_gram(V: Any, solver_options: dict[str, Any] | None = None) -> bool:
+    """Attach a positive definite Gram matrix to the polynomial ``V`` (``V.gram``) when the
+    program finds one that the exact cover (:func:`roa.proof.gram_cover`) proves positive
+    definite; whether it did. The exact SOS route proves ``{V <= c}`` bounded from
+    ``V >= mu |d|^2`` by that cover; a V of the iteration has coefficients only, so one small
+    program (``V = m' Q m`` coefficient by coefficient, ``m`` the monomials of degree
+    ``1..deg V / 2``, ``Q >= t s I`` with ``s`` V's largest coefficient and ``t <= 1``
+    maximised) proposes ``Q``. Only the exact cover decides; otherwise V keeps no Gram matrix."""
+    poly = V.polynomial_view() or {}
+    terms = {tuple(int(k) for k in m): float(c) for m, c in poly.items() if c}
+    if not terms or V.gram_view() is not None:
+        return V.gram_view() is not None
+    n = int(V.n)
+    deg = max(sum(m) for m in terms)
+    if deg % 2 or min(sum(m) for m in terms) < 2:
+        return False
+    basis = monomials(n, deg // 2, 1)
+    prog = Program(n)
+    prog.const({m: -c for m, c in terms.items()})
+    t = prog.scalar()
+    Q = prog.gram(basis, None, sign=1.0, margin=t * max(abs(c) for c in terms.values()))
+    res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
+    if not res.usable or t.value is None or not float(t.value) > 0 or Q.value is None:
+        return False
+    from roa.proof._cover import gram_cover
+
+    V.with_gram((basis, 0.5 * (np.asarray(Q.value) + np.asarray(Q.value).T)))
+    if gram_cover(V, 1.0) is None:  # not proved positive definite exactly: none attached
+        V.with_gram(None)
+        return False
+    return True

@@ -1,4 +1,4 @@
-"""Independent blocks of variables in the exact SOS check (:mod:`roa.proof._sos_blocks`).
+"""Independent blocks of variables in the exact SOS check (:mod:`roa.proof._reductions`).
 
 Two decoupled copies of poly3d (x' = -x + (x2 x3, x1 x3, x1 x2) per copy, V = |x|^2) have the
 largest level 3 exactly, as one copy (examples/systems/poly3d.py: AM-GM on the sphere; V' is the
@@ -17,7 +17,7 @@ from sos_systems import poly3d_block as _poly3d
 import roa
 import roa.io
 from roa.certification import Certificate
-from roa.proof._sos_blocks import blocks, check_partition, restrict
+from roa.proof._reductions import blocks, check_partition, restrict
 from roa.proof._sos_check import exact_data
 from roa.search._sdp import monomials
 

@@ -25,8 +25,7 @@ from roa.certification import Certificate
 from roa.proof._putinar import check_level, dd_scaling, dominance_margin
 from roa.proof._sos_check import exact_data
 from roa.search._sdp import monomials
-from roa.search._sos_program import FixedLevel, choose_route, sdsos
-from roa.search._sos_symmetry import sign_symmetries, split
+from roa.search._sos_program import FixedLevel, choose_route, sdsos, sign_symmetries, split
 from roa.status import Verdict
 
 ROOT = Path(__file__).resolve().parents[2]

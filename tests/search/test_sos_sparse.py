@@ -276,7 +276,7 @@ def test_a_stored_sparse_certificate_is_rechecked_without_a_solver(ring, monkeyp
 
 def test_decoupled_rings_get_one_sparse_certificate_per_block(ring):
     """Two decoupled copies of the ring (12 states): V and V' split into the two copies
-    (:mod:`roa.proof._sos_blocks`), each proved by its own sparse certificate at the same level
+    (:mod:`roa.proof._reductions`), each proved by its own sparse certificate at the same level
     (the optimum is one copy's: the other copy at 0 gives the witness); the file is re-checked
     block by block and a copy's clique block negated is refused (one entry changed is not enough:
     the re-check projects the stored blocks again, which may well restore a valid certificate)."""

@@ -1,4 +1,4 @@
-"""Sign symmetry of the SOS programs (:mod:`roa.search._sos_symmetry`).
+"""Sign symmetry of the SOS programs (:mod:`roa.search._sos_program`).
 
 The symmetries are checked against a brute-force enumeration of every 0/1 vector; the split
 program against the unsplit one: averaging a certificate over the group keeps ``Q >= t I`` (the
@@ -18,8 +18,7 @@ import roa
 from roa.proof._putinar import check_level
 from roa.proof._sos_check import exact_data
 from roa.search._sdp import monomials
-from roa.search._sos_program import FixedLevel, dense, propose
-from roa.search._sos_symmetry import sign_symmetries, split
+from roa.search._sos_program import FixedLevel, dense, propose, sign_symmetries, split
 from roa.systems.vanderpol import P_BENCHMARK, vanderpol
 
 

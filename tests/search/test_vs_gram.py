@@ -1,4 +1,4 @@
-"""A positive definite Gram matrix for a searched polynomial V (roa.search._vs_gram), read by the
+"""A positive definite Gram matrix for a searched polynomial V (roa.search._vs_iteration.attach_gram), read by the
 exact cover (roa.proof.gram_cover) that the exact SOS route needs."""
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ import pytest
 
 from roa.lyapunov import PolynomialLyapunov
 from roa.proof._cover import gram_cover
-from roa.search._vs_gram import attach_gram
+from roa.search._vs_iteration import attach_gram
 
 
 def _V(terms: dict[tuple[int, int], float]) -> PolynomialLyapunov:

@@ -85,10 +85,14 @@ from roa.proof._sos_check import (
     QPoly,
     exact_fraction,
     exact_terms,
+    lie_derivative,
     poly_lin,
     poly_mul,
     preconditions,
+    qpoly,
+    rational,
     scaled,
+    v_center,
 )
 
 #: Highest Taylor order of the sin bounds (the cos bounds go one further).
@@ -182,30 +186,26 @@ def angle_constraints(nv: int, i: int, si: int, qi: int, taylor: int, r: Fractio
     def t(**exps: int) -> Mono:
         return _term(nv, {{"d": i, "s": si, "q": qi}[k]: p for k, p in exps.items()})
 
+    def c(j: int) -> Fraction:  # the Taylor coefficient of d^j of sin (odd j) or cos (even j)
+        return Fraction((-1) ** (j // 2), math.factorial(j))
+
     circle = {t(s=2): Fraction(1), t(q=2): Fraction(1), t(q=1): Fraction(-2)}
     eqs = [(f"s{i}^2 + q{i}^2 - 2 q{i} = 0 (sin^2 + cos^2 = 1)", circle)]
     ineqs: list[tuple[str, QPoly]] = []
     for m in range(1, taylor + 1, 2):  # d (T_m - s) >= 0 for m = 1 mod 4, reversed for 3 mod 4
         sign = 1 if m % 4 == 1 else -1
-        g: QPoly = {t(d=1, s=1): Fraction(-sign)}
-        for j in range(1, m + 1, 2):
-            c = Fraction((-1) ** ((j - 1) // 2), math.factorial(j))
-            g[t(d=j + 1)] = g.get(t(d=j + 1), Fraction(0)) + sign * c
+        g = {t(d=1, s=1): Fraction(-sign), **{t(d=j + 1): sign * c(j) for j in range(1, m + 1, 2)}}
         ineqs.append((f"d{i} ({'T' if sign > 0 else 's'}_{m} - {'s' if sign > 0 else 'T'}) >= 0"
                       f" (sin Taylor bound of order {m})", g))  # fmt: skip
     for m in range(2, taylor + 2, 2):  # cos = 1 - q; cos - C_m >= 0 for m = 2 mod 4, reversed
         sign = 1 if m % 4 == 2 else -1
-        g = {t(q=1): Fraction(-sign)}  # sign (1 - q - C_m), the constant 1 cancels C_m's
-        for j in range(2, m + 1, 2):
-            c = Fraction((-1) ** (j // 2), math.factorial(j))
-            g[t(d=j)] = g.get(t(d=j), Fraction(0)) - sign * c
+        # sign (1 - q - C_m), the constant 1 cancels C_m's
+        g = {t(q=1): Fraction(-sign), **{t(d=j): -sign * c(j) for j in range(2, m + 1, 2)}}
         ineqs.append((f"cos Taylor bound of order {m} on d{i}", g))
     # (s - T_m)^2 <= R^2 and (q - (1 - C_m))^2 <= R^2, R = |d|^(m+2) / (m+2)!
     for m in range(1, taylor + 2):
-        T: QPoly = {t(s=1) if m % 2 else t(q=1): Fraction(1)}
-        for j in range(1 if m % 2 else 2, m + 1, 2):
-            c = Fraction((-1) ** ((j - 1) // 2 if m % 2 else j // 2 + 1), math.factorial(j))
-            T[t(d=j)] = T.get(t(d=j), Fraction(0)) - c  # s - T_m, or q - (1 - C_m)
+        T = {t(s=1) if m % 2 else t(q=1): Fraction(1),  # s - T_m, or q - (1 - C_m)
+             **{t(d=j): -c(j) if m % 2 else c(j) for j in range(2 - m % 2, m + 1, 2)}}  # fmt: skip
         band = poly_mul(T, T)
         band = {k: -v for k, v in band.items()}
         if r is None:  # R^2 = d^(2m+4) / (m+2)!^2, every d
@@ -254,7 +254,7 @@ def shown_coefficient(c: Fraction) -> Any:
     import sympy as sp
 
     if c.denominator <= 1000:
-        return sp.Rational(c.numerator, c.denominator)
+        return rational(c)
     return sp.Float(repr(float(c)))
 
 
@@ -278,7 +278,7 @@ def _square_roots(
                 bp = sp.Poly(base, *gens, domain="QQ")
             except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed):
                 continue
-            b = {tuple(m): exact_fraction(c) for m, c in bp.terms() if c != 0}
+            b = qpoly(bp)
             if not positive_everywhere(b):
                 continue
             b0 = b[tuple([0] * len(gens))]
@@ -288,7 +288,7 @@ def _square_roots(
             u = sp.Symbol(f"u{len(found)}", real=True)
             found[base] = (u, Fraction(rn, rd), b, {})
         u, t0, _, rep = found[base]
-        rep[p] = (sp.Rational(t0.numerator, t0.denominator) + u) ** int(p.exp.p)
+        rep[p] = (rational(t0) + u) ** int(p.exp.p)
     return list(found.values())
 
 
@@ -302,8 +302,7 @@ def denominator_sign(L: Any, gens: list[Any], roots: list[int]) -> int | None:
     const, factors = sp.factor_list(L.as_expr(), *gens)
     sign = 1 if const > 0 else -1
     for fac, mult in factors:
-        fp = sp.Poly(fac, *gens, domain="QQ")
-        q = {tuple(m): exact_fraction(c) for m, c in fp.terms() if c != 0}
+        q = qpoly(sp.Poly(fac, *gens, domain="QQ"))
         if positive_everywhere(q):
             s = 1
         elif positive_everywhere({m: -c for m, c in q.items()}):
@@ -374,9 +373,9 @@ def angle_bound(V: Any, level: Any, i: int) -> Fraction | None:
         if exact_positive_definite(P)[0]:
             import sympy as sp
 
-            inv = sp.Matrix([[sp.Rational(v.numerator, v.denominator) for v in row]
-                             for row in P]).inv()  # fmt: skip
-            need = c * Fraction(int(inv[i, i].p), int(inv[i, i].q))
+            need = c * exact_fraction(
+                sp.Matrix([[rational(v) for v in row] for row in P]).inv()[i, i]
+            )
             r = Fraction(2) ** -20 * (int(np.ceil(np.sqrt(float(need)) * 2**20)) + 1)
             while r * r < need:
                 r *= 2
@@ -437,8 +436,7 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
     try:
         with sp.evaluate(False):
             f = (system if box is None else box.system).field(0.0, xs, namespace("sympy"))
-        shift = {xs[i]: d[i] + sp.Rational(c.numerator, c.denominator)
-                 for i, c in enumerate(center)}  # fmt: skip
+        shift = {xs[i]: d[i] + rational(c) for i, c in enumerate(center)}
         f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
         if box is not None:
             f = [fi.xreplace(box.subs) for fi in f]
@@ -512,51 +510,31 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
     the sin bounds (default from the angles' scale, :func:`taylor_order`). ``box``: the
     system's parameter box (:class:`roa.proof._reductions.ParameterBox`; default: the system's
     own, when it declares uncertain parameters)."""
-    import sympy as sp
-
-    terms = V.polynomial_view()
-    if terms is None:
-        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
-    n = int(V.n)
-    center = tuple(Fraction(float(c)) for c in V.center)
+    n, center = v_center(V)
     if box is None and getattr(system, "parameters", None):
         box = ParameterBox().apply(system)
     pf = polynomial_field(system, center, box=box)
     gens, nv, nz, angles = pf.gens, len(pf.gens), pf.nz, pf.angles
     Vq: QPoly = {m + (0,) * (nv - n): c for m, c in exact_terms(V).items()}
-    Vp = sp.Poly.from_dict({a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()},
-                           *gens, domain="QQ")  # fmt: skip
-    Np = sp.Poly(0, *gens, domain="QQ")
-    for i in range(n):
-        Np = Np + Vp.diff(gens[i]) * pf.F[i]
-    Nq: QPoly = {tuple(m): exact_fraction(c) for m, c in Np.terms() if c != 0}
-    if any(sum(m[:nz]) == 0 for m in Nq):
-        raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
-    low = min((sum(m[:nz]) for m in Nq), default=2)  # lowest degree in the state variables
+    Nq, low = lie_derivative(Vq, pf.F, gens, nz)  # low: the lowest degree in the states
     sc = tuple(Fraction(1) for _ in range(n)) if scale is None else tuple(map(Fraction, scale))
     if len(sc) != n or any(r <= 0 for r in sc):
         raise NotPolynomial(f"scale must be {n} positive rationals")
-    bounds = None if level is None else [angle_bound(V, level, i) for i in angles]
-    if bounds is not None and any(b is None for b in bounds):
-        bounds = None
-    radius = max((float(sc[i]) for i in angles), default=1.0)
-    if bounds:
-        radius = max(float(b) for b in bounds if b is not None)
+    found = None if level is None else [angle_bound(V, level, i) for i in angles]
+    bounds = None if found is None or None in found else [b for b in found if b is not None]
+    radius = max(map(float, bounds)) if bounds else max((float(sc[i]) for i in angles), default=1.0)
     order = taylor_order(radius) if taylor is None else int(taylor)
     if order % 2 == 0 or not 1 <= order <= MAX_TAYLOR:
         raise NotPolynomial(f"taylor must be odd, 1..{MAX_TAYLOR}, got {order}")
     pairs = [angle_constraints(nv, i, n + 2 * a, n + 2 * a + 1, order,
                                None if bounds is None else bounds[a])
              for a, i in enumerate(angles)] + [pf.root_constraints()]  # fmt: skip
-    eqs = [h for e, _ in pairs for h in e]
-    ineqs = [g for _, gs in pairs for g in gs]
-    params = pf.parameters
-    ineqs += box_constraints(nv, params)
-    pad = sc + (Fraction(1),) * (nv - n)
+    params, pad = pf.parameters, sc + (Fraction(1),) * (nv - n)
     Vq, Nq = scaled(Vq, pad), scaled(Nq, pad)
-    eqs = [(w, scaled(h, pad)) for w, h in eqs]
-    ineqs = [(w, scaled(g, pad)) for w, g in ineqs]
-    Lq = scaled({tuple(m): exact_fraction(c) for m, c in pf.Lpos.terms() if c != 0}, pad)
+    eqs = [(w, scaled(h, pad)) for e, _ in pairs for w, h in e]
+    ineqs = [(w, scaled(g, pad))
+             for w, g in [*(g for _, gs in pairs for g in gs), *box_constraints(nv, params)]]  # fmt: skip
+    Lq = scaled(qpoly(pf.Lpos), pad)
     root_data = tuple((gens.index(u), t0, scaled(b, pad)) for u, t0, b, _ in pf.roots)
     den = pf.denominator
     desc = ", ".join([f"sin/cos(d{i}) -> (s{i}, 1 - q{i})" for i in angles]

@@ -76,7 +76,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
-from roa.proof._sos_check import ExactData, Mono, NotPolynomial, QPoly, scale_data
+from roa.proof._sos_check import ExactData, Mono, NotPolynomial, QPoly, rational, scale_data
 
 #: Names of the recast's own variables: a parameter named like one of them is refused.
 _RESERVED = re.compile(r"[xdsqu]\d+")
@@ -121,8 +121,7 @@ class ParameterBox:
             mid, half = (low + high) / 2, (high - low) / 2
             w = sp.Dummy(f"w_{name}", real=True)
             ws.append(w)
-            subs[sp.Symbol(name, real=True)] = (sp.Rational(mid.numerator, mid.denominator)
-                                                + sp.Rational(half.numerator, half.denominator) * w)  # fmt: skip
+            subs[sp.Symbol(name, real=True)] = rational(mid) + rational(half) * w
             params.append((name, low, high))
         return BoxVariables(over(system), tuple(ws), subs, tuple(params))
 

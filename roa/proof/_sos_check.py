@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import math
 import re
 from dataclasses import dataclass
 from fractions import Fraction
@@ -75,6 +76,52 @@ def exact_terms(V: Any) -> QPoly:
     return {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
 
 
+def rational(c: Fraction) -> Any:
+    """``c`` as a sympy Rational."""
+    import sympy as sp
+
+    return sp.Rational(c.numerator, c.denominator)
+
+
+def qpoly(P: Any) -> QPoly:
+    """The nonzero terms of a sympy Poly as exact rationals."""
+    return {tuple(m): exact_fraction(c) for m, c in P.terms() if c != 0}
+
+
+def sym_poly(q: QPoly, gens: list[Any]) -> Any:
+    """``q`` as a sympy Poly over QQ in ``gens``."""
+    import sympy as sp
+
+    return sp.Poly.from_dict({m: rational(c) for m, c in q.items()}, *gens, domain="QQ")
+
+
+def v_center(V: Any) -> tuple[int, tuple[Fraction, ...]]:
+    """``(n, centre)`` of a polynomial V (the centre exact); NotPolynomial without ``terms``."""
+    if V.polynomial_view() is None:
+        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
+    return int(V.n), tuple(Fraction(float(c)) for c in V.center)
+
+
+def lie_derivative(Vq: QPoly, F: list[Any], gens: list[Any], nz: int, discrete: bool = False
+                   ) -> tuple[QPoly, int]:  # fmt: skip
+    """``V' = grad V . F`` (``discrete``: ``V(F) - V``, ``F`` the image's offset from the fixed
+    point) exactly over QQ in ``gens`` (``F`` sympy Polys), and its lowest degree in the first
+    ``nz`` variables; NotPolynomial for a constant term (cannot happen when ``F(0) = 0``)."""
+    import sympy as sp
+
+    Vp = sym_poly(Vq, gens)
+    poly = -Vp if discrete else sp.Poly(0, *gens, domain="QQ")
+    for a, c in Vq.items() if discrete else ():  # V's terms composed with F - x_eq, exactly
+        poly += math.prod((F[i] ** k for i, k in enumerate(a) if k),
+                          start=sp.Poly(rational(c), *gens, domain="QQ"))  # fmt: skip
+    for i in range(0 if discrete else len(F)):
+        poly += Vp.diff(gens[i]) * F[i]
+    N = qpoly(poly)
+    if any(sum(m[:nz]) == 0 for m in N):
+        raise NotPolynomial("f(x_eq) != 0: V' has a constant term")
+    return N, min((sum(m[:nz]) for m in N), default=2)
+
+
 def exact_data(system: Any, V: Any) -> ExactData:
     """``V`` and ``V'`` expanded exactly (sympy over the rationals); raises :class:`NotPolynomial`
     for a field that is not polynomial or a V without ``terms``. For a discrete-time system
@@ -86,13 +133,9 @@ def exact_data(system: Any, V: Any) -> ExactData:
     from roa.model._sympy_eval import exact_rationals
     from roa.proof._fast_poly import field_polys
 
-    terms = V.polynomial_view()
-    if terms is None:
-        raise NotPolynomial(f"V {getattr(V, 'name', V)!r} is not polynomial (no terms)")
+    n, center = v_center(V)
     if getattr(system, "time_varying", False) or system.equilibrium is None:
         raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
-    n = int(V.n)
-    center = tuple(Fraction(float(c)) for c in V.center)
     xs = list(sp.symbols(f"x0:{n}", real=True))
     d = list(sp.symbols(f"d0:{n}", real=True))
     discrete = getattr(system, "time", "continuous") == "discrete"
@@ -100,17 +143,9 @@ def exact_data(system: Any, V: Any) -> ExactData:
         with sp.evaluate(False):
             f = system.dynamics(0.0, xs, namespace("sympy"))
         fast = field_polys(list(f), xs, center, d) if len(f) == n else None  # exact ring route
-        shift = {
-            xs[i]: d[i] + sp.Rational(c.numerator, c.denominator) for i, c in enumerate(center)
-        }
         if fast is None:
+            shift = {xs[i]: d[i] + rational(c) for i, c in enumerate(center)}
             f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
-        if discrete:  # the image's offset from the fixed point: F(x) - x_eq, in d
-            c_eq = [sp.Rational(c.numerator, c.denominator) for c in center]
-            if fast is not None:
-                fast = [fi - ci for fi, ci in zip(fast, c_eq, strict=True)]
-            else:
-                f = [fi - ci for fi, ci in zip(f, c_eq, strict=True)]
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
@@ -121,31 +156,15 @@ def exact_data(system: Any, V: Any) -> ExactData:
         raise NotPolynomial(
             f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
         ) from None
+    if discrete:  # the image's offset from the fixed point: F(x) - x_eq, in d
+        fp = [fi - rational(ci) for fi, ci in zip(fp, center, strict=True)]
     if any(p.coeff_monomial(1) != 0 for p in fp):
         raise NotPolynomial(
             "F(x_eq) != x_eq exactly: V's centre is not a fixed point" if discrete
             else "f(x_eq) != 0 exactly: V's centre is not an equilibrium"
         )  # fmt: skip
     Vq = exact_terms(V)
-    Vp = sp.Poly.from_dict(
-        {a: sp.Rational(c.numerator, c.denominator) for a, c in Vq.items()}, *d, domain="QQ"
-    )
-    poly = sp.Poly(0, *d, domain="QQ")
-    if discrete:  # Delta V = V(F(x)) - V(x): V's terms composed with F - x_eq, exactly
-        one = sp.Poly(1, *d, domain="QQ")
-        for a, c in Vq.items():
-            term = one * sp.Rational(c.numerator, c.denominator)
-            for i, k in enumerate(a):
-                if k:
-                    term = term * fp[i] ** k
-            poly = poly + term
-        poly = poly - Vp
-    for i in range(0 if discrete else n):
-        poly = poly + Vp.diff(d[i]) * fp[i]
-    Vd: QPoly = {tuple(m): exact_fraction(c) for m, c in poly.terms() if c != 0}
-    if any(sum(m) == 0 for m in Vd):
-        raise NotPolynomial("f(x_eq) != 0: V' has a constant term")  # cannot happen, grad V(0)=0
-    low = min((sum(m) for m in Vd), default=2)
+    Vd, low = lie_derivative(Vq, fp, d, n, discrete)
     return ExactData(n, center, Vq, Vd, low)
 
 

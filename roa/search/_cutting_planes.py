@@ -41,7 +41,7 @@ from roa.errors import RoaInputError
 from roa.lyapunov import PolynomialLyapunov, QuadraticLyapunov
 from roa.model._system import System
 from roa.options import SampleSearchOptions
-from roa.search._sdp import monomials as sdp_monomials, solve
+from roa.search._sdp import lyapunov_form, monomials as sdp_monomials, solve
 from roa.search._seed import seed_level
 
 
@@ -130,7 +130,6 @@ class _Basis:
             for i, j in itertools.product(range(m), range(m)):
                 A[self.index[tuple(b[i] + b[j])], i * m + j] += 1.0
             self.maps.append(A)
-        self.quad = [self.index[tuple(e)] for e in monomials(n, [2])]
 
     def values(self, Y: np.ndarray) -> np.ndarray:
         return _phi(_powers(Y, self.degree), self.E)
@@ -203,14 +202,10 @@ class _Problem:
         cons += [g >> o.positivity * np.eye(g.shape[0]) for g in G]
         cons.append(self.rows(S) @ c <= -o.margin)
         # the quadratic part's linearisation: -(A'P2 + P2 A) >= margin I
-        P2 = [[None] * self.n for _ in range(self.n)]
-        for k, e in zip(b.quad, monomials(self.n, [2]), strict=True):
-            i, j = np.flatnonzero(e)[0], np.flatnonzero(e)[-1]
-            P2[i][j] = P2[j][i] = c[k] if i == j else 0.5 * c[k]
-        Pm = cp.bmat(P2)
-        Lm = -(self.A.T @ Pm + Pm @ self.A)
+        Lm = lyapunov_form(self.A, lambda i, j: c[b.index[tuple(int(a == i) + int(a == j)
+                                                                for a in range(self.n))]])  # fmt: skip
         local = o.margin if o.local_margin is None else o.local_margin
-        cons.append(0.5 * (Lm + Lm.T) >> local * np.eye(self.n))
+        cons.append(Lm >> local * np.eye(self.n))
         if len(hard):
             cons.append(b.values(hard) @ c <= 1.0)
         if len(self.outer):  # {V <= 1} inside the ball |y| < outer (sampled)

@@ -43,6 +43,7 @@ import numpy as np
 import scipy.sparse as sps
 
 from roa.errors import RoaInputError
+from roa.proof._sos_check import mono_add as _madd
 
 Poly = dict[tuple[int, ...], float]
 
@@ -262,10 +263,6 @@ def monomials(nvars: int, max_deg: int, min_deg: int = 0) -> list[tuple[int, ...
     return out
 
 
-def _madd(a: tuple[int, ...], b: tuple[int, ...]) -> tuple[int, ...]:
-    return tuple(x + y for x, y in zip(a, b, strict=True))
-
-
 # -- sparse float polynomials ``{exponent tuple: float}``: the arithmetic of the programs --------
 def poly_of(expr: Any, gens: list[Any]) -> Poly:
     import sympy as sp
@@ -318,6 +315,43 @@ def sym_blocks(basis: list[tuple[int, ...]], nd: int, sym: bool, aux_degree: int
     if not sym:
         return [basis]
     return [b for p in (0, 1) if (b := [m for m in basis if sum(m[:nd]) % 2 == p])]
+
+
+def sym_keep(basis: list[tuple[int, ...]], nd: int, sym: bool, aux_degree: int | None = None
+             ) -> list[tuple[int, ...]]:  # fmt: skip
+    """A free multiplier's monomials of ``basis``: those of :func:`sym_blocks`, the even ones in
+    the first ``nd`` variables only when ``sym``."""
+    return [m for b in sym_blocks(basis, nd, sym, aux_degree) for m in b
+            if not sym or sum(m[:nd]) % 2 == 0]  # fmt: skip
+
+
+def multipliers(prog: Program, total: int, eqs: list[Poly], nonneg: list[Poly], blocks: Any,
+                keep: Any) -> list[tuple[list[tuple[int, ...]], Poly | None]]:  # fmt: skip
+    """``+ sum_e mu_e h_e - sigma_0 - sum_j sigma_j g_j`` of degree ``total`` added to ``prog``
+    (``mu_e`` free over ``keep``'s monomials, the sigmas Gram forms over ``blocks``'); returns
+    the Gram blocks ``(basis, g or None)``."""
+    nv = prog.nv
+    for h in eqs:
+        prog.free(h, keep(monomials(nv, total - max(map(sum, h)))))
+    grams: list[tuple[list[tuple[int, ...]], Poly | None]] = [
+        (b, None) for b in blocks(monomials(nv, total // 2))]  # fmt: skip
+    grams += [
+        (b, g) for g in nonneg for b in blocks(monomials(nv, (total - max(map(sum, g))) // 2))
+    ]
+    for b, g in grams:
+        prog.gram(b, g)
+    return grams
+
+
+def lyapunov_form(A: np.ndarray, coef: Any) -> Any:
+    """``-(A'P + P A)`` symmetrised (cvxpy), ``P`` the quadratic part of a V whose coefficient
+    of ``y_i y_j`` is ``coef(i, j)`` (linear in V's coefficients): the local decrease's LMI."""
+    import cvxpy as cp
+
+    n = len(A)
+    P = cp.bmat([[coef(i, j) if i == j else 0.5 * coef(i, j) for j in range(n)] for i in range(n)])
+    L = -(A.T @ P + P @ A)
+    return 0.5 * (L + L.T)
 
 
 class Program:

@@ -25,6 +25,7 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -40,10 +41,12 @@ from roa.search._sdp import (
     Program,
     is_even,
     monomials,
+    multipliers,
     poly_of,
     sdp_bytes,
     solve,
     sym_blocks,
+    sym_keep,
 )
 from roa.status import SosStatus
 
@@ -169,7 +172,7 @@ def _exact_field(system: System, d: list[sp.Symbol], dx: list[sp.Expr], center: 
     from fractions import Fraction
 
     from roa.proof._recast import polynomial_field
-    from roa.proof._sos_check import NotPolynomial
+    from roa.proof._sos_check import NotPolynomial, sym_poly
 
     try:
         pf = polynomial_field(system, tuple(Fraction(float(c)) for c in center))
@@ -186,9 +189,7 @@ def _exact_field(system: System, d: list[sp.Symbol], dx: list[sp.Expr], center: 
         return sp.expand(p.as_expr().xreplace(to_y))
 
     eqs, ineqs = pf.root_constraints()
-    exact = [{m: c for m, c in h.items()} for _, h in eqs + ineqs]
-    polys = [fl(sp.Poly.from_dict({m: sp.Rational(c.numerator, c.denominator)
-                                   for m, c in h.items()}, *pf.gens)) for h in exact]  # fmt: skip
+    polys = [fl(sym_poly(h, pf.gens)) for _, h in eqs + ineqs]
     notes = [w for w, _ in eqs]
     if pf.denominator != "1":
         notes.append(f"the field multiplied by {pf.denominator} > 0")
@@ -278,30 +279,16 @@ def sos_level(system: System, lyap: QuadraticLyapunov, *, recast_mode: str = "ex
         raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)
 
-    def blocks(basis: list[tuple]) -> list[list[tuple]]:
-        """Gram blocks: even and odd monomials in d (y -> -y invariance), or one block."""
-        return sym_blocks(basis, nd, use_sym, aux_degree)
-
-    def keep(basis: list[tuple]) -> list[tuple]:
-        """Free multipliers: only even monomials in d when the program is symmetric."""
-        return [m for b in blocks(basis) for m in b if not use_sym or sum(m[:nd]) % 2 == 0]
-
+    blocks = partial(sym_blocks, nd=nd, sym=use_sym, aux_degree=aux_degree)  # y -> -y: even/odd
+    keep = partial(sym_keep, nd=nd, sym=use_sym, aux_degree=aux_degree)  # free: even ones only
     biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
     if biggest > MAX_GRAM_BLOCK or sdp_bytes(biggest) > MAX_SDP_BYTES:
         return _too_large(biggest, nv, t0)
     prog = Program(nv)
     rho = prog.scalar()
     lam_basis = keep(monomials(nv, multiplier_degree))
-    prog.free(Vd, lam_basis)
-    for h in eq_polys:
-        prog.free(h, keep(monomials(nv, total - max(sum(m) for m in h))))
-    half = total // 2
-    grams: list[tuple[list[tuple], dict | None]] = [(b, None) for b in blocks(monomials(nv, half))]
-    for gp in nn_polys:
-        basis = monomials(nv, (total - max(sum(m) for m in gp)) // 2)
-        grams += [(b, gp) for b in blocks(basis)]
-    for b, times in grams:  # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0 == 0
-        prog.gram(b, times)
+    prog.free(Vd, lam_basis)  # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0
+    grams = multipliers(prog, total, eq_polys, nn_polys, blocks, keep)
     prog.const(A)
     prog.linear([{m: -c for m, c in B.items()}], rho)
     sizes = {"variables": [str(g) for g in gens], "degree": total,

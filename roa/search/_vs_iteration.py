@@ -57,12 +57,15 @@ from roa.search._sdp import (
     diff,
     is_even,
     lin,
+    lyapunov_form,
     monomials,
     mul,
+    multipliers,
     poly_of,
     power,
     solve,
     sym_blocks,
+    sym_keep,
 )
 from roa.search._seed import seed_level
 from roa.search._sos import recast_field
@@ -174,10 +177,7 @@ class _Problem:
         ]
 
     def keep(self, basis: list[tuple]) -> list[tuple]:
-        """Free multipliers: the even monomials only when the program is symmetric."""
-        return [
-            m for b in self.blocks(basis) for m in b if not self.sym or sum(m[: self.nd]) % 2 == 0
-        ]
+        return sym_keep(basis, self.nd, self.sym, self.aux_degree)
 
     def blocks(self, basis: list[tuple]) -> list[list[tuple]]:
         return sym_blocks(basis, self.nd, self.sym, self.aux_degree)
@@ -199,14 +199,7 @@ class _Problem:
             ident.linear([lin((1.0, c), (1.0, mul(lam, d)))
                           for c, d in zip(cols, self.dmono, strict=True)], Vc)  # fmt: skip
         ident.linear([lin((-1.0, self.yyk))], gamma)
-        for h in self.eqs:
-            ident.free(h, self.keep(monomials(self.nv, self.total - max(map(sum, h)))))
-        half = self.total // 2
-        for b in self.blocks(monomials(self.nv, half)):
-            ident.gram(b, None)
-        for g in self.nonneg:
-            for b in self.blocks(monomials(self.nv, (self.total - max(map(sum, g))) // 2)):
-                ident.gram(b, g)
+        multipliers(ident, self.total, self.eqs, self.nonneg, self.blocks, self.keep)
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
     def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
@@ -237,8 +230,6 @@ class _Problem:
         ``Pv`` of V (``A`` the field's Jacobian at the equilibrium, ``mu0`` the seed's value),
         an LMI linear in V's coefficients. Without it the V step may drift to a V whose
         linearisation only marginally decreases (the sampled search then finds no level)."""
-        import cvxpy as cp
-
         n = self.nd
         A = np.zeros((n, n))
         for i, p in enumerate(self.fy):
@@ -248,14 +239,9 @@ class _Problem:
         mu0 = float(np.linalg.eigvalsh(-(A + A.T))[0])
         if mu0 <= 0:
             return
-
-        def entry(i: int, j: int) -> Any:
-            k = self.vbasis.index(tuple(int(a == i) + int(a == j) for a in range(self.nv)))
-            return Vc[k] if i == j else 0.5 * Vc[k]
-
-        Pv = cp.bmat([[entry(i, j) for j in range(n)] for i in range(n)])
-        L = -(A.T @ Pv + Pv @ A)
-        ident.psd.append(0.5 * (L + L.T) - margin * mu0 * np.eye(n) >> 0)
+        L = lyapunov_form(A, lambda i, j: Vc[self.vbasis.index(
+            tuple(int(a == i) + int(a == j) for a in range(self.nv)))])  # fmt: skip
+        ident.psd.append(L - margin * mu0 * np.eye(n) >> 0)
 
     def box_means(self, reach: float) -> np.ndarray:
         """Mean of each monomial of V over the cube ``[-reach, reach]^n`` in y (exact:

@@ -197,9 +197,7 @@ def block_name(factor: int, index: int, count: int, names: list[str]) -> str:
     if factor == 0:
         return "Q0" if count == 1 else f"sigma block {index}"
     if factor == 1:
-        return (
-            "the level multiplier's Q1" if count == 1 else f"the level multiplier's block {index}"
-        )
+        return "the level multiplier's " + ("Q1" if count == 1 else f"block {index}")
     what = names[factor - 2] if factor - 2 < len(names) else f"factor {factor}"
     return f"the multiplier of '{what}'"
 

@@ -73,6 +73,7 @@ non-smooth ``min``/``max``/``abs``.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from fractions import Fraction
@@ -143,9 +144,8 @@ class RecastData:
         import numpy as np
 
         d = [float(xi) - float(c) for xi, c in zip(x, self.center, strict=True)]
-        z = [di / float(r) for di, r in zip(d, self.scale, strict=True)] + [0.0] * (
-            self.nv - self.n
-        )
+        z = [di / float(r) for di, r in zip(d, self.scale, strict=True)]
+        z += [0.0] * (self.nv - self.n)
         for j, (name, lo, hi) in enumerate(self.parameters):
             value = float((lo + hi) / 2) if p is None else float(p[name])
             z[self.nz + j] = (value - float((lo + hi) / 2)) / float((hi - lo) / 2)
@@ -269,8 +269,7 @@ def _square_roots(
     import sympy as sp
 
     found: dict[Any, tuple[Any, Fraction, QPoly, dict[Any, Any]]] = {}
-    pows = {p for fi in f for p in fi.atoms(sp.Pow)
-            if p.exp.is_Rational and p.exp.q == 2}  # fmt: skip
+    pows = {p for fi in f for p in fi.atoms(sp.Pow) if p.exp.is_Rational and p.exp.q == 2}
     for p in sorted(pows, key=sp.default_sort_key):
         base = sp.expand(p.base)
         if base not in found:
@@ -410,7 +409,6 @@ class PolynomialField:
             h = poly_lin((Fraction(1), {tuple(2 * e for e in unit): Fraction(1)}),
                          (2 * t0, {unit: Fraction(1)}), (t0 * t0, {tuple([0] * nv): Fraction(1)}),
                          (Fraction(-1), b))  # fmt: skip
-            h = {m: c for m, c in h.items() if c}
             eqs.append((f"(sqrt(b{k}(0)) + {u})^2 = b{k}, b{k} = {_pretty(b, self.gens)}", h))
             ineqs.append((f"{u} >= 0 (b{k} >= b{k}(0))", {unit: Fraction(1)}))
         return eqs, ineqs
@@ -482,9 +480,7 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
             dens.append(sp.Poly(q, *gens, domain="QQ"))
         except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed):
             raise NotPolynomial(f"cannot recast {_unsupported(fi, gens)} in the field") from None
-    L = dens[0]
-    for q in dens[1:]:
-        L = sp.lcm(L, q)
+    L = functools.reduce(sp.lcm, dens)
     if any(sum(m[:nz]) == 0 for p in nums for m, c in p.terms() if c != 0):
         raise NotPolynomial("f(x_eq) != 0 exactly (for some parameter of the box): V's centre "
                             "is not an equilibrium")  # fmt: skip
@@ -592,6 +588,5 @@ class Recast:
         return [data], data
 
     def invert(self, parts: list[dict[str, Any]], inverse: Any) -> dict[str, Any]:
-        cert = {"parts": parts, "taylor": inverse.taylor,
-                "scale": [str(r) for r in inverse.scale]}  # fmt: skip
+        cert = {"parts": parts, "taylor": inverse.taylor, "scale": [str(r) for r in inverse.scale]}
         return ParameterBox().invert(cert, inverse.parameters)

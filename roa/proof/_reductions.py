@@ -76,7 +76,7 @@ from dataclasses import dataclass, replace
 from fractions import Fraction
 from typing import Any
 
-from roa.proof._sos_check import ExactData, Mono, NotPolynomial, QPoly, rational, scale_data
+from roa.proof._sos_check import ExactData, NotPolynomial, QPoly, rational, scale_data
 
 #: Names of the recast's own variables: a parameter named like one of them is refused.
 _RESERVED = re.compile(r"[xdsqu]\d+")
@@ -134,13 +134,10 @@ def box_constraints(nv: int, parameters: tuple[tuple[str, Fraction, Fraction], .
                     ) -> list[tuple[str, QPoly]]:  # fmt: skip
     """``1 - w_j^2 >= 0`` per parameter, ``w_j`` the ``j``-th of the last ``len(parameters)``
     variables of ``nv``."""
-    out = []
     first = nv - len(parameters)
-    for j, (name, low, high) in enumerate(parameters):
-        sq: Mono = tuple(2 if i == first + j else 0 for i in range(nv))
-        g: QPoly = {tuple([0] * nv): Fraction(1), sq: Fraction(-1)}
-        out.append((f"({name} - {low})({high} - {name}) >= 0 (box of {name}, normalised)", g))
-    return out
+    return [(f"({name} - {low})({high} - {name}) >= 0 (box of {name}, normalised)",
+             {tuple([0] * nv): Fraction(1), tuple(2 * (i == first + j) for i in range(nv)): Fraction(-1)})
+            for j, (name, low, high) in enumerate(parameters)]  # fmt: skip
 
 
 def describe(parameters: tuple[tuple[str, Fraction, Fraction], ...]) -> str:

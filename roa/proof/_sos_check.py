@@ -391,8 +391,7 @@ def scale_data(data: ExactData, scale: tuple[Fraction, ...]) -> ExactData:
     """The data in variables ``y`` with ``d = diag(scale) y``: any positive scale is sound, as
     the map is a bijection and ``|y|^(2k) > 0`` for ``y != 0``; it only balances the program's
     coefficients."""
-    return ExactData(data.n, data.center, scaled(data.V, scale), scaled(data.Vdot, scale),
-                     data.low)  # fmt: skip
+    return ExactData(data.n, data.center, scaled(data.V, scale), scaled(data.Vdot, scale), data.low)
 
 
 def stored_scale(cert: Any, n: int, *, chars: int = MAX_DIGITS) -> tuple[Fraction, ...] | None:

@@ -116,9 +116,7 @@ class _Basis:
         self.n, self.degree = n, degree
         half = monomials(n, range(1, degree // 2 + 1))
         parities = (1, 0) if odd_field else (None,)
-        self.blocks = [
-            half if p is None else half[half.sum(axis=1) % 2 == p] for p in parities
-        ]  # fmt: skip
+        self.blocks = [half if p is None else half[half.sum(axis=1) % 2 == p] for p in parities]
         self.blocks = [b for b in self.blocks if len(b)]
         degs = [d for d in range(2, degree + 1) if not odd_field or d % 2 == 0]
         self.E = monomials(n, degs)

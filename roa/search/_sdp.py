@@ -382,15 +382,10 @@ class Program:
 
     @staticmethod
     def scalar(**kw: Any) -> Any:
+        """A cvxpy variable (``shape=n``: a vector)."""
         import cvxpy as cp
 
         return cp.Variable(**kw)
-
-    @staticmethod
-    def vector(n: int) -> Any:
-        import cvxpy as cp
-
-        return cp.Variable(n)
 
     def const(self, poly: Poly) -> None:
         """The constant polynomial ``poly``."""
@@ -419,7 +414,7 @@ class Program:
 
     def free(self, poly: Poly, basis: list[tuple[int, ...]]) -> Any:
         """A free multiplier ``sum_k q_k b_k`` times ``poly``; returns its variable."""
-        q = self.vector(len(basis))
+        q = self.scalar(shape=len(basis))
         self.linear([{_madd(m, b): coef for m, coef in poly.items()} for b in basis], q)
         self.frees.append((basis, q))
         return q
@@ -516,8 +511,7 @@ class Program:
         ``extra``."""
         import cvxpy as cp
 
-        cons = [self.constraint(), *(o.constraint() for o in also or []), *self.psd,
-                *(extra or [])]  # fmt: skip
+        cons = [self.constraint(), *(o.constraint() for o in also or []), *self.psd, *(extra or [])]
         return cp.Problem(cp.Maximize(objective) if maximise else cp.Minimize(objective), cons)
 
     def solve(self, objective: Any, *, maximise: bool = True, options: dict[str, Any] | None = None,

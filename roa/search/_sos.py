@@ -141,9 +141,7 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
     if mode == "exact":
         return _exact_field(system, d, dx, center)
     aux: list[sp.Symbol] = []
-    boxes: list[sp.Expr] = []
-    subs: dict[sp.Expr, sp.Expr] = {}
-    notes = []
+    boxes, subs, notes = [], {}, []
     atoms = set().union(*(fi.atoms(sp.Pow) for fi in f))
     for p in sorted(atoms, key=sp.default_sort_key):
         e = p.exp
@@ -258,20 +256,17 @@ def sos_level(system: System, lyap: QuadraticLyapunov, *, recast_mode: str = "ex
     except (ValueError, sp.PolynomialError) as exc:
         return SOSResult(SosStatus.NOT_POLYNOMIAL, None, "not run", time.perf_counter() - t0, "",
                          message=str(exc))  # fmt: skip
-    gens = rc.d + rc.aux
+    gens, nd = rc.d + rc.aux, len(rc.d)
     nv = len(gens)
-    nd = len(rc.d)
     Vd = poly_of(rc.Vdot, gens)
     deg_vd = max(sum(m) for m in Vd)
-    if multiplier_degree is None:
-        multiplier_degree = 2 if deg_vd % 2 == 0 else 1
+    multiplier_degree = 2 - deg_vd % 2 if multiplier_degree is None else multiplier_degree
     total = deg_vd + multiplier_degree + (deg_vd + multiplier_degree) % 2
     k = (total - 2) // 2
     dd = sum(x**2 for x in rc.d)  # whitened: d'd ~ V
     A = poly_of(sp.expand(dd**k * rc.V), gens)
     B = poly_of(sp.expand(dd**k), gens)
-    eq_polys = [poly_of(h, gens) for h in rc.equalities]
-    nn_polys = [poly_of(g, gens) for g in rc.nonnegative]
+    eq_polys, nn_polys = ([poly_of(h, gens) for h in hs] for hs in (rc.equalities, rc.nonnegative))
     if symmetry not in SYMMETRY:
         raise RoaInputError(f"symmetry {symmetry!r}: allowed {', '.join(map(str, SYMMETRY))}")
     even = is_even([Vd, A, B, *eq_polys, *nn_polys], nd)

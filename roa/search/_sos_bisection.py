@@ -78,23 +78,16 @@ def bisect_level(data: ExactData, *, rel_tol: float = 1e-7,
             margins[c] = cand.margin
         return cand.feasible
 
-    lo, hi = 1.0, 1.0
-    if ok(1.0):
-        for _ in range(MAX_DOUBLINGS):
-            hi *= 2.0
-            if not ok(hi):
-                break
-            lo = hi
-        else:
-            return math.inf, count
+    lo = hi = 1.0
+    up = ok(1.0)  # double until infeasible, else halve until feasible
+    for _ in range(MAX_DOUBLINGS):
+        c = 2.0 * hi if up else 0.5 * lo
+        lo, hi = (lo, c) if up else (c, hi)
+        if ok(c) != up:
+            break
+        lo = hi = c
     else:
-        for _ in range(MAX_DOUBLINGS):
-            lo /= 2.0
-            if ok(lo):
-                break
-            hi = lo
-        else:
-            return None, count
+        return (math.inf if up else None), count
     side = ""
     while hi - lo > rel_tol * lo:  # invariant: lo feasible, hi not
         mid = 0.5 * (lo + hi)

@@ -123,8 +123,7 @@ def default_eps(data: Any, scale: float = 1e-6) -> Fraction:
     recast numerator; the degree in the state variables, parameters not counted), a dyadic:
     the one default of every route."""
     nz = data.nv - len(getattr(data, "parameters", ()))
-    top = max((abs(float(c)) for m, c in data.N.items() if sum(m[:nz]) == data.low),
-              default=1.0)  # fmt: skip
+    top = max((abs(float(c)) for m, c in data.N.items() if sum(m[:nz]) == data.low), default=1.0)
     return Fraction(2.0 ** round(np.log2(scale * top)))
 
 
@@ -165,13 +164,8 @@ def bases(data: Any, multiplier_degree: int | None = None) -> Bases:
     H = max(D, (top + 1) // 2)
     powers: list[list[Mono]] = []
     for a, i in enumerate(getattr(data, "angles", ())):
-        for j in range(H + 1):
-            for aux in (None, *data.aux(a)):
-                m = list(_unit(nv, i, j))
-                if aux is not None:
-                    m[aux] += 1
-                if D < sum(m) <= H:
-                    sigma.append(tuple(m))
+        sigma += [m for j in range(H + 1) for m in (_unit(nv, i, j), *(mono_add(
+            _unit(nv, i, j), _unit(nv, aux)) for aux in data.aux(a))) if D < sum(m) <= H]  # fmt: skip
         powers.append([_unit(nv, i, j) for j in range(2 * D - 1, 2 * H - 1)])
     ineq = []
     for _, g in data.inequalities:

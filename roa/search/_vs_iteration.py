@@ -161,9 +161,7 @@ class _Problem:
         if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
             raise ProgramTooLarge(_too_many(degree, self.nd, f"{len(self.vbasis)}"))
         deg_vd = degree - 1 + max(sum(m) for p in self.fy for m in p)
-        self.mlam = (
-            (2 if deg_vd % 2 == 0 else 1) if multiplier_degree is None else multiplier_degree
-        )
+        self.mlam = 2 - deg_vd % 2 if multiplier_degree is None else multiplier_degree
         total = max(deg_vd + self.mlam, degree)
         self.total = total + (total % 2)
         self.k = (self.total - degree) // 2
@@ -186,7 +184,7 @@ class _Problem:
         return [m for m in basis if sum(m[self.nd :]) == 0]
 
     # -- the decrease identity: (y'y)^k (V - gamma) + lambda V' + mu h - sigma g - sigma0 ----------
-    def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> None:
+    def decrease(self, ident: Program, Vc: Any, lam: Any, gamma: Any) -> Program:
         """Add the decrease identity; ``Vc`` V's coefficients (array or variable), ``lam`` the
         multiplier (a fixed Poly or None for a free one), ``gamma`` the level (float or variable)."""
         cols = [mul(self.yyk, {m: 1.0}) for m in self.vbasis]
@@ -200,9 +198,10 @@ class _Problem:
                           for c, d in zip(cols, self.dmono, strict=True)], Vc)  # fmt: skip
         ident.linear([lin((-1.0, self.yyk))], gamma)
         multipliers(ident, self.total, self.eqs, self.nonneg, self.blocks, self.keep)
+        return ident
 
     # -- containment: (y'y)^k2 (p - beta) + lambda2 (V - 1) - sigma (in y only) ---------------------
-    def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> None:
+    def contain(self, ident: Program, Vc: Any, lam2: Poly | None, beta: Any) -> Program:
         ident.const(mul(self.yyk2, self.p))
         ident.linear([lin((-1.0, self.yyk2))], beta)
         deg = 2 * self.D + 2
@@ -216,6 +215,7 @@ class _Problem:
             ident.const(lin((-1.0, lam2)))
         for b in self.blocks(self.y_only(monomials(self.nv, deg // 2))):
             ident.gram(b, None)
+        return ident
 
     def positive(self, ident: Program, Vc: Any, eps: float) -> None:
         """``V - eps y'y`` SOS over monomials of degree 1..D in y."""
@@ -315,8 +315,9 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
     at = [system] if not points else [system.at(**p) for p in points]
     scale = min(seed_level(s, V0) for s in at)
     try:
-        pbs = _problems(at, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode,
-                        scale)  # fmt: skip
+        pbs = _problems(at, symmetry, V0=V0, shape=S, degree=degree, scale=scale,
+                        multiplier_degree=multiplier_degree, aux_degree=aux_degree,
+                        recast_mode=recast_mode)  # fmt: skip
     except ProgramTooLarge as exc:
         return none(SosStatus.TOO_LARGE, str(exc))
     except (RoaInputError, sp.PolynomialError) as exc:
@@ -328,8 +329,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
         return None if budget is None else budget - (_now() - t0)
 
     def options() -> dict[str, Any]:
-        rest = left()
-        if rest is None:
+        if (rest := left()) is None:
             return base
         # never below 1e-3 s (a solver refuses a negative limit): the budget may run out
         # between the check before a step and its solve
@@ -337,8 +337,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
         return {**base, "time_limit": min(base.get("time_limit") or limit, limit)}
 
     def spent() -> bool:
-        rest = left()
-        return rest is not None and rest <= 0
+        return (rest := left()) is not None and rest <= 0
 
     # the seed in y: V0 = y'y
     Vc = np.array([1.0 if sum(m) == 2 and max(m) == 2 else 0.0 for m in pb.vbasis])
@@ -435,21 +434,16 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
             break
         # V step: V free, lambda and lambda2 fixed, maximise beta
         ident = Program(pb.nv)
-        vvar = ident.vector(len(pb.vbasis))
+        vvar = ident.scalar(shape=len(pb.vbasis))
         beta = ident.scalar()
         pb.decrease(ident, vvar, lams[0], 1.0)
-        others = []
-        for pk, lam_k in zip(pbs[1:], lams[1:], strict=True):  # the same V at every point
-            ik = ident.fork()
-            pk.decrease(ik, vvar, lam_k, 1.0)
-            others.append(ik)
+        others = [pk.decrease(ident.fork(), vvar, lam_k, 1.0)  # the same V at every point
+                  for pk, lam_k in zip(pbs[1:], lams[1:], strict=True)]  # fmt: skip
         extra: list[Program] = []
         if objective == "volume":  # V's mean over the cube decreases: {V <= 1} grows
             goal, sense = weights @ vvar, False
         else:  # {p <= beta} inside {V <= 1}, beta increases
-            ident2 = ident.fork()
-            pb.contain(ident2, vvar, lam2, beta)
-            extra.append(ident2)
+            extra.append(pb.contain(ident.fork(), vvar, lam2, beta))
             goal, sense = beta, True
         ident3 = ident.fork()
         pb.positive(ident3, vvar, eps)
@@ -470,8 +464,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
         return VsResult(status, degree, [], [], log, _now() - t0, sizes, message)
     final = SosStatus.STOPPED if status is SosStatus.STOPPED else SosStatus.SOLVED
     scores = [-m for m in means] if objective == "volume" else [float(b or 0.0) for b in betas]
-    return VsResult(final, degree, cands, betas, log, _now() - t0, sizes, message, means,
-                    scores)  # fmt: skip
+    return VsResult(final, degree, cands, betas, log, _now() - t0, sizes, message, means, scores)
 
 
 def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:
@@ -537,16 +530,12 @@ def _box_seed(system: System, V0: QuadraticLyapunov) -> tuple[QuadraticLyapunov,
                                         "LMIs"), True  # fmt: skip
 
 
-def _problems(systems: list[System], V0: QuadraticLyapunov, S: np.ndarray, degree: int,
-              multiplier_degree: int | None, symmetry: bool | str, aux_degree: int | None,
-              recast_mode: str, scale: float) -> list[_Problem]:  # fmt: skip
+def _problems(systems: list[System], symmetry: bool | str, **kw: Any) -> list[_Problem]:
     """One :class:`_Problem` per parameter point, sharing V's monomials: the even/odd split only
     when every point allows it; the same recast variables at every point (else an error)."""
-    pbs = [_Problem(s, V0, S, degree, multiplier_degree, symmetry, aux_degree, recast_mode, scale)
-           for s in systems]  # fmt: skip
+    pbs = [_Problem(s, symmetry=symmetry, **kw) for s in systems]
     if len({pb.sym for pb in pbs}) > 1:
-        pbs = [_Problem(s, V0, S, degree, multiplier_degree, False, aux_degree, recast_mode, scale)
-               for s in systems]  # fmt: skip
+        pbs = [_Problem(s, symmetry=False, **kw) for s in systems]
     if len({tuple(map(str, pb.gens)) for pb in pbs}) > 1 or len({pb.total for pb in pbs}) > 1:
         raise RoaInputError(
             "the recast field has other variables or degrees at other parameter values of the "

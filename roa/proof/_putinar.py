@@ -243,9 +243,8 @@ def check_identity(target: QPoly, times: list[QPoly], equalities: list[QPoly], c
         pivots.extend(piv)
         k = grams[i][0]
         name = block_name(k, sum(1 for g in grams[:i] if g[0] == k), count[k], names)
-        cone = (
-            "positive definite" if cert.cone(i) == "psd" else "strictly scaled diagonally dominant"
-        )
+        cone = ("positive definite" if cert.cone(i) == "psd"
+                else "strictly scaled diagonally dominant")  # fmt: skip
         return None if ok else ExactCheck(
             False, f"{what} {name} is not {cone} (exact)",
             None if residual is None else as_float(residual), as_float(min(piv)) if piv else None)  # fmt: skip
@@ -322,9 +321,8 @@ def check_level(data: Any, level: Any, eps: Any, cert: Certificate, *, rounded: 
 
 
 def level_identity(data: Any, level: Fraction, eps: Fraction) -> tuple[QPoly, list[QPoly]]:
-    """``(T, [t_0, t_1, ...])`` of the level's identity for the data of :func:`check_level`:
-    ``T = -N - eps |d|^(2k)``, ``t_0 = 1``, ``t_1 = c - V``, ``t_{2+j} = g_j`` (the program
-    that proposes a certificate builds the same identity in floats)."""
+    """``(T, [t_0, t_1, ...])`` of the level's identity (module docstring) for the data of
+    :func:`check_level` (the program that proposes a certificate builds it in floats)."""
     nv, pad = data.nv, data.nv - data.n
     zero = tuple([0] * nv)
     norm = {m + (0,) * pad: v for m, v in norm_power(data.n, data.low // 2).items()}

@@ -169,13 +169,6 @@ def evaluate(p: QPoly, z: Any) -> Any:
     return total
 
 
-def _term(nv: int, exps: dict[int, int]) -> Mono:
-    e = [0] * nv
-    for i, p in exps.items():
-        e[i] += p
-    return tuple(e)
-
-
 def angle_constraints(nv: int, i: int, si: int, qi: int, taylor: int, r: Fraction | None = None
                       ) -> tuple[list[tuple[str, QPoly]], list[tuple[str, QPoly]]]:  # fmt: skip
     """The circle (equality) and the Taylor bounds (inequalities) of one angle (module docstring):
@@ -184,7 +177,8 @@ def angle_constraints(nv: int, i: int, si: int, qi: int, taylor: int, r: Fractio
     given: valid only where ``|d| <= r``)."""
 
     def t(**exps: int) -> Mono:
-        return _term(nv, {{"d": i, "s": si, "q": qi}[k]: p for k, p in exps.items()})
+        at = {{"d": i, "s": si, "q": qi}[k]: p for k, p in exps.items()}
+        return tuple(at.get(j, 0) for j in range(nv))
 
     def c(j: int) -> Fraction:  # the Taylor coefficient of d^j of sin (odd j) or cos (even j)
         return Fraction((-1) ** (j // 2), math.factorial(j))
@@ -429,8 +423,7 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
     if getattr(system, "time_varying", False) or system.equilibrium is None:
         raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
     n = len(center)
-    xs = list(sp.symbols(f"x0:{n}", real=True))
-    d = list(sp.symbols(f"d0:{n}", real=True))
+    xs, d = (list(sp.symbols(f"{v}0:{n}", real=True)) for v in "xd")
     try:
         with sp.evaluate(False):
             f = (system if box is None else box.system).field(0.0, xs, namespace("sympy"))
@@ -486,10 +479,9 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
                             "is not an equilibrium")  # fmt: skip
     sign = denominator_sign(L, gens, [gens.index(u) for u, _, _, _ in roots])
     if sign is None:
-        raise NotPolynomial(
-            f"cannot prove the denominator {L.as_expr()} positive (needs factors that are a "
-            "positive constant plus even terms with positive coefficients, or sqrt(b) >= 0)"
-        )
+        raise NotPolynomial(f"cannot prove the denominator {L.as_expr()} positive (needs factors "
+                            "that are a positive constant plus even terms with positive "
+                            "coefficients, or sqrt(b) >= 0)")  # fmt: skip
     F = [sign * nums[i] * sp.div(L, dens[i])[0] for i in range(n)]
     den = "1" if L.is_one else str(L.as_expr())
     params = () if box is None else box.parameters
@@ -500,9 +492,7 @@ def recast_exact(system: Any, V: Any, taylor: int | None = None,
                  scale: tuple[Fraction, ...] | None = None, level: Any = None, *,
                  box: Any = None) -> RecastData:  # fmt: skip
     """The exact recast of ``V'`` (module docstring) in scaled variables ``y`` (``d_i = scale_i
-    y_i``, any positive rationals, default 1: the identity in ``y`` is the identity in ``d``
-    after the substitution, so the argument is unchanged, with ``eps |y|^2k > 0`` for ``d != 0``);
-    raises :class:`NotPolynomial` naming the term that cannot be recast. ``taylor``: the order of
+    y_i``, any positive rationals, default 1: module docstring, **Scaling**); raises :class:`NotPolynomial` naming the term that cannot be recast. ``taylor``: the order of
     the sin bounds (default from the angles' scale, :func:`taylor_order`). ``box``: the
     system's parameter box (:class:`roa.proof._reductions.ParameterBox`; default: the system's
     own, when it declares uncertain parameters)."""
@@ -578,9 +568,7 @@ class Recast:
 
     def apply(self, system: Any, V: Any, level: float) -> tuple[list[Any], Any]:
         """``([data], data)``: the recast's exact data (:class:`roa.proof._recast.RecastData`);
-        raises :class:`NotPolynomial` with why it does not apply (a term that cannot be recast,
-        V not centred at the equilibrium, ``{V <= level}`` not proved bounded, V' starting at an
-        odd degree)."""
+        raises :class:`NotPolynomial` with why it does not apply (:func:`recast_preconditions`)."""
         scale = level_scale(V, level) if self.scale is None else self.scale
         data, why = recast_preconditions(system, V, level, self.taylor, scale)
         if data is None:

@@ -136,8 +136,7 @@ def exact_data(system: Any, V: Any) -> ExactData:
     n, center = v_center(V)
     if getattr(system, "time_varying", False) or system.equilibrium is None:
         raise NotPolynomial("the SOS check needs an autonomous system with an equilibrium")
-    xs = list(sp.symbols(f"x0:{n}", real=True))
-    d = list(sp.symbols(f"d0:{n}", real=True))
+    xs, d = (list(sp.symbols(f"{v}0:{n}", real=True)) for v in "xd")
     discrete = getattr(system, "time", "continuous") == "discrete"
     try:  # unevaluated, so that no float is rounded against a rational before it is made exact
         with sp.evaluate(False):
@@ -153,16 +152,13 @@ def exact_data(system: Any, V: Any) -> ExactData:
     try:  # polynomial arithmetic over QQ (exact, and much faster than expanding expressions)
         fp = fast if fast is not None else [sp.Poly(fi, *d, domain="QQ") for fi in f]
     except (sp.PolynomialError, sp.polys.polyerrors.CoercionFailed, sp.GeneratorsNeeded) as exc:
-        raise NotPolynomial(
-            f"the field is not polynomial in the state (no recasting in the SOS check): {exc}"
-        ) from None
+        raise NotPolynomial(f"the field is not polynomial in the state (no recasting in the SOS "
+                            f"check): {exc}") from None  # fmt: skip
     if discrete:  # the image's offset from the fixed point: F(x) - x_eq, in d
         fp = [fi - rational(ci) for fi, ci in zip(fp, center, strict=True)]
     if any(p.coeff_monomial(1) != 0 for p in fp):
-        raise NotPolynomial(
-            "F(x_eq) != x_eq exactly: V's centre is not a fixed point" if discrete
-            else "f(x_eq) != 0 exactly: V's centre is not an equilibrium"
-        )  # fmt: skip
+        raise NotPolynomial("F(x_eq) != x_eq exactly: V's centre is not a fixed point" if discrete
+                            else "f(x_eq) != 0 exactly: V's centre is not an equilibrium")  # fmt: skip
     Vq = exact_terms(V)
     Vd, low = lie_derivative(Vq, fp, d, n, discrete)
     return ExactData(n, center, Vq, Vd, low)
@@ -217,13 +213,8 @@ def round_matrix(Q: Any, bits: int = 30) -> list[list[Fraction]]:
     top = float(np.max(np.abs(A))) if A.size else 0.0
     e = int(np.ceil(np.log2(top))) if top > 0 else 0
     grid = Fraction(2) ** (e - bits)
-    m = A.shape[0]
-    out = [[Fraction(0)] * m for _ in range(m)]
-    for i in range(m):
-        for j in range(i, m):
-            v = Fraction(round(Fraction(float(0.5 * (A[i, j] + A[j, i]))) / grid)) * grid
-            out[i][j] = out[j][i] = v
-    return out
+    S = 0.5 * (A + A.T)  # symmetric exactly (float addition commutes)
+    return [[Fraction(round(Fraction(float(v)) / grid)) * grid for v in row] for row in S]
 
 
 def exact_matrix(Q: Any, rounded: bool) -> list[list[Fraction]]:
@@ -238,11 +229,8 @@ def is_symmetric(R: list[list[Fraction]]) -> bool:
 
 
 def matrix_digest(*mats: list[list[Fraction]]) -> str:
-    h = hashlib.sha256()
-    for M in mats:
-        h.update(repr([[str(v) for v in row] for row in M]).encode())
-        h.update(b";")
-    return h.hexdigest()
+    return hashlib.sha256(b"".join(repr([[str(v) for v in row] for row in M]).encode() + b";"
+                                   for M in mats)).hexdigest()  # fmt: skip
 
 
 def project_grams(
@@ -388,9 +376,7 @@ def scaled(p: QPoly, scale: tuple[Fraction, ...]) -> QPoly:
 
 
 def scale_data(data: ExactData, scale: tuple[Fraction, ...]) -> ExactData:
-    """The data in variables ``y`` with ``d = diag(scale) y``: any positive scale is sound, as
-    the map is a bijection and ``|y|^(2k) > 0`` for ``y != 0``; it only balances the program's
-    coefficients."""
+    """The data in variables ``y`` with ``d = diag(scale) y`` (:class:`roa.proof._reductions.Rescale`)."""
     return ExactData(data.n, data.center, scaled(data.V, scale), scaled(data.Vdot, scale), data.low)
 
 

@@ -54,10 +54,8 @@ MAX_PARTS = 50_000
 def part_json(variables: list[int], cert: Certificate, eps: Fraction | None = None,
               **extra: Any) -> dict[str, Any]:  # fmt: skip
     """One stored part: ``variables``, ``eps`` (omitted: the top level's) and the certificate."""
-    out: dict[str, Any] = {"variables": list(variables)}
-    if eps is not None:
-        out["eps"] = str(eps)
-    return {**out, **cert.to_json(), **extra}
+    return {"variables": list(variables), **({} if eps is None else {"eps": str(eps)}),
+            **cert.to_json(), **extra}  # fmt: skip
 
 
 def _grams(items: Any, what: str, factor: int | None = None) -> list[dict[str, Any]]:
@@ -77,10 +75,8 @@ def _old_part(raw: dict[str, Any], variables: Any) -> dict[str, Any]:
         grams = [{"multiplies": 0, "basis": raw.get("basis0"), "Q": raw.get("Q0")}]
         if raw.get("basis1"):
             grams.append({"multiplies": 1, "basis": raw.get("basis1"), "Q": raw.get("Q1") or []})
-    part: dict[str, Any] = {"variables": variables, "grams": grams, "free": []}
-    if "eps" in raw:
-        part["eps"] = raw["eps"]
-    return part
+    return {"variables": variables, "grams": grams, "free": [],
+            **({"eps": raw["eps"]} if "eps" in raw else {})}  # fmt: skip
 
 
 def parts_of(cert: Any, n: int) -> dict[str, Any]:

@@ -151,8 +151,7 @@ class _Problem:
         self.system, self.opts = system, opts
         self.center = np.asarray(V0.center, dtype=float)
         self.n = len(self.center)
-        L = np.linalg.cholesky(np.asarray(V0.P, dtype=float) / scale)
-        self.W = L.T  # y = W (x - x_eq)
+        self.W = np.linalg.cholesky(np.asarray(V0.P, dtype=float) / scale).T  # y = W (x - x_eq)
         self.M = np.linalg.inv(self.W)
         odd = _odd(system, self.center, self.M)
         sym = odd if opts.symmetry == "auto" else bool(opts.symmetry)
@@ -169,9 +168,8 @@ class _Problem:
         return (np.asarray(X, dtype=float) - self.center) @ self.W.T
 
     def field(self, Y: np.ndarray) -> np.ndarray:
-        X = self.center + Y @ self.M.T
         with np.errstate(all="ignore"):
-            F = self.system.f(X)
+            F = self.system.f(self.center + Y @ self.M.T)
         return np.asarray(F @ self.W.T)
 
     def _jacobian(self) -> np.ndarray:
@@ -181,8 +179,7 @@ class _Problem:
 
     def rows(self, Y: np.ndarray) -> np.ndarray:
         """Normalised decrease rows ``V'(y) / |y|^2`` (finite fields only)."""
-        F = self.field(Y)
-        R = self.basis.derivative_rows(Y, F)
+        R = self.basis.derivative_rows(Y, self.field(Y))
         return np.asarray(R / np.sum(Y * Y, axis=1)[:, None])
 
     def solve(self, S: np.ndarray, hard: np.ndarray, soft: np.ndarray,
@@ -194,9 +191,8 @@ class _Problem:
         b, o = self.basis, self.opts
         G = [cp.Variable((len(bl), len(bl)), symmetric=True) for bl in b.blocks]
         c = cp.Variable(len(b.E))  # explicit: each sample row then has len(E) entries only
-        cons: list[Any] = [
-            c == sum(A @ cp.vec(g, order="C") for A, g in zip(b.maps, G, strict=True))
-        ]
+        cons: list[Any] = [c == sum(A @ cp.vec(g, order="C")
+                                    for A, g in zip(b.maps, G, strict=True))]  # fmt: skip
         cons += [g >> o.positivity * np.eye(g.shape[0]) for g in G]
         cons.append(self.rows(S) @ c <= -o.margin)
         # the quadratic part's linearisation: -(A'P2 + P2 A) >= margin I
@@ -267,9 +263,8 @@ class _Problem:
         from roa.status import LevelStatus
 
         res = level_search(self.system, V, shape="level", method="sampled")
-        if res.status is not LevelStatus.FOUND or res.level is None or res.witness is None:
-            return np.zeros((0, self.n))
-        if res.level >= 1.0 + self.opts.slack:
+        if (res.status is not LevelStatus.FOUND or res.level is None or res.witness is None
+                or res.level >= 1.0 + self.opts.slack):  # fmt: skip
             return np.zeros((0, self.n))
         w = self.to_y(np.asarray(res.witness, dtype=float)[None, :])[0]
         near = w * (1 + 0.03 * rng.standard_normal((64, self.n)))
@@ -369,10 +364,7 @@ def sample_search(system: System, V0: QuadraticLyapunov, *, hard: Any = None, so
     pb = _Problem(system, V0, scale, o)
     n = pb.n
     H = _points(pb, hard, "hard")
-    if soft is None:
-        Sy = o.grow * _ball(rng, o.soft_points, n)
-    else:
-        Sy = _points(pb, soft, "soft")
+    Sy = o.grow * _ball(rng, o.soft_points, n) if soft is None else _points(pb, soft, "soft")
     # first cut points: the hard targets and the seed's unit ball
     S = np.vstack([H, _ball(rng, o.initial_cuts, n)])
     S = S[np.sum(S * S, axis=1) > 1e-10]

@@ -110,9 +110,8 @@ def choose_solver(blocks: list[int], rows: int = 0, nonzeros: int = 0, solver: s
     gib = 2**30
     small = max(blocks, default=0) <= AUTO_SCS_BLOCK
     if ipm <= budget and (solver == "clarabel" or (solver == "auto" and small)):
-        return SolverChoice(
-            "clarabel", ipm, scs, f"interior point: an estimated {ipm / gib:.3g} GiB"
-        )
+        return SolverChoice("clarabel", ipm, scs,
+                            f"interior point: an estimated {ipm / gib:.3g} GiB")  # fmt: skip
     if solver == "clarabel":
         return SolverChoice(None, ipm, scs, f"the interior-point solver needs an estimated "
                             f"{ipm / gib:.3g} GiB (budget {budget / gib:.3g} GiB): not built")  # fmt: skip
@@ -156,11 +155,9 @@ def check_block(size: int) -> None:
     """Refuse a Gram block of ``size`` monomials above :data:`MAX_GRAM_BLOCK` before any work
     (such programs made the solver request terabytes and abort)."""
     if size > MAX_GRAM_BLOCK:
-        raise ProgramTooLarge(
-            f"the SOS program's Gram block would hold {size} monomials, more than the "
-            f"{MAX_GRAM_BLOCK} built here (memory would run out): not built; use a lower degree "
-            "or fewer states"
-        )
+        raise ProgramTooLarge(f"the SOS program's Gram block would hold {size} monomials, more "
+                              f"than the {MAX_GRAM_BLOCK} built here (memory would run out): not "
+                              "built; use a lower degree or fewer states")  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -245,9 +242,8 @@ def solve(problem: Any, *, solver: str = "clarabel", options: dict[str, Any] | N
         status = str(problem.status)
     except cp.error.SolverError as exc:
         return Solved("error", f"solver error: {exc}", name.lower(), time.perf_counter() - t0)
-    group = {cp.OPTIMAL: "optimal", cp.OPTIMAL_INACCURATE: "inaccurate",
-             cp.INFEASIBLE: "infeasible", cp.INFEASIBLE_INACCURATE: "infeasible"}.get(status,
-                                                                                    "error")  # fmt: skip
+    group = {cp.OPTIMAL: "optimal", cp.OPTIMAL_INACCURATE: "inaccurate", cp.INFEASIBLE: "infeasible",
+             cp.INFEASIBLE_INACCURATE: "infeasible"}.get(status, "error")  # fmt: skip
     return Solved(group, status, name.lower(), time.perf_counter() - t0)
 
 
@@ -335,9 +331,8 @@ def multipliers(prog: Program, total: int, eqs: list[Poly], nonneg: list[Poly], 
         prog.free(h, keep(monomials(nv, total - max(map(sum, h)))))
     grams: list[tuple[list[tuple[int, ...]], Poly | None]] = [
         (b, None) for b in blocks(monomials(nv, total // 2))]  # fmt: skip
-    grams += [
-        (b, g) for g in nonneg for b in blocks(monomials(nv, (total - max(map(sum, g))) // 2))
-    ]
+    grams += [(b, g) for g in nonneg
+              for b in blocks(monomials(nv, (total - max(map(sum, g))) // 2))]  # fmt: skip
     for b, g in grams:
         prog.gram(b, g)
     return grams
@@ -354,6 +349,10 @@ def lyapunov_form(A: np.ndarray, coef: Any) -> Any:
     return 0.5 * (L + L.T)
 
 
+def _columns(rcv: list[tuple[int, int, float]]) -> tuple[list, list, list]:
+    return [x[0] for x in rcv], [x[1] for x in rcv], [x[2] for x in rcv]
+
+
 class Program:
     """``sum of terms == 0``, coefficient by coefficient (module docstring)."""
 
@@ -367,8 +366,7 @@ class Program:
         self.frees: list[tuple[list[tuple[int, ...]], Any]] = []
         self.grams: list[tuple[list[tuple[int, ...]], Any]] = []
         self.cones: list[str] = []  # per Gram block: "psd" or "sdd"
-        self.solver = ""
-        self.status = "not solved"
+        self.solver, self.status = "", "not solved"
 
     def fork(self) -> Program:
         """Another identity sharing this one's positive semidefinite constraints."""
@@ -376,9 +374,7 @@ class Program:
 
     def row(self, m: tuple[int, ...]) -> int:
         """The row of monomial ``m`` (new rows in order of first use)."""
-        if m not in self.rows:
-            self.rows[m] = len(self.rows)
-        return self.rows[m]
+        return self.rows.setdefault(m, len(self.rows))
 
     @staticmethod
     def scalar(**kw: Any) -> Any:
@@ -404,13 +400,8 @@ class Program:
             import cvxpy as cp
 
             var = cp.hstack([var])
-        r, c, v = [], [], []
-        for k, p in enumerate(polys):
-            for m, coef in p.items():
-                r.append(self.row(m))
-                c.append(k)
-                v.append(coef)
-        self.parts.append((r, c, v, var, len(polys), None))
+        rcv = [(self.row(m), k, coef) for k, p in enumerate(polys) for m, coef in p.items()]
+        self.parts.append((*_columns(rcv), var, len(polys), None))
 
     def free(self, poly: Poly, basis: list[tuple[int, ...]]) -> Any:
         """A free multiplier ``sum_k q_k b_k`` times ``poly``; returns its variable."""
@@ -421,15 +412,10 @@ class Program:
 
     def _gram_columns(self, basis: list[tuple[int, ...]], times: Poly, sign: float
                       ) -> tuple[list, list, list]:  # fmt: skip
-        r, c, v = [], [], []
         nb = len(basis)
-        for i, j in itertools.product(range(nb), range(nb)):
-            bij = _madd(basis[i], basis[j])
-            for m, coef in times.items():
-                r.append(self.row(_madd(bij, m)))
-                c.append(i * nb + j)
-                v.append(sign * coef)
-        return r, c, v
+        return _columns([(self.row(_madd(bij, m)), i * nb + j, sign * coef)
+                         for i, j in itertools.product(range(nb), range(nb))
+                         for bij in [_madd(basis[i], basis[j])] for m, coef in times.items()])  # fmt: skip
 
     def gram(self, basis: list[tuple[int, ...]], times: Poly | None = None, *, sign: float = -1.0,
              margin: Any = None, level: Any = None, level_times: Poly | None = None,
@@ -454,11 +440,9 @@ class Program:
             a, b, c = u[:P], u[P : 2 * P], u[2 * P :]
             self.psd.append(cp.SOC(a + b, cp.vstack([2 * c, a - b]), axis=0))
             k = np.arange(P)
-            M = sps.csr_matrix((np.ones(4 * P), (np.concatenate([I * nb + I, J * nb + J,
-                                                                  I * nb + J, J * nb + I]),
-                                                  np.concatenate([k, P + k, 2 * P + k,
-                                                                  2 * P + k]))),
-                               shape=(nb * nb, 3 * P))  # fmt: skip
+            rows = np.concatenate([I * nb + I, J * nb + J, I * nb + J, J * nb + I])
+            cols = np.concatenate([k, P + k, 2 * P + k, 2 * P + k])
+            M = sps.csr_matrix((np.ones(4 * P), (rows, cols)), shape=(nb * nb, 3 * P))
             vecQ = M @ u
             if margin is not None:
                 vecQ = vecQ + margin * np.eye(nb).reshape(-1)

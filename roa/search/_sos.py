@@ -117,10 +117,8 @@ NO_TRIG = ("the SOS level proposer takes fields without sin/cos (the level progr
 
 def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str = "exact"
                  ) -> RecastField:  # fmt: skip
-    """``f(c + M y)`` made polynomial: ``exact`` by the one recast of
-    :func:`roa.proof.polynomial_field` (``b^(k/2) -> (t0 + u)^k``, ``u = sqrt(b) - t0``,
-    ``(t0 + u)^2 = b``, ``u >= 0``; rational terms times their positive denominator; no sin/cos:
-    the level program has no Taylor bounds), then ``d = M y``; ``enclosure`` with ``t = b^(k/2)
+    """``f(c + M y)`` made polynomial: ``exact`` by the one recast (module docstring, **Recasting**;
+    no sin/cos: the level program has no Taylor bounds), then ``d = M y``; ``enclosure`` with ``t = b^(k/2)
     in [0, 1]`` for ``k < 0`` and ``b >= 1`` (a relaxation: it loses the relation between t and
     b). Raises :class:`RoaInputError` for what cannot be made polynomial (saturation
     ``min``/``max``/``clip``/``abs``, sin/cos, other functions, ...)."""
@@ -134,10 +132,8 @@ def recast_field(system: System, M: np.ndarray, center: np.ndarray, *, mode: str
     f = system.field(0.0, x, namespace("sympy"))
     f = [sp.powsimp(sp.sympify(fi)) for fi in f]
     if any(fi.has(*NONSMOOTH) for fi in f):
-        raise RoaInputError(
-            "the field uses min/max/clip/abs (saturation): SOS needs a polynomial field; use "
-            "method='interval' (sampled search + interval validation)"
-        )
+        raise RoaInputError("the field uses min/max/clip/abs (saturation): SOS needs a polynomial field; use "
+                            "method='interval' (sampled search + interval validation)")  # fmt: skip
     if mode == "exact":
         return _exact_field(system, d, dx, center)
     aux: list[sp.Symbol] = []
@@ -273,16 +269,15 @@ def sos_level(system: System, lyap: QuadraticLyapunov, *, recast_mode: str = "ex
     if symmetry is True and not even:
         raise RoaInputError("symmetry=True needs V' and the recast constraints even in x - x_eq")
     use_sym = even and symmetry in ("auto", True)
-
     blocks = partial(sym_blocks, nd=nd, sym=use_sym, aux_degree=aux_degree)  # y -> -y: even/odd
     keep = partial(sym_keep, nd=nd, sym=use_sym, aux_degree=aux_degree)  # free: even ones only
     biggest = max(len(b) for b in blocks(monomials(nv, total // 2)))
     if biggest > MAX_GRAM_BLOCK or sdp_bytes(biggest) > MAX_SDP_BYTES:
         return _too_large(biggest, nv, t0)
-    prog = Program(nv)
-    rho = prog.scalar()
-    lam_basis = keep(monomials(nv, multiplier_degree))
-    prog.free(Vd, lam_basis)  # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0
+    prog, rho = Program(nv), Program.scalar()
+    prog.free(
+        Vd, keep(monomials(nv, multiplier_degree))
+    )  # (d'd)^k (V - rho) + lambda V' + mu h - sum_j sigma_j g_j - sigma0
     grams = multipliers(prog, total, eq_polys, nn_polys, blocks, keep)
     prog.const(A)
     prog.linear([{m: -c for m, c in B.items()}], rho)

@@ -137,10 +137,7 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
                  multiplier_degree: int | None = None,
                  solver_options: dict[str, Any] | None = None, symmetry: str | bool = "auto",
                  aux_degree: int | None = None) -> Any:  # fmt: skip
-    """The largest SOS level of ``V`` (module docstring) as a :class:`roa.search._sos.SOSResult`:
-    bisection when the exact data split over independent blocks or the one block's route is
-    patterned (each block's route chosen once, :func:`roa.search._sos_program.route_for`), else
-    the max-level program (:func:`roa.search._sos.sos_level`; quadratic V only)."""
+    """The largest SOS level of ``V`` (module docstring) as a :class:`roa.search._sos.SOSResult`."""
     from roa.progress import step
     from roa.proof._sos_check import NotPolynomial, exact_data
     from roa.search._sos import SOSResult, sos_level
@@ -160,9 +157,8 @@ def level_search(system: Any, V: Any, *, recast_mode: str = "exact",
                     else "the sparse (chordal clique) program" if routes[0].kind == "sparse"
                     else "the SDSOS program (sign blocks, scaled diagonally dominant)")  # fmt: skip
             with step(f"SOS level by bisection with {what}"):
-                bl = block_levels(
-                    data, solver_options=solver_options, routes=routes, split=(subs, parts)
-                )
+                bl = block_levels(data, solver_options=solver_options, routes=routes,
+                                  split=(subs, parts))  # fmt: skip
             sizes: dict[str, Any] = {**bl.sizes, "programs": bl.programs}
             if routes is not None and routes[0].plan is not None and routes[0].kind != "dense":
                 sizes["sparse"] = routes[0].plan.sizes

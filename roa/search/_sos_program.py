@@ -511,12 +511,10 @@ class FixedLevel:
         p = self.pattern
         ok = (res.usable and any(k == 0 for k, _, _ in p.blocks)
               and all(Q.value is not None for Q in self.Qs))  # fmt: skip
-        cert = None
-        if ok:
-            cert = Certificate(tuple((k, b, np.asarray(Q.value)) for (k, b, _), Q in
-                                     zip(p.blocks, self.Qs, strict=True)),
-                               tuple((B, np.asarray(mu.value)) for B, mu in
-                                     zip(p.free, self.mus, strict=True)), self.cones)  # fmt: skip
+        cert = Certificate(tuple((k, b, np.asarray(Q.value)) for (k, b, _), Q in
+                                 zip(p.blocks, self.Qs, strict=True)),
+                           tuple((B, np.asarray(mu.value)) for B, mu in
+                                 zip(p.free, self.mus, strict=True)), self.cones) if ok else None  # fmt: skip
         t = self.t.value
         sizes = {**self.figures, "solve_seconds": round(time.perf_counter() - t0, 3)}
         return Candidate(cert, self.eps, float(t) if ok and t is not None else None, res.status,
@@ -591,8 +589,7 @@ def propose_domain_certificate(
     lambda (c - V) = m0' Q0 m0``, ``lambda = m1' Q1 m1`` (``eps``: :func:`default_domain_eps`)."""
     t0 = time.perf_counter()
     eps = default_domain_eps(margin, n)
-    deg_g = max((sum(m) for m in margin), default=0)
-    deg_V = max(sum(m) for m in Vq)
+    deg_g, deg_V = max((sum(m) for m in margin), default=0), max(sum(m) for m in Vq)
     L = max(0, (deg_g - deg_V + 1) // 2)
     D = (max(deg_g, 2 * L + deg_V) + 1) // 2
     basis0, basis1 = monomials(n, D, 0), monomials(n, L, 0)

@@ -138,14 +138,13 @@ class _Problem:
         self.M = np.linalg.inv(np.linalg.cholesky(V0.P).T) * np.sqrt(scale)
         self.Minv = np.linalg.inv(self.M)
         self.center = V0.center
-        rf = recast_field(system, self.M, V0.center, mode=recast_mode)
-        self.rf = rf
+        self.rf = rf = recast_field(system, self.M, V0.center, mode=recast_mode)
         self.gens = rf.d + rf.aux
         self.nd, self.nv = len(rf.d), len(self.gens)
         fy = [sum(float(self.Minv[i, j]) * rf.f[j] for j in range(self.nd)) for i in range(self.nd)]
         self.fy = [poly_of(sp.expand(e), self.gens) for e in fy]
-        self.eqs = [poly_of(h, self.gens) for h in rf.equalities]
-        self.nonneg = [poly_of(g, self.gens) for g in rf.nonnegative]
+        self.eqs, self.nonneg = ([poly_of(h, self.gens) for h in hs]
+                                 for hs in (rf.equalities, rf.nonnegative))  # fmt: skip
         Mt = self.M.T @ shape @ self.M  # p(y) = (My)' S (My)
         pairs = [(a, b) for a in range(self.nd) for b in range(a, self.nd) if Mt[a, b] != 0.0]
         self.p = {tuple(int(i == a) + int(i == b) for i in range(self.nv)):
@@ -154,8 +153,7 @@ class _Problem:
         if symmetry is True and not sym:
             raise RoaInputError("symmetry=True needs an odd field and even recast constraints")
         self.sym = sym and symmetry in ("auto", True)
-        self.aux_degree = aux_degree
-        self.D = degree // 2
+        self.aux_degree, self.D = aux_degree, degree // 2
         self.vbasis = [m for m in monomials(self.nd, degree, 2) if not self.sym or sum(m) % 2 == 0]
         self.vbasis = [(*m, *([0] * (self.nv - self.nd))) for m in self.vbasis]
         if len(self.vbasis) > MAX_V_TERMS:  # before the expansions, which take hours then
@@ -167,12 +165,10 @@ class _Problem:
         self.k = (self.total - degree) // 2
         self.k2 = self.D  # (y'y)^k2 (p - beta) + lambda2 (V - 1): lambda2 quadratic
         self.yy = {tuple(2 * int(i == a) for i in range(self.nv)): 1.0 for a in range(self.nd)}
-        self.yyk = power(self.yy, self.k, self.nv)
-        self.yyk2 = power(self.yy, self.k2, self.nv)
+        self.yyk, self.yyk2 = (power(self.yy, e, self.nv) for e in (self.k, self.k2))
         # V' of each basis monomial of V: sum_i d(y^a)/dy_i f_i
-        self.dmono = [
-            lin(*((1.0, mul(diff(m, i), self.fy[i])) for i in range(self.nd))) for m in self.vbasis
-        ]
+        self.dmono = [lin(*((1.0, mul(diff(m, i), self.fy[i])) for i in range(self.nd)))
+                      for m in self.vbasis]  # fmt: skip
 
     def keep(self, basis: list[tuple]) -> list[tuple]:
         return sym_keep(basis, self.nd, self.sym, self.aux_degree)
@@ -360,9 +356,8 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
     for r in range(rounds + 1):
         t1 = _now()
         if spent():
-            message = (
-                f"time budget of {budget} s spent before round {r}: kept {len(cands)} candidates"
-            )
+            message = (f"time budget of {budget} s spent before round {r}: kept {len(cands)} "
+                       "candidates")  # fmt: skip
             status = SosStatus.FAILED if not cands else SosStatus.STOPPED
             break
         if r:
@@ -372,8 +367,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
         lams: list[Poly] = []
         gval: float | None = None
         for k, pk in enumerate(pbs):
-            ident = Program(pk.nv)
-            gamma = ident.scalar()
+            ident, gamma = Program(pk.nv), Program.scalar()
             pk.decrease(ident, Vc, None, gamma)
             where = f" at {describe_point(points[k])}" if points else ""
             with step(f"V-s round {r}: gamma step{where}"):
@@ -396,8 +390,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
         bval: float | None = None
         lam2: Poly | None = None
         if objective == "shape":
-            ident = Program(pb.nv)
-            beta = ident.scalar()
+            ident, beta = Program(pb.nv), Program.scalar()
             pb.contain(ident, Vc, None, beta)
             with step(f"V-s round {r}: beta step"):
                 ok, bval, lam2 = ident.solve(beta, options=options(), free_index=0, solver=solver)
@@ -433,9 +426,7 @@ def vs_search(system: System, V0: QuadraticLyapunov, *, degree: int = 4, shape: 
                     message += f"; seed: {V0.name}"
             break
         # V step: V free, lambda and lambda2 fixed, maximise beta
-        ident = Program(pb.nv)
-        vvar = ident.scalar(shape=len(pb.vbasis))
-        beta = ident.scalar()
+        ident, vvar, beta = Program(pb.nv), Program.scalar(shape=len(pb.vbasis)), Program.scalar()
         pb.decrease(ident, vvar, lams[0], 1.0)
         others = [pk.decrease(ident.fork(), vvar, lam_k, 1.0)  # the same V at every point
                   for pk, lam_k in zip(pbs[1:], lams[1:], strict=True)]  # fmt: skip
@@ -481,10 +472,9 @@ def parameter_points(system: System) -> tuple[list[dict[str, float]], str]:
     box = ParameterBox.of(system)
     if _field_affine(system, box):
         return [dict(v) for v in box.vertices()], "vertices (the field is affine in the parameters)"
-    return sample_points(system, per_axis=1), (
-        "nominal values, vertices and one interior point per axis (the field is not affine in the "
-        "parameters: nothing claimed between them)"
-    )
+    return sample_points(system, per_axis=1), ("nominal values, vertices and one interior point "
+                                                "per axis (the field is not affine in the "
+                                                "parameters: nothing claimed between them)")  # fmt: skip
 
 
 def _field_affine(system: System, box: Any) -> bool:
@@ -537,10 +527,8 @@ def _problems(systems: list[System], symmetry: bool | str, **kw: Any) -> list[_P
     if len({pb.sym for pb in pbs}) > 1:
         pbs = [_Problem(s, symmetry=False, **kw) for s in systems]
     if len({tuple(map(str, pb.gens)) for pb in pbs}) > 1 or len({pb.total for pb in pbs}) > 1:
-        raise RoaInputError(
-            "the recast field has other variables or degrees at other parameter values of the "
-            "box: the V-s iteration over the box needs one polynomial structure"
-        )
+        raise RoaInputError("the recast field has other variables or degrees at other parameter values of the "
+                            "box: the V-s iteration over the box needs one polynomial structure")  # fmt: skip
     return pbs
 
 
@@ -599,9 +587,8 @@ def attach_gram(V: Any, solver_options: dict[str, Any] | None = None) -> bool:
     if deg % 2 or min(sum(m) for m in terms) < 2:
         return False
     basis = monomials(n, deg // 2, 1)
-    prog = Program(n)
+    prog, t = Program(n), Program.scalar()
     prog.const({m: -c for m, c in terms.items()})
-    t = prog.scalar()
     Q = prog.gram(basis, None, sign=1.0, margin=t * max(abs(c) for c in terms.values()))
     res = solve(prog.problem(t, extra=[t <= 1]), options=solver_options)
     if not res.usable or t.value is None or not float(t.value) > 0 or Q.value is None:

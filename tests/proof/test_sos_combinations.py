@@ -200,7 +200,7 @@ def _certify_and_refute(system, V, f, g, field, opt, point, validator):
     return cert
 
 
-@pytest.mark.parametrize("route", ["dense", "sdsos"])
+@pytest.mark.parametrize("route", [pytest.param("dense", marks=pytest.mark.slow), "sdsos"])
 def test_degree_4_V_on_a_recast_field(route):
     """``V = |x|^2 + 0.5 sum x_i^4`` with a sin coupling (``x0' = -x0 + 0.5 sin x1 + x0^3``):
     the recast identity (``s``, ``q`` of the angle, the circle, the Taylor bounds) with the quartic

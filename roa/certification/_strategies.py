@@ -489,7 +489,23 @@ class SosValidator(ValidatorBase):
                 (data,), inverse = recast.apply(system, V, level)
             except NotPolynomial as exc:
                 return out(Verdict.INCONCLUSIVE, str(exc))
-            return self._prove_data(data, V, level, out, (recast, inverse))
+            first = self._prove_data(data, V, level, out, (recast, inverse))
+        if (first.status is Verdict.CERTIFIED or self.route != "auto"
+                or first.meta.get("route") != "sparse" or not self._dense_fits(data)):  # fmt: skip
+            return first
+        # the auto route took the components of a disconnected interaction graph as cliques; the
+        # dense program (stronger: one multiplier over all variables) fits, so it is tried too
+        with step(f"SOS exact validation (recast field, dense) of level {level:.6g}"):
+            dense = dataclasses.replace(self, route="dense")
+            again = dense._prove_data(data, V, level, out, (recast, inverse))
+        return again if again.status is Verdict.CERTIFIED else first
+
+    def _dense_fits(self, data: Any) -> bool:
+        """Whether the dense program of ``data`` is within the memory budget."""
+        from roa.search._sdp import MAX_SDP_BYTES, sdp_bytes
+        from roa.search._sos_program import bases
+
+        return sdp_bytes(len(bases(data, self.multiplier_degree).sigma)) <= MAX_SDP_BYTES
 
 
 @dataclass(frozen=True)

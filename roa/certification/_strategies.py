@@ -482,6 +482,7 @@ class SosValidator(ValidatorBase):
         """The recast field's (or parameter box's) constrained certificate, by the program of
         :meth:`_prove_data` with the recast's constraints."""
         from roa.proof._sos_check import NotPolynomial
+        from roa.search._sos_program import dense_fits
 
         with step(f"SOS exact validation (recast field) of level {level:.6g}"):
             recast = Recast(self.taylor)
@@ -491,7 +492,8 @@ class SosValidator(ValidatorBase):
                 return out(Verdict.INCONCLUSIVE, str(exc))
             first = self._prove_data(data, V, level, out, (recast, inverse))
         if (first.status is Verdict.CERTIFIED or self.route != "auto"
-                or first.meta.get("route") != "sparse" or not self._dense_fits(data)):  # fmt: skip
+                or first.meta.get("route") != "sparse"
+                or not dense_fits(data, self.multiplier_degree)):  # fmt: skip
             return first
         # the auto route took the components of a disconnected interaction graph as cliques; the
         # dense program (stronger: one multiplier over all variables) fits, so it is tried too
@@ -499,13 +501,6 @@ class SosValidator(ValidatorBase):
             dense = dataclasses.replace(self, route="dense")
             again = dense._prove_data(data, V, level, out, (recast, inverse))
         return again if again.status is Verdict.CERTIFIED else first
-
-    def _dense_fits(self, data: Any) -> bool:
-        """Whether the dense program of ``data`` is within the memory budget."""
-        from roa.search._sdp import MAX_SDP_BYTES, sdp_bytes
-        from roa.search._sos_program import bases
-
-        return sdp_bytes(len(bases(data, self.multiplier_degree).sigma)) <= MAX_SDP_BYTES
 
 
 @dataclass(frozen=True)

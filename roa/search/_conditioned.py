@@ -6,14 +6,14 @@ bound cuts its boxes) the quadratic part of ``-V'`` is ``y' H y`` with ``H = P^(
 its condition number ``kappa = lambda_max(H) / lambda_min(H)`` measures how unevenly V decreases
 around its level sets. A box's enclosure of ``V'`` is loose by about the largest rate times its
 width, while the decrease it must show is the smallest rate times ``|y|^2``: a large ``kappa``
-forces small boxes everywhere. ``A'P + PA = -I`` ignores this (``kappa`` 261 on the planar
-quadrotor under its network controller); :func:`conditioned_lyapunov` minimises it.
+forces small boxes everywhere. ``A'P + PA = -I`` ignores this; :func:`conditioned_lyapunov`
+minimises it.
 
 Program: ``t P <= Q(P) <= kappa t P`` with ``P >= I`` is a linear matrix inequality in ``P`` for a
 fixed decay rate ``t`` and ``kappa``; ``kappa`` is bisected (log scale) at each rate of a grid
 over ``(0, 2 alpha)``, ``alpha`` the stability margin of ``A`` (no rate beyond ``2 alpha`` is
-feasible), then at rates of a golden-section search around the best. The result is a candidate like any other:
-its level is searched and certified by the same calls.
+feasible), then at rates of a golden-section search around the best. The result is a
+candidate like any other: its level is searched and certified by the same calls.
 """
 
 from __future__ import annotations
@@ -102,8 +102,7 @@ def best_conditioned(A: Any, *, rates: int = 8, steps: int = 14) -> tuple[np.nda
     kappa, P = min(found.values(), key=lambda kp: kp[0])
     if P is None:
         raise RoaInputError("no well-conditioned P found (the LMIs were not solved)")
-    P = P * (len(A) / np.trace(P))
-    return P, condition_number(A, P)
+    return P * (len(A) / np.trace(P)), kappa  # kappa does not depend on P's scale
 
 
 def conditioned_lyapunov(system: System) -> QuadraticLyapunov:

@@ -426,6 +426,11 @@ def sdsos(data: Any, multiplier_degree: int | None = None,
     return p, ""
 
 
+def dense_fits(data: Any, multiplier_degree: int | None = None) -> bool:
+    """Whether the dense program of ``data`` is within the memory budget (:data:`MAX_SDP_BYTES`)."""
+    return sdp_bytes(len(bases(data, multiplier_degree).sigma)) <= MAX_SDP_BYTES
+
+
 def choose_route(data: Any, multiplier_degree: int | None = None, route: str = "auto",
                  solver_options: dict[str, Any] | None = None
                  ) -> tuple[str, Pattern | None, str]:  # fmt: skip
@@ -437,7 +442,7 @@ def choose_route(data: Any, multiplier_degree: int | None = None, route: str = "
     if route not in ROUTES:
         raise ValueError(f"route must be one of {ROUTES}, got {route!r}")
     size = len(bases(data, multiplier_degree).sigma)
-    fits = sdp_bytes(size) <= MAX_SDP_BYTES
+    fits = dense_fits(data, multiplier_degree)
     joined = route != "auto" or nx.is_connected(interaction_graph(data))
     if route == "dense" or (route == "auto" and fits and joined):
         return "dense", dense(data, multiplier_degree), ""

@@ -154,12 +154,10 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
         return default_lyapunov(sys_)
     obj = read_matrix(spec, what="--lyapunov")
     if isinstance(obj, dict):  # polynomial coefficients from a JSON file
-        from roa.lyapunov import PolynomialLyapunov
+        from roa.lyapunov import from_json
 
         try:
-            return PolynomialLyapunov(
-                obj["monomials"], obj["coefficients"], sys_.x_eq, name=Path(spec).name
-            )
+            return from_json(obj, sys_.x_eq, name=Path(spec).name)
         except RoaInputError as exc:
             raise RoaInputError(f"--lyapunov {spec}: {exc}") from None
         except (TypeError, ValueError, OverflowError):
@@ -179,7 +177,8 @@ def lyapunov(args: argparse.Namespace, sys_: Any) -> Any:
 
 def read_matrix(spec: str, *, what: str) -> Any:
     """A matrix (or a Lyapunov object) from ``.json`` / ``.npy`` / ``file.py:NAME``; a JSON object
-    with ``"monomials"`` and ``"coefficients"`` is returned as that dict (a polynomial V), also
+    with ``"monomials"`` and ``"coefficients"`` (and its ``"gram"``, if any) is returned as that
+    dict (a polynomial V), also
     when they are in its ``"candidate_kind"`` (the JSON of ``roa certify --degree D --json``)."""
     import numpy as np
 
@@ -230,7 +229,8 @@ def read_matrix(spec: str, *, what: str) -> Any:
                     f'{what} {spec}: a polynomial V needs both "monomials" (exponent lists) '
                     'and "coefficients"'
                 )
-            return {"monomials": data["monomials"], "coefficients": data["coefficients"]}
+            keep = ("monomials", "coefficients", "gram")
+            return {k: data[k] for k in keep if k in data}
         if "P" not in data:
             raise RoaInputError(
                 f'{what} {spec}: a JSON object must have a key "P" (the matrix), or '

@@ -207,3 +207,13 @@ def test_a_polynomial_V_keeps_its_gram_matrix_in_json():
     bad["gram"]["Q"] = [[1.0]]
     with pytest.raises(RoaInputError, match="gram Q"):
         from_json(bad, np.zeros(2))
+
+
+def test_cli_refuses_a_malformed_gram_matrix_naming_it(tmp_path, capsys):
+    """``--lyapunov FILE.json`` reads V's Gram matrix too: one of the wrong shape exits 2 naming
+    ``gram Q``, without a traceback."""
+    bad = tmp_path / "badgram.json"
+    bad.write_text(json.dumps({"monomials": [[2, 0], [0, 2]], "coefficients": [1, 1],
+                               "gram": {"basis": [[1, 0]], "Q": [[1, 0], [0, 1]]}}))  # fmt: skip
+    code, out, err = _cli(capsys, ["certify", "--system", "vanderpol", "--lyapunov", str(bad)])
+    assert code == 2 and "gram Q" in out + err and "Traceback" not in out + err

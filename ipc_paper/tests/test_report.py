@@ -66,23 +66,6 @@ def test_config_cannot_name_code_outside_a_study(tmp_path):
         load_config(bad)
 
 
-@pytest.fixture(scope="module")
-def quick_results(tmp_path_factory):
-    """One results directory for all configs, run in their order (later ones depend on earlier)."""
-    return tmp_path_factory.mktemp("results-quick")
-
-
-@pytest.mark.parametrize("config", CONFIGS, ids=[p.stem for p in CONFIGS])
-def test_experiment_runs_in_quick_mode(config, quick_results):
-    summary = run_experiment(config, results=quick_results, quick=True)
-    out = quick_results / config.stem
-    assert (out / "summary.json").is_file() and (out / "manifest.json").is_file()
-    for fig in summary.get("figures", []):
-        assert (quick_results / fig.removeprefix("results/")).is_file(), fig
-    again = run_experiment(config, results=quick_results, quick=True)
-    assert again["cached"] is True
-
-
 def test_missing_dependency_is_a_clear_error(tmp_path):
     dependent = [p for p in CONFIGS if load_config(p).get("depends")]
     assert dependent, "no config declares depends"

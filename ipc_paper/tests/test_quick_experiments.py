@@ -1,12 +1,13 @@
-"""Issue 13: basin maps and the summary figure people can read.
+"""Every committed experiment runs in quick mode, once, and its Figures are readable.
 
-Every legend has at most six entries, every axis label carries a unit in brackets, region kinds
+The configs run in their order into one results directory (later ones depend on earlier ones);
+each leaves a summary and a manifest, a second run is served from the cache. The Figures of the
+basin maps and of the summary are inspected before they are saved (``save_figure`` is wrapped):
+every legend has at most six entries, every axis label carries a unit in brackets, region kinds
 keep one line style, certificates are drawn only on the loop they certify, and q has one unit.
-The Figures are inspected before they are saved (``save_figure`` is wrapped).
 """
 
 import re
-import shutil
 from pathlib import Path
 
 import matplotlib
@@ -28,11 +29,12 @@ from roa.lyapunov._regions import Region  # noqa: E402
 from roa.montecarlo._sampling import grid_slice  # noqa: E402
 from roa.plotting import _basin as pb  # noqa: E402
 from roa.plotting._trajectories import state_labels  # noqa: E402
-from roa.studies._experiment import run_experiment  # noqa: E402
+from roa.studies._experiment import list_experiments, run_experiment  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 UNIT = re.compile(r"\[[^\]]+\]")
 BASIN_EXPERIMENTS = ("basin_q_theta", "basin_q_theta_saturated", "basin_theta_thetadot")
+CONFIGS = list_experiments(ROOT / "experiments")
 
 
 def _legends(fig):
@@ -60,18 +62,18 @@ def check_readable(fig):
 
 
 @pytest.fixture(scope="module")
-def experiment_figures(tmp_path_factory):
-    """The Figures of the quick basin experiments and of the summary, by experiment name."""
-    certify = ROOT / "results" / "certify"
-    if not (certify / "certified.json").is_file():
-        pytest.skip("results/certify missing: run experiments/certify.toml first")
-    results = tmp_path_factory.mktemp("results-figures")
-    shutil.copytree(certify, results / "certify")
+def quick(tmp_path_factory):
+    """Every committed config run once in quick mode, in order, into one results directory:
+    ``(results, {name: summary or the exception it raised}, {name: [Figure]})``; the Figures
+    of the basin maps and of the summary are kept as ``save_figure`` receives them."""
+    results = tmp_path_factory.mktemp("results-quick")
+    summaries: dict[str, object] = {}
     figures: dict[str, list] = {}
-    current = {"name": None}
+    current = {"name": ""}
 
     def keep(fig, path):
-        figures.setdefault(current["name"], []).append(fig)
+        if current["name"] in (*BASIN_EXPERIMENTS, "summary"):
+            figures.setdefault(current["name"], []).append(fig)
         return real(fig, path)
 
     real = pb.save_figure
@@ -79,13 +81,32 @@ def experiment_figures(tmp_path_factory):
         mp.setattr(pb, "save_figure", keep)
         mp.setattr(roa.plotting, "save_figure", keep)  # the study imports the public name
         mp.setattr(sf, "save_figure", keep)
-        for name in (*BASIN_EXPERIMENTS, "basin_box", "summary"):
-            current["name"] = name
-            summary = run_experiment(ROOT / "experiments" / f"{name}.toml", results=results,
-                                     quick=True)  # fmt: skip
-            for fig in summary.get("figures", []):
-                assert (results / fig.removeprefix("results/")).is_file(), fig
-    return figures
+        for config in CONFIGS:
+            current["name"] = config.stem
+            try:
+                summaries[config.stem] = run_experiment(config, results=results, quick=True)
+            except Exception as exc:  # reported by the config's own test
+                summaries[config.stem] = exc
+    return results, summaries, figures
+
+
+@pytest.fixture(scope="module")
+def experiment_figures(quick):
+    return quick[2]
+
+
+@pytest.mark.parametrize("config", CONFIGS, ids=[p.stem for p in CONFIGS])
+def test_experiment_runs_in_quick_mode(config, quick):
+    results, summaries, _ = quick
+    summary = summaries[config.stem]
+    if isinstance(summary, Exception):
+        raise summary
+    out = results / config.stem
+    assert (out / "summary.json").is_file() and (out / "manifest.json").is_file()
+    for fig in summary.get("figures", []):
+        assert (results / fig.removeprefix("results/")).is_file(), fig
+    again = run_experiment(config, results=results, quick=True)
+    assert again["cached"] is True
 
 
 @pytest.mark.parametrize("name", (*BASIN_EXPERIMENTS, "summary"))

@@ -1,13 +1,14 @@
 """Every committed experiment runs in quick mode, once, and its Figures are readable.
 
-The configs run in their order into one results directory (later ones depend on earlier ones);
-each leaves a summary and a manifest, a second run is served from the cache. The Figures of the
+The configs run into one results directory, each after the ones it depends on; each leaves a
+summary and a manifest, a second run is served from the cache. The Figures of the
 basin maps and of the summary are inspected before they are saved (``save_figure`` is wrapped):
 every legend has at most six entries, every axis label carries a unit in brackets, region kinds
 keep one line style, certificates are drawn only on the loop they certify, and q has one unit.
 """
 
 import re
+import shutil
 from pathlib import Path
 
 import matplotlib
@@ -29,12 +30,17 @@ from roa.lyapunov._regions import Region  # noqa: E402
 from roa.montecarlo._sampling import grid_slice  # noqa: E402
 from roa.plotting import _basin as pb  # noqa: E402
 from roa.plotting._trajectories import state_labels  # noqa: E402
-from roa.studies._experiment import list_experiments, run_experiment  # noqa: E402
+from roa.studies._experiment import list_experiments, load_config, run_experiment  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[2]
 UNIT = re.compile(r"\[[^\]]+\]")
 BASIN_EXPERIMENTS = ("basin_q_theta", "basin_q_theta_saturated", "basin_theta_thetadot")
 CONFIGS = list_experiments(ROOT / "experiments")
+#: The slowest quick experiments run with ``-m slow`` (and in ``roa reproduce --quick``, the
+#: README's main command); an experiment of the default suite that depends on one reads its
+#: committed results. Their parts are tested in the default suite: the errata in test_symbolic,
+#: the certificates in test_certify_*, the robust level in tests/certification/test_robust.
+SLOW_CONFIGS = frozenset({"certify", "degrees", "robust", "errata"})
 
 
 def _legends(fig):
@@ -61,51 +67,79 @@ def check_readable(fig):
         assert not re.search(r"\bours\b|Phi", text), text
 
 
+class QuickRun:
+    """The committed configs run in quick mode into one results directory, each at most once and
+    after its ``depends``. A dependency in :data:`SLOW_CONFIGS` that was not run itself is read
+    from the committed ``results/`` (copied). The Figures of the basin maps and of the summary
+    are kept as ``save_figure`` receives them."""
+
+    def __init__(self, results: Path) -> None:
+        self.results = results
+        self.summaries: dict[str, object] = {}  # name: summary, or the exception it raised
+        self.figures: dict[str, list] = {}
+        self.copied: set[str] = set()
+
+    def run(self, name: str):
+        if name not in self.summaries:
+            config = ROOT / "experiments" / f"{name}.toml"
+            for dep in load_config(config).get("depends", []):
+                if dep in self.summaries or dep in self.copied:
+                    continue
+                if dep in SLOW_CONFIGS:
+                    shutil.copytree(ROOT / "results" / dep, self.results / dep)
+                    self.copied.add(dep)
+                else:
+                    self.run(dep)
+            if name in self.copied:  # run now after all: the committed copy gives way
+                shutil.rmtree(self.results / name)
+                self.copied.discard(name)
+            self.summaries[name] = self._run(name, config)
+        summary = self.summaries[name]
+        if isinstance(summary, Exception):
+            raise summary
+        return summary
+
+    def _run(self, name: str, config: Path) -> object:
+        def keep(fig, path):
+            if name in (*BASIN_EXPERIMENTS, "summary"):
+                self.figures.setdefault(name, []).append(fig)
+            return real(fig, path)
+
+        real = pb.save_figure
+        with pytest.MonkeyPatch.context() as mp:
+            mp.setattr(pb, "save_figure", keep)
+            mp.setattr(roa.plotting, "save_figure", keep)  # the study imports the public name
+            mp.setattr(sf, "save_figure", keep)
+            try:
+                return run_experiment(config, results=self.results, quick=True)
+            except Exception as exc:  # raised again by every test that needs it
+                return exc
+
+
 @pytest.fixture(scope="module")
 def quick(tmp_path_factory):
-    """Every committed config run once in quick mode, in order, into one results directory:
-    ``(results, {name: summary or the exception it raised}, {name: [Figure]})``; the Figures
-    of the basin maps and of the summary are kept as ``save_figure`` receives them."""
-    results = tmp_path_factory.mktemp("results-quick")
-    summaries: dict[str, object] = {}
-    figures: dict[str, list] = {}
-    current = {"name": ""}
-
-    def keep(fig, path):
-        if current["name"] in (*BASIN_EXPERIMENTS, "summary"):
-            figures.setdefault(current["name"], []).append(fig)
-        return real(fig, path)
-
-    real = pb.save_figure
-    with pytest.MonkeyPatch.context() as mp:
-        mp.setattr(pb, "save_figure", keep)
-        mp.setattr(roa.plotting, "save_figure", keep)  # the study imports the public name
-        mp.setattr(sf, "save_figure", keep)
-        for config in CONFIGS:
-            current["name"] = config.stem
-            try:
-                summaries[config.stem] = run_experiment(config, results=results, quick=True)
-            except Exception as exc:  # reported by the config's own test
-                summaries[config.stem] = exc
-    return results, summaries, figures
+    return QuickRun(tmp_path_factory.mktemp("results-quick"))
 
 
 @pytest.fixture(scope="module")
 def experiment_figures(quick):
-    return quick[2]
+    for name in (*BASIN_EXPERIMENTS, "summary"):
+        quick.run(name)
+    return quick.figures
 
 
-@pytest.mark.parametrize("config", CONFIGS, ids=[p.stem for p in CONFIGS])
+@pytest.mark.parametrize(
+    "config",
+    [pytest.param(p, marks=[pytest.mark.slow] if p.stem in SLOW_CONFIGS else []) for p in CONFIGS],
+    ids=[p.stem for p in CONFIGS],
+)
 def test_experiment_runs_in_quick_mode(config, quick):
-    results, summaries, _ = quick
-    summary = summaries[config.stem]
-    if isinstance(summary, Exception):
-        raise summary
-    out = results / config.stem
+    summary = quick.run(config.stem)
+    out = quick.results / config.stem
     assert (out / "summary.json").is_file() and (out / "manifest.json").is_file()
     for fig in summary.get("figures", []):
-        assert (results / fig.removeprefix("results/")).is_file(), fig
-    again = run_experiment(config, results=results, quick=True)
+        assert (quick.results / fig.removeprefix("results/")).is_file(), fig
+    again = run_experiment(config, results=quick.results, quick=True)
     assert again["cached"] is True
 
 

@@ -284,7 +284,7 @@ class QuadraticLyapunov(PolynomialLyapunov):
         if system.time == "discrete":
             return system.decrease(self, x)
         d = np.asarray(x, dtype=float) - self.center
-        return 2.0 * np.einsum("...i,ij,...j->...", d, self.P, system.f(x))
+        return 2.0 * np.sum((d @ self.P) * system.f(x), axis=-1)
 
     def expr(self, x: Any, xp: Any) -> Any:
         d = [x[i] - float(self.center[i]) for i in range(self.n)]

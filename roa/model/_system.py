@@ -730,7 +730,11 @@ class System:
             )
         comps = [x[..., i] for i in range(self.n)]
         out = func(t, comps, NP)
-        return np.stack(np.broadcast_arrays(*out), axis=-1)
+        shape = np.broadcast_shapes(*(np.shape(o) for o in out))
+        res = np.empty((*shape, len(out)), dtype=np.result_type(*out))
+        for i, o in enumerate(out):
+            res[..., i] = o  # broadcast, as np.stack(np.broadcast_arrays(*out), axis=-1) would
+        return res
 
     def inside(self, x: np.ndarray) -> np.ndarray:
         """Boolean mask of states (``(..., n)``) strictly inside the domain."""

@@ -32,6 +32,16 @@ SLOW_CASES = {
     "tests/montecarlo/test_certified_share.py::"
     "test_box_share_counts_independently_and_estimates_the_area_ratio",
     "tests/search/test_box_lyapunov.py::test_cli_robust_vanderpol_without_v",
+    # degree 4 on every polynomial route and the quadratic V on the recast routes stay default
+    "tests/proof/test_sos_combinations.py::test_degree_4_V_on_a_recast_field[sdsos]",
+    # the reader of every numeric option is exercised by the faster options' cases
+    "tests/commands/test_cli_numbers_fuzz.py::test_a_numeric_option_gives_a_result_or_exit_2_naming_it"
+    "[certify --level]",
+    "tests/commands/test_cli_numbers_fuzz.py::test_a_numeric_option_gives_a_result_or_exit_2_naming_it"
+    "[certify --check-above]",
+    # the terminal set from the committed certificate: also in
+    # test_basin_runs_with_the_certified_set_keep_their_statuses; refusals in test_terminal_set.py
+    "ipc_paper/tests/test_terminal_fastpath.py::test_the_certified_terminal_set_of_the_reproduction",
 }
 
 

@@ -40,8 +40,9 @@ _TINY = 2.0**-1022  # smallest normal number
 
 
 def _widening(x: np.ndarray, ulps: float) -> np.ndarray:
-    """``|x| (ulps + 1) 2^-52 + (ulps + 1) 2^-1022`` as a fresh float array (see :func:`round_down`)."""
-    d = np.abs(x, out=np.empty(np.shape(x)))
+    """``|x| (ulps + 1) 2^-52 + (ulps + 1) 2^-1022``, a fresh float array for an array ``x`` (a
+    float for a 0-d one; see :func:`round_down`)."""
+    d = np.abs(x)  # a new array (or a scalar): updated in place below
     d *= (ulps + 1) * _EPS
     d += (ulps + 1) * _TINY
     return d
@@ -128,7 +129,7 @@ class Interval:
         hi = lo if hi is None else np.asarray(hi, dtype=float)
         if lo.shape != hi.shape:
             lo, hi = (np.array(a) for a in np.broadcast_arrays(lo, hi))
-        if not np.all(lo <= hi):  # NaN (no information) or inverted
+        if not (lo <= hi).all():  # NaN (no information) or inverted
             bad = np.isnan(lo) | np.isnan(hi)
             lo = np.where(bad, -_INF, lo)
             hi = np.where(bad, _INF, hi)

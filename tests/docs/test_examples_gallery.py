@@ -24,27 +24,41 @@ import roa
 
 EXAMPLES = Path(__file__).resolve().parents[2] / "examples"
 NAMES = ("vanderpol", "quadrotor2d_sympy", "power_system", "lyznet_10d", "control_pendulum")
+#: The two large-system examples run with ``-m slow`` (their levels are also measured by
+#: ``benchmarks/bench_scale.py``); the other three stay in the default suite.
+SLOW_EXAMPLES = frozenset({"quadrotor2d_sympy", "lyznet_10d"})
+
+
+def _case(name: str):
+    return pytest.param(name, marks=[pytest.mark.slow] if name in SLOW_EXAMPLES else [], id=name)
 
 
 @pytest.fixture(scope="module")
 def gallery(tmp_path_factory):
+    """``(out, run)``: ``run(name)`` runs the example's ``main(["--quick"])`` once, writing into
+    ``out``, and returns ``(module, its JSON document)``."""
     out = tmp_path_factory.mktemp("gallery")
-    sys.path.insert(0, str(EXAMPLES))
-    try:
-        docs = {}
-        for name in NAMES:
-            module = importlib.import_module(name)
-            docs[name] = (module, module.main(["--quick", "--out", str(out)]))
-        return out, docs
-    finally:
-        sys.path.remove(str(EXAMPLES))
+    docs: dict = {}
+
+    def run(name: str):
+        if name not in docs:
+            sys.path.insert(0, str(EXAMPLES))
+            try:
+                module = importlib.import_module(name)
+                docs[name] = (module, module.main(["--quick", "--out", str(out)]))
+            finally:
+                sys.path.remove(str(EXAMPLES))
+        return docs[name]
+
+    return out, run
 
 
-@pytest.mark.parametrize("name", NAMES)
+@pytest.mark.parametrize("name", [_case(n) for n in NAMES])
 def test_example_writes_json_and_figure(gallery, name):
-    out, docs = gallery
+    out, run = gallery
+    returned = run(name)[1]
     doc = json.loads((out / f"{name}.json").read_text())
-    assert doc == docs[name][1]
+    assert doc == returned
     png = (out / f"{name}.png").read_bytes()
     assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10_000
     cert, basin = doc["certificate"], doc["basin_slice"]
@@ -56,19 +70,20 @@ def test_example_writes_json_and_figure(gallery, name):
 
 
 def test_vanderpol_matches_the_published_level(gallery):
-    doc = gallery[1]["vanderpol"][1]
+    doc = gallery[1]("vanderpol")[1]
     assert doc["level_search"]["level"] == pytest.approx(2.3045, abs=5e-4)
     assert doc["certificate"]["above"] == "refuted"
 
 
+@pytest.mark.slow
 def test_quadrotor_level(gallery):
-    doc = gallery[1]["quadrotor2d_sympy"][1]
+    doc = gallery[1]("quadrotor2d_sympy")[1]
     assert doc["level_search"]["level"] == pytest.approx(0.1303, rel=2e-3)
     assert doc["states"] == ["x", "y", "theta", "vx", "vy", "omega"]
 
 
 def test_power_system_certified_set_stops_before_the_saddle(gallery):
-    module, doc = gallery[1]["power_system"]
+    module, doc = gallery[1]("power_system")
     system = module.power_system()
     saddle = np.array([np.pi / 3, 0.0])
     np.testing.assert_allclose(system.f(saddle), [0.0, 0.0], atol=1e-15)
@@ -78,7 +93,7 @@ def test_power_system_certified_set_stops_before_the_saddle(gallery):
 
 
 def test_control_pendulum_gain_is_lqr(gallery):
-    module, doc = gallery[1]["control_pendulum"]
+    module, doc = gallery[1]("control_pendulum")
     import control
 
     A = np.array([[0.0, 1.0], [9.81 / 0.5, -0.1]])

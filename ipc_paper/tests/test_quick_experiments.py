@@ -39,8 +39,9 @@ CONFIGS = list_experiments(ROOT / "experiments")
 #: The slowest quick experiments run with ``-m slow`` (and in ``roa reproduce --quick``, the
 #: README's main command); an experiment of the default suite that depends on one reads its
 #: committed results. Their parts are tested in the default suite: the errata in test_symbolic,
-#: the certificates in test_certify_*, the robust level in tests/certification/test_robust.
-SLOW_CONFIGS = frozenset({"certify", "degrees", "robust", "errata"})
+#: the certificates in test_certify_*, the robust level in tests/certification/test_robust, the
+#: robust basin in tests/montecarlo/test_robust_basin.
+SLOW_CONFIGS = frozenset({"certify", "degrees", "robust", "errata", "basin_robust"})
 
 
 def _legends(fig):

@@ -40,8 +40,11 @@ CONFIGS = list_experiments(ROOT / "experiments")
 #: README's main command); an experiment of the default suite that depends on one reads its
 #: committed results. Their parts are tested in the default suite: the errata in test_symbolic,
 #: the certificates in test_certify_*, the robust level in tests/certification/test_robust, the
-#: robust basin in tests/montecarlo/test_robust_basin.
-SLOW_CONFIGS = frozenset({"certify", "degrees", "robust", "errata", "basin_robust"})
+#: robust basin in tests/montecarlo/test_robust_basin, Khalil's search in test_levelset and
+#: tests/api/test_api; bound and figure2 run in quick mode in test_report.
+SLOW_CONFIGS = frozenset(
+    {"certify", "degrees", "robust", "errata", "basin_robust", "khalil", "bound", "figure2"}
+)
 
 
 def _legends(fig):

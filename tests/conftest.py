@@ -75,37 +75,3 @@ def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item
     for item in items:
         if item.nodeid in SLOW_CASES:
             item.add_marker(pytest.mark.slow)
-
-
-#: Test files of the study that compile the pendulum's numba kernels (its fields, saturated or
-#: not, with terminal sets in flat or hybrid coordinates): one xdist worker runs them all, so each
-#: kernel is compiled once per run (on a cold numba cache a kernel takes seconds to compile, and
-#: a second worker would compile it again before the first has cached it).
-KERNEL_GROUP = frozenset(
-    f"ipc_paper/tests/{name}.py"
-    for name in (
-        "test_levelset",
-        "test_lyapunov",
-        "test_montecarlo",
-        "test_quick_experiments",
-        "test_regions_general",
-        "test_reliability",
-        "test_report",
-        "test_terminal_fastpath",
-        "test_terminal_set",
-    )
-)
-
-
-def pytest_xdist_make_scheduler(config: pytest.Config, log: object) -> object:
-    """``--dist loadfile``, with the files of :data:`KERNEL_GROUP` as one unit of work."""
-    if config.getoption("dist") != "loadfile":
-        return None
-    from xdist.scheduler import LoadFileScheduling
-
-    class KernelGroupScheduling(LoadFileScheduling):
-        def _split_scope(self, nodeid: str) -> str:
-            path = nodeid.split("::", 1)[0]
-            return "ipc_paper/tests (numba kernels)" if path in KERNEL_GROUP else path
-
-    return KernelGroupScheduling(config, log)

@@ -8,6 +8,7 @@ docstring), confirmed by SLSQP at the four vertices.
 
 from __future__ import annotations
 
+import functools
 import json
 import math
 from fractions import Fraction
@@ -32,27 +33,39 @@ def _vdp(low: float, high: float) -> System:
     return roa.load_system("vanderpol").with_ranges(mu=(low, high))
 
 
-def _slsqp(vdot, Pm: np.ndarray, starts: int = 60) -> float:
-    """min x'Px s.t. V'(x) = 0 on the ring |x| >= 0.3 (V' < 0 near 0), multistart SLSQP."""
+def _slsqp(vdot, Pm: np.ndarray, starts: int = 60, vdot_grad=None) -> float:
+    """min x'Px s.t. V'(x) = 0 on the ring |x| >= 0.3 (V' < 0 near 0), multistart SLSQP.
+
+    ``vdot_grad``, when given, is the gradient of ``vdot`` (else SLSQP differences it)."""
     rng = np.random.default_rng(1)
     best = math.inf
     for _ in range(starts):
         x0 = rng.normal(size=2)
         x0 *= rng.uniform(0.5, 2.5) / np.linalg.norm(x0)
         r = minimize(lambda x: float(x @ Pm @ x), x0, method="SLSQP",
-                     constraints=[{"type": "eq", "fun": vdot},
-                                  {"type": "ineq", "fun": lambda x: x @ x - 0.09}],
+                     jac=lambda x: 2.0 * Pm @ x,
+                     constraints=[{"type": "eq", "fun": vdot, "jac": vdot_grad},
+                                  {"type": "ineq", "fun": lambda x: x @ x - 0.09,
+                                   "jac": lambda x: 2.0 * x}],
                      options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
         if r.success and abs(vdot(r.x)) < 1e-9:
             best = min(best, float(r.x @ Pm @ r.x))
     return best
 
 
+@functools.cache
 def vdp_optimum(mu: float) -> float:
-    def vdot(x: np.ndarray) -> float:  # roa's vanderpol: (-x2, x1 + mu (x1^2 - 1) x2)
-        return float(2 * x @ P @ np.array([-x[1], x[0] + mu * (x[0] ** 2 - 1) * x[1]]))
+    def g(x: np.ndarray) -> np.ndarray:  # roa's vanderpol: (-x2, x1 + mu (x1^2 - 1) x2)
+        return np.array([-x[1], x[0] + mu * (x[0] ** 2 - 1) * x[1]])
 
-    return _slsqp(vdot, P)
+    def vdot(x: np.ndarray) -> float:
+        return float(2 * x @ P @ g(x))
+
+    def vdot_grad(x: np.ndarray) -> np.ndarray:  # 2 (P g + J_g' P x)
+        jg = np.array([[0.0, -1.0], [1 + 2 * mu * x[0] * x[1], mu * (x[0] ** 2 - 1)]])
+        return 2 * (P @ g(x) + jg.T @ P @ x)
+
+    return _slsqp(vdot, P, vdot_grad=vdot_grad)
 
 
 @pytest.fixture(scope="module")

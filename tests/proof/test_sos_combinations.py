@@ -36,22 +36,33 @@ def ring(a=A):
 def optimum(V, grad, field, n, *, starts=24, seed=0):
     """``min V(x) s.t. V'(x) = grad V(x) . f(x) = 0, |x| > 0`` by SLSQP from ``starts`` random
     first crossings of ``V' >= 0`` along rays (the constraint divided by ``|x|^2``, so that the
-    equilibrium is not a solution): the least value and its point."""
+    equilibrium is not a solution): the least value and its point. The constraint's gradient is
+    taken by complex steps (exact to rounding: the fields and gradients are analytic)."""
     rng = np.random.default_rng(seed)
+
+    def vdots(X):  # V' at the points whose components are the arrays X
+        return sum(gi * fi for gi, fi in zip(grad(X), field(X), strict=True))
 
     def vdot(x):
         return float(np.dot(grad(x), field(list(x))))
+
+    def con_jac(x):
+        h = 1e-30
+        dvd = np.imag(vdots(list(x[:, None] + 1j * h * np.eye(n)))) / h
+        s = float(x @ x)
+        return dvd / s - vdot(x) * 2 * x / s**2
 
     best = (math.inf, None)
     for _ in range(starts):
         u = rng.normal(size=n)
         u /= np.linalg.norm(u)
         ts = np.linspace(1e-3, 5, 2000)
-        hit = next((t for t in ts if vdot(t * u) >= 0), None)
-        if hit is None:
+        vd = vdots(list(ts[None, :] * u[:, None]))  # V' along the ray
+        if not (vd >= 0).any():
             continue
-        res = optimize.minimize(V, hit * u, method="SLSQP",
-                                constraints=[{"type": "eq",
+        hit = ts[np.argmax(vd >= 0)]
+        res = optimize.minimize(V, hit * u, method="SLSQP", jac=lambda x: np.asarray(grad(x)),
+                                constraints=[{"type": "eq", "jac": con_jac,
                                               "fun": lambda x: vdot(x) / float(x @ x)}],
                                 options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
         if res.success and abs(vdot(res.x)) < 1e-9 and res.fun < best[0]:
@@ -79,7 +90,7 @@ def quad(P):
     P = np.asarray(P, float)
     return (
         lambda x: float(np.asarray(x, float) @ P @ np.asarray(x, float)),
-        lambda x: [2 * sum(P[i, j] * x[j] for j in range(len(x))) for i in range(len(x))],
+        lambda x: list(2 * P @ np.asarray(x)),  # numbers, arrays (one per component) or mpf
     )
 
 

@@ -75,6 +75,20 @@ def round_up(x: Any, ulps: float = 1) -> np.ndarray:
         return np.asarray(x + d)
 
 
+def _round_out(lo: Any, hi: Any) -> tuple[np.ndarray, np.ndarray]:
+    """``(round_down(lo), round_up(hi))`` for one rounded operation (``ulps = 1``), the same
+    numbers with one error-state switch; the caller holds ``np.errstate(invalid="ignore")``."""
+    dl = np.abs(lo)
+    dl *= 2 * _EPS
+    dl += 2 * _TINY
+    dh = np.abs(hi)
+    dh *= 2 * _EPS
+    dh += 2 * _TINY
+    if np.ndim(dl) and np.ndim(dh):
+        return np.subtract(lo, dl, out=dl), np.add(hi, dh, out=dh)
+    return np.asarray(lo - dl), np.asarray(hi + dh)
+
+
 def enclose_constant(c: Any) -> Interval:
     """The point interval of a constant, widened when the constant is not exactly a double.
 
@@ -187,7 +201,8 @@ class Interval:
             o = Interval.of(other)
         except DefersToOther:
             return NotImplemented
-        return Interval(round_down(self.lo + o.lo), round_up(self.hi + o.hi))
+        with np.errstate(invalid="ignore"):
+            return Interval(*_round_out(self.lo + o.lo, self.hi + o.hi))
 
     __radd__ = __add__
 
@@ -198,7 +213,8 @@ class Interval:
             o = Interval.of(other)
         except DefersToOther:
             return NotImplemented
-        return Interval(round_down(self.lo - o.hi), round_up(self.hi - o.lo))
+        with np.errstate(invalid="ignore"):
+            return Interval(*_round_out(self.lo - o.hi, self.hi - o.lo))
 
     def __rsub__(self, other: Any) -> Interval:
         try:
@@ -230,9 +246,13 @@ class Interval:
         if self.lo.ndim == 0 and (self.lo >= 0 or self.hi <= 0):
             return o._scaled(self)
         with np.errstate(invalid="ignore"):
-            p = np.stack([self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi])
-        p = np.where(np.isnan(p), 0.0, p)  # 0 * inf: the product's factor is exactly 0
-        return Interval(round_down(p.min(axis=0)), round_up(p.max(axis=0)))
+            p1, p2, p3, p4 = self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi
+            lo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))  # NaN if any product is
+            if np.isnan(lo).any():  # 0 * inf: the product's factor is exactly 0
+                p = np.stack(np.broadcast_arrays(p1, p2, p3, p4))
+                p = np.where(np.isnan(p), 0.0, p)
+                return Interval(*_round_out(p.min(axis=0), p.max(axis=0)))
+            return Interval(*_round_out(lo, np.maximum(np.maximum(p1, p2), np.maximum(p3, p4))))
 
     __rmul__ = __mul__
 
@@ -250,7 +270,7 @@ class Interval:
             else:
                 lo = self.hi * a if a == b else np.minimum(self.hi * a, self.hi * b)
                 hi = self.lo * a if a == b else np.maximum(self.lo * a, self.lo * b)
-        return Interval(round_down(lo), round_up(hi))
+            return Interval(*_round_out(lo, hi))
 
     def reciprocal(self) -> Interval:
         """``1 / x``; the whole line where the interval contains 0."""

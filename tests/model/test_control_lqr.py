@@ -32,19 +32,28 @@ sys.path.remove(str(ROOT / "examples"))
 
 
 def _c_star(P: np.ndarray, K: np.ndarray, starts: int = 30) -> float:
-    """min x'Px on {2 x'P f(x) >= 0, |x|^2 >= 1e-4} by SLSQP from random starts (scipy only)."""
+    """min x'Px on {2 x'P f(x) >= 0, |x|^2 >= 1e-4} by SLSQP from random starts (scipy only;
+    the constraint's gradient by complex steps, exact to rounding: f is analytic)."""
 
-    def f(x):
-        return np.asarray(cp.updfcn(0.0, x, -K @ x, None), dtype=float)
+    def f(x):  # x: (4,) or (4, m), one column per point
+        return np.asarray(cp.updfcn(0.0, x, -K @ x, None))
 
-    cons = [{"type": "ineq", "fun": lambda x: 2.0 * x @ P @ f(x)},
-            {"type": "ineq", "fun": lambda x: x @ x - 1e-4}]  # fmt: skip
+    def vdot(x):
+        return np.einsum("i...,ij,j...->...", x, 2.0 * P, f(x))
+
+    def vdot_grad(x):
+        h = 1e-30
+        return np.imag(vdot(x[:, None] + 1j * h * np.eye(4))) / h
+
+    cons = [{"type": "ineq", "fun": vdot, "jac": vdot_grad},
+            {"type": "ineq", "fun": lambda x: x @ x - 1e-4, "jac": lambda x: 2.0 * x}]  # fmt: skip
     best = np.inf
     rng = np.random.default_rng(0)
     for _ in range(starts):
-        r = minimize(lambda x: x @ P @ x, rng.standard_normal(4), constraints=cons,
-                     method="SLSQP", options={"maxiter": 500, "ftol": 1e-12})  # fmt: skip
-        if r.success and 2.0 * r.x @ P @ f(r.x) >= -1e-9 and r.x @ r.x > 1e-5:
+        r = minimize(lambda x: x @ P @ x, rng.standard_normal(4), jac=lambda x: 2.0 * P @ x,
+                     constraints=cons, method="SLSQP",
+                     options={"maxiter": 500, "ftol": 1e-12})  # fmt: skip
+        if r.success and vdot(r.x) >= -1e-9 and r.x @ r.x > 1e-5:
             best = min(best, float(r.x @ P @ r.x))
     return best
 

@@ -245,7 +245,7 @@ class Interval:
             return self._scaled(o)
         if self.lo.ndim == 0 and (self.lo >= 0 or self.hi <= 0):
             return o._scaled(self)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):  # overflow: an infinite bound
             p1, p2, p3, p4 = self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi
             lo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))  # NaN if any product is
             if np.isnan(lo).any():  # 0 * inf: the product's factor is exactly 0

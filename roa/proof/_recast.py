@@ -87,12 +87,14 @@ from roa.proof._sos_check import (
     exact_fraction,
     exact_terms,
     lie_derivative,
+    named_terms,
     poly_lin,
     poly_mul,
     preconditions,
     qpoly,
     rational,
     scaled,
+    state_functions,
     v_center,
 )
 
@@ -428,21 +430,25 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
         with sp.evaluate(False):
             f = (system if box is None else box.system).field(0.0, xs, namespace("sympy"))
         shift = {xs[i]: d[i] + rational(c) for i, c in enumerate(center)}
+        early = state_functions(f, (sp.sin, sp.cos, sp.tan))
+        if early:  # refused before any conversion (a network's expression would take long)
+            raise NotPolynomial(f"cannot recast {named_terms(early, shift)} in the field (sin/cos of "
+                                "states and rational terms only)")  # fmt: skip
         f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
         if box is not None:
             f = [fi.xreplace(box.subs) for fi in f]
         f = [sp.expand_trig(fi.replace(sp.tan, lambda a: sp.sin(a) / sp.cos(a))) for fi in f]
+    except NotPolynomial:
+        raise
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:
         raise NotPolynomial(f"the field has {len(f)} components, V has {n} states")
     other = sorted({str(a) for fi in f for a in fi.atoms(sp.Function, sp.Min, sp.Max)
                     if not isinstance(a, sp.sin | sp.cos)}, key=len)  # fmt: skip
-    if other:  # refused before any expansion (a network's expression would take very long)
-        named = ", ".join(t if len(t) <= 60 else t[:57] + "..." for t in other[:3])
-        more = f" and {len(other) - 3} more" if len(other) > 3 else ""
-        raise NotPolynomial(f"cannot recast {named}{more} in the field (sin/cos of states and "
-                            "rational terms only)")  # fmt: skip
+    if other:  # functions of constants (of the state: refused above)
+        raise NotPolynomial(f"cannot recast {named_terms(other)} in the field (sin/cos of states "
+                            "and rational terms only)")  # fmt: skip
     trig = set().union(*(fi.atoms(sp.sin, sp.cos) for fi in f))
     angles = sorted({d.index(a.args[0]) for a in trig if a.args[0] in d})
     if any(a.args[0] not in d for a in trig):

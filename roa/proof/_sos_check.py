@@ -76,6 +76,29 @@ def exact_terms(V: Any) -> QPoly:
     return {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
 
 
+def state_functions(f: Any, allowed: tuple[type, ...] = ()) -> list[Any]:
+    """The functions of the state in the sympy expressions ``f`` (Function, Min, Max atoms with a
+    free symbol) other than ``allowed``, shortest first: what neither the exact check nor a
+    recast can take. Read on the field as written (before the exact conversion, which takes long
+    on a network's expression); a function that would cancel on evaluation counts too, so a
+    field is refused, never accepted, earlier than by the conversion."""
+    import sympy as sp
+
+    found = {a for fi in f for a in sp.sympify(fi).atoms(sp.Function, sp.Min, sp.Max)
+             if a.free_symbols and not isinstance(a, allowed)}  # fmt: skip
+    return sorted(found, key=lambda a: len(str(a)))
+
+
+def named_terms(terms: list[Any], shift: dict[Any, Any] | None = None) -> str:
+    """The first three of ``terms`` (each cut at 60 characters; written in the offsets of
+    ``shift`` ``{x_i: d_i + c_i}`` when given) and how many more."""
+    shown = []
+    for t in terms[:3]:
+        text = str(t if shift is None else t.xreplace(shift))
+        shown.append(text if len(text) <= 60 else text[:57] + "...")
+    return ", ".join(shown) + (f" and {len(terms) - 3} more" if len(terms) > 3 else "")
+
+
 def rational(c: Fraction) -> Any:
     """``c`` as a sympy Rational."""
     import sympy as sp
@@ -144,7 +167,13 @@ def exact_data(system: Any, V: Any) -> ExactData:
         fast = field_polys(list(f), xs, center, d) if len(f) == n else None  # exact ring route
         if fast is None:
             shift = {xs[i]: d[i] + rational(c) for i, c in enumerate(center)}
+            other = state_functions(f)
+            if other:
+                raise NotPolynomial(f"the field is not polynomial in the state (no recasting in "
+                                    f"the SOS check): {named_terms(other, shift)}")  # fmt: skip
             f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
+    except NotPolynomial:
+        raise
     except (TypeError, ValueError, AttributeError, NotImplementedError) as exc:
         raise NotPolynomial(f"the field cannot be written in sympy ({exc})") from None
     if len(f) != n:

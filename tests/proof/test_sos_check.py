@@ -6,6 +6,7 @@ rationals, certifies 2.30 and can never certify 2.31 (a point of ``{V <= 2.31}``
 
 from __future__ import annotations
 
+import re
 import time
 from fractions import Fraction
 
@@ -155,6 +156,35 @@ def test_fields_that_cannot_be_recast_are_refused_or_fall_back():
         roa.certify(system, V, level=0.05, validator=strict)
     cert = roa.certify(system, V, level=0.05, validator=roa.SosValidator())
     assert cert.method == "interval" and "exp(d0)" in cert.message
+
+
+@pytest.mark.parametrize("name, function", [("SYSTEM", "tanh("), ("SYSTEM_RELU", "Max(0, ")])
+def test_a_network_field_is_refused_naming_its_units_in_decimals(name, function):
+    """The pendulum's network controllers (2-16-1; a unit with output weight 0 drops out of the
+    field): neither the exact check nor a recast takes them; the refusal names three units as
+    written (decimal weights in the offsets d from the equilibrium, not 50-digit rationals) and
+    counts the others, and the default validator falls back to the branch and bound."""
+    from pathlib import Path
+
+    from roa.proof._recast import recast_exact
+    from roa.proof._sos_check import NotPolynomial, exact_data
+
+    path = Path(__file__).resolve().parents[2] / "examples" / "systems" / "pendulum_nn.py"
+    system = roa.load_system(f"{path}:{name}")
+    V = roa.default_lyapunov(system)
+    net = np.load(path.with_name(f"pendulum_nn_{'tanh' if name == 'SYSTEM' else 'relu'}.npz"))
+    units = np.count_nonzero(net["W1"])  # the units the field holds
+    with pytest.raises(NotPolynomial, match=r"not polynomial in the state") as exact:
+        exact_data(system, V)
+    with pytest.raises(NotPolynomial, match=rf"cannot recast .* and {units - 3} more") as recast:
+        recast_exact(system, V, taylor=1)
+    for exc in (exact, recast):
+        message = str(exc.value)
+        assert function in message and re.search(r"\d\.\d+\*d0", message), message
+        assert not re.search(r"\d{10,}/\d{10,}", message), message  # no exact rationals shown
+    assert roa.SosValidator.recast_error(system, V) == str(recast.value)
+    assert roa.SosValidator().accepts(system, V)  # fallback: the branch and bound decides
+    assert not roa.SosValidator(fallback=False).accepts(system, V)
 
 
 def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(

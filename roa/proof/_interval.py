@@ -77,7 +77,8 @@ def round_up(x: Any, ulps: float = 1) -> np.ndarray:
 
 def _round_out(lo: Any, hi: Any) -> tuple[np.ndarray, np.ndarray]:
     """``(round_down(lo), round_up(hi))`` for one rounded operation (``ulps = 1``), the same
-    numbers with one error-state switch; the caller holds ``np.errstate(invalid="ignore")``."""
+    numbers with one error-state switch; the caller holds ``np.errstate(invalid="ignore",
+    over="ignore")`` (an overflowed bound is infinite: sound, and not warned about)."""
     dl = np.abs(lo)
     dl *= 2 * _EPS
     dl += 2 * _TINY
@@ -201,7 +202,7 @@ class Interval:
             o = Interval.of(other)
         except DefersToOther:
             return NotImplemented
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):
             return Interval(*_round_out(self.lo + o.lo, self.hi + o.hi))
 
     __radd__ = __add__
@@ -213,7 +214,7 @@ class Interval:
             o = Interval.of(other)
         except DefersToOther:
             return NotImplemented
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):
             return Interval(*_round_out(self.lo - o.hi, self.hi - o.lo))
 
     def __rsub__(self, other: Any) -> Interval:
@@ -245,7 +246,7 @@ class Interval:
             return self._scaled(o)
         if self.lo.ndim == 0 and (self.lo >= 0 or self.hi <= 0):
             return o._scaled(self)
-        with np.errstate(invalid="ignore", over="ignore"):  # overflow: an infinite bound
+        with np.errstate(invalid="ignore", over="ignore"):
             p1, p2, p3, p4 = self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi
             lo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))  # NaN if any product is
             if np.isnan(lo).any():  # 0 * inf: the product's factor is exactly 0
@@ -263,7 +264,7 @@ class Interval:
         ``c <= 0``. ``0 * inf`` (NaN) leaves that bound open, as :class:`Interval` reads NaN.
         """
         a, b = float(c.lo), float(c.hi)
-        with np.errstate(invalid="ignore"):
+        with np.errstate(invalid="ignore", over="ignore"):
             if a >= 0:
                 lo = self.lo * a if a == b else np.minimum(self.lo * a, self.lo * b)
                 hi = self.hi * a if a == b else np.maximum(self.hi * a, self.hi * b)

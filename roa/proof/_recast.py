@@ -430,9 +430,10 @@ def polynomial_field(system: Any, center: tuple[Fraction, ...], *, box: Any = No
         with sp.evaluate(False):
             f = (system if box is None else box.system).field(0.0, xs, namespace("sympy"))
         shift = {xs[i]: d[i] + rational(c) for i, c in enumerate(center)}
-        early = state_functions(f, (sp.sin, sp.cos, sp.tan))
-        if early:  # refused before any conversion (a network's expression would take long)
-            raise NotPolynomial(f"cannot recast {named_terms(early, shift)} in the field (sin/cos of "
+        every = shift if box is None else {**shift, **box.subs}
+        early = state_functions(f, every, (sp.sin, sp.cos, sp.tan))
+        if early:  # refused before the exact conversion (long on a network's expression)
+            raise NotPolynomial(f"cannot recast {named_terms(early)} in the field (sin/cos of "
                                 "states and rational terms only)")  # fmt: skip
         f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
         if box is not None:

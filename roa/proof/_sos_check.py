@@ -76,26 +76,24 @@ def exact_terms(V: Any) -> QPoly:
     return {tuple(int(k) for k in a): exact_fraction(c) for a, c in terms.items() if c != 0}
 
 
-def state_functions(f: Any, allowed: tuple[type, ...] = ()) -> list[Any]:
+def state_functions(f: Any, subs: dict[Any, Any], allowed: tuple[type, ...] = ()) -> list[Any]:
     """The functions of the state in the sympy expressions ``f`` (Function, Min, Max atoms with a
-    free symbol) other than ``allowed``, shortest first: what neither the exact check nor a
-    recast can take. Read on the field as written (before the exact conversion, which takes long
-    on a network's expression); a function that would cancel on evaluation counts too, so a
-    field is refused, never accepted, earlier than by the conversion."""
+    free symbol) other than ``allowed``, shortest first, once ``subs`` (every free symbol: the
+    states by their offsets, ``{x_i: d_i + c_i}``, and a box's parameters) is applied with
+    evaluation: what neither the exact check nor a recast can take (``0.0 tanh(x)``,
+    ``|x|^2`` and ``exp(0.0 x)`` evaluate away and are not counted). The coefficients stay floats
+    (the exact conversion takes long on a network's expression), so a function can cancel in
+    rationals and not in floats: such a field is refused here, the conservative way."""
     import sympy as sp
 
-    found = {a for fi in f for a in sp.sympify(fi).atoms(sp.Function, sp.Min, sp.Max)
+    found = {a for fi in f for a in sp.sympify(fi).xreplace(subs).atoms(sp.Function, sp.Min, sp.Max)
              if a.free_symbols and not isinstance(a, allowed)}  # fmt: skip
     return sorted(found, key=lambda a: len(str(a)))
 
 
-def named_terms(terms: list[Any], shift: dict[Any, Any] | None = None) -> str:
-    """The first three of ``terms`` (each cut at 60 characters; written in the offsets of
-    ``shift`` ``{x_i: d_i + c_i}`` when given) and how many more."""
-    shown = []
-    for t in terms[:3]:
-        text = str(t if shift is None else t.xreplace(shift))
-        shown.append(text if len(text) <= 60 else text[:57] + "...")
+def named_terms(terms: list[Any]) -> str:
+    """The first three of ``terms`` (each cut at 60 characters) and how many more."""
+    shown = [t if len(t) <= 60 else t[:57] + "..." for t in map(str, terms[:3])]
     return ", ".join(shown) + (f" and {len(terms) - 3} more" if len(terms) > 3 else "")
 
 
@@ -167,10 +165,10 @@ def exact_data(system: Any, V: Any) -> ExactData:
         fast = field_polys(list(f), xs, center, d) if len(f) == n else None  # exact ring route
         if fast is None:
             shift = {xs[i]: d[i] + rational(c) for i, c in enumerate(center)}
-            other = state_functions(f)
+            other = state_functions(f, shift)
             if other:
                 raise NotPolynomial(f"the field is not polynomial in the state (no recasting in "
-                                    f"the SOS check): {named_terms(other, shift)}")  # fmt: skip
+                                    f"the SOS check): {named_terms(other)}")  # fmt: skip
             f = [exact_rationals(sp.sympify(fi)).xreplace(shift) for fi in f]
     except NotPolynomial:
         raise

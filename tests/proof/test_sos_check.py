@@ -187,6 +187,28 @@ def test_a_network_field_is_refused_naming_its_units_in_decimals(name, function)
     assert not roa.SosValidator(fallback=False).accepts(system, V)
 
 
+@pytest.mark.parametrize(
+    "field",
+    [lambda t, x, xp: (-x[0] + 0.0 * xp.tanh(x[0]), -x[1]),  # a gain of 0
+     lambda t, x, xp: (-x[0] - x[0] * xp.abs(x[0]) ** 2, -x[1]),  # |x|^2 = x^2
+     lambda t, x, xp: (-x[0] * xp.exp(0.0 * x[0]), -x[1]),  # exp(0) = 1
+     lambda t, x, xp: (-x[0] + xp.tanh(x[0]) - xp.tanh(x[0]), -x[1])],
+    ids=["zero-gain", "abs-squared", "exp-of-zero", "cancelling"],
+)  # fmt: skip
+def test_functions_that_evaluate_away_are_not_refused(field):
+    """A function of the state that evaluates away (the refusal reads the field after
+    evaluation) leaves a polynomial field: the exact check and the recast take it."""
+    from roa.proof._recast import recast_exact
+
+    system = roa.System("poly", field, (0.0, 0.0), ("a", "b"))
+    V = QuadraticLyapunov(np.eye(2), [0.0, 0.0])
+    exact_data(system, V)
+    recast_exact(system, V, taylor=1)
+    box = roa.System("box", lambda t, x, xp, p: (-x[0] * xp.abs(p.a) ** 2, -x[1]), (0.0, 0.0),
+                     ("a", "b"), parameters={"a": (1.0, 1.5, 2.0)})  # fmt: skip
+    recast_exact(box, V, taylor=1)  # |a|^2 = a^2 of the box's parameter
+
+
 def test_a_stored_sos_certificate_is_rechecked_exactly_without_a_solver(
     tmp_path, monkeypatch, capsys
 ):

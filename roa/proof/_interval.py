@@ -79,12 +79,7 @@ def _round_out(lo: Any, hi: Any) -> tuple[np.ndarray, np.ndarray]:
     """``(round_down(lo), round_up(hi))`` for one rounded operation (``ulps = 1``), the same
     numbers with one error-state switch; the caller holds ``np.errstate(invalid="ignore",
     over="ignore")`` (an overflowed bound is infinite: sound, and not warned about)."""
-    dl = np.abs(lo)
-    dl *= 2 * _EPS
-    dl += 2 * _TINY
-    dh = np.abs(hi)
-    dh *= 2 * _EPS
-    dh += 2 * _TINY
+    dl, dh = _widening(lo, 1), _widening(hi, 1)
     if np.ndim(dl) and np.ndim(dh):
         return np.subtract(lo, dl, out=dl), np.add(hi, dh, out=dh)
     return np.asarray(lo - dl), np.asarray(hi + dh)
@@ -250,7 +245,7 @@ class Interval:
             p1, p2, p3, p4 = self.lo * o.lo, self.lo * o.hi, self.hi * o.lo, self.hi * o.hi
             lo = np.minimum(np.minimum(p1, p2), np.minimum(p3, p4))  # NaN if any product is
             if np.isnan(lo).any():  # 0 * inf: the product's factor is exactly 0
-                p = np.stack(np.broadcast_arrays(p1, p2, p3, p4))
+                p = np.stack([p1, p2, p3, p4])
                 p = np.where(np.isnan(p), 0.0, p)
                 return Interval(*_round_out(p.min(axis=0), p.max(axis=0)))
             return Interval(*_round_out(lo, np.maximum(np.maximum(p1, p2), np.maximum(p3, p4))))

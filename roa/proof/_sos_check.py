@@ -86,9 +86,14 @@ def state_functions(f: Any, subs: dict[Any, Any], allowed: tuple[type, ...] = ()
     rationals and not in floats: such a field is refused here, the conservative way."""
     import sympy as sp
 
-    found = {a for fi in f for a in sp.sympify(fi).xreplace(subs).atoms(sp.Function, sp.Min, sp.Max)
-             if a.free_symbols and not isinstance(a, allowed)}  # fmt: skip
-    return sorted(found, key=lambda a: len(str(a)))
+    def functions(g: list[Any]) -> set[Any]:
+        return {a for gi in g for a in gi.atoms(sp.Function, sp.Min, sp.Max)
+                if a.free_symbols and not isinstance(a, allowed)}  # fmt: skip
+
+    g = [sp.sympify(fi) for fi in f]
+    if not functions(g):  # none as written: the exact conversion and its checks decide
+        return []
+    return sorted(functions([gi.xreplace(subs) for gi in g]), key=lambda a: len(str(a)))
 
 
 def named_terms(terms: list[Any]) -> str:

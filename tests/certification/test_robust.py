@@ -6,12 +6,11 @@ The reference numbers come from an independent computation in this file: the opt
 
 from __future__ import annotations
 
-import functools
 import json
 
 import numpy as np
 import pytest
-from scipy.optimize import minimize
+from references import VDP_P as P, vdp_optimum
 
 import roa
 from roa.cli import main
@@ -24,8 +23,6 @@ from roa.search._rays import ray_box
 from roa.search._robust_witness import sampled_witness
 from roa.status import Verdict
 
-P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V
-
 
 def vdp(t, x, xp, p):
     return (-x[1], x[0] + p.mu * (x[0] * x[0] - 1) * x[1])
@@ -34,36 +31,6 @@ def vdp(t, x, xp, p):
 def vdp_box(low: float = 0.8, high: float = 1.2) -> System:
     return System("vdp", vdp, (0.0, 0.0), ("x1", "x2"), parameters={"mu": (low, 1.0, high)},
                   lyapunov=P)  # fmt: skip
-
-
-@functools.cache
-def slsqp_optimum(mu: float, starts: int = 60) -> float:
-    """min x'Px s.t. V'(x) = 0 for Van der Pol at ``mu`` (independent of roa), from multistart
-    SLSQP on the ring 0.3 <= |x| (V' < 0 near the origin), with analytic gradients."""
-
-    def f(x: np.ndarray) -> np.ndarray:
-        return np.array([-x[1], x[0] + mu * (x[0] ** 2 - 1) * x[1]])
-
-    def vdot(x: np.ndarray) -> float:
-        return float(2 * x @ P @ f(x))
-
-    def vdot_grad(x: np.ndarray) -> np.ndarray:  # 2 (P f + J_f' P x)
-        jf = np.array([[0.0, -1.0], [1 + 2 * mu * x[0] * x[1], mu * (x[0] ** 2 - 1)]])
-        return 2 * (P @ f(x) + jf.T @ P @ x)
-
-    rng = np.random.default_rng(1)
-    best = np.inf
-    for _ in range(starts):
-        x0 = rng.normal(size=2)
-        x0 *= rng.uniform(0.5, 2.5) / np.linalg.norm(x0)
-        res = minimize(lambda x: float(x @ P @ x), x0, method="SLSQP", jac=lambda x: 2.0 * P @ x,
-                       constraints=[{"type": "eq", "fun": vdot, "jac": vdot_grad},
-                                    {"type": "ineq", "fun": lambda x: x @ x - 0.09,
-                                     "jac": lambda x: 2.0 * x}],
-                       options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
-        if res.success and abs(vdot(res.x)) < 1e-9:
-            best = min(best, float(res.x @ P @ res.x))
-    return best
 
 
 # -- declaring parameters -------------------------------------------------------------------------
@@ -120,7 +87,7 @@ def test_interval_parameters_enclose_every_parameter_value():
 @pytest.fixture(scope="module")
 def worst() -> float:
     """The worst per-parameter optimum: V' is affine in mu, so the worst case is at an end."""
-    return min(slsqp_optimum(0.8), slsqp_optimum(1.2))
+    return min(vdp_optimum(0.8), vdp_optimum(1.2))
 
 
 def test_robust_level_is_the_worst_case(worst):
@@ -133,7 +100,7 @@ def test_robust_level_is_the_worst_case(worst):
     d = cert.to_dict()
     assert d["parameters"] == {"mu": {"low": 0.8, "nominal": 1.0, "high": 1.2}}
     # the nominal level is higher: the box costs something
-    assert slsqp_optimum(1.0) > 1.1 * worst
+    assert vdp_optimum(1.0) > 1.1 * worst
 
 
 def test_nominal_level_refuted_for_the_box(worst):
@@ -158,7 +125,7 @@ def test_wide_box_certified_below_and_refuted_above_the_worst_case():
     above it at the worst end."""
     s = vdp_box(0.7, 1.5)
     V = as_lyapunov(s, P)
-    lo = min(slsqp_optimum(0.7), slsqp_optimum(1.5))
+    lo = min(vdp_optimum(0.7), vdp_optimum(1.5))
     res = validate_robust(
         s, V, 0.99 * lo, proposal=sampled_witness(s, V, 0.99 * lo)[:2], cover_estimate=ray_box
     )
@@ -264,7 +231,7 @@ def test_level_search_and_simulation_over_a_box(capsys):
     assert {tuple(r["parameters"].items()) for r in per} == {(("mu", v),) for v in (0.8, 1.0, 1.2)}
     assert res.level == min(r["level"] for r in per)
     assert res.details["parameters"] == {"mu": 0.8}
-    assert res.level == pytest.approx(slsqp_optimum(0.8), rel=1e-3)
+    assert res.level == pytest.approx(vdp_optimum(0.8), rel=1e-3)
     with pytest.raises(roa.RoaInputError, match=r"uncertain parameters \(mu in \[0.8, 1.2\]\)"):
         roa.simulate(s, [0.5, 0.5])
     assert roa.simulate(s.at(mu=1.2), [0.5, 0.5]).status.value == "converged"

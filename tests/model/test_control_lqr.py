@@ -17,6 +17,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from references import complex_step_gradient
 from scipy.optimize import minimize
 
 import roa
@@ -41,11 +42,7 @@ def _c_star(P: np.ndarray, K: np.ndarray, starts: int = 30) -> float:
     def vdot(x):
         return np.einsum("i...,ij,j...->...", x, 2.0 * P, f(x))
 
-    def vdot_grad(x):
-        h = 1e-30
-        return np.imag(vdot(x[:, None] + 1j * h * np.eye(4))) / h
-
-    cons = [{"type": "ineq", "fun": vdot, "jac": vdot_grad},
+    cons = [{"type": "ineq", "fun": vdot, "jac": lambda x: complex_step_gradient(vdot, x)},
             {"type": "ineq", "fun": lambda x: x @ x - 1e-4, "jac": lambda x: 2.0 * x}]  # fmt: skip
     best = np.inf
     rng = np.random.default_rng(0)

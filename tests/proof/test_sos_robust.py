@@ -8,14 +8,13 @@ docstring), confirmed by SLSQP at the four vertices.
 
 from __future__ import annotations
 
-import functools
 import json
 import math
 from fractions import Fraction
 
 import numpy as np
 import pytest
-from scipy.optimize import minimize
+from references import VDP_P as P, ring_slsqp, vdp_optimum
 
 import roa
 import roa.io
@@ -26,46 +25,9 @@ from roa.search._candidate import as_lyapunov
 from roa.search._rays import ray_box
 from roa.status import Verdict
 
-P = np.array([[1.5, -0.5], [-0.5, 1.0]])  # the Van der Pol benchmark's V
-
 
 def _vdp(low: float, high: float) -> System:
     return roa.load_system("vanderpol").with_ranges(mu=(low, high))
-
-
-def _slsqp(vdot, Pm: np.ndarray, starts: int = 60, vdot_grad=None) -> float:
-    """min x'Px s.t. V'(x) = 0 on the ring |x| >= 0.3 (V' < 0 near 0), multistart SLSQP.
-
-    ``vdot_grad``, when given, is the gradient of ``vdot`` (else SLSQP differences it)."""
-    rng = np.random.default_rng(1)
-    best = math.inf
-    for _ in range(starts):
-        x0 = rng.normal(size=2)
-        x0 *= rng.uniform(0.5, 2.5) / np.linalg.norm(x0)
-        r = minimize(lambda x: float(x @ Pm @ x), x0, method="SLSQP",
-                     jac=lambda x: 2.0 * Pm @ x,
-                     constraints=[{"type": "eq", "fun": vdot, "jac": vdot_grad},
-                                  {"type": "ineq", "fun": lambda x: x @ x - 0.09,
-                                   "jac": lambda x: 2.0 * x}],
-                     options={"ftol": 1e-14, "maxiter": 500})  # fmt: skip
-        if r.success and abs(vdot(r.x)) < 1e-9:
-            best = min(best, float(r.x @ Pm @ r.x))
-    return best
-
-
-@functools.cache
-def vdp_optimum(mu: float) -> float:
-    def g(x: np.ndarray) -> np.ndarray:  # roa's vanderpol: (-x2, x1 + mu (x1^2 - 1) x2)
-        return np.array([-x[1], x[0] + mu * (x[0] ** 2 - 1) * x[1]])
-
-    def vdot(x: np.ndarray) -> float:
-        return float(2 * x @ P @ g(x))
-
-    def vdot_grad(x: np.ndarray) -> np.ndarray:  # 2 (P g + J_g' P x)
-        jg = np.array([[0.0, -1.0], [1 + 2 * mu * x[0] * x[1], mu * (x[0] ** 2 - 1)]])
-        return 2 * (P @ g(x) + jg.T @ P @ x)
-
-    return _slsqp(vdot, P, vdot_grad=vdot_grad)
 
 
 @pytest.fixture(scope="module")
@@ -210,7 +172,7 @@ def test_two_parameter_polynomial_box():
             def vdot(x, a=a, b=b):
                 return float(-2 * a * x[0] ** 2 - 2 * x[1] ** 2 + 2 * b * x[0] ** 2 * x[1] ** 2)
 
-            vertices.append(_slsqp(vdot, np.eye(2), starts=40))
+            vertices.append(ring_slsqp(vdot, np.eye(2), starts=40))
     assert min(vertices) == pytest.approx(closed, rel=1e-6)
     ok = roa.certify(s, V, level=0.95 * closed, validator=roa.SosValidator(fallback=False))
     assert ok.status is Verdict.CERTIFIED and ok.method == "sos-exact", ok.message
@@ -244,7 +206,7 @@ def test_recast_pendulum_with_uncertain_damping():
         def vdot(x):
             return float(2 * x @ Pp @ np.array([x[1], -np.sin(x[0]) - b * x[1]]))
 
-        return _slsqp(vdot, Pp, starts=40)
+        return ring_slsqp(vdot, Pp, starts=40)
 
     worst = min(optimum(0.8), optimum(1.2))
     assert worst == pytest.approx(8.5608, rel=1e-4) and optimum(0.8) < optimum(1.2)
